@@ -1,0 +1,12 @@
+//! occam: Bayesian model selection for LISA Pathfinder system identification.
+//!
+//! Data flow (one way): experiment → spectra → likelihood → samplers → evidence → report.
+//!
+//! Conventions, written once: SI units; one-sided PSDs; the DFT is
+//! `Y[k] = Σ_n y[n] e^{−2πikn/N}` (unnormalised) at `f_k = k fs/N`; likelihoods are natural
+//! logs (`ln L`, never χ²).
+
+pub mod density;
+pub mod lti;
+pub mod ltp;
+pub mod prior;

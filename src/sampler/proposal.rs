@@ -1,0 +1,240 @@
+//! Proposals: the [`Proposal`] capability and the Gaussian random walk.
+
+use nalgebra::DMatrix;
+use rand::Rng;
+use rand_distr::{Distribution, StandardNormal};
+use serde::{Deserialize, Serialize};
+
+use super::SamplerError;
+
+/// A Metropolis–Hastings proposal `q(θ' | θ)`.
+///
+/// Like emcee's moves, a proposal writes the candidate and returns its log Hastings ratio
+/// `ln q(θ | θ') − ln q(θ' | θ)` (0 for symmetric proposals), so the driver's acceptance test
+/// is the same for every proposal.
+pub trait Proposal {
+    /// Dimension of θ.
+    fn dim(&self) -> usize;
+
+    /// Writes a candidate drawn around `current` into `out` and returns the log Hastings
+    /// ratio. `scale` multiplies the proposal's standard deviations (the annealed search uses
+    /// it for its jumps); it must not depend on `current`, or the returned ratio would be
+    /// wrong. Must not allocate.
+    fn propose<R: Rng + ?Sized>(
+        &mut self,
+        current: &[f64],
+        scale: f64,
+        rng: &mut R,
+        out: &mut [f64],
+    ) -> f64;
+}
+
+/// Multivariate Gaussian random walk `θ' = θ + scale · L z`, `z ~ N(0, I)`, `L Lᵀ = Σ`.
+///
+/// Σ is validated and Cholesky-factored once, in [`GaussianProposal::new`].
+///
+/// ```
+/// use nalgebra::DMatrix;
+/// use occam::sampler::{GaussianProposal, Proposal, chain_rng};
+/// let mut q = GaussianProposal::new(&DMatrix::from_row_slice(2, 2, &[4.0, 1.0, 1.0, 1.0])).unwrap();
+/// let mut out = [0.0; 2];
+/// let ln_hastings = q.propose(&[1.0, 2.0], 1.0, &mut chain_rng(7, 0), &mut out);
+/// assert_eq!(ln_hastings, 0.0);
+/// assert!((q.covariance()[(0, 1)] - 1.0).abs() < 1e-15);
+/// ```
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct GaussianProposal {
+    dim: usize,
+    /// Lower-triangular factor, row-major `dim × dim`.
+    #[serde(with = "super::bits::vec")]
+    chol: Vec<f64>,
+    #[serde(skip)]
+    z: Vec<f64>,
+}
+
+impl GaussianProposal {
+    /// Validates Σ (square, finite, positive variances, symmetric to 1e−8 relative to
+    /// `√(Σ_ii Σ_jj)`, positive definite) and factors `(Σ + Σᵀ)/2`. The symmetric tolerance
+    /// admits the round-off of a numerically inverted Fisher matrix.
+    pub fn new(cov: &DMatrix<f64>) -> Result<Self, SamplerError> {
+        let d = cov.nrows();
+        let bad = |problem: String| Err(SamplerError::Covariance { problem });
+        if d == 0 || cov.ncols() != d {
+            return bad(format!(
+                "must be square and non-empty (got {}×{})",
+                cov.nrows(),
+                cov.ncols()
+            ));
+        }
+        for i in 0..d {
+            for j in 0..d {
+                if !cov[(i, j)].is_finite() {
+                    return bad(format!("entry ({i}, {j}) = {} is not finite", cov[(i, j)]));
+                }
+            }
+            if cov[(i, i)] <= 0.0 {
+                return bad(format!(
+                    "diagonal entry ({i}, {i}) = {} must be > 0 (it is a variance)",
+                    cov[(i, i)]
+                ));
+            }
+        }
+        for i in 0..d {
+            for j in 0..i {
+                let tol = 1e-8 * (cov[(i, i)] * cov[(j, j)]).sqrt();
+                if (cov[(i, j)] - cov[(j, i)]).abs() > tol {
+                    return bad(format!(
+                        "not symmetric: ({i}, {j}) = {} but ({j}, {i}) = {}; pass (Σ + Σᵀ)/2 if the difference is round-off",
+                        cov[(i, j)],
+                        cov[(j, i)]
+                    ));
+                }
+            }
+        }
+        let mut chol = vec![0.0; d * d];
+        for i in 0..d {
+            for j in 0..d {
+                chol[i * d + j] = 0.5 * (cov[(i, j)] + cov[(j, i)]);
+            }
+        }
+        if let Err(k) = cholesky_in_place(&mut chol, d) {
+            return bad(format!(
+                "not positive definite (Cholesky pivot {k} is not > 0); check the Fisher matrix for unconstrained or duplicated parameters"
+            ));
+        }
+        Ok(Self {
+            dim: d,
+            chol,
+            z: vec![0.0; d],
+        })
+    }
+
+    /// The Cholesky factor `L` (lower-triangular, row-major).
+    pub fn cholesky(&self) -> &[f64] {
+        &self.chol
+    }
+
+    /// `Σ = L Lᵀ`.
+    pub fn covariance(&self) -> DMatrix<f64> {
+        let l = DMatrix::from_row_slice(self.dim, self.dim, &self.chol);
+        &l * l.transpose()
+    }
+
+    /// Replaces `L` (used by the adaptation; the caller has checked it).
+    pub(crate) fn cholesky_mut(&mut self) -> &mut [f64] {
+        &mut self.chol
+    }
+
+    /// Restores the scratch buffer after deserialisation.
+    pub(crate) fn prepare(&mut self) {
+        self.z.resize(self.dim, 0.0);
+    }
+}
+
+impl Proposal for GaussianProposal {
+    fn dim(&self) -> usize {
+        self.dim
+    }
+
+    fn propose<R: Rng + ?Sized>(
+        &mut self,
+        current: &[f64],
+        scale: f64,
+        rng: &mut R,
+        out: &mut [f64],
+    ) -> f64 {
+        let d = self.dim;
+        for z in &mut self.z {
+            *z = StandardNormal.sample(rng);
+        }
+        for (i, o) in out.iter_mut().enumerate().take(d) {
+            let row = &self.chol[i * d..i * d + i + 1];
+            let s: f64 = row.iter().zip(&self.z).map(|(l, z)| l * z).sum();
+            *o = current[i] + scale * s;
+        }
+        0.0
+    }
+}
+
+/// In-place lower Cholesky factorisation of the symmetric `n × n` row-major matrix `a` (only
+/// its lower triangle is read); the upper triangle is zeroed. Allocation-free, so the
+/// adaptation can refactor inside the chain loop. `Err(k)` names the first pivot that is not
+/// positive and finite.
+pub(crate) fn cholesky_in_place(a: &mut [f64], n: usize) -> Result<(), usize> {
+    for j in 0..n {
+        let mut s = a[j * n + j];
+        for k in 0..j {
+            s -= a[j * n + k] * a[j * n + k];
+        }
+        if !(s > 0.0 && s.is_finite()) {
+            return Err(j);
+        }
+        let l = s.sqrt();
+        a[j * n + j] = l;
+        for i in j + 1..n {
+            let mut t = a[i * n + j];
+            for k in 0..j {
+                t -= a[i * n + k] * a[j * n + k];
+            }
+            a[i * n + j] = t / l;
+        }
+    }
+    for i in 0..n {
+        for j in i + 1..n {
+            a[i * n + j] = 0.0;
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampler::chain_rng;
+
+    #[test]
+    fn cholesky_reproduces_matrix() {
+        let m = DMatrix::from_row_slice(3, 3, &[4.0, 2.0, 0.4, 2.0, 5.0, 1.0, 0.4, 1.0, 3.0]);
+        let q = GaussianProposal::new(&m).unwrap();
+        let back = q.covariance();
+        assert!((back - &m).amax() < 1e-14);
+        let l = q.cholesky();
+        assert_eq!((l[1], l[2], l[5]), (0.0, 0.0, 0.0));
+    }
+
+    #[test]
+    fn rejects_bad_covariances() {
+        let err = |m: DMatrix<f64>| match GaussianProposal::new(&m) {
+            Err(SamplerError::Covariance { problem }) => problem,
+            other => panic!("expected an error, got {other:?}"),
+        };
+        assert!(err(DMatrix::zeros(2, 3)).contains("square"));
+        assert!(err(DMatrix::from_row_slice(2, 2, &[1.0, f64::NAN, 0.0, 1.0])).contains("not finite"));
+        assert!(err(DMatrix::from_row_slice(2, 2, &[1.0, 0.5, 0.0, 1.0])).contains("not symmetric"));
+        assert!(err(DMatrix::from_row_slice(2, 2, &[1.0, 2.0, 2.0, 1.0])).contains("not positive definite"));
+        assert!(err(DMatrix::from_row_slice(2, 2, &[-1.0, 0.0, 0.0, 1.0])).contains("variance"));
+    }
+
+    #[test]
+    fn draws_have_the_requested_covariance() {
+        // 200 000 draws: the sample covariance of a Gaussian has standard error
+        // sqrt((Σ_ii Σ_jj + Σ_ij²)/N) ≤ sqrt(2·4·4/2e5) ≈ 0.013 here; 5 standard errors allowed.
+        let m = DMatrix::from_row_slice(2, 2, &[4.0, 1.5, 1.5, 1.0]);
+        let mut q = GaussianProposal::new(&m).unwrap();
+        let mut rng = chain_rng(3, 0);
+        let n = 200_000;
+        let (mut s00, mut s01, mut s11) = (0.0, 0.0, 0.0);
+        let mut out = [0.0; 2];
+        for _ in 0..n {
+            q.propose(&[0.0, 0.0], 1.0, &mut rng, &mut out);
+            s00 += out[0] * out[0];
+            s01 += out[0] * out[1];
+            s11 += out[1] * out[1];
+        }
+        let nf = n as f64;
+        let se = |i: usize, j: usize| ((m[(i, i)] * m[(j, j)] + m[(i, j)] * m[(i, j)]) / nf).sqrt();
+        assert!((s00 / nf - 4.0).abs() < 5.0 * se(0, 0));
+        assert!((s01 / nf - 1.5).abs() < 5.0 * se(0, 1));
+        assert!((s11 / nf - 1.0).abs() < 5.0 * se(1, 1));
+    }
+}

@@ -1,0 +1,612 @@
+//! One-sided Welch estimates of PSDs and cross-spectral densities, and their interpolation.
+//!
+//! Each segment `m` of length `L` (start `m·D`, step `D = L − round(overlap·L)`) is optionally
+//! mean-detrended, multiplied by the window `w` and transformed (`Y_m[k]`, module DFT
+//! convention). The estimate is
+//!
+//! ```text
+//! S_xy[k] = c_k / (fs Σw²) · (1/M) Σ_m X_m[k]* Y_m[k],   c_k = 2 for 0 < k < L/2, 1 at DC and Nyquist
+//! ```
+//!
+//! (SciPy/MATLAB scaling: DC and Nyquist are not doubled, so for a smooth one-sided `S(f)`
+//! those two bins estimate `S/2`; the likelihood drops them and the interpolators here never
+//! use them). Samples after the last full segment are ignored.
+
+use num_complex::Complex64;
+use serde::{Deserialize, Serialize};
+
+use super::fft::RealFft;
+use super::window::Window;
+use super::{SignalError, check_finite, check_fs};
+
+/// Per-segment detrending before windowing.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Detrend {
+    /// Use the segment as it is.
+    None,
+    /// Subtract the segment mean (LTPDA detrend order 0): keeps a DC offset from leaking
+    /// through the window into the lowest bins.
+    #[default]
+    Mean,
+}
+
+/// Settings of a Welch estimate.
+///
+/// # Example
+/// ```
+/// use occam::signal::{Detrend, WelchConfig, Window};
+///
+/// let cfg = WelchConfig::new(10.0, Window::Bh92, 4096);
+/// assert_eq!(cfg.overlap, 0.661); // the window's recommended overlap
+/// assert_eq!(cfg.detrend, Detrend::Mean);
+/// assert_eq!(cfg.step().unwrap(), 4096 - 2707);
+/// ```
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct WelchConfig {
+    /// Sampling frequency in Hz.
+    pub fs: f64,
+    /// Taper applied to every segment.
+    pub window: Window,
+    /// Segment length `L` in samples; sets the resolution `fs/L`.
+    pub segment_len: usize,
+    /// Fraction of a segment shared with the next one, in `[0, 1)`.
+    pub overlap: f64,
+    /// Per-segment detrending.
+    pub detrend: Detrend,
+}
+
+impl WelchConfig {
+    /// A configuration with the window's recommended overlap and mean detrending.
+    pub fn new(fs: f64, window: Window, segment_len: usize) -> Self {
+        Self {
+            fs,
+            window,
+            segment_len,
+            overlap: window.recommended_overlap(),
+            detrend: Detrend::Mean,
+        }
+    }
+
+    /// Same configuration with another overlap fraction.
+    pub fn with_overlap(mut self, overlap: f64) -> Self {
+        self.overlap = overlap;
+        self
+    }
+
+    /// Same configuration with another detrending.
+    pub fn with_detrend(mut self, detrend: Detrend) -> Self {
+        self.detrend = detrend;
+        self
+    }
+
+    /// Segment step `D = L − round(overlap·L)` in samples, after validating `fs`,
+    /// `segment_len` and `overlap`.
+    pub fn step(&self) -> Result<usize, SignalError> {
+        check_fs(self.fs)?;
+        if self.segment_len < 2 {
+            return Err(SignalError::TooShort {
+                what: "segment_len",
+                min: 2,
+                got: self.segment_len,
+            });
+        }
+        if !(self.overlap.is_finite() && (0.0..1.0).contains(&self.overlap)) {
+            return Err(SignalError::InvalidParameter {
+                name: "overlap",
+                value: self.overlap,
+                requirement: "the overlap is a fraction in [0, 1)",
+            });
+        }
+        let shared = (self.overlap * self.segment_len as f64).round() as usize;
+        if shared >= self.segment_len {
+            return Err(SignalError::InvalidParameter {
+                name: "overlap",
+                value: self.overlap,
+                requirement: "rounds to a full segment at this segment_len (step 0); lower it",
+            });
+        }
+        Ok(self.segment_len - shared)
+    }
+
+    /// Number of full segments `M` in a series of `len` samples.
+    pub fn n_segments(&self, len: usize) -> Result<usize, SignalError> {
+        let step = self.step()?;
+        if self.segment_len > len {
+            return Err(SignalError::SegmentTooLong {
+                segment_len: self.segment_len,
+                len,
+            });
+        }
+        Ok((len - self.segment_len) / step + 1)
+    }
+
+    /// Effective number of independent averages for `M = n_avg` segments, Percival & Walden
+    /// (1993) eq. (292b) (after Welch 1967): with `ρ(j) = Σ_n w[n] w[n+j] / Σ_n w[n]²`,
+    ///
+    /// ```text
+    /// M_eff = M / (1 + 2 Σ_{m=1}^{M−1} (1 − m/M) ρ(m D)²)
+    /// ```
+    ///
+    /// so a regular bin of a smooth Gaussian spectrum has relative standard error
+    /// `1/√M_eff` (equivalent χ² degrees of freedom `2 M_eff`). Hann at 50 % gives
+    /// `ρ(L/2) = 1/6`, i.e. `M_eff → M/1.056`.
+    pub fn n_eff(&self, n_avg: usize) -> Result<f64, SignalError> {
+        let step = self.step()?;
+        let w = self.window.values(self.segment_len);
+        let s2: f64 = w.iter().map(|v| v * v).sum();
+        let m = n_avg as f64;
+        let mut denom = 1.0;
+        for lag in 1..n_avg {
+            let shift = lag * step;
+            if shift >= self.segment_len {
+                break;
+            }
+            let rho: f64 = w[..self.segment_len - shift]
+                .iter()
+                .zip(&w[shift..])
+                .map(|(a, b)| a * b)
+                .sum::<f64>()
+                / s2;
+            denom += 2.0 * (1.0 - lag as f64 / m) * rho * rho;
+        }
+        Ok(m / denom)
+    }
+
+    /// Frequencies `k fs / L`, `k = 0 … L/2`, of the estimate.
+    pub fn freqs(&self) -> Result<Vec<f64>, SignalError> {
+        super::fft::rfft_freqs(self.segment_len, self.fs)
+    }
+}
+
+/// A one-sided PSD estimate.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Spectrum {
+    /// Frequencies `k fs/L`, `k = 0 … L/2` (Hz).
+    pub freqs: Vec<f64>,
+    /// One-sided PSD (units²/Hz); DC and Nyquist bins not doubled.
+    pub psd: Vec<f64>,
+    /// Sampling frequency of the data (Hz).
+    pub fs: f64,
+    /// Segment length `L` (the last bin is the Nyquist bin when `L` is even).
+    pub segment_len: usize,
+    /// Number of segments averaged, `M`.
+    pub n_avg: usize,
+    /// Effective number of independent averages (see [`WelchConfig::n_eff`]).
+    pub n_eff: f64,
+}
+
+/// A one-sided cross-spectral density estimate `S_xy ∝ E[X* Y]` of two series.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CrossSpectrum {
+    /// Frequencies (Hz).
+    pub freqs: Vec<f64>,
+    /// `S_xy[k]` (units_x·units_y/Hz), conjugate of `x`'s DFT times `y`'s DFT.
+    pub csd: Vec<Complex64>,
+    /// Sampling frequency of the data (Hz).
+    pub fs: f64,
+    /// Segment length `L` (the last bin is the Nyquist bin when `L` is even).
+    pub segment_len: usize,
+    /// Number of segments averaged, `M`.
+    pub n_avg: usize,
+    /// Effective number of independent averages.
+    pub n_eff: f64,
+}
+
+/// The one-sided 2×2 Hermitian CSD matrix of two channels, `S = scale · E[Y Yᴴ]`, per
+/// frequency: `S11`, `S22` real, `S12 = scale · E[Y1 Y2*]`, `S21 = S12*`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Spectrum2 {
+    /// Frequencies (Hz).
+    pub freqs: Vec<f64>,
+    /// PSD of channel 1.
+    pub s11: Vec<f64>,
+    /// Cross term `E[Y1 Y2*]` (the (1,2) matrix element).
+    pub s12: Vec<Complex64>,
+    /// PSD of channel 2.
+    pub s22: Vec<f64>,
+    /// Sampling frequency of the data (Hz).
+    pub fs: f64,
+    /// Segment length `L` (the last bin is the Nyquist bin when `L` is even).
+    pub segment_len: usize,
+    /// Number of segments averaged, `M`.
+    pub n_avg: usize,
+    /// Effective number of independent averages.
+    pub n_eff: f64,
+}
+
+/// Welch one-sided PSD of `x`.
+///
+/// # Example
+/// ```
+/// use occam::signal::{WelchConfig, Window, welch_psd};
+///
+/// // A unit-amplitude sine at 1 Hz sampled at 16 Hz: power 1/2 lands in bin 1 Hz · L/fs.
+/// let fs = 16.0;
+/// let x: Vec<f64> = (0..1024).map(|n| (2.0 * std::f64::consts::PI * n as f64 / fs).sin()).collect();
+/// let cfg = WelchConfig::new(fs, Window::Hann, 256);
+/// let s = welch_psd(&x, &cfg).unwrap();
+/// let df = fs / 256.0;
+/// let power: f64 = s.psd.iter().sum::<f64>() * df / Window::Hann.enbw(256, 1.0);
+/// assert!((power - 0.5).abs() < 1e-3);
+/// ```
+pub fn welch_psd(x: &[f64], cfg: &WelchConfig) -> Result<Spectrum, SignalError> {
+    let est = welch_core(cfg, &[("x", x)])?;
+    Ok(Spectrum {
+        psd: est.cov.iter().map(|m| m[0][0].re).collect(),
+        freqs: est.freqs,
+        fs: cfg.fs,
+        segment_len: cfg.segment_len,
+        n_avg: est.n_avg,
+        n_eff: est.n_eff,
+    })
+}
+
+/// Welch one-sided cross-spectral density `S_xy = c/(fs Σw²) ⟨X* Y⟩` (conjugate of `x`'s DFT
+/// times `y`'s, as SciPy `csd` and MATLAB `cpsd`). A `y` that lags `x` by `τ` has phase
+/// `−2πfτ`. Note `S_xy = S_yx*`, and the matrix element of [`Spectrum2`] is
+/// `S12 = S_{y2 y1}`.
+///
+/// # Example
+/// ```
+/// use occam::signal::{Detrend, WelchConfig, Window, welch_csd};
+///
+/// // y is x delayed by one sample (circularly, so one rectangular segment is exact).
+/// let x: Vec<f64> = (0..64).map(|n| ((n * 37 % 11) as f64 - 5.0)).collect();
+/// let y: Vec<f64> = (0..64).map(|n| x[(n + 63) % 64]).collect();
+/// let cfg = WelchConfig::new(1.0, Window::Rectangular, 64).with_detrend(Detrend::None);
+/// let s = welch_csd(&x, &y, &cfg).unwrap();
+/// let k = 5;
+/// let expected_phase = -2.0 * std::f64::consts::PI * s.freqs[k] * 1.0;
+/// assert!((s.csd[k].arg() - expected_phase).abs() < 1e-9);
+/// ```
+pub fn welch_csd(x: &[f64], y: &[f64], cfg: &WelchConfig) -> Result<CrossSpectrum, SignalError> {
+    let est = welch_core(cfg, &[("x", x), ("y", y)])?;
+    Ok(CrossSpectrum {
+        // cov[0][1] = ⟨X Y*⟩, so ⟨X* Y⟩ is cov[1][0].
+        csd: est.cov.iter().map(|m| m[1][0]).collect(),
+        freqs: est.freqs,
+        fs: cfg.fs,
+        segment_len: cfg.segment_len,
+        n_avg: est.n_avg,
+        n_eff: est.n_eff,
+    })
+}
+
+/// Welch estimate of the 2×2 CSD matrix of two channels (see [`Spectrum2`] for the
+/// convention), from one set of FFTs.
+///
+/// # Example
+/// ```
+/// use occam::signal::{WelchConfig, Window, welch_csd, welch_csd2};
+///
+/// let y1: Vec<f64> = (0..512).map(|n| ((n * 7919 % 101) as f64).sin()).collect();
+/// let y2: Vec<f64> = (0..512).map(|n| ((n * 104729 % 97) as f64).cos()).collect();
+/// let cfg = WelchConfig::new(2.0, Window::Hann, 128);
+/// let m = welch_csd2(&y1, &y2, &cfg).unwrap();
+/// let c = welch_csd(&y2, &y1, &cfg).unwrap(); // S12 = S_{y2 y1}
+/// assert!((m.s12[10] - c.csd[10]).norm() < 1e-12 * m.s11[10].max(m.s22[10]));
+/// assert!(m.s12[10].norm_sqr() <= m.s11[10] * m.s22[10]); // Cauchy–Schwarz
+/// ```
+pub fn welch_csd2(y1: &[f64], y2: &[f64], cfg: &WelchConfig) -> Result<Spectrum2, SignalError> {
+    let est = welch_core(cfg, &[("y1", y1), ("y2", y2)])?;
+    Ok(Spectrum2 {
+        s11: est.cov.iter().map(|m| m[0][0].re).collect(),
+        s12: est.cov.iter().map(|m| m[0][1]).collect(),
+        s22: est.cov.iter().map(|m| m[1][1].re).collect(),
+        freqs: est.freqs,
+        fs: cfg.fs,
+        segment_len: cfg.segment_len,
+        n_avg: est.n_avg,
+        n_eff: est.n_eff,
+    })
+}
+
+/// Scaled `⟨Y_i Y_j*⟩` for up to two channels (unused entries zero).
+struct Estimate {
+    freqs: Vec<f64>,
+    cov: Vec<[[Complex64; 2]; 2]>,
+    n_avg: usize,
+    n_eff: f64,
+}
+
+fn welch_core(cfg: &WelchConfig, series: &[(&'static str, &[f64])]) -> Result<Estimate, SignalError> {
+    debug_assert!((1..=2).contains(&series.len()));
+    let (first, x0) = series[0];
+    for &(name, x) in &series[1..] {
+        if x.len() != x0.len() {
+            return Err(SignalError::LengthMismatch {
+                first,
+                len_first: x0.len(),
+                second: name,
+                len_second: x.len(),
+            });
+        }
+    }
+    for &(name, x) in series {
+        check_finite(name, x)?;
+    }
+    let step = cfg.step()?;
+    let n_avg = cfg.n_segments(x0.len())?;
+    let n_eff = cfg.n_eff(n_avg)?;
+    let l = cfg.segment_len;
+    let nb = l / 2 + 1;
+    let w = cfg.window.values(l);
+    let s2: f64 = w.iter().map(|v| v * v).sum();
+
+    let mut fft = RealFft::new(l)?;
+    let mut seg = vec![0.0; l];
+    let zero = Complex64::new(0.0, 0.0);
+    let mut spec = [vec![zero; nb], vec![zero; nb]];
+    let mut cov = vec![[[zero; 2]; 2]; nb];
+    let nch = series.len();
+    for m in 0..n_avg {
+        let start = m * step;
+        for (c, &(_, x)) in series.iter().enumerate() {
+            let chunk = &x[start..start + l];
+            let mean = match cfg.detrend {
+                Detrend::None => 0.0,
+                Detrend::Mean => chunk.iter().sum::<f64>() / l as f64,
+            };
+            for ((s, &v), &wv) in seg.iter_mut().zip(chunk).zip(&w) {
+                *s = (v - mean) * wv;
+            }
+            fft.forward(&seg, &mut spec[c])?;
+        }
+        for (k, acc) in cov.iter_mut().enumerate() {
+            for i in 0..nch {
+                for j in i..nch {
+                    acc[i][j] += spec[i][k] * spec[j][k].conj();
+                }
+            }
+        }
+    }
+    let base = 1.0 / (cfg.fs * s2 * n_avg as f64);
+    for (k, acc) in cov.iter_mut().enumerate() {
+        let regular = k > 0 && 2 * k < l;
+        let scale = if regular { 2.0 * base } else { base };
+        acc[0][0] = Complex64::new(acc[0][0].re * scale, 0.0);
+        if nch == 2 {
+            acc[0][1] *= scale;
+            acc[1][0] = acc[0][1].conj();
+            acc[1][1] = Complex64::new(acc[1][1].re * scale, 0.0);
+        }
+    }
+    Ok(Estimate {
+        freqs: cfg.freqs()?,
+        cov,
+        n_avg,
+        n_eff,
+    })
+}
+
+impl Spectrum {
+    /// The PSD at arbitrary frequencies, linear in log-log between the regular bins
+    /// `0 < k < L/2` (see [`interp_loglog`]); targets must lie in `[fs/L, f_last_regular]`.
+    pub fn interpolate(&self, targets: &[f64]) -> Result<Vec<f64>, SignalError> {
+        let r = regular_range(self.freqs.len(), self.segment_len);
+        interp_loglog(&self.freqs[r.clone()], &self.psd[r], targets)
+    }
+}
+
+impl CrossSpectrum {
+    /// The CSD at arbitrary frequencies, linear in the complex value between regular bins
+    /// `0 < k < L/2` (see [`interp_linear_complex`]).
+    pub fn interpolate(&self, targets: &[f64]) -> Result<Vec<Complex64>, SignalError> {
+        let r = regular_range(self.freqs.len(), self.segment_len);
+        interp_linear_complex(&self.freqs[r.clone()], &self.csd[r], targets)
+    }
+}
+
+impl Spectrum2 {
+    /// The 2×2 matrix `[[S11, S12], [S12*, S22]]` at bin `k`.
+    pub fn matrix(&self, k: usize) -> [[Complex64; 2]; 2] {
+        hermitian(self.s11[k], self.s12[k], self.s22[k])
+    }
+
+    /// The matrix at arbitrary frequencies `targets`, which must lie within the regular bins
+    /// `[fs/L, f_last_regular]`.
+    ///
+    /// `S11`, `S22` are interpolated linearly in log-log; the cross term through the complex
+    /// coherence `γ = S12/√(S11 S22)`, linearly, then `S12 = γ √(S11 S22)` at the target.
+    /// Plain linear interpolation of `S12` next to geometric interpolation of the diagonal can
+    /// push `|S12|² > S11 S22` between strongly coherent bins (AM ≥ GM), giving a matrix the
+    /// likelihood cannot invert; linear interpolation keeps `|γ| ≤ 1`, so this cannot.
+    pub fn interpolate(&self, targets: &[f64]) -> Result<Csd2, SignalError> {
+        let r = regular_range(self.freqs.len(), self.segment_len);
+        let f = &self.freqs[r.clone()];
+        let s11 = interp_loglog(f, &self.s11[r.clone()], targets)?;
+        let s22 = interp_loglog(f, &self.s22[r.clone()], targets)?;
+        let gamma: Vec<Complex64> = r
+            .map(|k| {
+                let d = (self.s11[k] * self.s22[k]).sqrt();
+                if d > 0.0 {
+                    self.s12[k] / d
+                } else {
+                    Complex64::new(0.0, 0.0)
+                }
+            })
+            .collect();
+        let g = interp_linear_complex(f, &gamma, targets)?;
+        let s12 = g
+            .iter()
+            .zip(s11.iter().zip(&s22))
+            .map(|(g, (a, b))| g * (a * b).sqrt())
+            .collect();
+        Ok(Csd2 {
+            freqs: targets.to_vec(),
+            s11,
+            s12,
+            s22,
+        })
+    }
+}
+
+/// A one-sided 2×2 CSD matrix on an arbitrary frequency grid (same convention as
+/// [`Spectrum2`]), e.g. a Welch estimate interpolated onto the likelihood's bins.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Csd2 {
+    /// Frequencies (Hz).
+    pub freqs: Vec<f64>,
+    /// PSD of channel 1.
+    pub s11: Vec<f64>,
+    /// Cross term `E[Y1 Y2*]`.
+    pub s12: Vec<Complex64>,
+    /// PSD of channel 2.
+    pub s22: Vec<f64>,
+}
+
+impl Csd2 {
+    /// The 2×2 matrix `[[S11, S12], [S12*, S22]]` at index `k`.
+    pub fn matrix(&self, k: usize) -> [[Complex64; 2]; 2] {
+        hermitian(self.s11[k], self.s12[k], self.s22[k])
+    }
+}
+
+fn hermitian(s11: f64, s12: Complex64, s22: f64) -> [[Complex64; 2]; 2] {
+    [
+        [Complex64::new(s11, 0.0), s12],
+        [s12.conj(), Complex64::new(s22, 0.0)],
+    ]
+}
+
+/// Regular bins `1 ≤ k ≤ (L−1)/2` of an `L`-point estimate with `nb = L/2 + 1` bins.
+fn regular_range(nb: usize, segment_len: usize) -> std::ops::Range<usize> {
+    let last = segment_len.saturating_sub(1) / 2;
+    1..(last + 1).min(nb)
+}
+
+/// Validates an interpolation grid and finds, for `t`, the bracketing index `i` with
+/// `f[i] ≤ t ≤ f[i+1]` (or `i = len−1` when `t` equals the last node).
+fn bracket(f: &[f64], t: f64) -> Result<usize, SignalError> {
+    let (min, max) = (f[0], f[f.len() - 1]);
+    if !(t >= min && t <= max) {
+        return Err(SignalError::OutOfRange {
+            freq: t,
+            min,
+            max,
+        });
+    }
+    // First node strictly greater than t, minus one.
+    Ok(f.partition_point(|&x| x <= t).saturating_sub(1))
+}
+
+fn check_grid(f: &[f64], nvalues: usize) -> Result<(), SignalError> {
+    if f.len() != nvalues {
+        return Err(SignalError::LengthMismatch {
+            first: "frequencies",
+            len_first: f.len(),
+            second: "values",
+            len_second: nvalues,
+        });
+    }
+    if f.is_empty() {
+        return Err(SignalError::TooShort {
+            what: "interpolation grid",
+            min: 1,
+            got: 0,
+        });
+    }
+    check_finite("frequencies", f)?;
+    if let Some(i) = (1..f.len()).find(|&i| f[i] <= f[i - 1]) {
+        return Err(SignalError::UnsortedGrid {
+            index: i,
+            value: f[i],
+        });
+    }
+    Ok(())
+}
+
+/// Interpolates a non-negative spectrum `values(freqs)` at `targets`, linearly in
+/// `(ln f, ln S)` (exact for power laws, the natural shape of noise spectra).
+///
+/// `freqs` must be positive and strictly increasing; targets outside `[freqs[0], freqs.last]`
+/// are an error (no extrapolation). Where a bracketing value is zero, log-log is undefined and
+/// the interval is interpolated linearly instead.
+///
+/// # Example
+/// ```
+/// use occam::signal::interp_loglog;
+///
+/// let f = [1e-3, 1e-2, 1e-1];
+/// let s: Vec<f64> = f.iter().map(|f: &f64| 4e-20 * f.powi(-2)).collect();
+/// let v = interp_loglog(&f, &s, &[3e-3]).unwrap();
+/// assert!((v[0] / (4e-20 * 3e-3f64.powi(-2)) - 1.0).abs() < 1e-12);
+/// ```
+pub fn interp_loglog(freqs: &[f64], values: &[f64], targets: &[f64]) -> Result<Vec<f64>, SignalError> {
+    check_grid(freqs, values.len())?;
+    if freqs[0] <= 0.0 {
+        return Err(SignalError::InvalidParameter {
+            name: "freqs[0]",
+            value: freqs[0],
+            requirement: "log-log interpolation needs positive frequencies (drop the DC bin)",
+        });
+    }
+    check_finite("values", values)?;
+    if let Some(i) = values.iter().position(|&v| v < 0.0) {
+        return Err(SignalError::NegativePsd {
+            what: "spectrum",
+            freq: freqs[i],
+            value: values[i],
+        });
+    }
+    targets
+        .iter()
+        .map(|&t| {
+            let i = bracket(freqs, t)?;
+            if i + 1 == freqs.len() || t == freqs[i] {
+                return Ok(values[i]);
+            }
+            let (f0, f1, v0, v1) = (freqs[i], freqs[i + 1], values[i], values[i + 1]);
+            if v0 > 0.0 && v1 > 0.0 {
+                let u = (t / f0).ln() / (f1 / f0).ln();
+                Ok((v0.ln() + u * (v1 / v0).ln()).exp())
+            } else {
+                let u = (t - f0) / (f1 - f0);
+                Ok(v0 + u * (v1 - v0))
+            }
+        })
+        .collect()
+}
+
+/// Interpolates complex values linearly in frequency (real and imaginary parts separately).
+///
+/// `freqs` must be strictly increasing; targets outside the grid are an error.
+///
+/// # Example
+/// ```
+/// use num_complex::Complex64;
+/// use occam::signal::interp_linear_complex;
+///
+/// let f = [1.0, 2.0];
+/// let v = [Complex64::new(0.0, 1.0), Complex64::new(2.0, -1.0)];
+/// let out = interp_linear_complex(&f, &v, &[1.5]).unwrap();
+/// assert_eq!(out[0], Complex64::new(1.0, 0.0));
+/// ```
+pub fn interp_linear_complex(
+    freqs: &[f64],
+    values: &[Complex64],
+    targets: &[f64],
+) -> Result<Vec<Complex64>, SignalError> {
+    check_grid(freqs, values.len())?;
+    for (i, v) in values.iter().enumerate() {
+        if !(v.re.is_finite() && v.im.is_finite()) {
+            return Err(SignalError::NonFinite {
+                what: "values",
+                index: i,
+                value: if v.re.is_finite() { v.im } else { v.re },
+            });
+        }
+    }
+    targets
+        .iter()
+        .map(|&t| {
+            let i = bracket(freqs, t)?;
+            if i + 1 == freqs.len() {
+                return Ok(values[i]);
+            }
+            let u = (t - freqs[i]) / (freqs[i + 1] - freqs[i]);
+            Ok(values[i] + (values[i + 1] - values[i]) * u)
+        })
+        .collect()
+}
