@@ -6,7 +6,11 @@
 //! `Y[k] = Σ_n y[n] e^{−2πikn/N}` (unnormalised) at `f_k = k fs/N`; likelihoods are natural
 //! logs (`ln L`, never χ²).
 
+pub mod atomic;
+pub mod config;
+pub mod dataset;
 pub mod density;
+pub mod experiment;
 pub mod lti;
 pub mod ltp;
 pub mod prior;

@@ -42,7 +42,7 @@ mod test_targets;
 mod tests;
 
 pub use chain::{Progress, chain_rng};
-pub use chains::{BestPoint, Chain, ChainCounts, Chains, PhaseCounts};
+pub use chains::{BestPoint, Chain, ChainCounts, Chains, MaxPosterior, PhaseCounts};
 pub use diagnostics::{Diagnostics, Thresholds, Warning, ess, split_rhat};
 pub use mh::{MetropolisHastings, RunOutcome};
 pub use optimize::{MapEstimate, Minimum, NelderMeadSettings, find_map, nelder_mead};

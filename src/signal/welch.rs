@@ -177,7 +177,7 @@ pub struct Spectrum {
 }
 
 /// A one-sided cross-spectral density estimate `S_xy ∝ E[X* Y]` of two series.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct CrossSpectrum {
     /// Frequencies (Hz).
     pub freqs: Vec<f64>,
@@ -195,7 +195,7 @@ pub struct CrossSpectrum {
 
 /// The one-sided 2×2 Hermitian CSD matrix of two channels, `S = scale · E[Y Yᴴ]`, per
 /// frequency: `S11`, `S22` real, `S12 = scale · E[Y1 Y2*]`, `S21 = S12*`.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Spectrum2 {
     /// Frequencies (Hz).
     pub freqs: Vec<f64>,
@@ -444,7 +444,7 @@ impl Spectrum2 {
 
 /// A one-sided 2×2 CSD matrix on an arbitrary frequency grid (same convention as
 /// [`Spectrum2`]), e.g. a Welch estimate interpolated onto the likelihood's bins.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Csd2 {
     /// Frequencies (Hz).
     pub freqs: Vec<f64>,

@@ -1,0 +1,541 @@
+//! The study file (TOML): experiments, injections, true parameters, noise levels, seed and
+//! output directory, validated once with errors that name the file, the field and the fix.
+//!
+//! ```toml
+//! seed = 42
+//! output = "runs/tn3045"
+//! [truth]                      # LTP parameters (default: the paper's Table I)
+//! dt1 = 0.2
+//! [noise]                      # source ASDs (default: ltp-model.md §5)
+//! readout_o1 = 9e-12
+//! [simulation]
+//! method = "frequency"         # or "time" (discretised loop)
+//! noise = "circular"           # or "realistic"
+//! target_snr = 1000.0          # optional: scale all injections to this ρ_opt
+//! [[experiment]]
+//! name = "inv1"
+//! design = "tn3045_x1"         # a built-in design; any field below overrides it
+//! ```
+
+use crate::experiment::{ExperimentDesign, SineSegment, Waveform};
+use crate::ltp::{Controllers, LtpParams, Masses, NoiseModel, check_stable};
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// A configuration problem, naming the file and the field.
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    #[error("{file}: cannot read the file: {source}")]
+    Io {
+        file: String,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{file}: {msg}")]
+    Parse { file: String, msg: String },
+    #[error("{file}: `{field}`: {msg}")]
+    Invalid {
+        file: String,
+        field: String,
+        msg: String,
+    },
+}
+
+/// How the data are generated.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum Method {
+    /// From the continuous-time `H_io` on the DFT grid (exact for the fit model).
+    #[default]
+    Frequency,
+    /// Time-domain simulation of the discretised loop (ZOH plant, Tustin controllers).
+    Time,
+}
+
+/// How the coloured noise is synthesised.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum NoiseSynthesis {
+    /// Circular: the DFT of the series has exactly the model CSD.
+    #[default]
+    Circular,
+    /// Synthesised on a 4× longer grid and cropped: not circular, like real data.
+    Realistic,
+    /// No noise at all (noiseless templates, for tests and SNR studies).
+    None,
+}
+
+/// `[simulation]` options.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SimulationOptions {
+    pub method: Method,
+    pub noise: NoiseSynthesis,
+    /// If set, every injection amplitude is scaled by one common factor so that the optimal
+    /// SNR ρ_opt = √⟨h|h⟩ of the whole study (all experiments, `snr_band`) equals this.
+    pub target_snr: Option<f64>,
+    /// Band (Hz) over which ρ_opt is computed.
+    pub snr_band: [f64; 2],
+}
+
+impl Default for SimulationOptions {
+    fn default() -> Self {
+        Self {
+            method: Method::Frequency,
+            noise: NoiseSynthesis::Circular,
+            target_snr: None,
+            snr_band: [1e-4, 1.0],
+        }
+    }
+}
+
+/// An injection as written in the study file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum InjectionEntry {
+    None,
+    SineTrain {
+        segments: Vec<SineSegment>,
+        #[serde(default)]
+        gap: f64,
+    },
+    Sine {
+        freq: f64,
+        amplitude: f64,
+        duration: f64,
+    },
+    /// A one-column (or named-column) CSV file of samples at the experiment's `fs`, in metres.
+    File {
+        path: PathBuf,
+        #[serde(default)]
+        column: Option<String>,
+    },
+}
+
+/// One `[[experiment]]` table.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ExperimentEntry {
+    pub name: String,
+    /// A built-in design to start from (`tn3045_x1`, `tn3045_x12`).
+    #[serde(default)]
+    pub design: Option<String>,
+    #[serde(default)]
+    pub fs: Option<f64>,
+    #[serde(default)]
+    pub pre_pad: Option<f64>,
+    #[serde(default)]
+    pub post_pad: Option<f64>,
+    #[serde(default)]
+    pub noise_duration: Option<f64>,
+    #[serde(default)]
+    pub x1: Option<InjectionEntry>,
+    #[serde(default)]
+    pub x12: Option<InjectionEntry>,
+    /// Multiplies every amplitude of this experiment.
+    #[serde(default)]
+    pub amplitude_scale: Option<f64>,
+}
+
+/// The study file as written.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StudyFile {
+    pub seed: u64,
+    pub output: PathBuf,
+    #[serde(default)]
+    pub truth: LtpParams,
+    #[serde(default)]
+    pub noise: NoiseModel,
+    #[serde(default)]
+    pub masses: Masses,
+    /// Fixed OMS processing delay τ_o (s), default 0.
+    #[serde(default)]
+    pub oms_delay: f64,
+    #[serde(default)]
+    pub simulation: SimulationOptions,
+    pub experiment: Vec<ExperimentEntry>,
+}
+
+/// A validated study, with built-in designs and injection files resolved.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Study {
+    pub seed: u64,
+    pub output: PathBuf,
+    pub truth: LtpParams,
+    pub noise: NoiseModel,
+    pub masses: Masses,
+    pub oms_delay: f64,
+    pub simulation: SimulationOptions,
+    pub experiments: Vec<ExperimentDesign>,
+    /// The file it came from (for messages).
+    pub source: String,
+}
+
+impl Study {
+    /// Reads and validates a study file.
+    pub fn load(path: &Path) -> Result<Study, ConfigError> {
+        let file = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
+            file: file.clone(),
+            source,
+        })?;
+        let base = path.parent().unwrap_or(Path::new("."));
+        Self::from_toml(&text, &file, base)
+    }
+
+    /// Parses and validates TOML text; `file` names it in messages and `base` resolves
+    /// relative injection-file paths.
+    pub fn from_toml(text: &str, file: &str, base: &Path) -> Result<Study, ConfigError> {
+        let raw: StudyFile = toml::from_str(text).map_err(|e| ConfigError::Parse {
+            file: file.into(),
+            msg: e.to_string().trim_end().to_string(),
+        })?;
+        raw.resolve(file, base)
+    }
+}
+
+fn finite_pos(v: f64) -> bool {
+    v.is_finite() && v > 0.0
+}
+
+impl StudyFile {
+    /// Validates every field and resolves designs.
+    pub fn resolve(self, file: &str, base: &Path) -> Result<Study, ConfigError> {
+        let bad = |field: String, msg: String| ConfigError::Invalid {
+            file: file.into(),
+            field,
+            msg,
+        };
+        if let Some(n) = self.truth.non_finite() {
+            return Err(bad(format!("truth.{n}"), "must be a finite number".into()));
+        }
+        if let Some((n, v)) = self.noise.invalid_field() {
+            return Err(bad(
+                format!("noise.{n}"),
+                format!("must be a finite number ≥ 0 (got {v})"),
+            ));
+        }
+        for (n, v) in [
+            ("m1", self.masses.m1),
+            ("m2", self.masses.m2),
+            ("msc", self.masses.msc),
+        ] {
+            if !finite_pos(v) {
+                return Err(bad(
+                    format!("masses.{n}"),
+                    format!("must be a finite mass > 0 kg (got {v})"),
+                ));
+            }
+        }
+        if !(self.oms_delay.is_finite() && self.oms_delay >= 0.0) {
+            return Err(bad(
+                "oms_delay".into(),
+                format!("must be a finite delay ≥ 0 s (got {})", self.oms_delay),
+            ));
+        }
+        check_stable(&self.truth, &Controllers::default(), &self.masses)
+            .map_err(|e| bad("truth".into(), e.to_string()))?;
+        let sim = &self.simulation;
+        if let Some(t) = sim.target_snr
+            && !finite_pos(t)
+        {
+            return Err(bad(
+                "simulation.target_snr".into(),
+                format!("must be a finite SNR > 0 (got {t})"),
+            ));
+        }
+        let [lo, hi] = sim.snr_band;
+        if !(finite_pos(lo) && hi.is_finite() && hi > lo) {
+            return Err(bad(
+                "simulation.snr_band".into(),
+                format!("must be [lo, hi] with 0 < lo < hi (got [{lo}, {hi}])"),
+            ));
+        }
+        if self.experiment.is_empty() {
+            return Err(bad(
+                "experiment".into(),
+                "at least one [[experiment]] table is needed".into(),
+            ));
+        }
+        let mut experiments = Vec::new();
+        for (k, e) in self.experiment.iter().enumerate() {
+            let at = |f: &str| format!("experiment[{k}].{f}");
+            if e.name.is_empty()
+                || !e
+                    .name
+                    .chars()
+                    .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+            {
+                return Err(bad(
+                    at("name"),
+                    format!(
+                        "`{}`: use letters, digits, `_` or `-` (it names arrays in the dataset)",
+                        e.name
+                    ),
+                ));
+            }
+            if experiments
+                .iter()
+                .any(|d: &ExperimentDesign| d.name == e.name)
+            {
+                return Err(bad(at("name"), format!("`{}` is used twice", e.name)));
+            }
+            let mut d = match &e.design {
+                Some(n) => ExperimentDesign::builtin(n).ok_or_else(|| {
+                    bad(
+                        at("design"),
+                        format!(
+                            "unknown design `{n}`; built-in designs are {:?}",
+                            ExperimentDesign::BUILTINS
+                        ),
+                    )
+                })?,
+                None => ExperimentDesign {
+                    name: String::new(),
+                    fs: 10.0,
+                    pre_pad: 2000.0,
+                    post_pad: 8000.0,
+                    noise_duration: 20000.0,
+                    x1: Waveform::None,
+                    x12: Waveform::None,
+                },
+            };
+            d.name = e.name.clone();
+            if let Some(fs) = e.fs {
+                if !finite_pos(fs) {
+                    return Err(bad(at("fs"), format!("must be > 0 Hz (got {fs})")));
+                }
+                d.fs = fs;
+            }
+            for (f, src, dst) in [
+                ("pre_pad", e.pre_pad, &mut d.pre_pad),
+                ("post_pad", e.post_pad, &mut d.post_pad),
+                ("noise_duration", e.noise_duration, &mut d.noise_duration),
+            ] {
+                if let Some(v) = src {
+                    if !(v.is_finite() && v >= 0.0) {
+                        return Err(bad(at(f), format!("must be a duration ≥ 0 s (got {v})")));
+                    }
+                    *dst = v;
+                }
+            }
+            if d.noise_duration * d.fs < 64.0 {
+                return Err(bad(
+                    at("noise_duration"),
+                    format!(
+                        "the noise-only stretch needs at least 64 samples for noise estimation (got {} s at {} Hz)",
+                        d.noise_duration, d.fs
+                    ),
+                ));
+            }
+            for (ch, entry, dst) in [("x1", &e.x1, &mut d.x1), ("x12", &e.x12, &mut d.x12)] {
+                if let Some(entry) = entry {
+                    *dst = to_waveform(entry, base, file, &at(ch))?;
+                }
+            }
+            if let Some(s) = e.amplitude_scale {
+                if !s.is_finite() {
+                    return Err(bad(
+                        at("amplitude_scale"),
+                        format!("must be finite (got {s})"),
+                    ));
+                }
+                d = d.scaled(s);
+            }
+            validate_waveforms(&d, file, &at(""))?;
+            experiments.push(d);
+        }
+        Ok(Study {
+            seed: self.seed,
+            output: self.output,
+            truth: self.truth,
+            noise: self.noise,
+            masses: self.masses,
+            oms_delay: self.oms_delay,
+            simulation: self.simulation,
+            experiments,
+            source: file.into(),
+        })
+    }
+}
+
+fn to_waveform(
+    e: &InjectionEntry,
+    base: &Path,
+    file: &str,
+    field: &str,
+) -> Result<Waveform, ConfigError> {
+    Ok(match e {
+        InjectionEntry::None => Waveform::None,
+        InjectionEntry::SineTrain { segments, gap } => Waveform::SineTrain {
+            segments: segments.clone(),
+            gap: *gap,
+        },
+        InjectionEntry::Sine {
+            freq,
+            amplitude,
+            duration,
+        } => Waveform::Sine(SineSegment {
+            freq: *freq,
+            amplitude: *amplitude,
+            duration: *duration,
+        }),
+        InjectionEntry::File { path, column } => {
+            let p = base.join(path);
+            let table = crate::dataset::read_csv(&p).map_err(|e| ConfigError::Invalid {
+                file: file.into(),
+                field: format!("{field}.path"),
+                msg: e.to_string(),
+            })?;
+            let col = match column {
+                Some(c) => table.column(c).ok_or_else(|| ConfigError::Invalid {
+                    file: file.into(),
+                    field: format!("{field}.column"),
+                    msg: format!(
+                        "no column `{c}` in {}; it has {:?}",
+                        p.display(),
+                        table.names
+                    ),
+                })?,
+                None if table.names.len() == 1 => &table.columns[0],
+                None => {
+                    return Err(ConfigError::Invalid {
+                        file: file.into(),
+                        field: format!("{field}.column"),
+                        msg: format!(
+                            "{} has several columns {:?}: name one with `column = \"...\"`",
+                            p.display(),
+                            table.names
+                        ),
+                    });
+                }
+            };
+            Waveform::Samples {
+                values: col.clone(),
+            }
+        }
+    })
+}
+
+fn validate_waveforms(d: &ExperimentDesign, file: &str, at: &str) -> Result<(), ConfigError> {
+    let nyq = d.fs / 2.0;
+    for (ch, w) in [("x1", &d.x1), ("x12", &d.x12)] {
+        let bad = |f: String, msg: String| ConfigError::Invalid {
+            file: file.into(),
+            field: format!("{at}{ch}{f}"),
+            msg,
+        };
+        if let Waveform::SineTrain { gap, .. } = w
+            && !(gap.is_finite() && *gap >= 0.0)
+        {
+            return Err(bad(".gap".into(), format!("must be ≥ 0 s (got {gap})")));
+        }
+        let train = matches!(w, Waveform::SineTrain { .. });
+        for (i, s) in w.segments().iter().enumerate() {
+            let seg = if train {
+                format!(".segments[{i}]")
+            } else {
+                String::new()
+            };
+            if !finite_pos(s.freq) || s.freq >= nyq {
+                return Err(bad(
+                    format!("{seg}.freq"),
+                    format!(
+                        "must be in (0, {nyq}) Hz, below the Nyquist frequency of fs = {} Hz (got {})",
+                        d.fs, s.freq
+                    ),
+                ));
+            }
+            if !s.amplitude.is_finite() {
+                return Err(bad(
+                    format!("{seg}.amplitude"),
+                    format!("must be finite (got {})", s.amplitude),
+                ));
+            }
+            if !finite_pos(s.duration) || 2.0 * s.freq * s.duration < 1.0 {
+                return Err(bad(
+                    format!("{seg}.duration"),
+                    format!(
+                        "must hold at least half a cycle of {} Hz, i.e. ≥ {} s (got {})",
+                        s.freq,
+                        0.5 / s.freq,
+                        s.duration
+                    ),
+                ));
+            }
+        }
+        if let Waveform::Samples { values } = w
+            && let Some(i) = values.iter().position(|v| !v.is_finite())
+        {
+            return Err(bad(
+                String::new(),
+                format!("sample {i} of the injection file is not finite"),
+            ));
+        }
+    }
+    if d.x1.is_empty(d.fs) && d.x12.is_empty(d.fs) {
+        return Err(ConfigError::Invalid {
+            file: file.into(),
+            field: format!("{at}x1"),
+            msg: "the experiment injects nothing: give `x1` or `x12` (or a `design`)".into(),
+        });
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn load(s: &str) -> Result<Study, ConfigError> {
+        Study::from_toml(s, "study.toml", Path::new("."))
+    }
+
+    const OK: &str = r#"
+seed = 1
+output = "out"
+[[experiment]]
+name = "inv1"
+design = "tn3045_x1"
+"#;
+
+    #[test]
+    fn minimal_study_uses_defaults() {
+        let s = load(OK).unwrap();
+        assert_eq!(s.truth, LtpParams::default());
+        assert_eq!(s.experiments[0].fs, 10.0);
+    }
+
+    fn err(s: &str) -> String {
+        load(s).unwrap_err().to_string()
+    }
+
+    #[test]
+    fn errors_name_file_and_field() {
+        let e = err(&format!("{OK}\nbogus = 3\n"));
+        assert!(e.contains("study.toml") && e.contains("bogus"), "{e}");
+        let e = err(&OK.replace("seed = 1", "seed = \"x\""));
+        assert!(e.contains("seed"), "{e}");
+        let e = err(&OK.replace("seed = 1\n", ""));
+        assert!(e.contains("seed"), "{e}");
+        let e = err(&format!(
+            "{OK}pre_pad = -5.0\n"
+        ));
+        assert!(e.contains("experiment[0].pre_pad") && e.contains("≥ 0"), "{e}");
+        let e = err(&format!(
+            "{OK}x12 = {{ kind = \"sine\", freq = 6.0, amplitude = 1e-6, duration = 100.0 }}\n"
+        ));
+        assert!(e.contains("experiment[0].x12.freq") && e.contains("Nyquist"), "{e}");
+        let e = err(&format!("{OK}[truth]\na_df = nan\n"));
+        assert!(e.contains("truth.a_df"), "{e}");
+        let e = err(&format!("{OK}[truth]\na_df = -0.5\n"));
+        assert!(e.contains("unstable"), "{e}");
+        let e = err(&format!("{OK}[noise]\ntm_accel = -1.0\n"));
+        assert!(e.contains("noise.tm_accel"), "{e}");
+        let e = err(&OK.replace("tn3045_x1", "nope"));
+        assert!(e.contains("experiment[0].design") && e.contains("tn3045_x12"), "{e}");
+        let e = err(&format!("{OK}[simulation]\ntarget_snr = inf\n"));
+        assert!(e.contains("simulation.target_snr"), "{e}");
+    }
+}

@@ -1,0 +1,155 @@
+//! Experiment designs: which waveform goes on which guidance channel, the padding around it and
+//! the noise-only stretch, plus the built-in TN3045-like ladders of ltp-model.md §6.1.
+
+use super::waveform::{SineSegment, Waveform};
+use serde::{Deserialize, Serialize};
+
+/// One system-identification experiment.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ExperimentDesign {
+    /// Name, used for array names in the dataset.
+    pub name: String,
+    /// Sample rate (Hz).
+    pub fs: f64,
+    /// Quiet time before the first injection (s).
+    pub pre_pad: f64,
+    /// Quiet time after the last injection (s): lets the slowest closed-loop pole
+    /// (≈0.13 mHz, τ ≈ 1200 s) decay.
+    pub post_pad: f64,
+    /// Length of the separate noise-only stretch used for noise estimation (s).
+    pub noise_duration: f64,
+    /// Injection on the x1 guidance channel.
+    pub x1: Waveform,
+    /// Injection on the x12 guidance channel.
+    pub x12: Waveform,
+}
+
+/// Frequencies of the TN3045-like ladder: 7 segments of 1200 s with 1, 2, 4, … 64 cycles.
+pub fn ladder_freqs() -> [f64; 7] {
+    std::array::from_fn(|j| (1u32 << j) as f64 / 1200.0)
+}
+
+impl ExperimentDesign {
+    /// TN3045 "experiment 1", investigation 1 (x1 channel): ltp-model.md §6.1, digitised
+    /// amplitudes 1 µm for the first four segments, then 0.59, 0.29 and 0.146 µm.
+    pub fn tn3045_x1() -> Self {
+        let amps = [1e-6, 1e-6, 1e-6, 1e-6, 0.59e-6, 0.29e-6, 0.146e-6];
+        Self::ladder("tn3045_x1", amps, true)
+    }
+
+    /// TN3045 "experiment 1", investigation 2 (x12 channel). Not public: ltp-model.md §6.1 [REC],
+    /// the same ladder with 1 µm up to 1.7 mHz, then ∝ 1/f² so that the TM2 commanded
+    /// acceleration stays below about 1e−9 m s⁻².
+    pub fn tn3045_x12() -> Self {
+        let f = ladder_freqs();
+        let amps: [f64; 7] = std::array::from_fn(|j| {
+            if j < 2 {
+                1e-6
+            } else {
+                1e-6 * (f[1] / f[j]).powi(2)
+            }
+        });
+        Self::ladder("tn3045_x12", amps, false)
+    }
+
+    fn ladder(name: &str, amps: [f64; 7], on_x1: bool) -> Self {
+        let f = ladder_freqs();
+        let segments = (0..7)
+            .map(|j| SineSegment {
+                freq: f[j],
+                amplitude: amps[j],
+                duration: 1200.0,
+            })
+            .collect();
+        let train = Waveform::SineTrain {
+            segments,
+            gap: 120.0,
+        };
+        let (x1, x12) = if on_x1 {
+            (train, Waveform::None)
+        } else {
+            (Waveform::None, train)
+        };
+        Self {
+            name: name.into(),
+            fs: 10.0,
+            pre_pad: 2000.0,
+            post_pad: 8000.0,
+            noise_duration: 20000.0,
+            x1,
+            x12,
+        }
+    }
+
+    /// Looks up a built-in design by name.
+    pub fn builtin(name: &str) -> Option<Self> {
+        match name {
+            "tn3045_x1" => Some(Self::tn3045_x1()),
+            "tn3045_x12" => Some(Self::tn3045_x12()),
+            _ => None,
+        }
+    }
+
+    /// Names accepted by [`ExperimentDesign::builtin`].
+    pub const BUILTINS: [&'static str; 2] = ["tn3045_x1", "tn3045_x12"];
+
+    /// Number of samples of the fit stretch.
+    pub fn n_samples(&self) -> usize {
+        let pre = (self.pre_pad * self.fs).round() as usize;
+        let post = (self.post_pad * self.fs).round() as usize;
+        pre + self.x1.len(self.fs).max(self.x12.len(self.fs)) + post
+    }
+
+    /// Number of samples of the noise-only stretch.
+    pub fn n_noise_samples(&self) -> usize {
+        (self.noise_duration * self.fs).round() as usize
+    }
+
+    /// The commanded injection series `(i1, i12)` over the fit stretch: padding, waveform, padding.
+    pub fn injections(&self) -> [Vec<f64>; 2] {
+        let n = self.n_samples();
+        let pre = (self.pre_pad * self.fs).round() as usize;
+        [&self.x1, &self.x12].map(|w| {
+            let mut v = vec![0.0; n];
+            for (k, x) in w.render(self.fs).into_iter().enumerate() {
+                v[pre + k] = x;
+            }
+            v
+        })
+    }
+
+    /// A copy with every injection amplitude multiplied by `k`.
+    pub fn scaled(&self, k: f64) -> Self {
+        Self {
+            x1: self.x1.scaled(k),
+            x12: self.x12.scaled(k),
+            ..self.clone()
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ladder_matches_the_digitised_figure() {
+        let d = ExperimentDesign::tn3045_x1();
+        // ltp-model.md §6.1: segments start ≈130, 1440, 2750, 4090, 5400 s apart by ≈1310–1340 s
+        // and the train lasts ≈9300 s: our 1200 s + 120 s gap gives starts every 1320 s and 9120 s.
+        let [i1, i12] = d.injections();
+        assert!(i12.iter().all(|&v| v == 0.0));
+        let active = i1.iter().rposition(|&v| v != 0.0).unwrap()
+            - i1.iter().position(|&v| v != 0.0).unwrap();
+        assert!((active as f64 / d.fs - 9120.0).abs() < 1.0);
+        // 7 segments of 12 001 samples (both zero ends included) and 6 gaps of 1200 samples
+        assert_eq!(d.n_samples(), 20000 + 7 * 12001 + 6 * 1200 + 80000);
+        assert!((ladder_freqs()[0] - 0.833e-3).abs() < 1e-6);
+        // x12 amplitudes fall as 1/f² above 1.7 mHz
+        let x12 = ExperimentDesign::tn3045_x12();
+        let segs = x12.x12.segments();
+        assert_eq!(segs[1].amplitude, 1e-6);
+        assert!((segs[2].amplitude - 0.25e-6).abs() < 1e-15);
+    }
+}

@@ -1,0 +1,308 @@
+//! Checkpoints: atomic JSON snapshots of a run, and the check that one belongs to a run.
+//!
+//! A checkpoint holds the run's identity (parameter names, prior, settings, initial proposal)
+//! and every chain's complete state: position, RNG state, counters, adaptation state, kept
+//! samples and best point, all floats as exact bit patterns. Writing goes to a temporary file
+//! in the same directory, which is then renamed over the target, so a crash never leaves a
+//! half-written checkpoint.
+
+use std::fs::File;
+use std::io::{BufReader, BufWriter, Write};
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use super::SamplerError;
+use super::chain::ChainState;
+use super::proposal::GaussianProposal;
+use super::settings::{Adapt, Anneal, MhSettings};
+use crate::density::LogDensity;
+use crate::prior::{Prior, PriorKind};
+
+const FORMAT: &str = "occam-mh-checkpoint";
+const VERSION: u32 = 1;
+
+/// What is written (borrows the live run, so writing copies nothing).
+#[derive(Serialize)]
+pub(crate) struct CheckpointRef<'a> {
+    pub(crate) format: &'static str,
+    pub(crate) version: u32,
+    pub(crate) names: &'a [String],
+    pub(crate) prior: &'a Prior,
+    pub(crate) settings: &'a MhSettings,
+    pub(crate) proposal: &'a GaussianProposal,
+    pub(crate) chains: &'a [ChainState],
+}
+
+/// What is read back.
+#[derive(Deserialize)]
+pub(crate) struct Checkpoint {
+    format: String,
+    version: u32,
+    names: Vec<String>,
+    prior: Prior,
+    settings: MhSettings,
+    proposal: GaussianProposal,
+    pub(crate) chains: Vec<ChainState>,
+}
+
+impl<'a> CheckpointRef<'a> {
+    pub(crate) fn new(
+        names: &'a [String],
+        prior: &'a Prior,
+        settings: &'a MhSettings,
+        proposal: &'a GaussianProposal,
+        chains: &'a [ChainState],
+    ) -> Self {
+        Self {
+            format: FORMAT,
+            version: VERSION,
+            names,
+            prior,
+            settings,
+            proposal,
+            chains,
+        }
+    }
+}
+
+fn io_err(path: &Path, what: &str, e: impl std::fmt::Display) -> SamplerError {
+    SamplerError::Checkpoint {
+        path: path.to_path_buf(),
+        problem: format!("{what}: {e}"),
+    }
+}
+
+/// Writes `ckpt` to `path` atomically (temporary file in the same directory, then rename).
+pub(crate) fn write(path: &Path, ckpt: &CheckpointRef<'_>) -> Result<(), SamplerError> {
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => std::path::PathBuf::from("."),
+    };
+    let name = path
+        .file_name()
+        .ok_or_else(|| io_err(path, "cannot write", "the path has no file name"))?;
+    let tmp = dir.join(format!(".{}.tmp", name.to_string_lossy()));
+    let file = File::create(&tmp).map_err(|e| io_err(path, "cannot create temporary file", e))?;
+    let mut w = BufWriter::new(file);
+    serde_json::to_writer(&mut w, ckpt).map_err(|e| io_err(path, "cannot serialise", e))?;
+    w.flush().map_err(|e| io_err(path, "cannot write", e))?;
+    let file = w
+        .into_inner()
+        .map_err(|e| io_err(path, "cannot write", e.error()))?;
+    file.sync_all()
+        .map_err(|e| io_err(path, "cannot sync", e))?;
+    std::fs::rename(&tmp, path).map_err(|e| io_err(path, "cannot rename temporary file", e))
+}
+
+/// Reads a checkpoint (format and version checked, contents not yet matched to a run).
+pub(crate) fn read(path: &Path) -> Result<Checkpoint, SamplerError> {
+    let file = File::open(path).map_err(|e| io_err(path, "cannot open", e))?;
+    let ckpt: Checkpoint = serde_json::from_reader(BufReader::new(file))
+        .map_err(|e| io_err(path, "not a readable occam MH checkpoint", e))?;
+    if ckpt.format != FORMAT || ckpt.version != VERSION {
+        return Err(io_err(
+            path,
+            "unsupported checkpoint",
+            format!(
+                "format `{}` version {}, expected `{FORMAT}` version {VERSION}",
+                ckpt.format, ckpt.version
+            ),
+        ));
+    }
+    Ok(ckpt)
+}
+
+/// Equal up to JSON float parsing (serde_json's default parser may be one ulp off).
+fn close(a: f64, b: f64) -> bool {
+    a == b || (a - b).abs() <= 1e-14 * a.abs().max(b.abs())
+}
+
+fn close_prior_kind(a: &PriorKind, b: &PriorKind) -> bool {
+    use PriorKind::*;
+    match (a, b) {
+        (Uniform { lo: a1, hi: a2 }, Uniform { lo: b1, hi: b2 })
+        | (LogUniform { lo: a1, hi: a2 }, LogUniform { lo: b1, hi: b2 })
+        | (Gaussian { mu: a1, sigma: a2 }, Gaussian { mu: b1, sigma: b2 }) => {
+            close(*a1, *b1) && close(*a2, *b2)
+        }
+        _ => false,
+    }
+}
+
+fn close_anneal(a: &Option<Anneal>, b: &Option<Anneal>) -> bool {
+    match (a, b) {
+        (None, None) => true,
+        (Some(a), Some(b)) => {
+            a.tc1 == b.tc1
+                && a.tc2 == b.tc2
+                && close(a.heat, b.heat)
+                && a.jumps.iter().zip(&b.jumps).all(|(x, y)| close(*x, *y))
+        }
+        _ => false,
+    }
+}
+
+fn close_adapt(a: &Option<Adapt>, b: &Option<Adapt>) -> bool {
+    match (a, b) {
+        (None, None) => true,
+        (Some(a), Some(b)) => {
+            a.start == b.start
+                && a.interval == b.interval
+                && close(a.ridge, b.ridge)
+                && match (a.scale, b.scale) {
+                    (None, None) => true,
+                    (Some(x), Some(y)) => close(x, y),
+                    _ => false,
+                }
+        }
+        _ => false,
+    }
+}
+
+impl Checkpoint {
+    /// Checks that this checkpoint was written by a run with these settings, proposal and
+    /// target; the error names the first field that differs. `n_iter` may grow (continuing a
+    /// finished run is allowed) but not fall below the iterations already done.
+    pub(crate) fn verify<D: LogDensity>(
+        &self,
+        path: &Path,
+        target: &D,
+        settings: &MhSettings,
+        proposal: &GaussianProposal,
+    ) -> Result<(), SamplerError> {
+        let mismatch = |field: &'static str, ck: String, run: String| {
+            Err(SamplerError::CheckpointMismatch {
+                path: path.to_path_buf(),
+                field,
+                in_checkpoint: ck,
+                in_run: run,
+            })
+        };
+        let s = &self.settings;
+        if self.names.len() != target.dim() {
+            return mismatch(
+                "dimension",
+                self.names.len().to_string(),
+                target.dim().to_string(),
+            );
+        }
+        let names = target.param_names();
+        if self.names != names {
+            return mismatch(
+                "parameter names",
+                format!("{:?}", self.names),
+                format!("{names:?}"),
+            );
+        }
+        let prior = target.prior();
+        let same_prior = self.prior.kinds().len() == prior.kinds().len()
+            && self
+                .prior
+                .kinds()
+                .iter()
+                .zip(prior.kinds())
+                .all(|(a, b)| close_prior_kind(a, b));
+        if !same_prior {
+            return mismatch(
+                "prior",
+                format!("{:?}", self.prior.kinds()),
+                format!("{:?}", prior.kinds()),
+            );
+        }
+        if s.n_chains != settings.n_chains {
+            return mismatch(
+                "n_chains",
+                s.n_chains.to_string(),
+                settings.n_chains.to_string(),
+            );
+        }
+        if s.seed != settings.seed {
+            return mismatch("seed", s.seed.to_string(), settings.seed.to_string());
+        }
+        if s.burn_in != settings.burn_in {
+            return mismatch(
+                "burn_in",
+                s.burn_in.to_string(),
+                settings.burn_in.to_string(),
+            );
+        }
+        if s.thin != settings.thin {
+            return mismatch("thin", s.thin.to_string(), settings.thin.to_string());
+        }
+        if !close_anneal(&s.anneal, &settings.anneal) {
+            return mismatch(
+                "anneal",
+                format!("{:?}", s.anneal),
+                format!("{:?}", settings.anneal),
+            );
+        }
+        if !close_adapt(&s.adapt, &settings.adapt) {
+            return mismatch(
+                "adapt",
+                format!("{:?}", s.adapt),
+                format!("{:?}", settings.adapt),
+            );
+        }
+        let (a, b) = (self.proposal.cholesky(), proposal.cholesky());
+        let scale = b.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        if a.len() != b.len()
+            || a
+                .iter()
+                .zip(b)
+                .any(|(x, y)| (x - y).abs() > 1e-12 * scale)
+        {
+            return mismatch(
+                "proposal covariance",
+                format!("{}", self.proposal.covariance()),
+                format!("{}", proposal.covariance()),
+            );
+        }
+        let corrupt = |problem: String| {
+            Err(SamplerError::Checkpoint {
+                path: path.to_path_buf(),
+                problem: format!("inconsistent contents: {problem}"),
+            })
+        };
+        if self.chains.len() != settings.n_chains {
+            return corrupt(format!(
+                "{} chain states for n_chains = {}",
+                self.chains.len(),
+                settings.n_chains
+            ));
+        }
+        let done = self.chains[0].iter;
+        for (c, ch) in self.chains.iter().enumerate() {
+            if ch.index != c || ch.iter != done || ch.dim() != target.dim() {
+                return corrupt(format!(
+                    "chain {c} has index {}, {} iterations and dimension {} (expected {c}, {done}, {})",
+                    ch.index,
+                    ch.iter,
+                    ch.dim(),
+                    target.dim()
+                ));
+            }
+        }
+        if done > settings.n_iter {
+            return mismatch(
+                "n_iter",
+                format!("{} (iterations already done: {done})", s.n_iter),
+                settings.n_iter.to_string(),
+            );
+        }
+        // The same prior and settings with different data would continue silently with a
+        // wrong target; the stored ln posterior of each chain's state catches that. The
+        // tolerance allows likelihood code whose last bits depend on the CPU (SIMD FFTs).
+        for ch in &self.chains {
+            let now = target.ln_posterior(ch.theta());
+            if !(now.is_finite() && (now - ch.ln_post).abs() <= 1e-9 * (1.0 + now.abs())) {
+                return mismatch(
+                    "ln posterior at a checkpointed state (the target differs)",
+                    format!("{} (chain {})", ch.ln_post, ch.index),
+                    now.to_string(),
+                );
+            }
+        }
+        Ok(())
+    }
+}
