@@ -519,14 +519,18 @@ design = "tn3045_x1"
         assert!(e.contains("seed"), "{e}");
         let e = err(&OK.replace("seed = 1\n", ""));
         assert!(e.contains("seed"), "{e}");
-        let e = err(&format!(
-            "{OK}pre_pad = -5.0\n"
-        ));
-        assert!(e.contains("experiment[0].pre_pad") && e.contains("≥ 0"), "{e}");
+        let e = err(&format!("{OK}pre_pad = -5.0\n"));
+        assert!(
+            e.contains("experiment[0].pre_pad") && e.contains("≥ 0"),
+            "{e}"
+        );
         let e = err(&format!(
             "{OK}x12 = {{ kind = \"sine\", freq = 6.0, amplitude = 1e-6, duration = 100.0 }}\n"
         ));
-        assert!(e.contains("experiment[0].x12.freq") && e.contains("Nyquist"), "{e}");
+        assert!(
+            e.contains("experiment[0].x12.freq") && e.contains("Nyquist"),
+            "{e}"
+        );
         let e = err(&format!("{OK}[truth]\na_df = nan\n"));
         assert!(e.contains("truth.a_df"), "{e}");
         let e = err(&format!("{OK}[truth]\na_df = -0.5\n"));
@@ -534,7 +538,10 @@ design = "tn3045_x1"
         let e = err(&format!("{OK}[noise]\ntm_accel = -1.0\n"));
         assert!(e.contains("noise.tm_accel"), "{e}");
         let e = err(&OK.replace("tn3045_x1", "nope"));
-        assert!(e.contains("experiment[0].design") && e.contains("tn3045_x12"), "{e}");
+        assert!(
+            e.contains("experiment[0].design") && e.contains("tn3045_x12"),
+            "{e}"
+        );
         let e = err(&format!("{OK}[simulation]\ntarget_snr = inf\n"));
         assert!(e.contains("simulation.target_snr"), "{e}");
     }

@@ -93,7 +93,10 @@ impl ExperimentData {
         if !(self.fs.is_finite() && self.fs > 0.0) {
             return Err(fmt_err(
                 file,
-                format!("experiment `{}`: sample rate {} is not > 0", self.name, self.fs),
+                format!(
+                    "experiment `{}`: sample rate {} is not > 0",
+                    self.name, self.fs
+                ),
             ));
         }
         let n = self.o[0].len();
@@ -163,7 +166,10 @@ impl ExperimentData {
             t.column(c).cloned().ok_or_else(|| {
                 fmt_err(
                     file,
-                    format!("no column `{c}` (columns: {:?}); expected o1, o12, i1, i12", t.names),
+                    format!(
+                        "no column `{c}` (columns: {:?}); expected o1, o12, i1, i12",
+                        t.names
+                    ),
                 )
             })
         };
@@ -358,7 +364,10 @@ pub fn read_csv(path: &Path) -> Result<CsvTable, DataError> {
         .next()
         .ok_or_else(|| fmt_err(path, "empty file: expected a header row of column names"))?;
     let names: Vec<String> = header.split(',').map(|s| s.trim().to_string()).collect();
-    if names.iter().any(|n| n.is_empty() || n.parse::<f64>().is_ok()) {
+    if names
+        .iter()
+        .any(|n| n.is_empty() || n.parse::<f64>().is_ok())
+    {
         return Err(fmt_err(
             path,
             format!("line 1 must name the columns (e.g. `t,o1,o12,i1,i12`), got `{header}`"),
@@ -382,7 +391,12 @@ pub fn read_csv(path: &Path) -> Result<CsvTable, DataError> {
             let v: f64 = c.trim().parse().map_err(|_| {
                 fmt_err(
                     path,
-                    format!("line {}, column `{}`: `{}` is not a number", ln + 1, names[j], c.trim()),
+                    format!(
+                        "line {}, column `{}`: `{}` is not a number",
+                        ln + 1,
+                        names[j],
+                        c.trim()
+                    ),
                 )
             })?;
             if !v.is_finite() {
@@ -445,7 +459,10 @@ mod tests {
         let p = dir.path().join("d.csv");
         std::fs::write(&p, "t,o1\n0,1\n0.1,nan\n").unwrap();
         let e = read_csv(&p).unwrap_err().to_string();
-        assert!(e.contains("d.csv") && e.contains("line 3") && e.contains("o1"), "{e}");
+        assert!(
+            e.contains("d.csv") && e.contains("line 3") && e.contains("o1"),
+            "{e}"
+        );
         std::fs::write(&p, "t,o1\n0,1\n0.1\n").unwrap();
         let e = read_csv(&p).unwrap_err().to_string();
         assert!(e.contains("line 3") && e.contains("1 values for 2"), "{e}");
@@ -474,7 +491,9 @@ mod tests {
         assert_eq!(e.o[1][3], -3.0);
         // short noise series: different-length stretch is fine, but a missing column is not
         std::fs::write(&n, "o1\n1\n").unwrap();
-        let err = ExperimentData::from_csv("x", &d, &n, None).unwrap_err().to_string();
+        let err = ExperimentData::from_csv("x", &d, &n, None)
+            .unwrap_err()
+            .to_string();
         assert!(err.contains("o12"), "{err}");
     }
 }

@@ -11,6 +11,8 @@ pub mod config;
 pub mod dataset;
 pub mod density;
 pub mod experiment;
+pub mod hermitian;
 pub mod lti;
 pub mod ltp;
 pub mod prior;
+pub mod signal;

@@ -113,7 +113,9 @@ impl PriorKind {
                 let z: f64 = StandardNormal.sample(rng);
                 mu + sigma * z
             }
-            PriorKind::LogUniform { lo, hi } => (lo.ln() + (hi / lo).ln() * rng.random::<f64>()).exp(),
+            PriorKind::LogUniform { lo, hi } => {
+                (lo.ln() + (hi / lo).ln() * rng.random::<f64>()).exp()
+            }
         }
     }
 }
@@ -211,10 +213,28 @@ mod tests {
     fn rejects_degenerate_boxes() {
         let mk = |k| Prior::new(vec!["x".into()], vec![k]);
         assert!(mk(PriorKind::Uniform { lo: 1.0, hi: 1.0 }).is_err());
-        assert!(mk(PriorKind::Uniform { lo: 0.0, hi: f64::INFINITY }).is_err());
-        assert!(mk(PriorKind::Gaussian { mu: 0.0, sigma: 0.0 }).is_err());
+        assert!(
+            mk(PriorKind::Uniform {
+                lo: 0.0,
+                hi: f64::INFINITY
+            })
+            .is_err()
+        );
+        assert!(
+            mk(PriorKind::Gaussian {
+                mu: 0.0,
+                sigma: 0.0
+            })
+            .is_err()
+        );
         assert!(mk(PriorKind::LogUniform { lo: 0.0, hi: 1.0 }).is_err());
-        assert!(mk(PriorKind::Uniform { lo: f64::NAN, hi: 1.0 }).is_err());
+        assert!(
+            mk(PriorKind::Uniform {
+                lo: f64::NAN,
+                hi: 1.0
+            })
+            .is_err()
+        );
     }
 
     #[test]
@@ -222,7 +242,10 @@ mod tests {
         // Trapezoid integration of exp(ln_pdf) over the support.
         for k in [
             PriorKind::Uniform { lo: -2.0, hi: 3.0 },
-            PriorKind::Gaussian { mu: 1.0, sigma: 0.5 },
+            PriorKind::Gaussian {
+                mu: 1.0,
+                sigma: 0.5,
+            },
             PriorKind::LogUniform { lo: 0.1, hi: 10.0 },
         ] {
             let (lo, hi) = match k.bounds() {

@@ -2,7 +2,11 @@
 //! designs with padding and a noise-only stretch, and their simulation.
 
 mod design;
+mod simulate;
 mod waveform;
 
 pub use design::{ExperimentDesign, ladder_freqs};
+pub use simulate::{
+    SimError, Simulation, System, delayed_injections, optimal_snr, simulate, stream,
+};
 pub use waveform::{SineSegment, Waveform};

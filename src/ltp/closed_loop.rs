@@ -141,7 +141,10 @@ impl ClosedLoop {
         // E S P⁻¹
         let hgo = [
             [e * pinv[0][0], e * pinv[0][1]],
-            [e * (d21 * pinv[0][0] + pinv[1][0]), e * (d21 * pinv[0][1] + pinv[1][1])],
+            [
+                e * (d21 * pinv[0][0] + pinv[1][0]),
+                e * (d21 * pinv[0][1] + pinv[1][1]),
+            ],
         ];
         // M A K = [[k1, e2 k2], [0, k2]]
         let mak = [[k1, e2 * k2], [Complex64::new(0.0, 0.0), k2]];
@@ -155,10 +158,7 @@ impl ClosedLoop {
             o
         };
         let g = mul(&hgo, &mak);
-        let t = [
-            crate::lti::delay(p.dt1, c.f),
-            crate::lti::delay(p.dt2, c.f),
-        ];
+        let t = [crate::lti::delay(p.dt1, c.f), crate::lti::delay(p.dt2, c.f)];
         let mut h_io = g;
         let mut h_no = g;
         for i in 0..2 {
@@ -275,35 +275,55 @@ mod tests {
     fn matches_the_section_3_3_table() {
         // ltp-model.md §3.3: H_io complex (re, im per entry), |H_go| and |H_no|, θ = Table I,
         // τ_o = 0. Each number must agree to within half a unit of its last quoted digit.
-        type Row = (f64, [[(&'static str, &'static str); 2]; 2], [[&'static str; 2]; 2], [[&'static str; 2]; 2]);
+        type Row = (
+            f64,
+            [[(&'static str, &'static str); 2]; 2],
+            [[&'static str; 2]; 2],
+            [[&'static str; 2]; 2],
+        );
         let table: [Row; 5] = [
             (
                 1e-4,
-                [[("1.0000", "-1.25e-4"), ("1.4e-11", "-2.6e-10")], [("3.73e-2", "2.03e-2"), ("1.143", "7.76e-2")]],
+                [
+                    [("1.0000", "-1.25e-4"), ("1.4e-11", "-2.6e-10")],
+                    [("3.73e-2", "2.03e-2"), ("1.143", "7.76e-2")],
+                ],
                 [["0.124", "5.9e-4"], ["5.3e-3", "7.09e4"]],
                 [["2.1e-7", "2.6e-10"], ["4.2e-2", "0.163"]],
             ),
             (
                 1e-3,
-                [[("1.0000", "-1.21e-3"), ("-2.26e-7", "-9.0e-8")], [("-6.59e-3", "-1.32e-2"), ("0.5325", "-0.9358")]],
+                [
+                    [("1.0000", "-1.21e-3"), ("-2.26e-7", "-9.0e-8")],
+                    [("-6.59e-3", "-1.32e-2"), ("0.5325", "-0.9358")],
+                ],
                 [["1.233", "6.0e-3"], ["1.82e-2", "2.53e4"]],
                 [["5.0e-5", "2.4e-7"], ["1.47e-2", "1.045"]],
             ),
             (
                 1e-2,
-                [[("1.0299", "1.43e-3"), ("4.45e-6", "4.55e-6")], [("2.65e-4", "4.1e-6"), ("-3.90e-2", "-1.41e-2")]],
+                [
+                    [("1.0299", "1.43e-3"), ("4.45e-6", "4.55e-6")],
+                    [("2.65e-4", "4.1e-6"), ("-3.90e-2", "-1.41e-2")],
+                ],
                 [["8.39", "1.6e-3"], ["2.2e-3", "263"]],
                 [["3.3e-2", "6.4e-6"], ["2.7e-4", "1.039"]],
             ),
             (
                 0.1,
-                [[("0.1428", "-0.9742"), ("-1.63e-6", "-1.75e-6")], [("5.70e-5", "-3.88e-4"), ("-4.28e-4", "3.83e-5")]],
+                [
+                    [("0.1428", "-0.9742"), ("-1.63e-6", "-1.75e-6")],
+                    [("5.70e-5", "-3.88e-4"), ("-4.28e-4", "3.83e-5")],
+                ],
                 [["3.04", "6.0e-6"], ["1.2e-3", "2.53"]],
                 [["1.20", "2.4e-6"], ["3.9e-4", "1.000"]],
             ),
             (
                 1.0,
-                [[("-5.34e-3", "2.74e-2"), ("-6.3e-9", "1.95e-8")], [("-2.14e-6", "1.10e-5"), ("-1.34e-6", "4.08e-6")]],
+                [
+                    [("-5.34e-3", "2.74e-2"), ("-6.3e-9", "1.95e-8")],
+                    [("-2.14e-6", "1.10e-5"), ("-1.34e-6", "4.08e-6")],
+                ],
                 [["2.6e-2", "5e-10"], ["1.0e-5", "2.5e-2"]],
                 [["1.03", "2e-8"], ["1.1e-5", "1.000"]],
             ),
@@ -389,7 +409,10 @@ mod tests {
             // first-order approach to the limit: H_io − T = O(D/(A K)) ∝ 1/g
             if prev.is_finite() {
                 let ratio = prev / err;
-                assert!((ratio / 100.0 - 1.0).abs() < 0.05, "error ratio {ratio} per ×100 gain");
+                assert!(
+                    (ratio / 100.0 - 1.0).abs() < 0.05,
+                    "error ratio {ratio} per ×100 gain"
+                );
             }
             prev = err;
         }
@@ -398,20 +421,35 @@ mod tests {
 
     #[test]
     fn closed_loop_poles_are_stable_and_match_the_design_note() {
-        let poles =
-            closed_loop_poles(&LtpParams::default(), &Controllers::default(), &Masses::default())
-                .unwrap();
+        let poles = closed_loop_poles(
+            &LtpParams::default(),
+            &Controllers::default(),
+            &Masses::default(),
+        )
+        .unwrap();
         assert_eq!(poles.len(), 9);
         assert!(poles.iter().all(|z| z.re < 0.0), "{poles:?}");
         // ltp-model.md §4: real poles at 0.13, 0.31, 1.05, 2.5, 9.4 mHz, 0.28 and 2.0 Hz and a
         // complex pair at 55 mHz (|s|/2π); quoted to 2–3 figures.
         let mut hz: Vec<f64> = poles.iter().map(|z| z.norm() / (2.0 * PI)).collect();
         hz.sort_by(f64::total_cmp);
-        let want = [0.13e-3, 0.31e-3, 1.05e-3, 2.5e-3, 9.4e-3, 55e-3, 55e-3, 0.28, 2.0];
+        let want = [
+            0.13e-3, 0.31e-3, 1.05e-3, 2.5e-3, 9.4e-3, 55e-3, 55e-3, 0.28, 2.0,
+        ];
         for (g, w) in hz.iter().zip(want) {
-            assert!((g - w).abs() < 0.05 * w, "pole {g:.4e} Hz vs note {w:.2e} Hz");
+            assert!(
+                (g - w).abs() < 0.05 * w,
+                "pole {g:.4e} Hz vs note {w:.2e} Hz"
+            );
         }
-        assert!(check_stable(&LtpParams::default(), &Controllers::default(), &Masses::default()).is_ok());
+        assert!(
+            check_stable(
+                &LtpParams::default(),
+                &Controllers::default(),
+                &Masses::default()
+            )
+            .is_ok()
+        );
     }
 
     #[test]

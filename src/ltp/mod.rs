@@ -19,7 +19,9 @@ mod controllers;
 mod noise;
 mod params;
 
-pub use closed_loop::{BinConsts, ClosedLoop, LoopError, check_stable, closed_loop_poles, response};
+pub use closed_loop::{
+    BinConsts, ClosedLoop, LoopError, check_stable, closed_loop_poles, response,
+};
 pub use controllers::{Controllers, design_lead_integrator};
 pub use noise::NoiseModel;
 pub use params::{LtpParams, Masses, N_PARAMS, PARAM_NAMES};

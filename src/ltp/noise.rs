@@ -119,7 +119,10 @@ mod tests {
             let cl = ClosedLoop::at(&LtpParams::default(), &BinConsts::new(f, &ctrl, 0.0), &m);
             let s = nm.output_csd(&cl, f, &m);
             let det = s[0][0].re * s[1][1].re - s[0][1].norm_sqr();
-            assert!(s[0][0].re > 0.0 && s[1][1].re > 0.0 && det > 0.0, "{f}: {s:?}");
+            assert!(
+                s[0][0].re > 0.0 && s[1][1].re > 0.0 && det > 0.0,
+                "{f}: {s:?}"
+            );
         }
         // ltp-model.md §5: o12 sees the readout almost unfiltered above a few mHz.
         let f = 0.5;

@@ -536,6 +536,7 @@ mod tests {
         let refs: Vec<&[f64]> = chains.iter().map(Vec::as_slice).collect();
         let e = ess(&refs).unwrap();
         let tau = 200_000.0 / e;
+        eprintln!("ar1 tau {tau}");
         assert!((tau - 19.0).abs() < 0.2 * 19.0, "tau = {tau}");
     }
 

@@ -1,1 +1,578 @@
+//! Known-answer, determinism, checkpoint and allocation tests of the sampler.
+//!
+//! Statistical tolerances come from the Monte-Carlo error measured on the chains themselves:
+//! a mean is within `4 √(Σ_ii / ESS_i)`, a covariance entry within
+//! `4 √((Σ_ii Σ_jj + Σ_ij²) / ESS_ij)` (the variance of a Gaussian product moment, with
+//! `ESS_ij` the ESS of the product series). Seeds are fixed.
 
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use nalgebra::DMatrix;
+
+use super::chain::ChainState;
+use super::test_targets::GaussianTarget;
+use super::*;
+use crate::density::LogDensity;
+use crate::prior::{Prior, PriorKind};
+
+// Counts allocations per thread, so the hot-loop test sees only its own thread.
+struct CountingAlloc;
+thread_local! {
+    static ALLOCS: Cell<u64> = const { Cell::new(0) };
+}
+fn bump() {
+    let _ = ALLOCS.try_with(|c| c.set(c.get() + 1));
+}
+// SAFETY: forwards every call unchanged to the system allocator.
+unsafe impl GlobalAlloc for CountingAlloc {
+    unsafe fn alloc(&self, l: Layout) -> *mut u8 {
+        bump();
+        unsafe { System.alloc(l) }
+    }
+    unsafe fn dealloc(&self, p: *mut u8, l: Layout) {
+        unsafe { System.dealloc(p, l) }
+    }
+    unsafe fn alloc_zeroed(&self, l: Layout) -> *mut u8 {
+        bump();
+        unsafe { System.alloc_zeroed(l) }
+    }
+    unsafe fn realloc(&self, p: *mut u8, l: Layout, n: usize) -> *mut u8 {
+        bump();
+        unsafe { System.realloc(p, l, n) }
+    }
+}
+#[global_allocator]
+static GLOBAL: CountingAlloc = CountingAlloc;
+
+/// Proposal covariance `2.38²/D · Σ`: what the scaled inverse Fisher matrix is for a Gaussian.
+fn optimal_cov(t: &GaussianTarget) -> DMatrix<f64> {
+    &t.cov * (2.38f64.powi(2) / t.mu.len() as f64)
+}
+
+fn run(t: &GaussianTarget, cov: &DMatrix<f64>, s: MhSettings, start: &Start) -> Chains {
+    MetropolisHastings::new(t, cov, s)
+        .unwrap()
+        .run(start)
+        .unwrap()
+        .into_chains()
+        .unwrap()
+}
+
+/// Means and covariances against the truth within 4 Monte-Carlo standard errors.
+fn check_moments(t: &GaussianTarget, ch: &Chains) {
+    let d = t.mu.len();
+    let diag = ch.diagnostics().unwrap();
+    let mean = ch.mean();
+    let cov = ch.covariance();
+    for i in 0..d {
+        let tol = 4.0 * (t.cov[(i, i)] / diag.ess[i]).sqrt();
+        assert!(
+            (mean[i] - t.mu[i]).abs() < tol,
+            "D = {d}: mean {i} = {} vs {} (tol {tol}, ESS {})",
+            mean[i],
+            t.mu[i],
+            diag.ess[i]
+        );
+    }
+    for i in 0..d {
+        for j in 0..=i {
+            let prods: Vec<Vec<f64>> = (0..ch.chains().len())
+                .map(|c| {
+                    (0..ch.n_kept())
+                        .map(|k| {
+                            let s = ch.sample(c, k);
+                            (s[i] - mean[i]) * (s[j] - mean[j])
+                        })
+                        .collect()
+                })
+                .collect();
+            let refs: Vec<&[f64]> = prods.iter().map(Vec::as_slice).collect();
+            let e = ess(&refs).unwrap();
+            let sij = t.cov[(i, j)];
+            let se = ((t.cov[(i, i)] * t.cov[(j, j)] + sij * sij) / e).sqrt();
+            assert!(
+                (cov[i * d + j] - sij).abs() < 4.0 * se,
+                "D = {d}: cov ({i},{j}) = {} vs {sij} (se {se}, ESS {e})",
+                cov[i * d + j]
+            );
+        }
+    }
+}
+
+#[test]
+fn recovers_correlated_gaussians_in_2_5_10_dimensions() {
+    for (d, seed) in [(2usize, 11u64), (5, 12), (10, 13)] {
+        let t = GaussianTarget::correlated(d, 1e3, seed);
+        let s = MhSettings {
+            n_iter: 1_000 + 2_500 * d,
+            burn_in: 1_000,
+            n_chains: 4,
+            seed,
+            ..MhSettings::default()
+        };
+        let ch = run(
+            &t,
+            &optimal_cov(&t),
+            s,
+            &Start::Around {
+                centre: t.mu.clone(),
+                spread: 2.0,
+            },
+        );
+        check_moments(&t, &ch);
+        let diag = ch.diagnostics().unwrap();
+        eprintln!("D={d} ess={:?} tau={:?} rhat={:?} acc={:?} maxpost m2={}", diag.ess, diag.tau, diag.rhat, diag.acceptance, t.mahalanobis2(ch.max_posterior().unwrap().theta));
+        assert!(diag.warnings().is_empty(), "D = {d}: {:?}", diag.warnings());
+        // Optimally scaled random walk: acceptance 0.44 in 1-D falling to 0.234 as D → ∞
+        // (Roberts, Gelman & Gilks 1997).
+        for a in &diag.acceptance {
+            assert!((0.2..0.45).contains(a), "D = {d}: acceptance {a}");
+        }
+        // The maximum-posterior kept sample is a posterior draw near the mode: its squared
+        // Mahalanobis distance is the minimum of ≥ 100 (ESS) roughly independent χ²_D draws.
+        let mp = ch.max_posterior().unwrap();
+        assert!(t.mahalanobis2(mp.theta) < d as f64, "D = {d}");
+        assert_eq!(mp.ln_posterior, t.ln_posterior(mp.theta));
+    }
+}
+
+#[test]
+fn adaptation_repairs_a_badly_shaped_proposal() {
+    let d = 5;
+    let t = GaussianTarget::correlated(d, 1e3, 21);
+    // Diagonal proposal with tiny steps: ignores every correlation.
+    let bad = DMatrix::from_fn(d, d, |i, j| if i == j { 1e-3 * t.cov[(i, i)] } else { 0.0 });
+    let base = MhSettings {
+        n_iter: 10_000,
+        burn_in: 5_000,
+        n_chains: 4,
+        seed: 5,
+        ..MhSettings::default()
+    };
+    let start = Start::Around {
+        centre: t.mu.clone(),
+        spread: 30.0,
+    };
+    let fixed = run(&t, &bad, base.clone(), &start);
+    let adapted = run(
+        &t,
+        &bad,
+        MhSettings {
+            adapt: Some(Adapt {
+                interval: 250,
+                ..Adapt::default()
+            }),
+            ..base
+        },
+        &start,
+    );
+    check_moments(&t, &adapted);
+    let (ef, ea) = (fixed.diagnostics().unwrap(), adapted.diagnostics().unwrap());
+    let min = |v: &[f64]| v.iter().cloned().fold(f64::INFINITY, f64::min);
+    eprintln!("adapt: fixed ess {:?} acc {:?}; adapted ess {:?} acc {:?}", ef.ess, ef.acceptance, ea.ess, ea.acceptance);
+    // Same cost, far better mixing: the adapted chain's worst ESS beats the fixed one's by
+    // more than 5×.
+    assert!(min(&ea.ess) > 5.0 * min(&ef.ess), "{:?} vs {:?}", ea.ess, ef.ess);
+    assert!(ea.warnings().is_empty(), "{:?}", ea.warnings());
+}
+
+#[test]
+fn annealed_search_finds_the_mode_from_far_away() {
+    let d = 5;
+    let t = GaussianTarget::correlated(d, 1e3, 31);
+    let far: Vec<f64> = (0..d).map(|k| t.mu[k] + 15.0 * t.sd(k)).collect();
+    let s = MhSettings {
+        n_iter: 14_000,
+        burn_in: 4_000,
+        n_chains: 2,
+        seed: 9,
+        anneal: Some(Anneal::new(1_000, 3_000)),
+        ..MhSettings::default()
+    };
+    let ch = run(&t, &optimal_cov(&t), s, &Start::Point(far.clone()));
+    assert!(t.mahalanobis2(&far) > 1e4);
+    // The best point visited has the smallest Mahalanobis distance of thousands of draws;
+    // P(χ²_5 < 1) = 0.037, so among ≥ 200 effectively independent draws one is below 1
+    // except with probability 0.963²⁰⁰ ≈ 5e-4.
+    let best = ch.best_visited();
+    eprintln!("anneal best m2 {} prior_rej {:?}", t.mahalanobis2(&best.theta), ch.chains().iter().map(|c| c.counts.burn_in).collect::<Vec<_>>());
+    assert!(t.mahalanobis2(&best.theta) < 1.0, "{}", t.mahalanobis2(&best.theta));
+    for c in ch.chains() {
+        // The 1e3× and 1e4× jumps leave the ±20σ box.
+        assert!(c.counts.burn_in.prior_rejected > 0);
+        assert_eq!(c.counts.sampling.proposed, 10_000);
+    }
+    check_moments(&t, &ch);
+}
+
+fn bits(ch: &Chains) -> Vec<u64> {
+    let mut v = Vec::new();
+    for c in ch.chains() {
+        v.extend(c.samples.iter().map(|x| x.to_bits()));
+        v.extend(c.ln_posterior.iter().map(|x| x.to_bits()));
+        v.extend(c.ln_likelihood.iter().map(|x| x.to_bits()));
+        v.extend(c.best.theta.iter().map(|x| x.to_bits()));
+        v.extend(c.proposal_covariance.iter().map(|x| x.to_bits()));
+        v.push(c.best.ln_posterior.to_bits());
+        let k = c.counts;
+        for p in [k.burn_in, k.sampling] {
+            v.extend([p.proposed, p.accepted, p.prior_rejected, p.non_finite]);
+        }
+    }
+    v
+}
+
+/// Settings that exercise every piece of state: annealing, adaptation, thinning.
+fn full_settings() -> MhSettings {
+    MhSettings {
+        n_iter: 3_000,
+        burn_in: 1_500,
+        thin: 3,
+        n_chains: 3,
+        seed: 77,
+        anneal: Some(Anneal::new(300, 600)),
+        adapt: Some(Adapt {
+            start: 600,
+            interval: 100,
+            ..Adapt::default()
+        }),
+        checkpoint_every: 250,
+        ..MhSettings::default()
+    }
+}
+
+#[test]
+fn numbers_do_not_depend_on_the_thread_count() {
+    let t = GaussianTarget::correlated(3, 1e3, 41);
+    let cov = optimal_cov(&t);
+    let start = Start::Around {
+        centre: t.mu.clone(),
+        spread: 3.0,
+    };
+    let with_threads = |n: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build()
+            .unwrap()
+            .install(|| run(&t, &cov, full_settings(), &start))
+    };
+    let one = with_threads(1);
+    let three = with_threads(3);
+    assert_eq!(bits(&one), bits(&three));
+    assert_eq!(one, three);
+}
+
+#[test]
+fn resume_ends_with_exactly_the_uninterrupted_chains() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("mh.json");
+    let t = GaussianTarget::correlated(3, 1e3, 51);
+    let cov = optimal_cov(&t);
+    let start = Start::Around {
+        centre: t.mu.clone(),
+        spread: 3.0,
+    };
+    let reference = run(&t, &cov, full_settings(), &start);
+
+    // Killed after 3 blocks of 250 iterations (inside the adaptation window).
+    let stop = |done: usize| done >= 750;
+    let outcome = MetropolisHastings::new(&t, &cov, full_settings())
+        .unwrap()
+        .checkpoint(&path)
+        .stop_when(&stop)
+        .run(&start)
+        .unwrap();
+    assert_eq!(outcome, RunOutcome::Stopped { iterations: 750 });
+    assert!(path.exists());
+    let leftovers: Vec<_> = std::fs::read_dir(dir.path()).unwrap().collect();
+    assert_eq!(leftovers.len(), 1, "temporary file left behind");
+
+    // A new driver, as a new process would build, with a different block length.
+    let resumed = MetropolisHastings::new(
+        &t,
+        &cov,
+        MhSettings {
+            checkpoint_every: 400,
+            ..full_settings()
+        },
+    )
+    .unwrap()
+    .checkpoint(&path)
+    .resume(&path)
+    .unwrap()
+    .into_chains()
+    .unwrap();
+    assert_eq!(bits(&resumed), bits(&reference));
+
+    // The final checkpoint of a finished run can be extended to a longer run.
+    let longer = MhSettings {
+        n_iter: 4_500,
+        ..full_settings()
+    };
+    let extended = MetropolisHastings::new(&t, &cov, longer.clone())
+        .unwrap()
+        .resume(&path)
+        .unwrap()
+        .into_chains()
+        .unwrap();
+    assert_eq!(bits(&extended), bits(&run(&t, &cov, longer, &start)));
+}
+
+#[test]
+fn mismatched_checkpoints_name_the_difference() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("ck.json");
+    let t = GaussianTarget::correlated(3, 1e3, 61);
+    let cov = optimal_cov(&t);
+    let s = MhSettings {
+        n_iter: 500,
+        burn_in: 100,
+        n_chains: 2,
+        checkpoint_every: 100,
+        ..MhSettings::default()
+    };
+    MetropolisHastings::new(&t, &cov, s.clone())
+        .unwrap()
+        .checkpoint(&path)
+        .run(&Start::Point(t.mu.clone()))
+        .unwrap();
+    let field_of = |t: &GaussianTarget, cov: &DMatrix<f64>, s: MhSettings| {
+        match MetropolisHastings::new(t, cov, s).unwrap().resume(&path) {
+            Err(SamplerError::CheckpointMismatch { field, .. }) => field,
+            other => panic!("expected a mismatch, got {other:?}"),
+        }
+    };
+    assert_eq!(field_of(&t, &cov, MhSettings { seed: 2, ..s.clone() }), "seed");
+    assert_eq!(field_of(&t, &cov, MhSettings { burn_in: 50, ..s.clone() }), "burn_in");
+    assert_eq!(field_of(&t, &cov, MhSettings { n_chains: 3, ..s.clone() }), "n_chains");
+    assert_eq!(field_of(&t, &cov, MhSettings { thin: 2, ..s.clone() }), "thin");
+    assert_eq!(field_of(&t, &cov, MhSettings { n_iter: 400, ..s.clone() }), "n_iter");
+    assert_eq!(
+        field_of(&t, &cov, MhSettings { adapt: Some(Adapt { interval: 10, ..Adapt::default() }), ..s.clone() }),
+        "adapt"
+    );
+    assert_eq!(field_of(&t, &(&cov * 2.0), s.clone()), "proposal covariance");
+    let t4 = GaussianTarget::correlated(4, 1e3, 61);
+    assert_eq!(field_of(&t4, &optimal_cov(&t4), s.clone()), "dimension");
+    // Same prior box, different mean: only the stored ln posterior can tell.
+    let moved = t.shifted(0.1);
+    assert!(field_of(&moved, &cov, s.clone()).starts_with("ln posterior"));
+    // Unreadable files.
+    let missing = MetropolisHastings::new(&t, &cov, s.clone())
+        .unwrap()
+        .resume(dir.path().join("nope.json"));
+    assert!(matches!(missing, Err(SamplerError::Checkpoint { .. })));
+    std::fs::write(&path, "{\"format\": 1}").unwrap();
+    let garbage = MetropolisHastings::new(&t, &cov, s).unwrap().resume(&path);
+    assert!(matches!(garbage, Err(SamplerError::Checkpoint { .. })));
+}
+
+/// Standard normal likelihood whose `ln L` is NaN above 1, under a uniform prior on
+/// [−1.5, 1.5]: the posterior is N(0, 1) truncated to [−1.5, 1].
+struct HoleyNormal {
+    prior: Prior,
+}
+
+impl LogDensity for HoleyNormal {
+    fn ln_likelihood(&self, t: &[f64]) -> f64 {
+        if t[0] > 1.0 { f64::NAN } else { -0.5 * t[0] * t[0] }
+    }
+    fn prior(&self) -> &Prior {
+        &self.prior
+    }
+}
+
+#[test]
+fn prior_rejections_and_non_finite_likelihoods_are_counted_rejections() {
+    let target = HoleyNormal {
+        prior: Prior::new(vec!["x".into()], vec![PriorKind::Uniform { lo: -1.5, hi: 1.5 }]).unwrap(),
+    };
+    let s = MhSettings {
+        n_iter: 41_000,
+        burn_in: 1_000,
+        n_chains: 2,
+        seed: 3,
+        ..MhSettings::default()
+    };
+    let ch = MetropolisHastings::new(&target, &DMatrix::from_element(1, 1, 1.0), s)
+        .unwrap()
+        .run(&Start::Point(vec![0.0]))
+        .unwrap()
+        .into_chains()
+        .unwrap();
+    for c in ch.chains() {
+        let k = c.counts.sampling;
+        assert!(k.prior_rejected > 0 && k.non_finite > 0, "{k:?}");
+        assert_eq!(k.proposed, 40_000);
+        assert!(k.accepted + k.prior_rejected + k.non_finite <= k.proposed);
+        assert!(c.samples.iter().all(|&x| (-1.5..=1.0).contains(&x)));
+    }
+    // Truncated-normal moments on [a, b] = [−1.5, 1]: mean (φ(a) − φ(b)) / (Φ(b) − Φ(a)).
+    let phi = |x: f64| (-0.5 * x * x).exp() / (2.0 * std::f64::consts::PI).sqrt();
+    let cdf = |x: f64| 0.5 * (1.0 + statrs::function::erf::erf(x / std::f64::consts::SQRT_2));
+    let (a, b) = (-1.5, 1.0);
+    let z = cdf(b) - cdf(a);
+    let mean = (phi(a) - phi(b)) / z;
+    let var = 1.0 + (a * phi(a) - b * phi(b)) / z - mean * mean;
+    let diag = ch.diagnostics().unwrap();
+    let tol = 4.0 * (var / diag.ess[0]).sqrt();
+    assert!((ch.mean()[0] - mean).abs() < tol, "{} vs {mean} ± {tol}", ch.mean()[0]);
+    let w = diag.warnings();
+    eprintln!("holey mean {} vs {mean} tol {tol} ess {} counts {:?}", ch.mean()[0], diag.ess[0], ch.chains()[0].counts);
+    assert!(w.iter().any(|w| matches!(w, Warning::NonFinite { .. })), "{w:?}");
+    assert!(w.iter().all(|w| matches!(w, Warning::NonFinite { .. })), "{w:?}");
+}
+
+#[test]
+fn bad_starts_and_covariances_are_clear_errors() {
+    let t = GaussianTarget::correlated(2, 10.0, 71);
+    let cov = optimal_cov(&t);
+    let s = MhSettings {
+        n_iter: 100,
+        burn_in: 10,
+        n_chains: 2,
+        ..MhSettings::default()
+    };
+    let mh = MetropolisHastings::new(&t, &cov, s.clone()).unwrap();
+    let outside = vec![t.mu[0] + 100.0 * t.sd(0), t.mu[1]];
+    match mh.run(&Start::Point(outside)) {
+        Err(SamplerError::Start { chain: 0, problem }) => assert!(problem.contains("`p0`"), "{problem}"),
+        other => panic!("{other:?}"),
+    }
+    match mh.run(&Start::Point(vec![0.0])) {
+        Err(SamplerError::Start { problem, .. }) => assert!(problem.contains("1 entries"), "{problem}"),
+        other => panic!("{other:?}"),
+    }
+    match mh.run(&Start::PerChain(vec![t.mu.clone()])) {
+        Err(SamplerError::Setting { field: "start", .. }) => {}
+        other => panic!("{other:?}"),
+    }
+    match MetropolisHastings::new(&t, &DMatrix::identity(3, 3), s.clone()) {
+        Err(SamplerError::Covariance { problem }) => assert!(problem.contains("2 parameters"), "{problem}"),
+        Err(e) => panic!("{e}"),
+        Ok(_) => panic!("accepted a 3×3 covariance for a 2-D target"),
+    }
+    assert!(matches!(
+        MetropolisHastings::new(&t, &cov, MhSettings { burn_in: 100, ..s }),
+        Err(SamplerError::Setting { field: "burn_in", .. })
+    ));
+    let holey = HoleyNormal {
+        prior: Prior::new(vec!["x".into()], vec![PriorKind::Uniform { lo: -2.0, hi: 2.0 }]).unwrap(),
+    };
+    let mh = MetropolisHastings::new(&holey, &DMatrix::identity(1, 1), MhSettings::default()).unwrap();
+    match mh.run(&Start::Point(vec![1.5])) {
+        Err(SamplerError::Start { problem, .. }) => assert!(problem.contains("not finite"), "{problem}"),
+        other => panic!("{other:?}"),
+    }
+}
+
+#[test]
+fn prior_starts_are_distinct_draws_inside_the_support() {
+    let t = GaussianTarget::correlated(3, 10.0, 72);
+    let s = MhSettings {
+        n_iter: 20,
+        burn_in: 10,
+        n_chains: 3,
+        ..MhSettings::default()
+    };
+    let q = GaussianProposal::new(&optimal_cov(&t)).unwrap();
+    let starts: Vec<Vec<f64>> = (0..3)
+        .map(|c| ChainState::new(c, &t, &s, &q, &Start::Prior).unwrap().theta().to_vec())
+        .collect();
+    for p in &starts {
+        assert!(t.prior().contains(p));
+    }
+    assert_ne!(starts[0], starts[1]);
+    assert_ne!(starts[1], starts[2]);
+}
+
+#[test]
+fn observer_sees_every_report() {
+    let t = GaussianTarget::correlated(2, 10.0, 81);
+    let calls = AtomicUsize::new(0);
+    let last_ok = AtomicUsize::new(0);
+    let obs = |p: &Progress| {
+        calls.fetch_add(1, Ordering::Relaxed);
+        if p.iteration == p.n_iter && (0.0..=1.0).contains(&p.acceptance) {
+            last_ok.fetch_add(1, Ordering::Relaxed);
+        }
+    };
+    let s = MhSettings {
+        n_iter: 1_000,
+        burn_in: 100,
+        n_chains: 3,
+        progress_every: 50,
+        checkpoint_every: 300,
+        ..MhSettings::default()
+    };
+    MetropolisHastings::new(&t, &optimal_cov(&t), s)
+        .unwrap()
+        .observer(&obs)
+        .run(&Start::Point(t.mu.clone()))
+        .unwrap();
+    assert_eq!(calls.load(Ordering::Relaxed), 3 * 20);
+    assert_eq!(last_ok.load(Ordering::Relaxed), 3);
+}
+
+#[test]
+fn hot_loop_does_not_allocate() {
+    let t = GaussianTarget::correlated(4, 1e3, 91);
+    let s = full_settings();
+    let q = GaussianProposal::new(&optimal_cov(&t)).unwrap();
+    let mut state = ChainState::new(0, &t, &s, &q, &Start::Point(t.mu.clone())).unwrap();
+    let obs = |_: &Progress| {};
+    let before = ALLOCS.with(Cell::get);
+    state.advance(&t, &s, s.n_iter, Some(&obs));
+    let after = ALLOCS.with(Cell::get);
+    assert_eq!(after - before, 0, "allocations in {} iterations", s.n_iter);
+    assert_eq!(state.iter, s.n_iter);
+}
+
+#[test]
+fn nelder_mead_finds_rosenbrock_minimum_free_and_bounded() {
+    let rosen = |x: &[f64]| (1.0 - x[0]).powi(2) + 100.0 * (x[1] - x[0] * x[0]).powi(2);
+    let st = NelderMeadSettings::default();
+    let m = nelder_mead(rosen, &[-1.2, 1.0], &[0.5, 0.5], &st).unwrap();
+    assert!(m.converged);
+    eprintln!("rosen {m:?}");
+    // Near (1, 1), f ≈ ½ δᵀHδ with smallest Hessian eigenvalue 0.4: f < 1e-9 puts δ within
+    // √(2e-9/0.4) ≈ 7e-5 of the minimum.
+    assert!(m.f < 1e-9, "{m:?}");
+    assert!((m.x[0] - 1.0).abs() < 1e-4 && (m.x[1] - 1.0).abs() < 1e-4, "{m:?}");
+    // Box x ≤ 0.5 by rejection: the constrained minimum is (0.5, 0.25) with f = 0.25, since
+    // f ≥ (1 − x)² ≥ 0.25 there.
+    let boxed = |x: &[f64]| if x[0] > 0.5 { f64::INFINITY } else { rosen(x) };
+    let m = nelder_mead(boxed, &[-1.2, 1.0], &[0.5, 0.5], &st).unwrap();
+    eprintln!("boxed {m:?}");
+    assert!((m.f - 0.25).abs() < 1e-8, "{m:?}");
+    assert!((m.x[0] - 0.5).abs() < 1e-6 && (m.x[1] - 0.25).abs() < 1e-4, "{m:?}");
+}
+
+#[test]
+fn find_map_recovers_the_gaussian_mode() {
+    for (d, seed) in [(2usize, 101u64), (5, 102), (10, 103)] {
+        let t = GaussianTarget::correlated(d, 1e3, seed);
+        let start: Vec<f64> = (0..d).map(|k| t.mu[k] + 2.0 * t.sd(k)).collect();
+        let step: Vec<f64> = (0..d).map(|k| t.sd(k)).collect();
+        let m = find_map(&t, &start, &step, &NelderMeadSettings::default()).unwrap();
+        assert!(m.converged, "D = {d}: {m:?}");
+        // −ln posterior − its minimum = ½ Mahalanobis²; ask for 1e-8, i.e. the mode within
+        // 1.4e-4 standard deviations along every direction.
+        let excess = 0.5 * t.mahalanobis2(&m.theta);
+        eprintln!("map D={d} excess={excess} evals={} restarts={}", m.evals, m.restarts);
+        assert!(excess < 1e-8, "D = {d}: excess {excess}, {} evals", m.evals);
+        assert_eq!(m.ln_posterior, t.ln_posterior(&m.theta));
+    }
+}
+
+#[test]
+fn nelder_mead_rejects_bad_input() {
+    let f = |x: &[f64]| x[0] * x[0];
+    let st = NelderMeadSettings::default();
+    assert!(nelder_mead(f, &[1.0], &[0.1, 0.1], &st).is_err());
+    assert!(nelder_mead(f, &[1.0], &[0.0], &st).is_err());
+    assert!(nelder_mead(|_: &[f64]| f64::INFINITY, &[1.0], &[0.1], &st).is_err());
+    assert!(nelder_mead(f, &[1.0], &[0.1], &NelderMeadSettings { x_rtol: 0.0, ..st }).is_err());
+}

@@ -136,7 +136,12 @@ impl RealFft {
         Ok(())
     }
 
-    fn check_len(&self, what: &'static str, got: usize, expected: usize) -> Result<(), SignalError> {
+    fn check_len(
+        &self,
+        what: &'static str,
+        got: usize,
+        expected: usize,
+    ) -> Result<(), SignalError> {
         if got == expected {
             Ok(())
         } else {

@@ -119,7 +119,9 @@ pub enum SignalError {
         reason: String,
     },
     /// An interpolation grid is not strictly increasing.
-    #[error("interpolation grid: frequencies must be strictly increasing, but f[{index}] = {value}")]
+    #[error(
+        "interpolation grid: frequencies must be strictly increasing, but f[{index}] = {value}"
+    )]
     UnsortedGrid {
         /// Index of the first out-of-order frequency.
         index: usize,

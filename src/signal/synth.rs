@@ -221,7 +221,10 @@ fn cholesky2(
     nyquist: bool,
 ) -> Result<(f64, Complex64, f64), SignalError> {
     let bad = |reason: String| SignalError::InvalidCsd { freq: f, reason };
-    if s.iter().flatten().any(|c| !(c.re.is_finite() && c.im.is_finite())) {
+    if s.iter()
+        .flatten()
+        .any(|c| !(c.re.is_finite() && c.im.is_finite()))
+    {
         return Err(bad(format!("non-finite entry in {s:?}")));
     }
     let scale = s[0][0].re.abs() + s[1][1].re.abs();
@@ -241,7 +244,9 @@ fn cholesky2(
     }
     let (s11, s22) = (s[0][0].re, s[1][1].re);
     if s11 < -tol || s22 < -tol {
-        return Err(bad(format!("negative PSD on the diagonal: S11 = {s11}, S22 = {s22}")));
+        return Err(bad(format!(
+            "negative PSD on the diagonal: S11 = {s11}, S22 = {s22}"
+        )));
     }
     let (s11, s22) = (s11.max(0.0), s22.max(0.0));
     let mut s12 = (s[0][1] + s[1][0].conj()) * 0.5;
@@ -268,9 +273,304 @@ fn cholesky2(
     if s11 > 0.0 {
         let l11 = s11.sqrt();
         let l21 = s12.conj() / l11;
-        let l22 = (s22 - l21.norm_sqr()).max(0.0).sqrt();
+        // A rank-one S leaves a residual of a few ε·S22 from rounding; its square root would be
+        // a spurious independent component of relative size √ε ≈ 1e−8, so treat it as zero.
+        let resid = s22 - l21.norm_sqr();
+        let l22 = if resid > 8.0 * f64::EPSILON * s22 {
+            resid.sqrt()
+        } else {
+            0.0
+        };
         Ok((l11, l21, l22))
     } else {
         Ok((0.0, Complex64::new(0.0, 0.0), s22.sqrt()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::signal::fft::RealFft;
+    use crate::signal::welch::{WelchConfig, welch_csd2, welch_psd};
+    use crate::signal::window::Window;
+    use rand::SeedableRng;
+    use rand_xoshiro::Xoshiro256PlusPlus;
+    use std::f64::consts::PI;
+
+    type M2 = [[Complex64; 2]; 2];
+
+    /// `S = L Lᴴ` with a frequency-dependent lower-triangular `L`: red channel 1, complex
+    /// rotating cross term, coherence ≈ 0.5–0.8. Levels are LPF-like (m²/Hz).
+    fn coloured(fs: f64) -> impl Fn(f64) -> M2 {
+        move |f: f64| {
+            let l11 = 3e-12 / (1.0 + (f / (0.05 * fs)).powi(2)).sqrt();
+            let l21 = Complex64::from_polar(2e-12, 2.0 * PI * 3.0 * f / fs + 0.5);
+            let l22 = 1.5e-12 * (1.0 + f / fs);
+            let s11 = l11 * l11;
+            let s12 = l21.conj() * l11; // (L Lᴴ)_12 = l11 · l21*
+            let s22 = l21.norm_sqr() + l22 * l22;
+            [
+                [Complex64::new(s11, 0.0), s12],
+                [s12.conj(), Complex64::new(s22, 0.0)],
+            ]
+        }
+    }
+
+    fn rng(seed: u64) -> Xoshiro256PlusPlus {
+        Xoshiro256PlusPlus::seed_from_u64(seed)
+    }
+
+    fn dft(y: &[f64]) -> Vec<Complex64> {
+        let mut fft = RealFft::new(y.len()).unwrap();
+        let mut out = vec![Complex64::new(0.0, 0.0); fft.spectrum_len()];
+        fft.forward(y, &mut out).unwrap();
+        out
+    }
+
+    #[test]
+    fn circular_dft_has_the_prescribed_csd() {
+        // In Circular mode the regular bins are independent with E[Y Yᴴ] = c S, c = N fs/2.
+        // Each |Y_j|²/(c S_jj) is Exp(1) (mean 1, sd 1), so the average over K bins has
+        // standard error 1/√K. For the cross term u = Y1 Y2*/(c √(S11 S22)) has mean the
+        // coherence γ, Var Re u = (1 + Re γ²)/2, Var Im u = (1 − Re γ²)/2 (Isserlis). Allow 4
+        // standard errors.
+        let (n, fs) = (8192usize, 10.0);
+        let csd = coloured(fs);
+        let [y1, y2] = synth_two_channel(n, fs, &csd, &mut rng(21), SynthMode::Circular).unwrap();
+        let (d1, d2) = (dft(&y1), dft(&y2));
+        let c = n as f64 * fs / 2.0;
+        let bins = 1..n / 2;
+        let k = bins.len() as f64;
+        let (mut r1, mut r2, mut u, mut var_re, mut var_im) =
+            (0.0, 0.0, Complex64::new(0.0, 0.0), 0.0, 0.0);
+        for b in bins {
+            let s = csd(b as f64 * fs / n as f64);
+            let (s11, s22) = (s[0][0].re, s[1][1].re);
+            r1 += d1[b].norm_sqr() / (c * s11);
+            r2 += d2[b].norm_sqr() / (c * s22);
+            let gamma = s[0][1] / (s11 * s22).sqrt();
+            u += d1[b] * d2[b].conj() / (c * (s11 * s22).sqrt()) - gamma;
+            var_re += (1.0 + (gamma * gamma).re) / 2.0;
+            var_im += (1.0 - (gamma * gamma).re) / 2.0;
+        }
+        let tol = 4.0 / k.sqrt();
+        assert!((r1 / k - 1.0).abs() < tol, "channel 1: {}", r1 / k);
+        assert!((r2 / k - 1.0).abs() < tol, "channel 2: {}", r2 / k);
+        assert!((u.re / k).abs() < 4.0 * var_re.sqrt() / k, "cross re {}", u.re / k);
+        assert!((u.im / k).abs() < 4.0 * var_im.sqrt() / k, "cross im {}", u.im / k);
+        // DC is exactly zero: the series sums to zero.
+        assert!(d1[0].norm() < 1e-9 * d1[1].norm() && d2[0].norm() < 1e-9 * d2[1].norm());
+    }
+
+    #[test]
+    fn nyquist_bin_is_real_with_the_derived_variance() {
+        // E[Y_{N/2} Y_{N/2}ᵀ] = (N fs/2) Re S(fs/2): check the three entries over R independent
+        // short series. Y_j²/(c S_jj) is χ²₁ (mean 1, var 2): standard error √(2/R). The
+        // normalised product Y1 Y2/(c √(S11 S22)) has mean ρ = Re γ, var 1 + ρ².
+        let (n, fs, reps) = (16usize, 1.0, 4000usize);
+        let csd = coloured(fs);
+        let s = csd(fs / 2.0);
+        let (s11, s22) = (s[0][0].re, s[1][1].re);
+        let rho = s[0][1].re / (s11 * s22).sqrt();
+        let c = n as f64 * fs / 2.0;
+        let mut g = rng(5);
+        let (mut a, mut b, mut x) = (0.0, 0.0, 0.0);
+        for _ in 0..reps {
+            let [y1, y2] = synth_two_channel(n, fs, &csd, &mut g, SynthMode::Circular).unwrap();
+            let (d1, d2) = (dft(&y1), dft(&y2));
+            assert!(d1[n / 2].im.abs() < 1e-12 * d1[n / 2].norm().max(1e-30));
+            a += d1[n / 2].re.powi(2) / (c * s11);
+            b += d2[n / 2].re.powi(2) / (c * s22);
+            x += d1[n / 2].re * d2[n / 2].re / (c * (s11 * s22).sqrt());
+        }
+        let r = reps as f64;
+        let se = (2.0 / r).sqrt();
+        assert!((a / r - 1.0).abs() < 4.0 * se, "S11 at Nyquist: {}", a / r);
+        assert!((b / r - 1.0).abs() < 4.0 * se, "S22 at Nyquist: {}", b / r);
+        assert!((x / r - rho).abs() < 4.0 * ((1.0 + rho * rho) / r).sqrt(), "Re S12: {}", x / r);
+    }
+
+    /// Normalised Welch deviations (Ŝ − S)/σ over bins `band` (every third bin, which are
+    /// uncorrelated for Hann: |ρ(0, Δ)| = 0 for |Δ| ≥ 3), with the single-bin standard errors
+    /// of a Welch estimate with `M_eff` effective averages of a circular Gaussian DFT:
+    /// σ(Ŝ11) = S11/√M_eff, σ(Ŝ22) = S22/√M_eff, σ(Re Ŝ12)² = (S11 S22 + Re S12²)/(2 M_eff),
+    /// σ(Im Ŝ12)² = (S11 S22 − Re S12²)/(2 M_eff) (Isserlis; Bendat & Piersol §9.2). Returns
+    /// the deviations of S11, S22, Re S12, Im S12.
+    fn welch_deviations(y1: &[f64], y2: &[f64], fs: f64, l: usize, csd: &impl Fn(f64) -> M2) -> [Vec<f64>; 4] {
+        let est = welch_csd2(y1, y2, &WelchConfig::new(fs, Window::Hann, l)).unwrap();
+        let me = est.n_eff;
+        let mut d: [Vec<f64>; 4] = Default::default();
+        for k in (3..l / 2 - 3).step_by(3) {
+            let s = csd(est.freqs[k]);
+            let (s11, s22, s12) = (s[0][0].re, s[1][1].re, s[0][1]);
+            let re2 = (s12 * s12).re;
+            d[0].push((est.s11[k] - s11) / (s11 / me.sqrt()));
+            d[1].push((est.s22[k] - s22) / (s22 / me.sqrt()));
+            d[2].push((est.s12[k].re - s12.re) / ((s11 * s22 + re2) / (2.0 * me)).sqrt());
+            d[3].push((est.s12[k].im - s12.im) / ((s11 * s22 - re2) / (2.0 * me)).sqrt());
+        }
+        d
+    }
+
+    /// χ²-style check: the K deviations have mean 0 (standard error 1/√K) and mean square 1
+    /// (standard error √(2/K) for Gaussian deviations; with M_eff ≈ 480 the χ² shape adds
+    /// only 12/(2 M_eff) ≈ 1 % to that variance). 4 standard errors each. Welch's leakage bias
+    /// is second order in (bin width / spectral scale), ≈ 1e−3 relative here, far below the
+    /// ≈ 5 % single-bin error.
+    fn assert_chi2_like(d: &[Vec<f64>; 4], what: &str) {
+        for (name, dev) in ["S11", "S22", "Re S12", "Im S12"].iter().zip(d) {
+            let k = dev.len() as f64;
+            let mean = dev.iter().sum::<f64>() / k;
+            let ms = dev.iter().map(|x| x * x).sum::<f64>() / k;
+            assert!(mean.abs() < 4.0 / k.sqrt(), "{what} {name}: mean deviation {mean}");
+            assert!((ms - 1.0).abs() < 4.0 * (2.0 / k).sqrt(), "{what} {name}: mean square {ms}");
+        }
+    }
+
+    #[test]
+    fn welch_recovers_the_prescribed_two_channel_csd() {
+        let (fs, l) = (10.0, 1024usize);
+        let n = 1 << 18; // 511 Hann segments at 50 %, M_eff ≈ 484
+        let csd = coloured(fs);
+        let [y1, y2] = synth_two_channel(n, fs, &csd, &mut rng(2024), SynthMode::Circular).unwrap();
+        let d = welch_deviations(&y1, &y2, fs, l, &csd);
+        assert_eq!(d[0].len(), 169);
+        assert_chi2_like(&d, "circular");
+    }
+
+    #[test]
+    fn realistic_mode_is_the_middle_of_a_longer_circular_draw() {
+        let (n, fs) = (1000usize, 4.0);
+        let csd = coloured(fs);
+        let real = synth_two_channel(n, fs, &csd, &mut rng(8), SynthMode::Realistic { oversample: 3 })
+            .unwrap();
+        let long = synth_two_channel(3 * n, fs, &csd, &mut rng(8), SynthMode::Circular).unwrap();
+        for c in 0..2 {
+            assert_eq!(real[c].len(), n);
+            assert_eq!(real[c][..], long[c][n..2 * n]);
+        }
+    }
+
+    #[test]
+    fn realistic_mode_has_the_prescribed_csd() {
+        let (fs, l) = (10.0, 512usize);
+        let n = 1 << 16; // 255 segments, M_eff ≈ 242
+        let csd = coloured(fs);
+        let [y1, y2] =
+            synth_two_channel(n, fs, &csd, &mut rng(99), SynthMode::Realistic { oversample: 4 }).unwrap();
+        assert_chi2_like(&welch_deviations(&y1, &y2, fs, l, &csd), "realistic");
+    }
+
+    #[test]
+    fn one_channel_matches_its_psd_and_white_variance() {
+        // White one-sided level 2σ²/fs: E[y²] = σ²(1 − 1/N) exactly (DC bin zeroed); the
+        // sample mean square of N samples of a circular series built from N/2 independent
+        // bins has relative standard error √(2/N). 4 standard errors.
+        let (n, fs, sigma) = (1usize << 15, 10.0, 2e-9);
+        let y = synth_one_channel(n, fs, |_| 2.0 * sigma * sigma / fs, &mut rng(3), SynthMode::Circular)
+            .unwrap();
+        let ms = y.iter().map(|v| v * v).sum::<f64>() / n as f64;
+        let want = sigma * sigma * (1.0 - 1.0 / n as f64);
+        assert!((ms / want - 1.0).abs() < 4.0 * (2.0 / n as f64).sqrt(), "{}", ms / want);
+        // Coloured: Welch PSD over a band, mean ratio within 4 standard errors √(1.94/(M_eff K))
+        // (1.94 = Hann neighbour-correlation factor, see the welch tests).
+        let psd = |f: f64| 1e-20 * (1.0 + (0.3 / f.max(1e-9)).powi(2));
+        let y = synth_one_channel(n, fs, psd, &mut rng(4), SynthMode::Circular).unwrap();
+        let est = welch_psd(&y, &WelchConfig::new(fs, Window::Hann, 256)).unwrap();
+        let band = 8..120;
+        let k = band.len() as f64;
+        let mean = band.map(|b| est.psd[b] / psd(est.freqs[b])).sum::<f64>() / k;
+        assert!((mean - 1.0).abs() < 4.0 * (1.94 / (est.n_eff * k)).sqrt(), "ratio {mean}");
+    }
+
+    #[test]
+    fn rank_deficient_and_zero_csds_give_no_nan() {
+        let (n, fs) = (512usize, 1.0);
+        // Fully coherent: y2 = −2 y1 exactly (S = v vᴴ with v = (1, −2)·a(f)).
+        let rank1 = |f: f64| {
+            let a2 = 1e-18 / (1.0 + f);
+            [
+                [Complex64::new(a2, 0.0), Complex64::new(-2.0 * a2, 0.0)],
+                [Complex64::new(-2.0 * a2, 0.0), Complex64::new(4.0 * a2, 0.0)],
+            ]
+        };
+        let [y1, y2] = synth_two_channel(n, fs, rank1, &mut rng(1), SynthMode::Circular).unwrap();
+        let scale = y1.iter().map(|v| v.abs()).fold(0.0, f64::max);
+        assert!(scale > 0.0);
+        for (a, b) in y1.iter().zip(&y2) {
+            assert!((b + 2.0 * a).abs() < 1e-12 * scale);
+        }
+        // Zero channel 1 and an all-zero CSD.
+        let zero1 = |_f: f64| {
+            let z = Complex64::new(0.0, 0.0);
+            [[z, z], [z, Complex64::new(1.0, 0.0)]]
+        };
+        let [y1, y2] = synth_two_channel(n, fs, zero1, &mut rng(1), SynthMode::Circular).unwrap();
+        assert!(y1.iter().all(|&v| v == 0.0));
+        assert!(y2.iter().all(|v| v.is_finite()) && y2.iter().any(|&v| v != 0.0));
+        let z = Complex64::new(0.0, 0.0);
+        let [a, b] = synth_two_channel(n, fs, |_| [[z, z], [z, z]], &mut rng(1), SynthMode::Circular).unwrap();
+        assert!(a.iter().chain(&b).all(|&v| v == 0.0));
+        let y = synth_one_channel(n, fs, |_| 0.0, &mut rng(1), SynthMode::Circular).unwrap();
+        assert!(y.iter().all(|&v| v == 0.0));
+    }
+
+    #[test]
+    fn deterministic_for_a_seed() {
+        let csd = coloured(10.0);
+        let a = synth_two_channel(300, 10.0, &csd, &mut rng(77), SynthMode::Circular).unwrap();
+        let b = synth_two_channel(300, 10.0, &csd, &mut rng(77), SynthMode::Circular).unwrap();
+        let c = synth_two_channel(300, 10.0, &csd, &mut rng(78), SynthMode::Circular).unwrap();
+        assert_eq!(a, b);
+        assert_ne!(a, c);
+    }
+
+    #[test]
+    fn invalid_csds_report_the_frequency() {
+        let (n, fs) = (64usize, 8.0);
+        let one = Complex64::new(1.0, 0.0);
+        let z = Complex64::new(0.0, 0.0);
+        // Invalid only above 2 Hz: the first offending grid frequency is 2.125 Hz.
+        let cases: Vec<(Box<dyn Fn(f64) -> M2>, &str)> = vec![
+            (Box::new(move |f| if f > 2.0 { [[one, one * 2.0], [one * 2.0, one]] } else { [[one, z], [z, one]] }), "positive"),
+            (Box::new(move |f| if f > 2.0 { [[one, Complex64::new(0.1, 0.1)], [Complex64::new(0.1, 0.1), one]] } else { [[one, z], [z, one]] }), "Hermitian"),
+            (Box::new(move |f| if f > 2.0 { [[one, z], [z, Complex64::new(f64::NAN, 0.0)]] } else { [[one, z], [z, one]] }), "finite"),
+            (Box::new(move |f| if f > 2.0 { [[-one, z], [z, one]] } else { [[one, z], [z, one]] }), "negative"),
+            (Box::new(move |f| if f > 2.0 { [[Complex64::new(1.0, 0.5), z], [z, one]] } else { [[one, z], [z, one]] }), "real"),
+        ];
+        for (csd, word) in cases {
+            match synth_two_channel(n, fs, csd, &mut rng(0), SynthMode::Circular) {
+                Err(SignalError::InvalidCsd { freq, reason }) => {
+                    assert_eq!(freq, 2.125, "{word}");
+                    assert!(reason.contains(word), "{word}: {reason}");
+                }
+                other => panic!("{word}: expected InvalidCsd, got {other:?}"),
+            }
+        }
+        assert!(matches!(
+            synth_one_channel(n, fs, |f| if f > 3.0 { -1.0 } else { 1.0 }, &mut rng(0), SynthMode::Circular),
+            Err(SignalError::InvalidCsd { freq, .. }) if freq == 3.125
+        ));
+        // Nyquist imaginary cross term is legal input (dropped), tiny rounding is accepted.
+        let ok = move |_f: f64| {
+            let c = Complex64::new(0.5, 0.5) * (1.0 + 1e-15);
+            [[one, c], [c.conj(), one * 0.5]]
+        };
+        assert!(synth_two_channel(n, fs, ok, &mut rng(0), SynthMode::Circular).is_ok());
+        let sizes = [
+            synth_one_channel(1, fs, |_| 1.0, &mut rng(0), SynthMode::Circular),
+            synth_one_channel(8, 0.0, |_| 1.0, &mut rng(0), SynthMode::Circular),
+            synth_one_channel(8, fs, |_| 1.0, &mut rng(0), SynthMode::Realistic { oversample: 1 }),
+            synth_one_channel(usize::MAX / 2, fs, |_| 1.0, &mut rng(0), SynthMode::Realistic { oversample: 4 }),
+        ];
+        assert!(matches!(sizes[0], Err(SignalError::TooShort { .. })));
+        assert!(matches!(sizes[1], Err(SignalError::InvalidParameter { name: "fs", .. })));
+        assert!(matches!(sizes[2], Err(SignalError::InvalidParameter { name: "oversample", .. })));
+        assert!(matches!(sizes[3], Err(SignalError::InvalidParameter { name: "oversample", .. })));
+        assert_eq!(
+            serde_json::to_string(&SynthMode::Realistic { oversample: 2 }).unwrap(),
+            r#"{"realistic":{"oversample":2}}"#
+        );
+        assert_eq!(serde_json::to_string(&SynthMode::default()).unwrap(), r#""circular""#);
     }
 }

@@ -310,7 +310,10 @@ struct Estimate {
     n_eff: f64,
 }
 
-fn welch_core(cfg: &WelchConfig, series: &[(&'static str, &[f64])]) -> Result<Estimate, SignalError> {
+fn welch_core(
+    cfg: &WelchConfig,
+    series: &[(&'static str, &[f64])],
+) -> Result<Estimate, SignalError> {
     debug_assert!((1..=2).contains(&series.len()));
     let (first, x0) = series[0];
     for &(name, x) in &series[1..] {
@@ -481,11 +484,7 @@ fn regular_range(nb: usize, segment_len: usize) -> std::ops::Range<usize> {
 fn bracket(f: &[f64], t: f64) -> Result<usize, SignalError> {
     let (min, max) = (f[0], f[f.len() - 1]);
     if !(t >= min && t <= max) {
-        return Err(SignalError::OutOfRange {
-            freq: t,
-            min,
-            max,
-        });
+        return Err(SignalError::OutOfRange { freq: t, min, max });
     }
     // First node strictly greater than t, minus one.
     Ok(f.partition_point(|&x| x <= t).saturating_sub(1))
@@ -533,7 +532,11 @@ fn check_grid(f: &[f64], nvalues: usize) -> Result<(), SignalError> {
 /// let v = interp_loglog(&f, &s, &[3e-3]).unwrap();
 /// assert!((v[0] / (4e-20 * 3e-3f64.powi(-2)) - 1.0).abs() < 1e-12);
 /// ```
-pub fn interp_loglog(freqs: &[f64], values: &[f64], targets: &[f64]) -> Result<Vec<f64>, SignalError> {
+pub fn interp_loglog(
+    freqs: &[f64],
+    values: &[f64],
+    targets: &[f64],
+) -> Result<Vec<f64>, SignalError> {
     check_grid(freqs, values.len())?;
     if freqs[0] <= 0.0 {
         return Err(SignalError::InvalidParameter {
@@ -609,4 +612,382 @@ pub fn interp_linear_complex(
             Ok(values[i] + (values[i + 1] - values[i]) * u)
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::signal::fft::dft_naive;
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, StandardNormal};
+    use rand_xoshiro::Xoshiro256PlusPlus;
+
+    fn white(n: usize, sigma: f64, seed: u64) -> Vec<f64> {
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
+        (0..n)
+            .map(|_| {
+                let z: f64 = StandardNormal.sample(&mut rng);
+                sigma * z
+            })
+            .collect()
+    }
+
+    /// Variance factor of a band mean of Welch bins for white Gaussian noise.
+    ///
+    /// With `Y_{m,k}` the windowed DFT of segment `m`, `E[Y_{m,k} Y*_{m',k'}] = σ² Σw² ρ(ℓ, Δ)`,
+    /// `ℓ = m'−m`, `Δ = k−k'`, `ρ(ℓ, Δ) = Σ_n w[n] w[n+ℓD] e^{−2πiΔn/L} / Σw²` (|ρ| is even in
+    /// both). Isserlis gives `Cov(|Y_a|², |Y_b|²) = |E[Y_a Y_b*]|² + |E[Y_a Y_b]|²`; the second
+    /// (pseudo-covariance) term needs `k + k' ≈ 0 or L` and vanishes for bands kept away from
+    /// DC and Nyquist. The band mean of K bins over M segments therefore has relative variance
+    /// `v/(M K)` with `v = Σ_ℓ (1 − |ℓ|/M) Σ_Δ (1 − |Δ|/K) |ρ(ℓ,Δ)|²`. For the rectangular
+    /// window without overlap `v = 1`, the textbook `1/(M K)`; Hann's correlated neighbours
+    /// (|ρ(0,±1)|² = 4/9) make it ≈ 1.94/1.06 times larger, so `1/√(M_eff K)` alone would
+    /// understate the error. The same `v` holds for cross spectra (every covariance term of
+    /// `X1 X2*` is proportional to `|ρ|²`).
+    fn band_mean_var_factor(w: &[f64], step: usize, m: usize, k: usize) -> f64 {
+        let l = w.len();
+        let s2: f64 = w.iter().map(|v| v * v).sum();
+        let mut v = 0.0;
+        for lag in 0..m {
+            let shift = lag * step;
+            if shift >= l {
+                break;
+            }
+            let wl = if lag == 0 { 1.0 } else { 2.0 } * (1.0 - lag as f64 / m as f64);
+            for d in 0..k {
+                let rho: Complex64 = (0..l - shift)
+                    .map(|n| {
+                        let ph = -2.0 * std::f64::consts::PI * ((d * n) % l) as f64 / l as f64;
+                        Complex64::from_polar(w[n] * w[n + shift], ph)
+                    })
+                    .sum::<Complex64>()
+                    / s2;
+                let wd = if d == 0 { 1.0 } else { 2.0 } * (1.0 - d as f64 / k as f64);
+                v += wl * wd * rho.norm_sqr();
+            }
+        }
+        v
+    }
+
+    #[test]
+    fn one_rectangular_segment_is_the_naive_periodogram() {
+        for &n in &[100usize, 99] {
+            let fs = 4.0;
+            let x = white(n, 2.0, n as u64);
+            let cfg = WelchConfig::new(fs, Window::Rectangular, n).with_detrend(Detrend::None);
+            let s = welch_psd(&x, &cfg).unwrap();
+            let y = dft_naive(&x);
+            assert_eq!(s.psd.len(), y.len());
+            assert_eq!(s.n_avg, 1);
+            for (k, (p, yk)) in s.psd.iter().zip(&y).enumerate() {
+                let doubled = k > 0 && 2 * k < n;
+                let c = if doubled { 2.0 } else { 1.0 };
+                let want = c * yk.norm_sqr() / (fs * n as f64);
+                assert!((p - want).abs() <= 1e-12 * want.max(1.0), "n={n} k={k}");
+                assert!((s.freqs[k] - k as f64 * fs / n as f64).abs() < 1e-12);
+            }
+            // One Hann segment: the same with w·x and Σw².
+            let cfg = WelchConfig::new(fs, Window::Hann, n).with_detrend(Detrend::None);
+            let s = welch_psd(&x, &cfg).unwrap();
+            let w = Window::Hann.values(n);
+            let wx: Vec<f64> = x.iter().zip(&w).map(|(a, b)| a * b).collect();
+            let s2: f64 = w.iter().map(|v| v * v).sum();
+            for (k, yk) in dft_naive(&wx).iter().enumerate() {
+                let c = if k > 0 && 2 * k < n { 2.0 } else { 1.0 };
+                let want = c * yk.norm_sqr() / (fs * s2);
+                assert!((s.psd[k] - want).abs() <= 1e-12 * want.max(1.0), "hann n={n} k={k}");
+            }
+        }
+    }
+
+    #[test]
+    fn mean_detrend_removes_offset_and_segments_average() {
+        let n = 64;
+        let x: Vec<f64> = white(n, 1.0, 5).iter().map(|v| v + 100.0).collect();
+        let cfg = WelchConfig::new(1.0, Window::Rectangular, 32).with_overlap(0.5);
+        let s = welch_psd(&x, &cfg).unwrap();
+        assert_eq!(s.n_avg, 3);
+        assert!(s.psd[0] < 1e-20);
+        // Average of the three detrended segments' periodograms, by hand.
+        let mut want = vec![0.0; 17];
+        for m in 0..3 {
+            let seg = &x[16 * m..16 * m + 32];
+            let mu = seg.iter().sum::<f64>() / 32.0;
+            let d: Vec<f64> = seg.iter().map(|v| v - mu).collect();
+            for (k, y) in dft_naive(&d).iter().enumerate() {
+                let c = if k > 0 && k < 16 { 2.0 } else { 1.0 };
+                want[k] += c * y.norm_sqr() / 32.0 / 3.0;
+            }
+        }
+        for k in 1..17 {
+            assert!((s.psd[k] - want[k]).abs() < 1e-12 * want[k].max(1.0), "k={k}");
+        }
+    }
+
+    #[test]
+    fn csd_is_conj_x_times_y_and_consistent_with_matrix() {
+        // Circular one-sample delay: Y = X e^{−2πik/L}, so X* Y = |X|² e^{−2πik/L}.
+        let n = 128;
+        let x = white(n, 1.0, 11);
+        let y: Vec<f64> = (0..n).map(|i| x[(i + n - 1) % n]).collect();
+        let cfg = WelchConfig::new(1.0, Window::Rectangular, n).with_detrend(Detrend::None);
+        let c = welch_csd(&x, &y, &cfg).unwrap();
+        let p = welch_psd(&x, &cfg).unwrap();
+        for k in 1..n / 2 {
+            let want = Complex64::from_polar(p.psd[k], -2.0 * std::f64::consts::PI * k as f64 / n as f64);
+            assert!((c.csd[k] - want).norm() < 1e-12 * p.psd[k].max(1.0), "k={k}");
+        }
+        // Matrix element S12 = S_{y2 y1}, diagonals are the PSDs.
+        let cfg = WelchConfig::new(3.0, Window::Bh92, 64);
+        let (a, b) = (white(1000, 1.0, 1), white(1000, 2.0, 2));
+        let m = welch_csd2(&a, &b, &cfg).unwrap();
+        let pa = welch_psd(&a, &cfg).unwrap();
+        let pb = welch_psd(&b, &cfg).unwrap();
+        let cba = welch_csd(&b, &a, &cfg).unwrap();
+        let caa = welch_csd(&a, &a, &cfg).unwrap();
+        for k in 0..m.freqs.len() {
+            assert_eq!(m.s11[k], pa.psd[k]);
+            assert_eq!(m.s22[k], pb.psd[k]);
+            assert!((m.s12[k] - cba.csd[k]).norm() <= 1e-14 * (m.s11[k] + m.s22[k]));
+            assert!((caa.csd[k].re - pa.psd[k]).abs() <= 1e-14 * pa.psd[k] && caa.csd[k].im.abs() <= 1e-14 * pa.psd[k]);
+            let mk = m.matrix(k);
+            assert_eq!(mk[1][0], m.s12[k].conj());
+        }
+        assert_eq!(m.n_avg, pa.n_avg);
+    }
+
+    #[test]
+    fn n_eff_matches_closed_forms() {
+        // Hann at exactly 50 %: ρ(L/2) = 1/6 for the periodic window, no other lag overlaps.
+        let cfg = WelchConfig::new(1.0, Window::Hann, 256);
+        let m = 100usize;
+        let want = m as f64 / (1.0 + 2.0 * (1.0 - 1.0 / m as f64) / 36.0);
+        assert!((cfg.n_eff(m).unwrap() - want).abs() < 1e-10);
+        let rect = WelchConfig::new(1.0, Window::Rectangular, 256);
+        assert_eq!(rect.n_eff(7).unwrap(), 7.0);
+        // BH92 at 66.1 %: lags 1 and 2 overlap; compare with the independent helper's Δ = 0 sum.
+        let cfg = WelchConfig::new(1.0, Window::Bh92, 300);
+        let step = cfg.step().unwrap();
+        let w = Window::Bh92.values(300);
+        let v0 = band_mean_var_factor(&w, step, 50, 1);
+        assert!((cfg.n_eff(50).unwrap() - 50.0 / v0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn white_noise_level_matches_parseval_within_derived_error() {
+        // White noise of variance σ² has one-sided PSD 2σ²/fs at every regular bin, for any
+        // window (E|Y_k|² = σ² Σw²). Band mean over K bins and M segments: relative standard
+        // error √(v/(M K)), v from `band_mean_var_factor`; we allow 4 standard errors
+        // (two-sided false-alarm rate 6e-5; seeds are fixed, so the test is deterministic).
+        let (fs, sigma, l) = (10.0, 3e-12, 512usize);
+        let level = 2.0 * sigma * sigma / fs;
+        for (i, window) in Window::ALL.into_iter().enumerate() {
+            let cfg = WelchConfig::new(fs, window, l);
+            let step = cfg.step().unwrap();
+            let m = 200;
+            let x = white((m - 1) * step + l, sigma, 40 + i as u64);
+            let s = welch_psd(&x, &cfg).unwrap();
+            assert_eq!(s.n_avg, m);
+            // Skip the bins touched by the mean removal (window mainlobe: 4 cosine terms at
+            // most) and the matching ones below Nyquist (pseudo-covariance).
+            let band = 4..l / 2 - 4;
+            let k = band.len();
+            let mean = s.psd[band.clone()].iter().sum::<f64>() / k as f64 / level;
+            let v = band_mean_var_factor(&window.values(l), step, m, k);
+            let se = (v / (m as f64 * k as f64)).sqrt();
+            assert!((mean - 1.0).abs() < 4.0 * se, "{window}: mean {mean}, se {se}");
+            // Bin scatter: relative variance 1/M_eff per bin. Bins 4 apart are uncorrelated
+            // for white noise (ρ(0, Δ) = 0 for |Δ| ≥ 4 with ≤ 4 cosine terms), so the sample
+            // variance of K' bins has relative error √(2/(K'−1)).
+            let picks: Vec<f64> = s.psd[band].iter().step_by(4).map(|p| p / level - 1.0).collect();
+            let kp = picks.len() as f64;
+            let mu = picks.iter().sum::<f64>() / kp;
+            let var = picks.iter().map(|r| (r - mu).powi(2)).sum::<f64>() / (kp - 1.0);
+            let ratio = var * s.n_eff;
+            assert!(
+                (ratio - 1.0).abs() < 4.0 * (2.0 / (kp - 1.0)).sqrt(),
+                "{window}: var·M_eff = {ratio}"
+            );
+        }
+    }
+
+    #[test]
+    fn correlated_white_cross_spectrum_has_the_right_level() {
+        // y = a x + b n with x, n independent white of variance σ²: S_xy = a·2σ²/fs, real.
+        // Single-bin variances (circular Gaussian, Isserlis): Var Re Ŝ = (S11 S22 + Re S12²)/2,
+        // Var Im Ŝ = (S11 S22 − Re S12²)/2 per independent average; the band mean divides by
+        // M K/v as for the PSD. Tolerance 4 standard errors.
+        let (fs, sigma, l, m) = (2.0, 1.5, 256usize, 300usize);
+        let (a, b) = (0.7, 1.3);
+        let cfg = WelchConfig::new(fs, Window::Hann, l);
+        let step = cfg.step().unwrap();
+        let len = (m - 1) * step + l;
+        let x = white(len, sigma, 3);
+        let noise = white(len, sigma, 4);
+        let y: Vec<f64> = x.iter().zip(&noise).map(|(x, n)| a * x + b * n).collect();
+        let c = welch_csd(&x, &y, &cfg).unwrap();
+        let s0 = 2.0 * sigma * sigma / fs;
+        let (s11, s22, s12) = (s0, (a * a + b * b) * s0, a * s0);
+        let band = 4..l / 2 - 4;
+        let k = band.len();
+        let mean: Complex64 = c.csd[band].iter().sum::<Complex64>() / k as f64;
+        let v = band_mean_var_factor(&Window::Hann.values(l), step, m, k);
+        let scale = v / (m as f64 * k as f64);
+        let se_re = ((s11 * s22 + s12 * s12) / 2.0 * scale).sqrt();
+        let se_im = ((s11 * s22 - s12 * s12) / 2.0 * scale).sqrt();
+        assert!((mean.re - s12).abs() < 4.0 * se_re, "re {} vs {s12} ± {se_re}", mean.re);
+        assert!(mean.im.abs() < 4.0 * se_im, "im {} ± {se_im}", mean.im);
+    }
+
+    #[test]
+    fn invalid_inputs_are_named_errors() {
+        let cfg = WelchConfig::new(1.0, Window::Hann, 16);
+        let x = vec![0.0; 32];
+        assert!(matches!(
+            welch_csd(&x, &x[..31], &cfg),
+            Err(SignalError::LengthMismatch { len_first: 32, len_second: 31, .. })
+        ));
+        assert!(matches!(
+            welch_psd(&x[..10], &cfg),
+            Err(SignalError::SegmentTooLong { segment_len: 16, len: 10 })
+        ));
+        for bad in [1.0, -0.1, f64::NAN] {
+            assert!(matches!(
+                welch_psd(&x, &cfg.clone().with_overlap(bad)),
+                Err(SignalError::InvalidParameter { name: "overlap", .. })
+            ));
+        }
+        // 0.99 of 16 samples rounds to 16: a zero step is refused, not looped on.
+        assert!(matches!(
+            welch_psd(&x, &cfg.clone().with_overlap(0.99)),
+            Err(SignalError::InvalidParameter { name: "overlap", .. })
+        ));
+        let mut y = x.clone();
+        y[7] = f64::INFINITY;
+        assert!(matches!(
+            welch_csd2(&x, &y, &cfg),
+            Err(SignalError::NonFinite { what: "y2", index: 7, .. })
+        ));
+        let mut c = cfg.clone();
+        c.fs = 0.0;
+        assert!(matches!(welch_psd(&x, &c), Err(SignalError::InvalidParameter { name: "fs", .. })));
+        let mut c = cfg.clone();
+        c.segment_len = 1;
+        assert!(matches!(welch_psd(&x, &c), Err(SignalError::TooShort { .. })));
+    }
+
+    #[test]
+    fn loglog_interpolation_is_exact_on_power_laws() {
+        let f: Vec<f64> = (1..=20).map(|k| k as f64 * 0.01).collect();
+        let s: Vec<f64> = f.iter().map(|f| 3e-24 * f.powf(-1.7)).collect();
+        let t = [0.01, 0.015, 0.0333, 0.1999, 0.2];
+        let v = interp_loglog(&f, &s, &t).unwrap();
+        for (ti, vi) in t.iter().zip(&v) {
+            assert!((vi / (3e-24 * ti.powf(-1.7)) - 1.0).abs() < 1e-12, "f={ti}");
+        }
+        // A zero endpoint falls back to linear on that interval only.
+        let v = interp_loglog(&[1.0, 2.0, 4.0], &[0.0, 2.0, 8.0], &[1.5, 2.0, 3.0]).unwrap();
+        assert!((v[0] - 1.0).abs() < 1e-15);
+        assert_eq!(v[1], 2.0);
+        assert!((v[2] - 2.0 * 1.5f64.powi(2)).abs() < 1e-12);
+        assert!(matches!(
+            interp_loglog(&f, &s, &[0.005]),
+            Err(SignalError::OutOfRange { .. })
+        ));
+        assert!(matches!(
+            interp_loglog(&f, &s, &[f64::NAN]),
+            Err(SignalError::OutOfRange { .. })
+        ));
+        assert!(matches!(
+            interp_loglog(&[1.0, 1.0], &[1.0, 1.0], &[1.0]),
+            Err(SignalError::UnsortedGrid { index: 1, .. })
+        ));
+        assert!(matches!(
+            interp_loglog(&[0.0, 1.0], &[1.0, 1.0], &[0.5]),
+            Err(SignalError::InvalidParameter { name: "freqs[0]", .. })
+        ));
+        assert!(matches!(
+            interp_loglog(&[1.0, 2.0], &[1.0, -1.0], &[1.5]),
+            Err(SignalError::NegativePsd { freq: 2.0, .. })
+        ));
+        assert!(matches!(
+            interp_loglog(&[1.0, 2.0], &[1.0], &[1.5]),
+            Err(SignalError::LengthMismatch { .. })
+        ));
+    }
+
+    #[test]
+    fn complex_interpolation_is_exact_on_lines() {
+        let f = [0.5, 1.0, 3.0];
+        let line = |x: f64| Complex64::new(2.0 * x - 1.0, -0.5 * x + 4.0);
+        let vals: Vec<Complex64> = f.iter().map(|&x| line(x)).collect();
+        let t = [0.5, 0.75, 2.2, 3.0];
+        for (ti, v) in t.iter().zip(interp_linear_complex(&f, &vals, &t).unwrap()) {
+            assert!((v - line(*ti)).norm() < 1e-14);
+        }
+        assert!(matches!(
+            interp_linear_complex(&f, &vals, &[3.5]),
+            Err(SignalError::OutOfRange { freq: 3.5, .. })
+        ));
+    }
+
+    #[test]
+    fn spectrum_interpolation_skips_dc_and_nyquist() {
+        let (fs, l) = (8.0, 64usize);
+        let x = white(4096, 1.0, 9);
+        let cfg = WelchConfig::new(fs, Window::Hann, l);
+        let s = welch_psd(&x, &cfg).unwrap();
+        let df = fs / l as f64;
+        let v = s.interpolate(&[df, 2.5 * df, fs / 2.0 - df]).unwrap();
+        assert_eq!(v[0], s.psd[1]);
+        assert_eq!(v[2], s.psd[l / 2 - 1]);
+        let geo = (s.psd[2] * s.psd[3]).sqrt();
+        // Midpoint in ln f between f_2 and f_3 is not 2.5 df, so compare with the formula.
+        let u = (2.5f64 / 2.0).ln() / (1.5f64).ln();
+        let want = s.psd[2] * (s.psd[3] / s.psd[2]).powf(u);
+        assert!((v[1] - want).abs() < 1e-12 * geo);
+        assert!(matches!(s.interpolate(&[fs / 2.0]), Err(SignalError::OutOfRange { .. })));
+        assert!(matches!(s.interpolate(&[0.5 * df]), Err(SignalError::OutOfRange { .. })));
+        let c = welch_csd(&x, &x, &cfg).unwrap();
+        assert!(c.interpolate(&[0.0]).is_err());
+        assert!((c.interpolate(&[df]).unwrap()[0].re - s.psd[1]).abs() < 1e-12 * s.psd[1]);
+    }
+
+    #[test]
+    fn matrix_interpolation_keeps_coherence_at_most_one() {
+        // Fully coherent channels whose levels change fast between two bins: interpolating
+        // S12 linearly next to log-log diagonals would give |S12|² > S11 S22 (AM ≥ GM).
+        let zero = Complex64::new(0.0, 0.0);
+        let s11: Vec<f64> = vec![0.0, 1.0, 100.0, 1.0];
+        let s22: Vec<f64> = vec![0.0, 4.0, 1.0, 4.0];
+        let phase = [0.0, 0.3, 2.0, 1.0];
+        let s12: Vec<Complex64> = (0..4)
+            .map(|k| Complex64::from_polar((s11[k] * s22[k]).sqrt(), phase[k]))
+            .collect();
+        let spec = Spectrum2 {
+            freqs: vec![0.0, 1.0, 2.0, 3.0],
+            s11,
+            s12,
+            s22,
+            fs: 7.0,
+            segment_len: 7,
+            n_avg: 1,
+            n_eff: 1.0,
+        };
+        let t: Vec<f64> = (0..=20).map(|i| 1.0 + 0.1 * i as f64).collect();
+        let out = spec.interpolate(&t).unwrap();
+        let mut naive_violates = false;
+        for (i, &ti) in t.iter().enumerate() {
+            let bound = out.s11[i] * out.s22[i];
+            assert!(out.s12[i].norm_sqr() <= bound * (1.0 + 1e-12), "f={ti}");
+            let naive = interp_linear_complex(&spec.freqs[1..], &spec.s12[1..], &[ti]).unwrap()[0];
+            naive_violates |= naive.norm_sqr() > bound * (1.0 + 1e-6);
+            let m = out.matrix(i);
+            assert_eq!(m[1][0], m[0][1].conj());
+        }
+        assert!(naive_violates, "the case must be one where plain linear interpolation fails");
+        // Nodes are reproduced exactly.
+        assert!((out.s12[10] - spec.s12[2]).norm() < 1e-12 * 10.0);
+        assert_ne!(out.s12[5], zero);
+    }
 }
