@@ -634,5 +634,4 @@ mod tests {
         let [o1, _] = lp.simulate(&vec![1e-9; nn], &vec![0.0; nn], None, None).unwrap();
         for k in [10_000, 20_000, 39_999] { println!("step o1[{k}] = {:.6e}", o1[k]); }
     }
-    }
 }
