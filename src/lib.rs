@@ -12,6 +12,7 @@ pub mod dataset;
 pub mod density;
 pub mod experiment;
 pub mod hermitian;
+pub mod likelihood;
 pub mod lti;
 pub mod ltp;
 pub mod prior;

@@ -47,7 +47,10 @@ fn simulate(path: PathBuf, output: Option<PathBuf>) -> Result<()> {
     let sim = occam::experiment::simulate(&study)
         .with_context(|| format!("simulating {}", path.display()))?;
     let (npz, json) = sim.dataset.write(&out)?;
-    println!("{:<14} {:>10} {:>10} {:>12}", "experiment", "samples", "noise", "rho_opt");
+    println!(
+        "{:<14} {:>10} {:>10} {:>12}",
+        "experiment", "samples", "noise", "rho_opt"
+    );
     for (e, rho) in sim.dataset.experiments.iter().zip(&sim.snr) {
         println!(
             "{:<14} {:>10} {:>10} {:>12.4e}",

@@ -178,6 +178,7 @@ mod tests {
     use crate::prior::PriorKind;
 
     /// ln L = −½ Σ_i (i+1)·(θ_i − i)²: every coordinate distinguishable.
+    #[derive(Debug)]
     struct Sep(Prior);
     impl LogDensity for Sep {
         fn ln_likelihood(&self, t: &[f64]) -> f64 {

@@ -76,7 +76,8 @@ pub struct LaplaceEstimate {
     pub ln_det_cov: f64,
     /// The expansion point.
     pub theta_hat: Vec<f64>,
-    /// `Σ`.
+    /// `Σ` (not serialised; `ln_det_cov` carries its size).
+    #[serde(skip)]
     pub cov: DMatrix<f64>,
     /// Smallest distance from θ̂ to a prior bound, in units of the posterior standard deviation
     /// `√Σ_ii` (negative outside; `+∞` when no parameter is bounded). Below ~3 the plain formula
@@ -376,7 +377,7 @@ pub fn numerical_hessian<F: Fn(&[f64]) -> f64>(
     }
     let tau = (12.0 * f64::EPSILON * f0.abs().max(1.0)).powf(0.25).clamp(1e-5, 0.1);
     let mut p = x.to_vec();
-    let mut eval = |p: &mut Vec<f64>, steps: &[(usize, f64)]| -> Result<f64, EvidenceError> {
+    let eval = |p: &mut Vec<f64>, steps: &[(usize, f64)]| -> Result<f64, EvidenceError> {
         for &(i, s) in steps {
             p[i] += s;
         }
@@ -461,7 +462,7 @@ mod tests {
             n_data: 60,
             dim: d,
             snr,
-            n_absent: 1,
+            n_absent: usize::from(d > 1),
             sigma: 1.0,
             prior,
             seed,

@@ -534,7 +534,7 @@ mod tests {
             n_data: 40,
             dim: d,
             snr,
-            n_absent: 1,
+            n_absent: usize::from(d > 1),
             sigma: 0.7,
             prior,
             seed,

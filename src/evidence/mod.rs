@@ -94,7 +94,7 @@ impl LnB {
 }
 
 /// Why an evidence computation could not produce a number.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[derive(Debug, PartialEq, thiserror::Error)]
 pub enum EvidenceError {
     /// A vector or matrix has the wrong size.
     #[error("{what}: expected {expected} entries, got {got}")]

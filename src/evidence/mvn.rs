@@ -280,7 +280,7 @@ impl Prepared {
     fn integrate(&self, opts: &MvnOptions) -> MvnProbability {
         let d = self.d;
         let m = opts.n_shifts;
-        let gen: Vec<f64> = first_primes(d - 1)
+        let gens: Vec<f64> = first_primes(d - 1)
             .into_iter()
             .map(|p| (p as f64).sqrt().fract())
             .collect();
@@ -297,7 +297,7 @@ impl Prepared {
         loop {
             for (k, shift) in shifts.iter().enumerate() {
                 for j in n_done + 1..=n_target {
-                    for ((wi, &g), &sh) in w.iter_mut().zip(&gen).zip(shift) {
+                    for ((wi, &g), &sh) in w.iter_mut().zip(&gens).zip(shift) {
                         let x = ((j as f64) * g + sh).fract();
                         *wi = (2.0 * x - 1.0).abs();
                     }

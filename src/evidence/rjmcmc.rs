@@ -229,9 +229,9 @@ pub struct RjResult {
     pub prior_model_probs: Vec<f64>,
     /// Post-burn-in iterations spent in each model.
     pub visits: Vec<u64>,
-    /// In-model random-walk acceptance rate per model (NaN for a model never visited or of
+    /// In-model random-walk acceptance rate per model (`None` for a model never visited or of
     /// dimension 0).
-    pub in_model_acceptance: Vec<f64>,
+    pub in_model_acceptance: Vec<Option<f64>>,
     /// `[k][l]`: jump proposals k → l (whole run).
     pub jumps_proposed: Vec<Vec<u64>>,
     /// `[k][l]`: accepted jumps k → l (whole run).
@@ -560,7 +560,7 @@ pub fn run_rjmcmc(
         in_model_acceptance: rw_accepted
             .iter()
             .zip(&rw_tried)
-            .map(|(&a, &t)| if t > 0 { a as f64 / t as f64 } else { f64::NAN })
+            .map(|(&a, &t)| (t > 0).then(|| a as f64 / t as f64))
             .collect(),
         jumps_proposed: proposed,
         jumps_accepted: accepted,

@@ -10,7 +10,12 @@
 //!
 //! * **MVE** (`ltp-model.md` §9.3, Rousseeuw): random (p+1)-subsets; for each, `d²` of every
 //!   sample w.r.t. the subset mean and covariance; the subset minimising
-//!   `√det C · med(d²)^{p/2}` wins; raw estimate `med(d²)·C/χ²_p(0.5)`. Unlike LTPDA, repeated
+//!   `√det C · med(d²)^{p/2}` wins; raw estimate `med(d²)·C/χ²_p(0.5)`. The reweighting is
+//!   iterated until the inlier set stops changing: the p-subset raw MVE has a poor *shape*
+//!   (it converges at rate n^{−1/3}), and one reweighting step inherits it — measured on
+//!   3000 normal draws in 3-D, one step left a variance 16 % low, the fixed point agrees with
+//!   the sample covariance within its error. Outliers far from the core stay excluded, and the
+//!   true Σ is a fixed point of the consistency-corrected step. Unlike LTPDA, repeated
 //!   samples (rejections of an MCMC chain) are kept — they carry the chain's weighting — and
 //!   the data are never rotated. A subset whose covariance is singular (e.g. it drew two copies
 //!   of one sample) is enlarged by random extra points until it is not.
@@ -31,6 +36,9 @@ use rand_xoshiro::Xoshiro256PlusPlus;
 use serde::{Deserialize, Serialize};
 use statrs::distribution::{ChiSquared, ContinuousCDF};
 use statrs::function::gamma::gamma_lr;
+
+/// Cap on MVE reweighting iterations (they stop earlier, when the inlier set repeats).
+const MVE_REWEIGHT_STEPS: usize = 100;
 
 /// Options of the minimum-volume-ellipsoid estimator.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -91,7 +99,7 @@ pub enum RobustMethod {
 }
 
 /// A robust location/covariance estimate.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct RobustCovariance {
     /// Reweighted location.
     pub location: Vec<f64>,
@@ -175,7 +183,7 @@ pub fn mve(samples: &DMatrix<f64>, opts: &MveOptions) -> Result<RobustCovariance
         what: "MVE".into(),
         detail: "more than half of the samples coincide with every subset mean".into(),
     })?;
-    data.finish(fit, med2)
+    data.finish(fit, med2, MVE_REWEIGHT_STEPS)
 }
 
 /// FAST-MCD covariance of the rows of `samples` (n × p).
@@ -253,7 +261,7 @@ pub fn mcd(samples: &DMatrix<f64>, opts: &McdOptions) -> Result<RobustCovariance
             detail: "more than half of the samples coincide".into(),
         });
     }
-    data.finish(fit, med2)
+    data.finish(fit, med2, 1)
 }
 
 /// Rows in row-major order plus the χ² constants.
@@ -444,44 +452,62 @@ impl Data {
     }
 
     /// Consistency factor, reweighting at χ²_p(0.975) and the final consistency correction.
-    fn finish(&self, fit: Fit, med2: f64) -> Result<RobustCovariance, EvidenceError> {
+    /// `max_reweight` > 1 repeats the reweighting until the inlier set stops changing.
+    fn finish(
+        &self,
+        fit: Fit,
+        med2: f64,
+        max_reweight: usize,
+    ) -> Result<RobustCovariance, EvidenceError> {
         let p = self.p;
         let k = med2 / self.q50;
         let raw_cov: Vec<f64> = fit.cov.iter().map(|c| c * k).collect();
-        let (l, ln_det) = cholesky(&raw_cov, p).ok_or_else(|| EvidenceError::SingularCovariance {
+        let singular = |detail: &str| EvidenceError::SingularCovariance {
             what: self.what.into(),
-            detail: "raw covariance".into(),
-        })?;
-        let raw = Fit {
+            detail: detail.into(),
+        };
+        let (l, ln_det) = cholesky(&raw_cov, p).ok_or_else(|| singular("raw covariance"))?;
+        let raw_location = fit.mean.clone();
+        let raw_cov_m = to_matrix(&raw_cov, p);
+        let mut current = Fit {
             mean: fit.mean,
             cov: raw_cov,
             l,
             ln_det,
         };
-        let mut d2 = vec![0.0; self.n];
-        self.distances(&raw, &mut d2);
-        let inliers: Vec<usize> = (0..self.n).filter(|&i| d2[i] <= self.q975).collect();
-        if inliers.len() <= p {
-            return Err(EvidenceError::SingularCovariance {
-                what: self.what.into(),
-                detail: format!("only {} samples pass the reweighting", inliers.len()),
-            });
-        }
-        let (mean, mut cov) = self.mean_cov(&inliers);
         let factor = 0.975 / gamma_lr((p as f64 + 2.0) / 2.0, self.q975 / 2.0);
-        cov.iter_mut().for_each(|c| *c *= factor);
-        if cholesky(&cov, p).is_none() {
-            return Err(EvidenceError::SingularCovariance {
-                what: self.what.into(),
-                detail: "the reweighted samples lie in a hyperplane".into(),
-            });
+        let mut d2 = vec![0.0; self.n];
+        let mut previous: Vec<usize> = Vec::new();
+        for _ in 0..max_reweight.max(1) {
+            self.distances(&current, &mut d2);
+            let inliers: Vec<usize> = (0..self.n).filter(|&i| d2[i] <= self.q975).collect();
+            if inliers.len() <= p {
+                return Err(singular(&format!(
+                    "only {} samples pass the reweighting",
+                    inliers.len()
+                )));
+            }
+            if inliers == previous {
+                break;
+            }
+            let (mean, mut cov) = self.mean_cov(&inliers);
+            cov.iter_mut().for_each(|c| *c *= factor);
+            let (l, ln_det) = cholesky(&cov, p)
+                .ok_or_else(|| singular("the reweighted samples lie in a hyperplane"))?;
+            current = Fit {
+                mean,
+                cov,
+                l,
+                ln_det,
+            };
+            previous = inliers;
         }
         Ok(RobustCovariance {
-            location: mean,
-            cov: to_matrix(&cov, p),
-            raw_location: raw.mean,
-            raw_cov: to_matrix(&raw.cov, p),
-            n_inliers: inliers.len(),
+            location: current.mean,
+            cov: to_matrix(&current.cov, p),
+            raw_location,
+            raw_cov: raw_cov_m,
+            n_inliers: previous.len(),
         })
     }
 }
@@ -533,7 +559,7 @@ mod tests {
         let l = DMatrix::from_row_slice(3, 3, &[1.0, 0.0, 0.0, 0.8, 0.6, 0.0, -0.5, 0.3, 2.0]);
         let mu = [1.0, -2.0, 0.5];
         let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
-        let z = DMatrix::from_fn(n, 3, |_, _| StandardNormal.sample(&mut rng));
+        let z = DMatrix::<f64>::from_fn(n, 3, |_, _| StandardNormal.sample(&mut rng));
         let mut x = z * l.transpose();
         for mut r in x.row_iter_mut() {
             for j in 0..3 {

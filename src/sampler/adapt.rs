@@ -36,6 +36,11 @@ impl AdaptState {
         s
     }
 
+    /// Whether the stored buffers fit dimension `dim` (for checkpoints read from disk).
+    pub(crate) fn has_dim(&self, dim: usize) -> bool {
+        self.dim == dim && self.mean.len() == dim && self.m2.len() == dim * dim
+    }
+
     /// Sizes the scratch buffers (after construction or deserialisation).
     pub(crate) fn prepare(&mut self) {
         self.delta.resize(self.dim, 0.0);
@@ -48,13 +53,14 @@ impl AdaptState {
         self.count += 1;
         self.accepted += u64::from(accepted);
         let k = self.count as f64;
-        for i in 0..d {
-            self.delta[i] = x[i] - self.mean[i];
-            self.mean[i] += self.delta[i] / k;
+        for ((dl, m), xi) in self.delta.iter_mut().zip(&mut self.mean).zip(x) {
+            *dl = xi - *m;
+            *m += *dl / k;
         }
-        for i in 0..d {
-            for j in 0..=i {
-                self.m2[i * d + j] += self.delta[i] * (x[j] - self.mean[j]);
+        for (i, row) in self.m2.chunks_exact_mut(d).enumerate() {
+            let di = self.delta[i];
+            for ((r, xj), mj) in row[..=i].iter_mut().zip(x).zip(&self.mean) {
+                *r += di * (xj - mj);
             }
         }
     }

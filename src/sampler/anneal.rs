@@ -45,11 +45,11 @@ impl Anneal {
 
 /// Which entry of `jumps` iteration `n` of the search uses (0 = normal step).
 fn jump_index(n: usize) -> usize {
-    if n % 5 == 0 && n % 25 != 0 && n % 40 != 0 {
+    if n.is_multiple_of(5) && !n.is_multiple_of(25) && !n.is_multiple_of(40) {
         1
-    } else if n % 20 == 0 && n % 50 != 0 {
+    } else if n.is_multiple_of(20) && !n.is_multiple_of(50) {
         2
-    } else if n % 10 == 0 {
+    } else if n.is_multiple_of(10) {
         3
     } else {
         0
@@ -62,7 +62,10 @@ mod tests {
 
     #[test]
     fn heat_schedule_matches_ltpda() {
-        let a = Anneal { heat: 2.0, ..Anneal::new(100, 400) };
+        let a = Anneal {
+            heat: 2.0,
+            ..Anneal::new(100, 400)
+        };
         let hot = 10f64.powf(-2.0 * 0.75);
         assert_eq!(a.beta(1), hot);
         assert_eq!(a.beta(100), hot);

@@ -148,7 +148,9 @@ impl ChainState {
                 if !(spread.is_finite() && *spread > 0.0) {
                     return Err(SamplerError::Setting {
                         field: "start",
-                        problem: format!("Start::Around spread must be finite and > 0 (got {spread})"),
+                        problem: format!(
+                            "Start::Around spread must be finite and > 0 (got {spread})"
+                        ),
                     });
                 }
                 let mut p = vec![0.0; dim];
@@ -206,6 +208,42 @@ impl ChainState {
             self.kept_ln_post.reserve_exact(total - have);
             self.kept_ln_like.reserve_exact(total - have);
         }
+    }
+
+    /// Checks a deserialised state against the run: buffer sizes and the number of kept
+    /// samples implied by `iter`. `Err` describes the first inconsistency.
+    pub(crate) fn check_consistent(&self, settings: &MhSettings, dim: usize) -> Result<(), String> {
+        let kept = if self.iter > settings.burn_in {
+            (self.iter - settings.burn_in) / settings.thin
+        } else {
+            0
+        };
+        let n = self.kept_ln_post.len();
+        if self.x.len() != dim
+            || self.best_theta.len() != dim
+            || self.proposal.dim() != dim
+            || self.proposal.cholesky().len() != dim * dim
+        {
+            return Err(format!(
+                "chain {} has buffers of the wrong dimension",
+                self.index
+            ));
+        }
+        if n != kept || self.kept_ln_like.len() != n || self.samples.len() != n * dim {
+            return Err(format!(
+                "chain {} holds {n} kept samples after {} iterations, expected {kept}",
+                self.index, self.iter
+            ));
+        }
+        if self.adapt.is_some() != settings.adapt.is_some()
+            || self.adapt.as_ref().is_some_and(|a| !a.has_dim(dim))
+        {
+            return Err(format!(
+                "chain {} has an adaptation state that does not match the settings",
+                self.index
+            ));
+        }
+        Ok(())
     }
 
     /// Dimension of θ.
@@ -280,18 +318,18 @@ impl ChainState {
                 && n <= settings.burn_in
             {
                 state.observe(&self.x, accepted);
-                if (n - cfg.start) % cfg.interval == 0 {
+                if (n - cfg.start).is_multiple_of(cfg.interval) {
                     state.update_cholesky(s, cfg.ridge, self.proposal.cholesky_mut());
                 }
             }
-            if n > settings.burn_in && (n - settings.burn_in) % settings.thin == 0 {
+            if n > settings.burn_in && (n - settings.burn_in).is_multiple_of(settings.thin) {
                 self.samples.extend_from_slice(&self.x);
                 self.kept_ln_post.push(self.ln_post);
                 self.kept_ln_like.push(self.ln_like);
             }
             self.iter = n;
             if let Some(obs) = observer
-                && (n % settings.progress_every == 0 || n == settings.n_iter)
+                && (n.is_multiple_of(settings.progress_every) || n == settings.n_iter)
             {
                 let c = &self.counts;
                 let proposed = c.burn_in.proposed + c.sampling.proposed;

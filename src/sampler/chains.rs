@@ -71,10 +71,27 @@ pub struct Chain {
 }
 
 /// The kept samples of every chain of a run.
+///
+/// Always holds at least one chain, every chain with the same number (≥ 1) of kept samples
+/// of the same dimension ([`Chains::new`] and deserialisation check this).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(try_from = "RawChains")]
 pub struct Chains {
     names: Vec<String>,
     chains: Vec<Chain>,
+}
+
+#[derive(Deserialize)]
+struct RawChains {
+    names: Vec<String>,
+    chains: Vec<Chain>,
+}
+
+impl TryFrom<RawChains> for Chains {
+    type Error = SamplerError;
+    fn try_from(r: RawChains) -> Result<Self, SamplerError> {
+        Chains::new(r.names, r.chains)
+    }
 }
 
 /// Where the highest-posterior kept sample is.
@@ -93,8 +110,42 @@ pub struct MaxPosterior<'a> {
 }
 
 impl Chains {
-    pub(crate) fn new(names: Vec<String>, chains: Vec<Chain>) -> Self {
-        Self { names, chains }
+    /// Checks shapes: ≥ 1 chain; per chain the same `n ≥ 1` kept samples, `n × dim` sample
+    /// values, `n` log densities of each kind, a best point of `dim` entries and a
+    /// `dim × dim` proposal covariance, with `dim = names.len() ≥ 1`.
+    pub fn new(names: Vec<String>, chains: Vec<Chain>) -> Result<Self, SamplerError> {
+        let bad = |problem: String| Err(SamplerError::Chains { problem });
+        let d = names.len();
+        if d == 0 {
+            return bad("no parameter names".into());
+        }
+        let Some(first) = chains.first() else {
+            return bad("no chains".into());
+        };
+        let n = first.ln_posterior.len();
+        if n == 0 {
+            return bad("chain 0 has no kept samples".into());
+        }
+        for (c, ch) in chains.iter().enumerate() {
+            if ch.ln_posterior.len() != n
+                || ch.ln_likelihood.len() != n
+                || ch.samples.len() != n * d
+                || ch.best.theta.len() != d
+                || ch.proposal_covariance.len() != d * d
+            {
+                return bad(format!(
+                    "chain {c} has {} sample values, {} ln posteriors, {} ln likelihoods, a best point of {} and a proposal covariance of {} entries; expected {}, {n}, {n}, {d} and {} for {n} samples of {d} parameters",
+                    ch.samples.len(),
+                    ch.ln_posterior.len(),
+                    ch.ln_likelihood.len(),
+                    ch.best.theta.len(),
+                    ch.proposal_covariance.len(),
+                    n * d,
+                    d * d
+                ));
+            }
+        }
+        Ok(Self { names, chains })
     }
 
     /// Parameter names.
@@ -114,10 +165,10 @@ impl Chains {
 
     /// Kept samples per chain.
     pub fn n_kept(&self) -> usize {
-        self.chains.first().map_or(0, |c| c.ln_posterior.len())
+        self.chains[0].ln_posterior.len()
     }
 
-    /// Sample `i` of chain `c`.
+    /// Sample `i` of chain `c` (panics if out of range, like slice indexing).
     pub fn sample(&self, c: usize, i: usize) -> &[f64] {
         let d = self.dim();
         &self.chains[c].samples[i * d..(i + 1) * d]
@@ -134,7 +185,7 @@ impl Chains {
 
     /// Highest-posterior kept sample over all chains (ties go to the lowest chain and
     /// index). This is the θ_MAP that Laplace–Metropolis needs (ltp-model.md §9.1).
-    pub fn max_posterior(&self) -> Option<MaxPosterior<'_>> {
+    pub fn max_posterior(&self) -> MaxPosterior<'_> {
         let mut best: Option<(usize, usize, f64)> = None;
         for (c, ch) in self.chains.iter().enumerate() {
             for (i, &lp) in ch.ln_posterior.iter().enumerate() {
@@ -143,13 +194,14 @@ impl Chains {
                 }
             }
         }
-        best.map(|(c, i, lp)| MaxPosterior {
+        let (c, i, lp) = best.expect("Chains holds at least one sample");
+        MaxPosterior {
             chain: c,
             index: i,
             theta: self.sample(c, i),
             ln_posterior: lp,
             ln_likelihood: self.chains[c].ln_likelihood[i],
-        })
+        }
     }
 
     /// Highest-posterior point evaluated by any chain, burn-in and search included.
@@ -209,5 +261,58 @@ impl Chains {
     /// Diagnostics with the given thresholds for [`Diagnostics::warnings`].
     pub fn diagnostics_with(&self, thresholds: Thresholds) -> Result<Diagnostics, SamplerError> {
         Diagnostics::compute(self, thresholds)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn chain(n: usize, d: usize, offset: f64) -> Chain {
+        Chain {
+            samples: (0..n * d).map(|k| offset + k as f64).collect(),
+            ln_posterior: (0..n).map(|k| -(k as f64) - offset).collect(),
+            ln_likelihood: vec![-1.0; n],
+            counts: ChainCounts::default(),
+            best: BestPoint {
+                theta: vec![offset; d],
+                ln_posterior: -offset,
+                ln_likelihood: -1.0,
+            },
+            proposal_covariance: vec![1.0; d * d],
+        }
+    }
+
+    #[test]
+    fn shapes_are_checked_on_construction_and_deserialisation() {
+        let names = vec!["a".to_string(), "b".to_string()];
+        let ok = Chains::new(names.clone(), vec![chain(3, 2, 0.0), chain(3, 2, 0.5)]).unwrap();
+        assert_eq!(ok.n_kept(), 3);
+        assert_eq!(ok.sample(1, 2), &[4.5, 5.5]);
+        assert_eq!(ok.series(0, 1), vec![1.0, 3.0, 5.0]);
+        assert_eq!(ok.mean(), vec![2.25, 3.25]);
+        // Highest ln posterior: sample 0 of chain 0 (−0 > −0.5); best visited: chain 0.
+        let mp = ok.max_posterior();
+        assert_eq!((mp.chain, mp.index, mp.theta), (0, 0, &[0.0, 1.0][..]));
+        assert_eq!(ok.best_visited().theta, vec![0.0, 0.0]);
+        for bad in [
+            Chains::new(vec![], vec![chain(3, 0, 0.0)]),
+            Chains::new(names.clone(), vec![]),
+            Chains::new(names.clone(), vec![chain(0, 2, 0.0)]),
+            Chains::new(names.clone(), vec![chain(3, 2, 0.0), chain(2, 2, 0.0)]),
+            Chains::new(names.clone(), vec![chain(3, 3, 0.0)]),
+        ] {
+            assert!(matches!(bad, Err(SamplerError::Chains { .. })), "{bad:?}");
+        }
+        let json = serde_json::to_string(&ok).unwrap();
+        let back: Chains = serde_json::from_str(&json).unwrap();
+        assert_eq!(back, ok);
+        let broken = json.replacen(
+            "\"ln_likelihood\":[-1.0,-1.0,-1.0]",
+            "\"ln_likelihood\":[-1.0]",
+            1,
+        );
+        assert_ne!(broken, json);
+        assert!(serde_json::from_str::<Chains>(&broken).is_err());
     }
 }

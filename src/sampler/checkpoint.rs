@@ -246,12 +246,7 @@ impl Checkpoint {
         }
         let (a, b) = (self.proposal.cholesky(), proposal.cholesky());
         let scale = b.iter().fold(0.0f64, |m, x| m.max(x.abs()));
-        if a.len() != b.len()
-            || a
-                .iter()
-                .zip(b)
-                .any(|(x, y)| (x - y).abs() > 1e-12 * scale)
-        {
+        if a.len() != b.len() || a.iter().zip(b).any(|(x, y)| (x - y).abs() > 1e-12 * scale) {
             return mismatch(
                 "proposal covariance",
                 format!("{}", self.proposal.covariance()),
@@ -273,15 +268,14 @@ impl Checkpoint {
         }
         let done = self.chains[0].iter;
         for (c, ch) in self.chains.iter().enumerate() {
-            if ch.index != c || ch.iter != done || ch.dim() != target.dim() {
+            if ch.index != c || ch.iter != done {
                 return corrupt(format!(
-                    "chain {c} has index {}, {} iterations and dimension {} (expected {c}, {done}, {})",
-                    ch.index,
-                    ch.iter,
-                    ch.dim(),
-                    target.dim()
+                    "chain {c} has index {} and {} iterations (expected {c} and {done})",
+                    ch.index, ch.iter
                 ));
             }
+            ch.check_consistent(settings, target.dim())
+                .or_else(corrupt)?;
         }
         if done > settings.n_iter {
             return mismatch(

@@ -202,18 +202,15 @@ impl<'a, D: LogDensity> MetropolisHastings<'a, D> {
             if done >= settings.n_iter {
                 break;
             }
-            let until = (done + settings.checkpoint_every).min(settings.n_iter);
+            let until = done
+                .saturating_add(settings.checkpoint_every)
+                .min(settings.n_iter);
             states
                 .par_iter_mut()
                 .for_each(|s| s.advance(target, settings, until, observer));
             if let Some(path) = &self.checkpoint {
-                let ck = CheckpointRef::new(
-                    &names,
-                    target.prior(),
-                    settings,
-                    &self.proposal,
-                    &states,
-                );
+                let ck =
+                    CheckpointRef::new(&names, target.prior(), settings, &self.proposal, &states);
                 checkpoint::write(path, &ck)?;
             }
             if until < settings.n_iter
@@ -224,9 +221,10 @@ impl<'a, D: LogDensity> MetropolisHastings<'a, D> {
             }
         }
         debug_assert!(states.iter().all(|s| s.dim() == self.proposal.dim()));
-        Ok(RunOutcome::Finished(Chains::new(
+        let chains = Chains::new(
             names,
             states.into_iter().map(ChainState::into_chain).collect(),
-        )))
+        )?;
+        Ok(RunOutcome::Finished(chains))
     }
 }

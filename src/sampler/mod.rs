@@ -102,6 +102,12 @@ pub enum SamplerError {
         /// Value of this run.
         in_run: String,
     },
+    /// Sample storage with inconsistent shapes.
+    #[error("chains: {problem}")]
+    Chains {
+        /// What is inconsistent.
+        problem: String,
+    },
     /// Diagnostics cannot be computed from the given draws.
     #[error("diagnostics: {problem}")]
     Diagnostics {

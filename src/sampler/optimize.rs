@@ -52,10 +52,16 @@ impl NelderMeadSettings {
             return bad("max_evals must be ≥ 1".into());
         }
         if !(self.x_rtol.is_finite() && self.x_rtol > 0.0) {
-            return bad(format!("x_rtol must be finite and > 0 (got {})", self.x_rtol));
+            return bad(format!(
+                "x_rtol must be finite and > 0 (got {})",
+                self.x_rtol
+            ));
         }
         if !(self.f_atol.is_finite() && self.f_atol >= 0.0) {
-            return bad(format!("f_atol must be finite and ≥ 0 (got {})", self.f_atol));
+            return bad(format!(
+                "f_atol must be finite and ≥ 0 (got {})",
+                self.f_atol
+            ));
         }
         Ok(())
     }
@@ -193,7 +199,11 @@ fn descend<F: FnMut(&[f64]) -> f64>(
             fs[n] = fr;
             continue;
         }
-        let (outside, target_f) = if fr < fs[n] { (true, fr) } else { (false, fs[n]) };
+        let (outside, target_f) = if fr < fs[n] {
+            (true, fr)
+        } else {
+            (false, fs[n])
+        };
         for k in 0..n {
             xc[k] = if outside {
                 centroid[k] + rho * (xr[k] - centroid[k])

@@ -209,9 +209,16 @@ mod tests {
             other => panic!("expected an error, got {other:?}"),
         };
         assert!(err(DMatrix::zeros(2, 3)).contains("square"));
-        assert!(err(DMatrix::from_row_slice(2, 2, &[1.0, f64::NAN, 0.0, 1.0])).contains("not finite"));
-        assert!(err(DMatrix::from_row_slice(2, 2, &[1.0, 0.5, 0.0, 1.0])).contains("not symmetric"));
-        assert!(err(DMatrix::from_row_slice(2, 2, &[1.0, 2.0, 2.0, 1.0])).contains("not positive definite"));
+        assert!(
+            err(DMatrix::from_row_slice(2, 2, &[1.0, f64::NAN, 0.0, 1.0])).contains("not finite")
+        );
+        assert!(
+            err(DMatrix::from_row_slice(2, 2, &[1.0, 0.5, 0.0, 1.0])).contains("not symmetric")
+        );
+        assert!(
+            err(DMatrix::from_row_slice(2, 2, &[1.0, 2.0, 2.0, 1.0]))
+                .contains("not positive definite")
+        );
         assert!(err(DMatrix::from_row_slice(2, 2, &[-1.0, 0.0, 0.0, 1.0])).contains("variance"));
     }
 

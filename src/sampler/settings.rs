@@ -200,7 +200,10 @@ impl MhSettings {
             if !(a.heat.is_finite() && a.heat >= 0.0) {
                 return bad(
                     "anneal.heat",
-                    format!("must be finite and ≥ 0 (got {}); LTPDA's default is 1", a.heat),
+                    format!(
+                        "must be finite and ≥ 0 (got {}); LTPDA's default is 1",
+                        a.heat
+                    ),
                 );
             }
             if let Some(j) = a.jumps.iter().find(|j| !(j.is_finite() && **j > 0.0)) {
@@ -305,38 +308,141 @@ mod tests {
             ..MhSettings::default()
         };
         let cases: Vec<(MhSettings, &str)> = vec![
-            (MhSettings { n_iter: 0, burn_in: 0, ..ok.clone() }, "n_iter"),
-            (MhSettings { burn_in: 1000, ..ok.clone() }, "burn_in"),
-            (MhSettings { thin: 0, ..ok.clone() }, "thin"),
-            (MhSettings { thin: 501, ..ok.clone() }, "thin"),
-            (MhSettings { n_chains: 0, ..ok.clone() }, "n_chains"),
-            (MhSettings { checkpoint_every: 0, ..ok.clone() }, "checkpoint_every"),
-            (MhSettings { progress_every: 0, ..ok.clone() }, "progress_every"),
-            (MhSettings { anneal: Some(Anneal::new(200, 200)), ..ok.clone() }, "anneal.tc1"),
-            (MhSettings { anneal: Some(Anneal::new(100, 600)), ..ok.clone() }, "anneal.tc2"),
             (
-                MhSettings { anneal: Some(Anneal { heat: f64::NAN, ..Anneal::new(100, 200) }), ..ok.clone() },
+                MhSettings {
+                    n_iter: 0,
+                    burn_in: 0,
+                    ..ok.clone()
+                },
+                "n_iter",
+            ),
+            (
+                MhSettings {
+                    burn_in: 1000,
+                    ..ok.clone()
+                },
+                "burn_in",
+            ),
+            (
+                MhSettings {
+                    thin: 0,
+                    ..ok.clone()
+                },
+                "thin",
+            ),
+            (
+                MhSettings {
+                    thin: 501,
+                    ..ok.clone()
+                },
+                "thin",
+            ),
+            (
+                MhSettings {
+                    n_chains: 0,
+                    ..ok.clone()
+                },
+                "n_chains",
+            ),
+            (
+                MhSettings {
+                    checkpoint_every: 0,
+                    ..ok.clone()
+                },
+                "checkpoint_every",
+            ),
+            (
+                MhSettings {
+                    progress_every: 0,
+                    ..ok.clone()
+                },
+                "progress_every",
+            ),
+            (
+                MhSettings {
+                    anneal: Some(Anneal::new(200, 200)),
+                    ..ok.clone()
+                },
+                "anneal.tc1",
+            ),
+            (
+                MhSettings {
+                    anneal: Some(Anneal::new(100, 600)),
+                    ..ok.clone()
+                },
+                "anneal.tc2",
+            ),
+            (
+                MhSettings {
+                    anneal: Some(Anneal {
+                        heat: f64::NAN,
+                        ..Anneal::new(100, 200)
+                    }),
+                    ..ok.clone()
+                },
                 "anneal.heat",
             ),
             (
                 MhSettings {
-                    anneal: Some(Anneal { jumps: [2.0, 0.0, 1e3, 1e4], ..Anneal::new(100, 200) }),
+                    anneal: Some(Anneal {
+                        jumps: [2.0, 0.0, 1e3, 1e4],
+                        ..Anneal::new(100, 200)
+                    }),
                     ..ok.clone()
                 },
                 "anneal.jumps",
             ),
-            (MhSettings { adapt: Some(Adapt { interval: 0, ..Adapt::default() }), ..ok.clone() }, "adapt.interval"),
-            (MhSettings { adapt: Some(Adapt { start: 500, ..Adapt::default() }), ..ok.clone() }, "adapt.start"),
             (
                 MhSettings {
-                    anneal: Some(Anneal::new(100, 200)),
-                    adapt: Some(Adapt { start: 150, ..Adapt::default() }),
+                    adapt: Some(Adapt {
+                        interval: 0,
+                        ..Adapt::default()
+                    }),
+                    ..ok.clone()
+                },
+                "adapt.interval",
+            ),
+            (
+                MhSettings {
+                    adapt: Some(Adapt {
+                        start: 500,
+                        ..Adapt::default()
+                    }),
                     ..ok.clone()
                 },
                 "adapt.start",
             ),
-            (MhSettings { adapt: Some(Adapt { scale: Some(-1.0), ..Adapt::default() }), ..ok.clone() }, "adapt.scale"),
-            (MhSettings { adapt: Some(Adapt { ridge: f64::INFINITY, ..Adapt::default() }), ..ok.clone() }, "adapt.ridge"),
+            (
+                MhSettings {
+                    anneal: Some(Anneal::new(100, 200)),
+                    adapt: Some(Adapt {
+                        start: 150,
+                        ..Adapt::default()
+                    }),
+                    ..ok.clone()
+                },
+                "adapt.start",
+            ),
+            (
+                MhSettings {
+                    adapt: Some(Adapt {
+                        scale: Some(-1.0),
+                        ..Adapt::default()
+                    }),
+                    ..ok.clone()
+                },
+                "adapt.scale",
+            ),
+            (
+                MhSettings {
+                    adapt: Some(Adapt {
+                        ridge: f64::INFINITY,
+                        ..Adapt::default()
+                    }),
+                    ..ok.clone()
+                },
+                "adapt.ridge",
+            ),
         ];
         for (s, want) in cases {
             assert_eq!(field_of(&s), want, "{s:?}");
@@ -344,7 +450,10 @@ mod tests {
         ok.validate().unwrap();
         MhSettings {
             anneal: Some(Anneal::new(100, 200)),
-            adapt: Some(Adapt { start: 200, ..Adapt::default() }),
+            adapt: Some(Adapt {
+                start: 200,
+                ..Adapt::default()
+            }),
             ..ok
         }
         .validate()

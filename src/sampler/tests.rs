@@ -66,14 +66,12 @@ fn check_moments(t: &GaussianTarget, ch: &Chains) {
     let diag = ch.diagnostics().unwrap();
     let mean = ch.mean();
     let cov = ch.covariance();
-    for i in 0..d {
-        let tol = 4.0 * (t.cov[(i, i)] / diag.ess[i]).sqrt();
+    for (i, (m, e)) in mean.iter().zip(&diag.ess).enumerate() {
+        let tol = 4.0 * (t.cov[(i, i)] / e).sqrt();
         assert!(
-            (mean[i] - t.mu[i]).abs() < tol,
-            "D = {d}: mean {i} = {} vs {} (tol {tol}, ESS {})",
-            mean[i],
-            t.mu[i],
-            diag.ess[i]
+            (m - t.mu[i]).abs() < tol,
+            "D = {d}: mean {i} = {m} vs {} (tol {tol}, ESS {e})",
+            t.mu[i]
         );
     }
     for i in 0..d {
@@ -123,7 +121,6 @@ fn recovers_correlated_gaussians_in_2_5_10_dimensions() {
         );
         check_moments(&t, &ch);
         let diag = ch.diagnostics().unwrap();
-        eprintln!("D={d} ess={:?} tau={:?} rhat={:?} acc={:?} maxpost m2={}", diag.ess, diag.tau, diag.rhat, diag.acceptance, t.mahalanobis2(ch.max_posterior().unwrap().theta));
         assert!(diag.warnings().is_empty(), "D = {d}: {:?}", diag.warnings());
         // Optimally scaled random walk: acceptance 0.44 in 1-D falling to 0.234 as D → ∞
         // (Roberts, Gelman & Gilks 1997).
@@ -132,7 +129,7 @@ fn recovers_correlated_gaussians_in_2_5_10_dimensions() {
         }
         // The maximum-posterior kept sample is a posterior draw near the mode: its squared
         // Mahalanobis distance is the minimum of ≥ 100 (ESS) roughly independent χ²_D draws.
-        let mp = ch.max_posterior().unwrap();
+        let mp = ch.max_posterior();
         assert!(t.mahalanobis2(mp.theta) < d as f64, "D = {d}");
         assert_eq!(mp.ln_posterior, t.ln_posterior(mp.theta));
     }
@@ -171,10 +168,14 @@ fn adaptation_repairs_a_badly_shaped_proposal() {
     check_moments(&t, &adapted);
     let (ef, ea) = (fixed.diagnostics().unwrap(), adapted.diagnostics().unwrap());
     let min = |v: &[f64]| v.iter().cloned().fold(f64::INFINITY, f64::min);
-    eprintln!("adapt: fixed ess {:?} acc {:?}; adapted ess {:?} acc {:?}", ef.ess, ef.acceptance, ea.ess, ea.acceptance);
     // Same cost, far better mixing: the adapted chain's worst ESS beats the fixed one's by
     // more than 5×.
-    assert!(min(&ea.ess) > 5.0 * min(&ef.ess), "{:?} vs {:?}", ea.ess, ef.ess);
+    assert!(
+        min(&ea.ess) > 5.0 * min(&ef.ess),
+        "{:?} vs {:?}",
+        ea.ess,
+        ef.ess
+    );
     assert!(ea.warnings().is_empty(), "{:?}", ea.warnings());
 }
 
@@ -197,8 +198,11 @@ fn annealed_search_finds_the_mode_from_far_away() {
     // P(χ²_5 < 1) = 0.037, so among ≥ 200 effectively independent draws one is below 1
     // except with probability 0.963²⁰⁰ ≈ 5e-4.
     let best = ch.best_visited();
-    eprintln!("anneal best m2 {} prior_rej {:?}", t.mahalanobis2(&best.theta), ch.chains().iter().map(|c| c.counts.burn_in).collect::<Vec<_>>());
-    assert!(t.mahalanobis2(&best.theta) < 1.0, "{}", t.mahalanobis2(&best.theta));
+    assert!(
+        t.mahalanobis2(&best.theta) < 1.0,
+        "{}",
+        t.mahalanobis2(&best.theta)
+    );
     for c in ch.chains() {
         // The 1e3× and 1e4× jumps leave the ±20σ box.
         assert!(c.counts.burn_in.prior_rejected > 0);
@@ -338,27 +342,109 @@ fn mismatched_checkpoints_name_the_difference() {
         .checkpoint(&path)
         .run(&Start::Point(t.mu.clone()))
         .unwrap();
-    let field_of = |t: &GaussianTarget, cov: &DMatrix<f64>, s: MhSettings| {
-        match MetropolisHastings::new(t, cov, s).unwrap().resume(&path) {
+    let field_of =
+        |t: &GaussianTarget, cov: &DMatrix<f64>, s: MhSettings| match MetropolisHastings::new(
+            t, cov, s,
+        )
+        .unwrap()
+        .resume(&path)
+        {
             Err(SamplerError::CheckpointMismatch { field, .. }) => field,
             other => panic!("expected a mismatch, got {other:?}"),
-        }
-    };
-    assert_eq!(field_of(&t, &cov, MhSettings { seed: 2, ..s.clone() }), "seed");
-    assert_eq!(field_of(&t, &cov, MhSettings { burn_in: 50, ..s.clone() }), "burn_in");
-    assert_eq!(field_of(&t, &cov, MhSettings { n_chains: 3, ..s.clone() }), "n_chains");
-    assert_eq!(field_of(&t, &cov, MhSettings { thin: 2, ..s.clone() }), "thin");
-    assert_eq!(field_of(&t, &cov, MhSettings { n_iter: 400, ..s.clone() }), "n_iter");
+        };
     assert_eq!(
-        field_of(&t, &cov, MhSettings { adapt: Some(Adapt { interval: 10, ..Adapt::default() }), ..s.clone() }),
+        field_of(
+            &t,
+            &cov,
+            MhSettings {
+                seed: 2,
+                ..s.clone()
+            }
+        ),
+        "seed"
+    );
+    assert_eq!(
+        field_of(
+            &t,
+            &cov,
+            MhSettings {
+                burn_in: 50,
+                ..s.clone()
+            }
+        ),
+        "burn_in"
+    );
+    assert_eq!(
+        field_of(
+            &t,
+            &cov,
+            MhSettings {
+                n_chains: 3,
+                ..s.clone()
+            }
+        ),
+        "n_chains"
+    );
+    assert_eq!(
+        field_of(
+            &t,
+            &cov,
+            MhSettings {
+                thin: 2,
+                ..s.clone()
+            }
+        ),
+        "thin"
+    );
+    assert_eq!(
+        field_of(
+            &t,
+            &cov,
+            MhSettings {
+                n_iter: 400,
+                ..s.clone()
+            }
+        ),
+        "n_iter"
+    );
+    assert_eq!(
+        field_of(
+            &t,
+            &cov,
+            MhSettings {
+                adapt: Some(Adapt {
+                    interval: 10,
+                    ..Adapt::default()
+                }),
+                ..s.clone()
+            }
+        ),
         "adapt"
     );
-    assert_eq!(field_of(&t, &(&cov * 2.0), s.clone()), "proposal covariance");
+    assert_eq!(
+        field_of(&t, &(&cov * 2.0), s.clone()),
+        "proposal covariance"
+    );
     let t4 = GaussianTarget::correlated(4, 1e3, 61);
     assert_eq!(field_of(&t4, &optimal_cov(&t4), s.clone()), "dimension");
     // Same prior box, different mean: only the stored ln posterior can tell.
     let moved = t.shifted(0.1);
     assert!(field_of(&moved, &cov, s.clone()).starts_with("ln posterior"));
+    // A state whose kept samples do not match its iteration count.
+    let mut v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+    v["chains"][1]["kept_ln_post"].as_array_mut().unwrap().pop();
+    let tampered = dir.path().join("tampered.json");
+    std::fs::write(&tampered, v.to_string()).unwrap();
+    match MetropolisHastings::new(&t, &cov, s.clone())
+        .unwrap()
+        .resume(&tampered)
+    {
+        Err(SamplerError::Checkpoint { problem, .. }) => {
+            assert!(problem.contains("chain 1"), "{problem}")
+        }
+        other => panic!("{other:?}"),
+    }
     // Unreadable files.
     let missing = MetropolisHastings::new(&t, &cov, s.clone())
         .unwrap()
@@ -377,7 +463,11 @@ struct HoleyNormal {
 
 impl LogDensity for HoleyNormal {
     fn ln_likelihood(&self, t: &[f64]) -> f64 {
-        if t[0] > 1.0 { f64::NAN } else { -0.5 * t[0] * t[0] }
+        if t[0] > 1.0 {
+            f64::NAN
+        } else {
+            -0.5 * t[0] * t[0]
+        }
     }
     fn prior(&self) -> &Prior {
         &self.prior
@@ -387,7 +477,11 @@ impl LogDensity for HoleyNormal {
 #[test]
 fn prior_rejections_and_non_finite_likelihoods_are_counted_rejections() {
     let target = HoleyNormal {
-        prior: Prior::new(vec!["x".into()], vec![PriorKind::Uniform { lo: -1.5, hi: 1.5 }]).unwrap(),
+        prior: Prior::new(
+            vec!["x".into()],
+            vec![PriorKind::Uniform { lo: -1.5, hi: 1.5 }],
+        )
+        .unwrap(),
     };
     let s = MhSettings {
         n_iter: 41_000,
@@ -418,11 +512,20 @@ fn prior_rejections_and_non_finite_likelihoods_are_counted_rejections() {
     let var = 1.0 + (a * phi(a) - b * phi(b)) / z - mean * mean;
     let diag = ch.diagnostics().unwrap();
     let tol = 4.0 * (var / diag.ess[0]).sqrt();
-    assert!((ch.mean()[0] - mean).abs() < tol, "{} vs {mean} ± {tol}", ch.mean()[0]);
+    assert!(
+        (ch.mean()[0] - mean).abs() < tol,
+        "{} vs {mean} ± {tol}",
+        ch.mean()[0]
+    );
     let w = diag.warnings();
-    eprintln!("holey mean {} vs {mean} tol {tol} ess {} counts {:?}", ch.mean()[0], diag.ess[0], ch.chains()[0].counts);
-    assert!(w.iter().any(|w| matches!(w, Warning::NonFinite { .. })), "{w:?}");
-    assert!(w.iter().all(|w| matches!(w, Warning::NonFinite { .. })), "{w:?}");
+    assert!(
+        w.iter().any(|w| matches!(w, Warning::NonFinite { .. })),
+        "{w:?}"
+    );
+    assert!(
+        w.iter().all(|w| matches!(w, Warning::NonFinite { .. })),
+        "{w:?}"
+    );
 }
 
 #[test]
@@ -438,11 +541,15 @@ fn bad_starts_and_covariances_are_clear_errors() {
     let mh = MetropolisHastings::new(&t, &cov, s.clone()).unwrap();
     let outside = vec![t.mu[0] + 100.0 * t.sd(0), t.mu[1]];
     match mh.run(&Start::Point(outside)) {
-        Err(SamplerError::Start { chain: 0, problem }) => assert!(problem.contains("`p0`"), "{problem}"),
+        Err(SamplerError::Start { chain: 0, problem }) => {
+            assert!(problem.contains("`p0`"), "{problem}")
+        }
         other => panic!("{other:?}"),
     }
     match mh.run(&Start::Point(vec![0.0])) {
-        Err(SamplerError::Start { problem, .. }) => assert!(problem.contains("1 entries"), "{problem}"),
+        Err(SamplerError::Start { problem, .. }) => {
+            assert!(problem.contains("1 entries"), "{problem}")
+        }
         other => panic!("{other:?}"),
     }
     match mh.run(&Start::PerChain(vec![t.mu.clone()])) {
@@ -450,20 +557,32 @@ fn bad_starts_and_covariances_are_clear_errors() {
         other => panic!("{other:?}"),
     }
     match MetropolisHastings::new(&t, &DMatrix::identity(3, 3), s.clone()) {
-        Err(SamplerError::Covariance { problem }) => assert!(problem.contains("2 parameters"), "{problem}"),
+        Err(SamplerError::Covariance { problem }) => {
+            assert!(problem.contains("2 parameters"), "{problem}")
+        }
         Err(e) => panic!("{e}"),
         Ok(_) => panic!("accepted a 3×3 covariance for a 2-D target"),
     }
     assert!(matches!(
         MetropolisHastings::new(&t, &cov, MhSettings { burn_in: 100, ..s }),
-        Err(SamplerError::Setting { field: "burn_in", .. })
+        Err(SamplerError::Setting {
+            field: "burn_in",
+            ..
+        })
     ));
     let holey = HoleyNormal {
-        prior: Prior::new(vec!["x".into()], vec![PriorKind::Uniform { lo: -2.0, hi: 2.0 }]).unwrap(),
+        prior: Prior::new(
+            vec!["x".into()],
+            vec![PriorKind::Uniform { lo: -2.0, hi: 2.0 }],
+        )
+        .unwrap(),
     };
-    let mh = MetropolisHastings::new(&holey, &DMatrix::identity(1, 1), MhSettings::default()).unwrap();
+    let mh =
+        MetropolisHastings::new(&holey, &DMatrix::identity(1, 1), MhSettings::default()).unwrap();
     match mh.run(&Start::Point(vec![1.5])) {
-        Err(SamplerError::Start { problem, .. }) => assert!(problem.contains("not finite"), "{problem}"),
+        Err(SamplerError::Start { problem, .. }) => {
+            assert!(problem.contains("not finite"), "{problem}")
+        }
         other => panic!("{other:?}"),
     }
 }
@@ -479,7 +598,12 @@ fn prior_starts_are_distinct_draws_inside_the_support() {
     };
     let q = GaussianProposal::new(&optimal_cov(&t)).unwrap();
     let starts: Vec<Vec<f64>> = (0..3)
-        .map(|c| ChainState::new(c, &t, &s, &q, &Start::Prior).unwrap().theta().to_vec())
+        .map(|c| {
+            ChainState::new(c, &t, &s, &q, &Start::Prior)
+                .unwrap()
+                .theta()
+                .to_vec()
+        })
         .collect();
     for p in &starts {
         assert!(t.prior().contains(p));
@@ -536,18 +660,22 @@ fn nelder_mead_finds_rosenbrock_minimum_free_and_bounded() {
     let st = NelderMeadSettings::default();
     let m = nelder_mead(rosen, &[-1.2, 1.0], &[0.5, 0.5], &st).unwrap();
     assert!(m.converged);
-    eprintln!("rosen {m:?}");
     // Near (1, 1), f ≈ ½ δᵀHδ with smallest Hessian eigenvalue 0.4: f < 1e-9 puts δ within
     // √(2e-9/0.4) ≈ 7e-5 of the minimum.
     assert!(m.f < 1e-9, "{m:?}");
-    assert!((m.x[0] - 1.0).abs() < 1e-4 && (m.x[1] - 1.0).abs() < 1e-4, "{m:?}");
+    assert!(
+        (m.x[0] - 1.0).abs() < 1e-4 && (m.x[1] - 1.0).abs() < 1e-4,
+        "{m:?}"
+    );
     // Box x ≤ 0.5 by rejection: the constrained minimum is (0.5, 0.25) with f = 0.25, since
     // f ≥ (1 − x)² ≥ 0.25 there.
     let boxed = |x: &[f64]| if x[0] > 0.5 { f64::INFINITY } else { rosen(x) };
     let m = nelder_mead(boxed, &[-1.2, 1.0], &[0.5, 0.5], &st).unwrap();
-    eprintln!("boxed {m:?}");
     assert!((m.f - 0.25).abs() < 1e-8, "{m:?}");
-    assert!((m.x[0] - 0.5).abs() < 1e-6 && (m.x[1] - 0.25).abs() < 1e-4, "{m:?}");
+    assert!(
+        (m.x[0] - 0.5).abs() < 1e-6 && (m.x[1] - 0.25).abs() < 1e-4,
+        "{m:?}"
+    );
 }
 
 #[test]
@@ -561,7 +689,6 @@ fn find_map_recovers_the_gaussian_mode() {
         // −ln posterior − its minimum = ½ Mahalanobis²; ask for 1e-8, i.e. the mode within
         // 1.4e-4 standard deviations along every direction.
         let excess = 0.5 * t.mahalanobis2(&m.theta);
-        eprintln!("map D={d} excess={excess} evals={} restarts={}", m.evals, m.restarts);
         assert!(excess < 1e-8, "D = {d}: excess {excess}, {} evals", m.evals);
         assert_eq!(m.ln_posterior, t.ln_posterior(&m.theta));
     }

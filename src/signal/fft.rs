@@ -125,7 +125,7 @@ impl RealFft {
         }
         self.spec_buf.copy_from_slice(spec);
         self.spec_buf[0].im = 0.0;
-        if self.n % 2 == 0 {
+        if self.n.is_multiple_of(2) {
             self.spec_buf[self.n / 2].im = 0.0;
         }
         self.inv

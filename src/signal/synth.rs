@@ -298,6 +298,7 @@ mod tests {
     use std::f64::consts::PI;
 
     type M2 = [[Complex64; 2]; 2];
+    type BoxedCsd = Box<dyn Fn(f64) -> M2>;
 
     /// `S = L Lᴴ` with a frequency-dependent lower-triangular `L`: red channel 1, complex
     /// rotating cross term, coherence ≈ 0.5–0.8. Levels are LPF-like (m²/Hz).
@@ -354,10 +355,26 @@ mod tests {
             var_im += (1.0 - (gamma * gamma).re) / 2.0;
         }
         let tol = 4.0 / k.sqrt();
+        eprintln!(
+            "circular DFT: ratios {:.4} {:.4} (se {:.4}), cross {:+.2}/{:+.2} se",
+            r1 / k,
+            r2 / k,
+            1.0 / k.sqrt(),
+            u.re / var_re.sqrt(),
+            u.im / var_im.sqrt()
+        );
         assert!((r1 / k - 1.0).abs() < tol, "channel 1: {}", r1 / k);
         assert!((r2 / k - 1.0).abs() < tol, "channel 2: {}", r2 / k);
-        assert!((u.re / k).abs() < 4.0 * var_re.sqrt() / k, "cross re {}", u.re / k);
-        assert!((u.im / k).abs() < 4.0 * var_im.sqrt() / k, "cross im {}", u.im / k);
+        assert!(
+            (u.re / k).abs() < 4.0 * var_re.sqrt() / k,
+            "cross re {}",
+            u.re / k
+        );
+        assert!(
+            (u.im / k).abs() < 4.0 * var_im.sqrt() / k,
+            "cross im {}",
+            u.im / k
+        );
         // DC is exactly zero: the series sums to zero.
         assert!(d1[0].norm() < 1e-9 * d1[1].norm() && d2[0].norm() < 1e-9 * d2[1].norm());
     }
@@ -385,9 +402,19 @@ mod tests {
         }
         let r = reps as f64;
         let se = (2.0 / r).sqrt();
+        eprintln!(
+            "nyquist: {:.4} {:.4} (se {se:.4}); cross {:.4} vs {rho:.4}",
+            a / r,
+            b / r,
+            x / r
+        );
         assert!((a / r - 1.0).abs() < 4.0 * se, "S11 at Nyquist: {}", a / r);
         assert!((b / r - 1.0).abs() < 4.0 * se, "S22 at Nyquist: {}", b / r);
-        assert!((x / r - rho).abs() < 4.0 * ((1.0 + rho * rho) / r).sqrt(), "Re S12: {}", x / r);
+        assert!(
+            (x / r - rho).abs() < 4.0 * ((1.0 + rho * rho) / r).sqrt(),
+            "Re S12: {}",
+            x / r
+        );
     }
 
     /// Normalised Welch deviations (Ŝ − S)/σ over bins `band` (every third bin, which are
@@ -396,7 +423,13 @@ mod tests {
     /// σ(Ŝ11) = S11/√M_eff, σ(Ŝ22) = S22/√M_eff, σ(Re Ŝ12)² = (S11 S22 + Re S12²)/(2 M_eff),
     /// σ(Im Ŝ12)² = (S11 S22 − Re S12²)/(2 M_eff) (Isserlis; Bendat & Piersol §9.2). Returns
     /// the deviations of S11, S22, Re S12, Im S12.
-    fn welch_deviations(y1: &[f64], y2: &[f64], fs: f64, l: usize, csd: &impl Fn(f64) -> M2) -> [Vec<f64>; 4] {
+    fn welch_deviations(
+        y1: &[f64],
+        y2: &[f64],
+        fs: f64,
+        l: usize,
+        csd: &impl Fn(f64) -> M2,
+    ) -> [Vec<f64>; 4] {
         let est = welch_csd2(y1, y2, &WelchConfig::new(fs, Window::Hann, l)).unwrap();
         let me = est.n_eff;
         let mut d: [Vec<f64>; 4] = Default::default();
@@ -422,8 +455,19 @@ mod tests {
             let k = dev.len() as f64;
             let mean = dev.iter().sum::<f64>() / k;
             let ms = dev.iter().map(|x| x * x).sum::<f64>() / k;
-            assert!(mean.abs() < 4.0 / k.sqrt(), "{what} {name}: mean deviation {mean}");
-            assert!((ms - 1.0).abs() < 4.0 * (2.0 / k).sqrt(), "{what} {name}: mean square {ms}");
+            eprintln!(
+                "{what} {name}: mean {mean:+.3} (se {:.3}), mean square {ms:.3} (se {:.3}), K = {k}",
+                1.0 / k.sqrt(),
+                (2.0 / k).sqrt()
+            );
+            assert!(
+                mean.abs() < 4.0 / k.sqrt(),
+                "{what} {name}: mean deviation {mean}"
+            );
+            assert!(
+                (ms - 1.0).abs() < 4.0 * (2.0 / k).sqrt(),
+                "{what} {name}: mean square {ms}"
+            );
         }
     }
 
@@ -442,8 +486,14 @@ mod tests {
     fn realistic_mode_is_the_middle_of_a_longer_circular_draw() {
         let (n, fs) = (1000usize, 4.0);
         let csd = coloured(fs);
-        let real = synth_two_channel(n, fs, &csd, &mut rng(8), SynthMode::Realistic { oversample: 3 })
-            .unwrap();
+        let real = synth_two_channel(
+            n,
+            fs,
+            &csd,
+            &mut rng(8),
+            SynthMode::Realistic { oversample: 3 },
+        )
+        .unwrap();
         let long = synth_two_channel(3 * n, fs, &csd, &mut rng(8), SynthMode::Circular).unwrap();
         for c in 0..2 {
             assert_eq!(real[c].len(), n);
@@ -456,8 +506,14 @@ mod tests {
         let (fs, l) = (10.0, 512usize);
         let n = 1 << 16; // 255 segments, M_eff ≈ 242
         let csd = coloured(fs);
-        let [y1, y2] =
-            synth_two_channel(n, fs, &csd, &mut rng(99), SynthMode::Realistic { oversample: 4 }).unwrap();
+        let [y1, y2] = synth_two_channel(
+            n,
+            fs,
+            &csd,
+            &mut rng(99),
+            SynthMode::Realistic { oversample: 4 },
+        )
+        .unwrap();
         assert_chi2_like(&welch_deviations(&y1, &y2, fs, l, &csd), "realistic");
     }
 
@@ -467,11 +523,26 @@ mod tests {
         // sample mean square of N samples of a circular series built from N/2 independent
         // bins has relative standard error √(2/N). 4 standard errors.
         let (n, fs, sigma) = (1usize << 15, 10.0, 2e-9);
-        let y = synth_one_channel(n, fs, |_| 2.0 * sigma * sigma / fs, &mut rng(3), SynthMode::Circular)
-            .unwrap();
+        let y = synth_one_channel(
+            n,
+            fs,
+            |_| 2.0 * sigma * sigma / fs,
+            &mut rng(3),
+            SynthMode::Circular,
+        )
+        .unwrap();
         let ms = y.iter().map(|v| v * v).sum::<f64>() / n as f64;
         let want = sigma * sigma * (1.0 - 1.0 / n as f64);
-        assert!((ms / want - 1.0).abs() < 4.0 * (2.0 / n as f64).sqrt(), "{}", ms / want);
+        eprintln!(
+            "white variance ratio − 1 = {:.2e} (se {:.2e})",
+            ms / want - 1.0,
+            (2.0 / n as f64).sqrt()
+        );
+        assert!(
+            (ms / want - 1.0).abs() < 4.0 * (2.0 / n as f64).sqrt(),
+            "{}",
+            ms / want
+        );
         // Coloured: Welch PSD over a band, mean ratio within 4 standard errors √(1.94/(M_eff K))
         // (1.94 = Hann neighbour-correlation factor, see the welch tests).
         let psd = |f: f64| 1e-20 * (1.0 + (0.3 / f.max(1e-9)).powi(2));
@@ -480,7 +551,15 @@ mod tests {
         let band = 8..120;
         let k = band.len() as f64;
         let mean = band.map(|b| est.psd[b] / psd(est.freqs[b])).sum::<f64>() / k;
-        assert!((mean - 1.0).abs() < 4.0 * (1.94 / (est.n_eff * k)).sqrt(), "ratio {mean}");
+        eprintln!(
+            "one-channel coloured: ratio − 1 = {:.2e} (se {:.2e})",
+            mean - 1.0,
+            (1.94 / (est.n_eff * k)).sqrt()
+        );
+        assert!(
+            (mean - 1.0).abs() < 4.0 * (1.94 / (est.n_eff * k)).sqrt(),
+            "ratio {mean}"
+        );
     }
 
     #[test]
@@ -491,7 +570,10 @@ mod tests {
             let a2 = 1e-18 / (1.0 + f);
             [
                 [Complex64::new(a2, 0.0), Complex64::new(-2.0 * a2, 0.0)],
-                [Complex64::new(-2.0 * a2, 0.0), Complex64::new(4.0 * a2, 0.0)],
+                [
+                    Complex64::new(-2.0 * a2, 0.0),
+                    Complex64::new(4.0 * a2, 0.0),
+                ],
             ]
         };
         let [y1, y2] = synth_two_channel(n, fs, rank1, &mut rng(1), SynthMode::Circular).unwrap();
@@ -509,7 +591,14 @@ mod tests {
         assert!(y1.iter().all(|&v| v == 0.0));
         assert!(y2.iter().all(|v| v.is_finite()) && y2.iter().any(|&v| v != 0.0));
         let z = Complex64::new(0.0, 0.0);
-        let [a, b] = synth_two_channel(n, fs, |_| [[z, z], [z, z]], &mut rng(1), SynthMode::Circular).unwrap();
+        let [a, b] = synth_two_channel(
+            n,
+            fs,
+            |_| [[z, z], [z, z]],
+            &mut rng(1),
+            SynthMode::Circular,
+        )
+        .unwrap();
         assert!(a.iter().chain(&b).all(|&v| v == 0.0));
         let y = synth_one_channel(n, fs, |_| 0.0, &mut rng(1), SynthMode::Circular).unwrap();
         assert!(y.iter().all(|&v| v == 0.0));
@@ -531,12 +620,60 @@ mod tests {
         let one = Complex64::new(1.0, 0.0);
         let z = Complex64::new(0.0, 0.0);
         // Invalid only above 2 Hz: the first offending grid frequency is 2.125 Hz.
-        let cases: Vec<(Box<dyn Fn(f64) -> M2>, &str)> = vec![
-            (Box::new(move |f| if f > 2.0 { [[one, one * 2.0], [one * 2.0, one]] } else { [[one, z], [z, one]] }), "positive"),
-            (Box::new(move |f| if f > 2.0 { [[one, Complex64::new(0.1, 0.1)], [Complex64::new(0.1, 0.1), one]] } else { [[one, z], [z, one]] }), "Hermitian"),
-            (Box::new(move |f| if f > 2.0 { [[one, z], [z, Complex64::new(f64::NAN, 0.0)]] } else { [[one, z], [z, one]] }), "finite"),
-            (Box::new(move |f| if f > 2.0 { [[-one, z], [z, one]] } else { [[one, z], [z, one]] }), "negative"),
-            (Box::new(move |f| if f > 2.0 { [[Complex64::new(1.0, 0.5), z], [z, one]] } else { [[one, z], [z, one]] }), "real"),
+        let cases: Vec<(BoxedCsd, &str)> = vec![
+            (
+                Box::new(move |f| {
+                    if f > 2.0 {
+                        [[one, one * 2.0], [one * 2.0, one]]
+                    } else {
+                        [[one, z], [z, one]]
+                    }
+                }),
+                "positive",
+            ),
+            (
+                Box::new(move |f| {
+                    if f > 2.0 {
+                        [
+                            [one, Complex64::new(0.1, 0.1)],
+                            [Complex64::new(0.1, 0.1), one],
+                        ]
+                    } else {
+                        [[one, z], [z, one]]
+                    }
+                }),
+                "Hermitian",
+            ),
+            (
+                Box::new(move |f| {
+                    if f > 2.0 {
+                        [[one, z], [z, Complex64::new(f64::NAN, 0.0)]]
+                    } else {
+                        [[one, z], [z, one]]
+                    }
+                }),
+                "finite",
+            ),
+            (
+                Box::new(move |f| {
+                    if f > 2.0 {
+                        [[-one, z], [z, one]]
+                    } else {
+                        [[one, z], [z, one]]
+                    }
+                }),
+                "negative",
+            ),
+            (
+                Box::new(move |f| {
+                    if f > 2.0 {
+                        [[Complex64::new(1.0, 0.5), z], [z, one]]
+                    } else {
+                        [[one, z], [z, one]]
+                    }
+                }),
+                "real",
+            ),
         ];
         for (csd, word) in cases {
             match synth_two_channel(n, fs, csd, &mut rng(0), SynthMode::Circular) {
@@ -560,17 +697,47 @@ mod tests {
         let sizes = [
             synth_one_channel(1, fs, |_| 1.0, &mut rng(0), SynthMode::Circular),
             synth_one_channel(8, 0.0, |_| 1.0, &mut rng(0), SynthMode::Circular),
-            synth_one_channel(8, fs, |_| 1.0, &mut rng(0), SynthMode::Realistic { oversample: 1 }),
-            synth_one_channel(usize::MAX / 2, fs, |_| 1.0, &mut rng(0), SynthMode::Realistic { oversample: 4 }),
+            synth_one_channel(
+                8,
+                fs,
+                |_| 1.0,
+                &mut rng(0),
+                SynthMode::Realistic { oversample: 1 },
+            ),
+            synth_one_channel(
+                usize::MAX / 2,
+                fs,
+                |_| 1.0,
+                &mut rng(0),
+                SynthMode::Realistic { oversample: 4 },
+            ),
         ];
         assert!(matches!(sizes[0], Err(SignalError::TooShort { .. })));
-        assert!(matches!(sizes[1], Err(SignalError::InvalidParameter { name: "fs", .. })));
-        assert!(matches!(sizes[2], Err(SignalError::InvalidParameter { name: "oversample", .. })));
-        assert!(matches!(sizes[3], Err(SignalError::InvalidParameter { name: "oversample", .. })));
+        assert!(matches!(
+            sizes[1],
+            Err(SignalError::InvalidParameter { name: "fs", .. })
+        ));
+        assert!(matches!(
+            sizes[2],
+            Err(SignalError::InvalidParameter {
+                name: "oversample",
+                ..
+            })
+        ));
+        assert!(matches!(
+            sizes[3],
+            Err(SignalError::InvalidParameter {
+                name: "oversample",
+                ..
+            })
+        ));
         assert_eq!(
             serde_json::to_string(&SynthMode::Realistic { oversample: 2 }).unwrap(),
             r#"{"realistic":{"oversample":2}}"#
         );
-        assert_eq!(serde_json::to_string(&SynthMode::default()).unwrap(), r#""circular""#);
+        assert_eq!(
+            serde_json::to_string(&SynthMode::default()).unwrap(),
+            r#""circular""#
+        );
     }
 }

@@ -1,0 +1,19 @@
+//! The frequency-domain likelihood (ltp-model.md §8): per-experiment spectra, the exact
+//! `ln L` over all in-band bins, a relative-binned fast `ln L`, and Fisher matrices.
+//!
+//! `ln L = −Σ_e Σ_k R_kᴴ C_k⁻¹ R_k + const`, `R_k = Y_k − H_io(f_k; θ) I_k`,
+//! `C_k = (fs/2) Σ_n w[n]² S_k` (`= (N fs/2) S_k` for the rectangular window): normalised by the
+//! series length `N`, not by the number of in-band bins.
+
+mod exact;
+mod fisher;
+mod relbin;
+mod spectra;
+
+pub use exact::{LikelihoodError, LtpLikelihood};
+pub use fisher::{cramer_rao, default_step, fisher_exact, fisher_numeric};
+pub use relbin::{RelBinError, RelBinLikelihood, RelBinOptions};
+pub use spectra::{ExperimentSpectra, NoiseSource, SpectraError, SpectraOptions};
+
+#[cfg(test)]
+pub(crate) mod tests;

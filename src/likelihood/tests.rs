@@ -1,0 +1,283 @@
+//! Oracle and statistical tests of the likelihood.
+
+use super::*;
+use crate::config::Study;
+use crate::dataset::ExperimentData;
+use crate::experiment::{System, simulate};
+use crate::hermitian::Mat2;
+use crate::ltp::{Controllers, LtpParams, N_PARAMS, PARAM_NAMES, response};
+use crate::prior::{Prior, PriorKind};
+use crate::signal::dft_naive;
+use num_complex::Complex64;
+use std::path::Path;
+
+pub(crate) fn wide_prior() -> Prior {
+    let kinds = vec![
+        PriorKind::Uniform { lo: -4e-6, hi: 0.0 },
+        PriorKind::Uniform { lo: -4e-6, hi: 0.0 },
+        PriorKind::Uniform { lo: 0.0, hi: 1.0 },
+        PriorKind::Uniform { lo: 0.0, hi: 1.0 },
+        PriorKind::Uniform { lo: 0.5, hi: 1.5 },
+        PriorKind::Uniform { lo: 0.5, hi: 1.5 },
+        PriorKind::Uniform {
+            lo: -1e-3,
+            hi: 1e-3,
+        },
+    ];
+    Prior::new(PARAM_NAMES.iter().map(|s| s.to_string()).collect(), kinds).unwrap()
+}
+
+/// A small two-experiment study (1 Hz sampling, short stretches) for fast tests.
+pub(crate) fn small_study(seed: u64, amp: f64, noise: &str) -> Study {
+    let text = format!(
+        r#"seed = {seed}
+output = "unused"
+[simulation]
+noise = "{noise}"
+[[experiment]]
+name = "a"
+fs = 1.0
+pre_pad = 200.0
+post_pad = 1500.0
+noise_duration = 4000.0
+x1 = {{ kind = "sine_train", gap = 20.0, segments = [
+  {{ freq = 0.002, amplitude = {amp}, duration = 500.0 }},
+  {{ freq = 0.02, amplitude = {amp}, duration = 200.0 }},
+  {{ freq = 0.1, amplitude = {amp}, duration = 100.0 }} ] }}
+[[experiment]]
+name = "b"
+fs = 1.0
+pre_pad = 200.0
+post_pad = 1500.0
+noise_duration = 4000.0
+x12 = {{ kind = "sine_train", gap = 20.0, segments = [
+  {{ freq = 0.002, amplitude = {amp}, duration = 500.0 }},
+  {{ freq = 0.02, amplitude = {amp}, duration = 200.0 }} ] }}
+"#
+    );
+    Study::from_toml(&text, "small.toml", Path::new(".")).unwrap()
+}
+
+pub(crate) fn likelihood_of(study: &Study, opts: &SpectraOptions) -> LtpLikelihood {
+    let sim = simulate(study).unwrap();
+    let sys = System::of(study);
+    let csd = |f: f64| -> Mat2 { sys.noise_csd(f) };
+    let spectra = sim
+        .dataset
+        .experiments
+        .iter()
+        .map(|e| ExperimentSpectra::new(e, opts, &Controllers::default(), Some(&csd)).unwrap())
+        .collect();
+    LtpLikelihood::new(spectra, study.masses, wide_prior()).unwrap()
+}
+
+fn model_opts() -> SpectraOptions {
+    SpectraOptions {
+        noise: NoiseSource::Model,
+        band: [1e-3, 0.3],
+        ..Default::default()
+    }
+}
+
+/// The FFT-based ln L equals a naive direct sum: O(N²) DFT, explicit 2×2 solve per bin.
+#[test]
+fn fft_likelihood_equals_naive_direct_sum() {
+    let study = small_study(11, 1e-7, "circular");
+    let opts = model_opts();
+    let lik = likelihood_of(&study, &opts);
+    let sim = simulate(&study).unwrap();
+    let sys = System::of(&study);
+    let th = LtpParams {
+        a_df: 0.83,
+        dt1: 0.1,
+        ..Default::default()
+    }
+    .to_array();
+    let mut naive = 0.0;
+    let mut norm = 0.0;
+    for e in &sim.dataset.experiments {
+        let ExperimentData { o, i, fs, .. } = e;
+        let n = o[0].len();
+        let dft = [&o[0], &o[1], &i[0], &i[1]].map(|x| dft_naive(x));
+        for k in 1..n / 2 {
+            let f = k as f64 * fs / n as f64;
+            if f < opts.band[0] || f > opts.band[1] {
+                continue;
+            }
+            let bc = crate::ltp::BinConsts::new(f, &Controllers::default(), 0.0);
+            let h = response(&th, &bc, &study.masses, [dft[2][k], dft[3][k]]);
+            let r = [dft[0][k] - h[0], dft[1][k] - h[1]];
+            let s = sys.noise_csd(f);
+            let sc = n as f64 * fs / 2.0;
+            let c = [[s[0][0] * sc, s[0][1] * sc], [s[1][0] * sc, s[1][1] * sc]];
+            let det = c[0][0] * c[1][1] - c[0][1] * c[1][0];
+            let x0 = (c[1][1] * r[0] - c[0][1] * r[1]) / det;
+            let x1 = (c[0][0] * r[1] - c[1][0] * r[0]) / det;
+            naive += (r[0].conj() * x0 + r[1].conj() * x1).re;
+            norm += 2.0 * std::f64::consts::PI.ln() + det.re.ln();
+        }
+    }
+    let fast = lik.ln_likelihood_full(&th);
+    let want = -naive - norm;
+    // naive DFT sums carry O(N ε) relative rounding on each bin
+    assert!(
+        ((fast - want) / want).abs() < 1e-9,
+        "fft {fast} vs naive {want}"
+    );
+}
+
+/// On pure noise at the true θ, `Q = Σ RᴴC⁻¹R` over K bins is a sum of K independent
+/// Gamma(2, 1) variables (each bin is a circular complex Gaussian 2-vector): mean 2K, variance
+/// 2K. Over M seeds the mean of Q/(2K) has standard error 1/√(2K M), and the sample variance
+/// of Q/(2K) has relative standard error ≈ √(2/(M−1)); we allow 4 standard errors.
+#[test]
+fn residual_power_at_truth_is_chi_square_distributed() {
+    let m = 120;
+    let mut qs = Vec::new();
+    let mut k_bins = 0;
+    for seed in 0..m {
+        let study = small_study(1000 + seed, 1e-7, "circular");
+        let lik = likelihood_of(&study, &model_opts());
+        k_bins = lik.n_bins();
+        qs.push(lik.residual_power(&study.truth.to_array()) / (2 * k_bins) as f64);
+    }
+    let mean = qs.iter().sum::<f64>() / m as f64;
+    let var = qs.iter().map(|q| (q - mean).powi(2)).sum::<f64>() / (m - 1) as f64;
+    let k2 = (2 * k_bins) as f64;
+    let se_mean = (1.0 / (k2 * m as f64)).sqrt();
+    assert!(
+        (mean - 1.0).abs() < 4.0 * se_mean,
+        "mean {mean}, se {se_mean}"
+    );
+    let want_var = 1.0 / k2;
+    let rel = (2.0 / (m - 1) as f64).sqrt();
+    assert!(
+        (var / want_var - 1.0).abs() < 4.0 * rel,
+        "var {var} vs {want_var} (rel se {rel})"
+    );
+}
+
+/// Exact (dual-number) and central-difference Fisher matrices agree.
+#[test]
+fn fisher_exact_matches_central_differences() {
+    let study = small_study(5, 1e-6, "none");
+    let lik = likelihood_of(&study, &model_opts());
+    let th = study.truth.to_array();
+    let free: Vec<usize> = (0..N_PARAMS).collect();
+    let fe = fisher_exact(&lik, &th, &free);
+    let fnum = fisher_numeric(&lik, &th, &free, None);
+    for i in 0..N_PARAMS {
+        for j in 0..N_PARAMS {
+            let scale = (fe[(i, i)] * fe[(j, j)]).sqrt();
+            // central differences with an ε^{1/3} step: error ~ ε^{2/3} ≈ 4e−11 relative,
+            // amplified by the curvature of h; 1e−6 of the diagonal scale is ample
+            assert!(
+                (fe[(i, j)] - fnum[(i, j)]).abs() < 1e-6 * scale,
+                "F[{i}][{j}]: exact {} numeric {}",
+                fe[(i, j)],
+                fnum[(i, j)]
+            );
+        }
+    }
+    assert!(cramer_rao(&fe).is_some());
+}
+
+/// The likelihood is exactly quadratic in a parameter that enters h linearly. None of the
+/// seven does, but at a noiseless truth ln L(θ0 + δ) − ln L(θ0) = −½ δᵀFδ to second order:
+/// check the Fisher curvature against ln L itself along each axis (ltp-model.md §11).
+#[test]
+fn fisher_is_the_curvature_of_ln_l_at_noiseless_truth() {
+    let study = small_study(5, 1e-6, "none");
+    let lik = likelihood_of(&study, &model_opts());
+    let th = study.truth.to_array();
+    let free: Vec<usize> = (0..N_PARAMS).collect();
+    let f = fisher_exact(&lik, &th, &free);
+    let sig = cramer_rao(&f).unwrap();
+    let l0 = lik.ln_likelihood_full(&th);
+    for a in 0..N_PARAMS {
+        let mut p = th;
+        p[a] += 0.1 * sig[a];
+        let dl = lik.ln_likelihood_full(&p) - l0;
+        let want = -0.5 * f[(a, a)] * (0.1 * sig[a]).powi(2);
+        assert!(
+            (dl - want).abs() < 0.01 * want.abs() + 1e-9,
+            "{a}: {dl} vs {want}"
+        );
+    }
+}
+
+/// Points on the `r`-σ ellipsoid of the Fisher covariance: ± each principal axis and `n`
+/// random directions (whitened by the Cholesky factor of F⁻¹).
+pub(crate) fn ellipsoid_points(
+    f: &nalgebra::DMatrix<f64>,
+    center: &[f64; N_PARAMS],
+    r: f64,
+    n: usize,
+    seed: u64,
+) -> Vec<[f64; N_PARAMS]> {
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, StandardNormal};
+    let cov = f.clone().cholesky().unwrap().inverse();
+    let l = cov.clone().cholesky().unwrap().l();
+    let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(seed);
+    let mut dirs: Vec<Vec<f64>> = Vec::new();
+    for i in 0..N_PARAMS {
+        for s in [-1.0, 1.0] {
+            let mut u = vec![0.0; N_PARAMS];
+            u[i] = s;
+            dirs.push(u);
+        }
+    }
+    for _ in 0..n {
+        let u: Vec<f64> = (0..N_PARAMS)
+            .map(|_| StandardNormal.sample(&mut rng))
+            .collect();
+        let norm = u.iter().map(|x| x * x).sum::<f64>().sqrt();
+        dirs.push(u.iter().map(|x| x / norm).collect());
+    }
+    dirs.iter()
+        .map(|u| {
+            std::array::from_fn(|i| {
+                center[i] + r * (0..N_PARAMS).map(|j| l[(i, j)] * u[j]).sum::<f64>()
+            })
+        })
+        .collect()
+}
+
+#[test]
+fn relative_binning_matches_exact_in_the_5_sigma_region() {
+    let study = small_study(9, 1e-6, "circular");
+    let lik = likelihood_of(&study, &model_opts());
+    let th = study.truth.to_array();
+    let free: Vec<usize> = (0..N_PARAMS).collect();
+    let f = fisher_exact(&lik, &th, &free);
+    let rb = RelBinLikelihood::new(&lik, &th, &Default::default()).unwrap();
+    assert!(
+        rb.n_coarse() < lik.n_bins() / 2,
+        "{} coarse bins",
+        rb.n_coarse()
+    );
+    assert!((rb.ln_likelihood_full(&th) - lik.ln_likelihood_full(&th)).abs() < 1e-6);
+    for p in ellipsoid_points(&f, &th, 5.0, 30, 1) {
+        let d = rb.ln_likelihood_full(&p) - lik.ln_likelihood_full(&p);
+        assert!(d.abs() < 0.01, "Δ ln L = {d} at {p:?}");
+    }
+}
+
+#[test]
+fn bad_bands_are_reported() {
+    let study = small_study(1, 1e-6, "circular");
+    let sim = simulate(&study).unwrap();
+    let e = &sim.dataset.experiments[0];
+    for band in [[2.0, 3.0], [0.3, 0.1], [0.0, 0.1]] {
+        let opts = SpectraOptions {
+            band,
+            ..Default::default()
+        };
+        let err = ExperimentSpectra::new(e, &opts, &Controllers::default(), None)
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("band"), "{err}");
+    }
+    let _ = Complex64::new(0.0, 0.0);
+}

@@ -1,0 +1,160 @@
+//! Bar chart of how often each model was visited (the paper's Fig. 4).
+
+use super::ReportError;
+use super::axis::Axis;
+use super::format::fmt_sig;
+use super::plots::{DrawResult, Figure, bad_input, chart, colour, render, text, y_label_area};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
+use plotters::style::FontTransform;
+use std::path::Path;
+
+/// Writes `<dir>/<stem>.png` and `.svg`: one bar per model, its height the fraction of all
+/// visits (`counts[k] / Σ counts`, so raw iteration counts and probabilities plot alike),
+/// the fraction printed above each bar when there are at most 25 models. Long labels are
+/// turned vertical.
+///
+/// Errors ([`ReportError::InvalidInput`]): no models, `labels` and `counts` of different
+/// lengths, a negative or non-finite count, or all counts zero.
+///
+/// ```
+/// use occam::report::model_histogram;
+///
+/// let dir = tempfile::tempdir().unwrap();
+/// let labels: Vec<String> = (3..=7).map(|k| format!("{k}-D")).collect();
+/// model_histogram(dir.path(), "models", &labels, &[120.0, 900.0, 7400.0, 1400.0, 180.0]).unwrap();
+/// assert!(dir.path().join("models.png").exists());
+/// ```
+pub fn model_histogram(
+    dir: &Path,
+    stem: &str,
+    labels: &[String],
+    counts: &[f64],
+) -> Result<(), ReportError> {
+    let fig = BarFigure::new(dir, stem, labels, counts)?;
+    render(dir, stem, &fig)
+}
+
+const HEIGHT: u32 = 520;
+const LABEL_LIMIT: usize = 25;
+/// DejaVu Sans at 14 px: about 8 px per character.
+const CHAR_PX: u32 = 8;
+
+struct BarFigure {
+    labels: Vec<String>,
+    fractions: Vec<f64>,
+    total: f64,
+    y: Axis,
+    width: u32,
+    vertical_labels: bool,
+}
+
+impl BarFigure {
+    fn new(dir: &Path, stem: &str, labels: &[String], counts: &[f64]) -> Result<Self, ReportError> {
+        if counts.is_empty() {
+            return Err(bad_input(dir, stem, "counts", "is empty; give one count per model"));
+        }
+        if labels.len() != counts.len() {
+            return Err(bad_input(
+                dir,
+                stem,
+                "labels",
+                format!(
+                    "has {} entries but counts has {}; give one label per model",
+                    labels.len(),
+                    counts.len()
+                ),
+            ));
+        }
+        if let Some(k) = counts.iter().position(|c| !(c.is_finite() && *c >= 0.0)) {
+            return Err(bad_input(
+                dir,
+                stem,
+                format!("counts[{k}]"),
+                format!("is {}; counts must be finite and ≥ 0", counts[k]),
+            ));
+        }
+        let total: f64 = counts.iter().sum();
+        if total <= 0.0 {
+            return Err(bad_input(dir, stem, "counts", "are all zero; nothing to plot"));
+        }
+        let fractions: Vec<f64> = counts.iter().map(|c| c / total).collect();
+        let peak = fractions.iter().copied().fold(0.0, f64::max);
+        // Head room for the value printed above the tallest bar.
+        let mut y = Axis::linear(0.0, peak * 1.12, 6);
+        y.lo = 0.0;
+        y.ticks.retain(|t| *t >= 0.0);
+        let n = counts.len() as u32;
+        let width = (n * 70 + 160).clamp(640, 2400);
+        let slot = (width - 160) / n;
+        let longest = labels.iter().map(|l| l.chars().count()).max().unwrap_or(0) as u32;
+        Ok(BarFigure {
+            labels: labels.to_vec(),
+            fractions,
+            total,
+            y,
+            width,
+            vertical_labels: longest * CHAR_PX + 6 > slot,
+        })
+    }
+}
+
+impl Figure for BarFigure {
+    fn size(&self) -> (u32, u32) {
+        let longest = self.labels.iter().map(|l| l.chars().count()).max().unwrap_or(0) as u32;
+        let extra = if self.vertical_labels { longest * CHAR_PX } else { 0 };
+        (self.width, HEIGHT + extra)
+    }
+
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult<DB> {
+        let title = format!("Model visits ({} in total)", fmt_sig(self.total, 6));
+        let area = root.titled(&title, text(18))?.margin(5, 10, 10, 20);
+        let n = self.fractions.len();
+        let mut x = Axis::linear(0.0, 1.0, 1);
+        x.lo = -0.5;
+        x.hi = n as f64 - 0.5;
+        x.ticks = (0..n).map(|k| k as f64).collect();
+        let longest = self.labels.iter().map(|l| l.chars().count()).max().unwrap_or(0) as u32;
+        let x_area = if self.vertical_labels { longest * CHAR_PX + 45 } else { 50 };
+        let mut ch = chart(&area, (&x, &self.y), (x_area, y_label_area(&self.y, true)), None)?;
+        let label_of = |v: &f64| {
+            let k = v.round();
+            if (v - k).abs() < 1e-9 && k >= 0.0 {
+                self.labels.get(k as usize).cloned().unwrap_or_default()
+            } else {
+                String::new()
+            }
+        };
+        let y_label = |v: &f64| self.y.label(*v);
+        let x_style = if self.vertical_labels {
+            text(14).transform(FontTransform::Rotate90)
+        } else {
+            text(14)
+        };
+        ch.configure_mesh()
+            .disable_x_mesh()
+            .x_label_formatter(&label_of)
+            .y_label_formatter(&y_label)
+            .x_label_style(x_style)
+            .y_label_style(text(14))
+            .axis_desc_style(text(16))
+            .bold_line_style(RGBColor(230, 230, 230))
+            .axis_style(RGBColor(90, 90, 90))
+            .x_desc("model")
+            .y_desc(self.y.desc("fraction of visits"))
+            .draw()?;
+        let fill = colour(0).filled();
+        ch.draw_series(self.fractions.iter().enumerate().map(|(k, &f)| {
+            let k = k as f64;
+            Rectangle::new([(k - 0.38, 0.0), (k + 0.38, f)], fill)
+        }))?;
+        if n <= LABEL_LIMIT {
+            let style = text(13).pos(Pos::new(HPos::Center, VPos::Bottom));
+            ch.draw_series(self.fractions.iter().enumerate().map(|(k, &f)| {
+                Text::new(fmt_sig(f, 3), (k as f64, f), style.clone())
+            }))?;
+        }
+        Ok(())
+    }
+}

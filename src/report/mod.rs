@@ -1,0 +1,85 @@
+//! Reports: plots (PNG and SVG) and text tables from plain numbers.
+//!
+//! This module knows nothing about samplers or models: callers hand it names, sample arrays
+//! and `(x, y)` series. Every plot is written twice, `<stem>.png` and `<stem>.svg`, each
+//! atomically (rendered to a hidden temporary file in the same directory, then renamed), so
+//! an interrupted run never leaves a half-drawn figure behind.
+//!
+//! Axis labels cope with parameters of very different scales (a stiffness of
+//! `-1.3×10⁻⁶ s⁻²` next to a gain of `0.8`): every axis gets its own power-of-ten factor, and
+//! when the spread is tiny compared with the value a round offset is subtracted, the axis
+//! being described as `(name + 1.300×10⁻⁶) / 10⁻¹⁰` (see [`trace_plot`]).
+//!
+//! ```
+//! use occam::report::{Table, fmt_pm, kass_raftery};
+//!
+//! let mut t = Table::new(["Method", "ln B_XY", "evidence"]);
+//! t.push_row(["RJMCMC", "-1.17", kass_raftery(-1.17)]).unwrap();
+//! assert!(t.to_markdown().starts_with("| Method |"));
+//! assert_eq!(fmt_pm(-1.29998e-6, 2.1e-10), "(-1.29998 ± 0.00021)e-6");
+//! ```
+
+mod axis;
+mod bars;
+mod corner;
+mod format;
+mod lines;
+mod plots;
+mod table;
+mod trace;
+
+use std::path::PathBuf;
+
+pub use bars::model_histogram;
+pub use corner::corner_plot;
+pub use format::{fmt_pm, fmt_sig, kass_raftery};
+pub use lines::{LinePlot, bayes_factor_evolution, line_plot};
+pub use table::Table;
+pub use trace::trace_plot;
+
+/// What went wrong while writing a report.
+#[derive(Debug, thiserror::Error)]
+pub enum ReportError {
+    /// The data handed to a plot function cannot be drawn.
+    #[error("cannot draw {}: `{field}` {problem}", file.display())]
+    InvalidInput {
+        /// The figure, as `<dir>/<stem>.{png,svg}`.
+        file: PathBuf,
+        /// The argument (and index) at fault, e.g. `chains[1][40]`.
+        field: String,
+        /// What is wrong and how to fix it.
+        problem: String,
+    },
+    /// Creating, writing or renaming a file failed.
+    #[error("cannot write {}: {source}", file.display())]
+    Io {
+        /// The file being written.
+        file: PathBuf,
+        /// The operating-system error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The plotting library failed while rendering.
+    #[error("rendering {} failed: {message}", file.display())]
+    Draw {
+        /// The file being rendered.
+        file: PathBuf,
+        /// The plotting library's message.
+        message: String,
+    },
+    /// The font compiled into the binary could not be parsed (a corrupt build).
+    #[error(
+        "the embedded font assets/DejaVuSans.ttf could not be parsed; rebuild with an intact copy"
+    )]
+    Font,
+    /// A table row has the wrong number of cells.
+    #[error("table row {row} has {found} cells but the header has {expected}; give one cell per column")]
+    RowWidth {
+        /// Index of the offending row (0 = first row after the header).
+        row: usize,
+        /// Number of header columns.
+        expected: usize,
+        /// Number of cells given.
+        found: usize,
+    },
+}
