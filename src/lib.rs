@@ -16,4 +16,6 @@ pub mod likelihood;
 pub mod lti;
 pub mod ltp;
 pub mod prior;
+pub mod report;
+pub mod sampler;
 pub mod signal;

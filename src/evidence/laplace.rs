@@ -259,16 +259,20 @@ pub fn laplace_metropolis<T: LogDensity + ?Sized>(
             samples.ncols(),
         ));
     }
+    let tag = match method {
+        RobustMethod::Mve(_) => Method::LaplaceMetropolisMve,
+        RobustMethod::Mcd(_) => Method::LaplaceMetropolisMcd,
+    };
+    if d == 0 {
+        // No free parameter: Z = L exactly, there is nothing to estimate from the samples.
+        return assemble(target, theta_hat, DMatrix::zeros(0, 0), 0.0, tag, None);
+    }
     let rc = robust_covariance(samples, method)?;
     let chol = spd_cholesky(
         &rc.cov,
         "robust covariance",
         "the samples must vary in every parameter",
     )?;
-    let tag = match method {
-        RobustMethod::Mve(_) => Method::LaplaceMetropolisMve,
-        RobustMethod::Mcd(_) => Method::LaplaceMetropolisMcd,
-    };
     let ln_det_cov = ln_det(&chol);
     assemble(target, theta_hat, rc.cov, ln_det_cov, tag, None)
 }

@@ -237,6 +237,14 @@ impl LinearGaussian {
         ))
     }
 
+    /// Maximum-likelihood point of the model on `cols` (least squares, ignoring the prior) and
+    /// `ln L` there, e.g. for the Schwarz criterion.
+    pub fn max_likelihood(&self, cols: &[usize]) -> Result<(Vec<f64>, f64), EvidenceError> {
+        let (_, theta_hat, rss) = self.quadratic_part(cols)?;
+        let ln_l = self.ln_norm - rss / (2.0 * self.sigma * self.sigma);
+        Ok((theta_hat.iter().cloned().collect(), ln_l))
+    }
+
     /// `N(m, A⁻¹)`: the posterior of the model on `cols` before truncation to uniform boxes.
     /// `m` is the maximum of `L·π` (the MAP when it lies inside the boxes).
     pub fn gaussian_posterior(&self, cols: &[usize]) -> Result<GaussianPosterior, EvidenceError> {
@@ -605,6 +613,8 @@ mod tests {
         let sub = SubModel::new(&p.model, vec![0, 2], vec![0.0; 3]).unwrap();
         let theta = [0.4, -0.3];
         assert_eq!(sub.ln_likelihood(&theta), p.model.ln_likelihood(&[0.4, 0.0, -0.3]));
+        let (ml, ln_l) = p.model.max_likelihood(&[0, 2]).unwrap();
+        assert!((sub.ln_likelihood(&ml) - ln_l).abs() < 1e-9);
         let post = p.model.gaussian_posterior(&[0, 2]).unwrap();
         // The posterior mean is the maximum of ln L + ln π of the sub-model: zero gradient.
         let f = |t: &[f64]| sub.ln_posterior(t);

@@ -18,8 +18,9 @@
 //! error. Variables are first reordered by the Gibson–Glasbey–Elston rule (tightest conditional
 //! interval first; Genz & Bretz 2009 §4.1.3), which changes only the variance.
 //!
-//! D = 1 is computed exactly with `erfc`. Everything is done in logs so that tiny masses (a
-//! Gaussian far outside a box) keep their relative precision.
+//! D = 1 is computed exactly with `erfc`. Everything is done in logs, including the conditional
+//! draws, so that tiny masses (a Gaussian hundreds of σ outside a box) stay finite and keep
+//! their relative precision.
 
 use super::linalg::spd_cholesky;
 use super::{EvidenceError, normal};
@@ -76,10 +77,10 @@ pub struct MvnProbability {
 }
 
 impl MvnProbability {
-    fn exact(p: f64) -> Self {
+    fn exact(ln_p: f64) -> Self {
         Self {
-            p,
-            ln_p: p.ln(),
+            p: ln_p.exp(),
+            ln_p,
             std_err: 0.0,
             ln_p_std_err: 0.0,
             n_evals: 0,
@@ -140,16 +141,16 @@ pub fn mvn_rectangle(
         }
     }
     if d == 0 {
-        return Ok(MvnProbability::exact(1.0));
+        return Ok(MvnProbability::exact(0.0));
     }
     let chol = spd_cholesky(cov, "mvn covariance", "pass a positive-definite covariance")?;
     if lower.iter().zip(upper).any(|(a, b)| a == b) {
-        return Ok(MvnProbability::exact(0.0));
+        return Ok(MvnProbability::exact(f64::NEG_INFINITY));
     }
     if d == 1 {
         let s = chol.l_dirty()[(0, 0)];
-        let p = normal::interval((lower[0] - mean[0]) / s, (upper[0] - mean[0]) / s);
-        return Ok(MvnProbability::exact(p));
+        let ln_p = normal::ln_interval((lower[0] - mean[0]) / s, (upper[0] - mean[0]) / s);
+        return Ok(MvnProbability::exact(ln_p));
     }
     let prep = Prepared::new(lower, upper, mean, cov)?;
     Ok(prep.integrate(opts))
@@ -211,9 +212,9 @@ impl Prepared {
                     continue;
                 }
                 let sd = v.sqrt();
-                let p = normal::interval((a[j] - s) / sd, (b[j] - s) / sd);
-                if p < best.0 {
-                    best = (p, j);
+                let ln_p = normal::ln_interval((a[j] - s) / sd, (b[j] - s) / sd);
+                if ln_p < best.0 {
+                    best = (ln_p, j);
                 }
             }
             let j = best.1;
@@ -260,18 +261,14 @@ impl Prepared {
             let lii = self.l[i * d + i];
             let (lo, hi) = ((self.a[i] - s) / lii, (self.b[i] - s) / lii);
             if i + 1 < d {
-                let (yi, p) = normal::truncated_quantile(lo, hi, w[i]);
-                if p == 0.0 {
+                let (yi, ln_p) = normal::truncated_quantile(lo, hi, w[i]);
+                if ln_p == f64::NEG_INFINITY {
                     return f64::NEG_INFINITY;
                 }
                 y[i] = yi;
-                ln_f += p.ln();
+                ln_f += ln_p;
             } else {
-                let p = normal::interval(lo, hi);
-                if p == 0.0 {
-                    return f64::NEG_INFINITY;
-                }
-                ln_f += p.ln();
+                ln_f += normal::ln_interval(lo, hi);
             }
         }
         ln_f
@@ -329,7 +326,7 @@ fn shift_statistics(lse: &[f64], n: usize) -> MvnProbability {
     let ln_means: Vec<f64> = lse.iter().map(|s| s - (n as f64).ln()).collect();
     let reference = ln_means.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
     if reference == f64::NEG_INFINITY {
-        return MvnProbability::exact(0.0);
+        return MvnProbability::exact(f64::NEG_INFINITY);
     }
     let v: Vec<f64> = ln_means.iter().map(|l| (l - reference).exp()).collect();
     let mean = v.iter().sum::<f64>() / m;
@@ -500,6 +497,13 @@ mod tests {
             + normal::interval(-INF, -10.0).ln()
             + normal::interval(20.0, 21.0).ln();
         assert!((r.ln_p - exact).abs() < 1e-9, "{} vs {exact}", r.ln_p);
+        // 100σ out, correlated: no underflow, and the 2-D result matches the 1-D marginal when
+        // the second interval is unbounded.
+        let cov = DMatrix::from_row_slice(2, 2, &[1.0, 0.6, 0.6, 1.0]);
+        let r = mvn_rectangle(&[100.0, -INF], &[INF, INF], &[0.0; 2], &cov, &MvnOptions::default())
+            .unwrap();
+        assert!((r.ln_p - normal::ln_upper(100.0)).abs() < 1e-9, "{}", r.ln_p);
+        assert_eq!(r.p, 0.0);
     }
 
     #[test]

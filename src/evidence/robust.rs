@@ -22,9 +22,10 @@
 //! * **FAST-MCD** (Rousseeuw & Van Driessen 1999): h-subset of minimum covariance determinant,
 //!   `h = ⌊(n+p+1)/2⌋` by default. Random (p+1)-starts, two C-steps each (a C-step refits on the
 //!   h points of smallest distance, which never increases the determinant), the best 10 iterated
-//!   to convergence; raw estimate `med(d²)·C_MCD/χ²_p(0.5)`. For n above `subsample`, the starts
-//!   and first C-steps run on a random subsample of that size and only the final iterations use
-//!   all samples (a simplification of the paper's nested partition scheme).
+//!   to convergence; raw estimate `med(d²)·C_MCD/χ²_p(0.5)`. Above 600 samples the paper's
+//!   nested scheme is used: the starts run in up to 5 disjoint groups of ~300 rows drawn from a
+//!   random merged set of `subsample` (1500) rows, the best 10 per group get two C-steps on the
+//!   merged set, and the best 10 of those are iterated to convergence on all rows.
 //!
 //! Both are deterministic given their seed.
 
@@ -66,7 +67,7 @@ pub struct McdOptions {
     pub n_starts: usize,
     /// Coverage h (samples in the optimal subset); `None`: `⌊(n+p+1)/2⌋` (maximal breakdown).
     pub h: Option<usize>,
-    /// Above this many samples the starts run on a random subsample of this size.
+    /// Size of the random merged set of the nested scheme (used above 600 samples).
     pub subsample: usize,
     /// Candidates iterated to convergence on all samples.
     pub n_best: usize,
@@ -209,33 +210,50 @@ pub fn mcd(samples: &DMatrix<f64>, opts: &McdOptions) -> Result<RobustCovariance
         ));
     }
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(opts.seed);
-    let working: Vec<usize> = if n > opts.subsample {
-        let mut all: Vec<usize> = (0..n).collect();
-        for i in 0..opts.subsample {
-            let j = rng.random_range(i..n);
-            all.swap(i, j);
-        }
-        all.truncate(opts.subsample);
-        all
-    } else {
-        (0..n).collect()
-    };
-    let h_work = if working.len() == n {
-        h
-    } else {
-        (h * working.len()).div_ceil(n).clamp(p + 1, working.len())
-    };
     let mut buf = CStepBuffers::new(n);
-    let mut candidates: Vec<Fit> = Vec::with_capacity(opts.n_starts);
-    for _ in 0..opts.n_starts {
-        let mut fit = data.random_fit(&mut rng, Some(&working))?;
-        for _ in 0..2 {
-            fit = data.c_step(&fit, &working, h_work, &mut buf)?;
+    // h scaled to a pool of `m` rows.
+    let h_for = |m: usize| (h * m).div_ceil(n).clamp(p + 1, m);
+    let candidates = if n <= 2 * GROUP_SIZE {
+        let all: Vec<usize> = (0..n).collect();
+        best_starts(&data, &all, opts.n_starts, h, opts.n_best, &mut rng, &mut buf)?
+    } else {
+        // Nested scheme of the paper: a random merged set of up to `subsample` rows, split
+        // into k ≤ 5 disjoint groups of about GROUP_SIZE; the starts and their first two
+        // C-steps run inside one group, the best of each group get two C-steps on the merged
+        // set, and the best of those are iterated on all rows below.
+        let mut perm: Vec<usize> = (0..n).collect();
+        let m = opts.subsample.min(n);
+        for i in 0..m {
+            let j = rng.random_range(i..n);
+            perm.swap(i, j);
         }
-        candidates.push(fit);
-    }
-    candidates.sort_by(|a, b| a.ln_det.total_cmp(&b.ln_det));
-    candidates.truncate(opts.n_best);
+        perm.truncate(m);
+        let k = (m / GROUP_SIZE).clamp(1, 5);
+        let starts_per_group = opts.n_starts.div_ceil(k);
+        let mut pooled = Vec::new();
+        for g in 0..k {
+            let group = &perm[g * m / k..(g + 1) * m / k];
+            pooled.extend(best_starts(
+                &data,
+                group,
+                starts_per_group,
+                h_for(group.len()),
+                opts.n_best,
+                &mut rng,
+                &mut buf,
+            )?);
+        }
+        let hm = h_for(m);
+        let mut merged = Vec::with_capacity(pooled.len());
+        for fit in pooled {
+            let mut f = data.c_step(&fit, &perm, hm, &mut buf)?;
+            f = data.c_step(&f, &perm, hm, &mut buf)?;
+            merged.push(f);
+        }
+        merged.sort_by(|a, b| a.ln_det.total_cmp(&b.ln_det));
+        merged.truncate(opts.n_best);
+        merged
+    };
     let all: Vec<usize> = (0..n).collect();
     let mut best: Option<Fit> = None;
     for mut fit in candidates {
@@ -262,6 +280,33 @@ pub fn mcd(samples: &DMatrix<f64>, opts: &McdOptions) -> Result<RobustCovariance
         });
     }
     data.finish(fit, med2, 1)
+}
+
+/// Rows per group in the nested FAST-MCD scheme (Rousseeuw & Van Driessen 1999 use 300).
+const GROUP_SIZE: usize = 300;
+
+/// `n_starts` random (p+1)-starts in `pool`, two C-steps each with coverage `h`; the `n_best`
+/// of lowest determinant.
+fn best_starts(
+    data: &Data,
+    pool: &[usize],
+    n_starts: usize,
+    h: usize,
+    n_best: usize,
+    rng: &mut Xoshiro256PlusPlus,
+    buf: &mut CStepBuffers,
+) -> Result<Vec<Fit>, EvidenceError> {
+    let mut fits = Vec::with_capacity(n_starts);
+    for _ in 0..n_starts {
+        let mut fit = data.random_fit(rng, Some(pool))?;
+        for _ in 0..2 {
+            fit = data.c_step(&fit, pool, h, buf)?;
+        }
+        fits.push(fit);
+    }
+    fits.sort_by(|a, b| a.ln_det.total_cmp(&b.ln_det));
+    fits.truncate(n_best);
+    Ok(fits)
 }
 
 /// Rows in row-major order plus the χ² constants.

@@ -7,11 +7,13 @@
 
 mod exact;
 mod fisher;
+mod map;
 mod relbin;
 mod spectra;
 
 pub use exact::{LikelihoodError, LtpLikelihood};
-pub use fisher::{cramer_rao, default_step, fisher_exact, fisher_numeric};
+pub use fisher::{cramer_rao, default_step, fisher_exact, fisher_numeric, gradient_and_fisher};
+pub use map::{MapError, ScoringResult, fisher_scoring};
 pub use relbin::{RelBinError, RelBinLikelihood, RelBinOptions};
 pub use spectra::{ExperimentSpectra, NoiseSource, SpectraError, SpectraOptions};
 

@@ -21,7 +21,8 @@ use super::fisher::fisher_exact;
 use super::spectra::ExperimentSpectra;
 use crate::density::LogDensity;
 use crate::hermitian;
-use crate::ltp::{BinConsts, Masses, N_PARAMS, response};
+use crate::lti::delay;
+use crate::ltp::{BinConsts, LoopKernel, Masses, N_PARAMS, response};
 use crate::prior::Prior;
 use nalgebra::DMatrix;
 use num_complex::Complex64;
@@ -142,6 +143,7 @@ impl RelBinLikelihood {
 
     /// `ln L̃` at a full parameter vector. Allocation-free.
     pub fn ln_likelihood_full(&self, th: &[f64; N_PARAMS]) -> f64 {
+        let kern = LoopKernel::new(th, &self.masses);
         let mut lin = 0.0;
         let mut quad = 0.0;
         for s in &self.exps {
@@ -152,8 +154,8 @@ impl RelBinLikelihood {
                 let mut cur = [ZERO; 4];
                 for &j in &s.inputs {
                     let mut unit = [ZERO; 2];
-                    unit[j] = Complex64::new(1.0, 0.0);
-                    let col = response(th, edge, &self.masses, unit);
+                    unit[j] = delay(th[2 + j], edge.f);
+                    let col = kern.eval(edge, [Complex64::new(1.0, 0.0); 2], unit);
                     for (c, &(i, jj)) in s.comps.iter().enumerate() {
                         if jj == j {
                             cur[c] = col[i] * s.h0inv[ei * nc + c] - 1.0;

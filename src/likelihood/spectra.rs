@@ -71,6 +71,8 @@ pub struct ExperimentSpectra {
     pub fs: f64,
     /// Series length `N`.
     pub n: usize,
+    /// DFT bin spacing `fs/N` (Hz); the in-band bins are contiguous on this grid.
+    pub df: f64,
     /// Frequencies of the in-band bins (Hz).
     pub freqs: Vec<f64>,
     /// DFT of `(o1, o12)` per bin.
@@ -177,6 +179,7 @@ impl ExperimentSpectra {
             name: e.name.clone(),
             fs,
             n,
+            df,
             freqs,
             y,
             inj,

@@ -281,3 +281,31 @@ fn bad_bands_are_reported() {
     }
     let _ = Complex64::new(0.0, 0.0);
 }
+
+#[test]
+fn fisher_scoring_finds_the_maximum_from_far_away() {
+    let study = small_study(21, 1e-6, "circular");
+    let lik = likelihood_of(&study, &model_opts());
+    let truth = study.truth.to_array();
+    let free: Vec<usize> = (0..N_PARAMS).collect();
+    let sig = cramer_rao(&fisher_exact(&lik, &truth, &free)).unwrap();
+    let mut start = truth;
+    start[0] *= 1.2;
+    start[4] = 0.9;
+    start[2] = 0.5;
+    let r = fisher_scoring(&lik, &start, &free, 1e-4, 100).unwrap();
+    assert!(r.converged, "{r:?}");
+    // at the maximum the gradient vanishes: the Newton step is below 1e-4 σ
+    let (g, f) = gradient_and_fisher(&lik, &r.theta, &free);
+    let step = f.cholesky().unwrap().solve(&nalgebra::DVector::from_vec(g));
+    for i in 0..N_PARAMS {
+        assert!(
+            step[i].abs() < 1e-3 * sig[i],
+            "param {i}: step {} σ {}",
+            step[i],
+            sig[i]
+        );
+        // and the estimate is within 5σ of the truth (a noise realisation)
+        assert!((r.theta[i] - truth[i]).abs() < 5.0 * sig[i]);
+    }
+}

@@ -6,19 +6,17 @@
 //! (the scipy `lfilter` convention, ascending powers of `z⁻¹` — unlike [`Rational`], whose
 //! coefficients are in descending powers of `s`). The frequency `f` maps to `z = e^{i2πf/fs}`.
 
-use super::{LtiError, Rational, StateSpace};
+use crate::lti::{LtiError, Rational, StateSpace};
 use nalgebra::DMatrix;
 use num_complex::Complex64;
-use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 
-/// A discrete-time transfer function `Σ b_k z⁻ᵏ / Σ a_k z⁻ᵏ`, normalised so that `a[0] = 1`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+/// A discrete-time transfer function `Σ b_k z⁻ᵏ / Σ a_k z⁻ᵏ`, normalised so that `a[0] = 1`
+/// (the fields are private so that the normalisation always holds).
+#[derive(Debug, Clone, PartialEq)]
 pub struct DiscreteTf {
-    /// Numerator coefficients of `z⁰, z⁻¹, z⁻², …`.
-    pub b: Vec<f64>,
-    /// Denominator coefficients of `z⁰, z⁻¹, z⁻², …`, with `a[0] = 1`.
-    pub a: Vec<f64>,
+    b: Vec<f64>,
+    a: Vec<f64>,
 }
 
 impl DiscreteTf {
@@ -64,8 +62,9 @@ impl DiscreteTf {
     /// let (a, c) = (3.0, 20.0);
     /// let h = Rational::new(vec![1.0], vec![1.0, a]).unwrap();
     /// let d = DiscreteTf::tustin(&h, 10.0, None).unwrap();
-    /// assert!((d.b[0] - 1.0 / (c + a)).abs() < 1e-15 && (d.b[1] - 1.0 / (c + a)).abs() < 1e-15);
-    /// assert!((d.a[1] - (a - c) / (c + a)).abs() < 1e-15);
+    /// let want_b = 1.0 / (c + a);
+    /// assert!((d.b()[0] - want_b).abs() < 1e-15 && (d.b()[1] - want_b).abs() < 1e-15);
+    /// assert!((d.a()[1] - (a - c) / (c + a)).abs() < 1e-15);
     /// // close to the continuous response well below the sample rate
     /// let f = 0.01;
     /// assert!((d.eval_freq(f, 10.0) / h.eval_freq(f) - 1.0).norm() < 1e-4);
@@ -130,6 +129,16 @@ impl DiscreteTf {
             )));
         }
         Self::new(b, a)
+    }
+
+    /// Numerator coefficients of `z⁰, z⁻¹, z⁻², …`.
+    pub fn b(&self) -> &[f64] {
+        &self.b
+    }
+
+    /// Denominator coefficients of `z⁰, z⁻¹, z⁻², …`, with `a[0] = 1`.
+    pub fn a(&self) -> &[f64] {
+        &self.a
     }
 
     /// `H(z)` at a complex `z ≠ 0`, by Horner's rule in `z⁻¹`.
@@ -329,10 +338,10 @@ mod tests {
             };
             let want_b = [1.0 / (c + a), 1.0 / (c + a)];
             let want_a = [1.0, (a - c) / (c + a)];
-            assert_eq!(d.a.len(), 2);
+            assert_eq!(d.a().len(), 2);
             for k in 0..2 {
-                assert!((d.b[k] - want_b[k]).abs() < 1e-15 * want_b[k].abs().max(1.0));
-                assert!((d.a[k] - want_a[k]).abs() < 1e-15);
+                assert!((d.b()[k] - want_b[k]).abs() < 1e-15 * want_b[k].abs().max(1.0));
+                assert!((d.a()[k] - want_a[k]).abs() < 1e-15);
             }
         }
     }

@@ -4,6 +4,7 @@
 //! Nothing here knows about LISA Pathfinder; [`crate::ltp`] assembles the closed loop from
 //! these pieces.
 
+pub mod discrete;
 mod rational;
 
 pub use rational::{LtiError, Rational, StateSpace, delay};

@@ -36,18 +36,85 @@ pub struct BinConsts {
     pub csus: Complex64,
     /// Optional fixed OMS delay `E = e^{−i2πf τ_o}`.
     pub e_oms: Complex64,
+    /// `E·C_df`, `E·C_sus` (precomputed for the fast kernel).
+    pub e_cdf: Complex64,
+    pub e_csus: Complex64,
 }
 
 impl BinConsts {
     /// Precomputes the controller and OMS-delay responses at `f`.
     pub fn new(f: f64, ctrl: &Controllers, tau_oms: f64) -> Self {
+        let cdf = ctrl.df.eval_freq(f);
+        let csus = ctrl.sus.eval_freq(f);
+        let e_oms = crate::lti::delay(tau_oms, f);
         Self {
             f,
             omega: 2.0 * PI * f,
-            cdf: ctrl.df.eval_freq(f),
-            csus: ctrl.sus.eval_freq(f),
-            e_oms: crate::lti::delay(tau_oms, f),
+            cdf,
+            csus,
+            e_oms,
+            e_cdf: e_oms * cdf,
+            e_csus: e_oms * csus,
         }
+    }
+}
+
+/// The θ-dependent scalars of the loop, computed once per θ, for the allocation-free `f64`
+/// hot path of the likelihood. Gives the same values as [`response`] (a test checks it) with
+/// fewer operations: one complex reciprocal per bin and the delay phasors supplied by the
+/// caller (who can generate them by recurrence on a uniform grid).
+#[derive(Debug, Clone, Copy)]
+pub struct LoopKernel {
+    a00: f64,
+    a01: f64,
+    a10: f64,
+    w2: f64,
+    adf: f64,
+    asus: f64,
+    d21: f64,
+    e2: f64,
+    d21e2: f64,
+}
+
+impl LoopKernel {
+    /// Precomputes the parameter combinations of `D` and `M A K S`.
+    #[inline]
+    pub fn new(th: &[f64; N_PARAMS], m: &Masses) -> Self {
+        let e1 = m.m1 / m.msc;
+        let e2 = m.m2 / m.msc;
+        Self {
+            a00: th[0] * (1.0 + e1) + th[1] * e2,
+            a01: th[1] * e2,
+            a10: th[1] - th[0],
+            w2: th[1],
+            adf: th[4],
+            asus: th[5],
+            d21: th[6],
+            e2,
+            d21e2: th[6] * e2,
+        }
+    }
+
+    /// `H_io(f) (t ⊙ I)` at one bin, where `t = (e^{−iωΔt1}, e^{−iωΔt2})` are the guidance-delay
+    /// phasors at this bin.
+    #[inline(always)]
+    pub fn eval(&self, c: &BinConsts, t: [Complex64; 2], inj: [Complex64; 2]) -> [Complex64; 2] {
+        let s2 = -c.omega * c.omega;
+        let ek1 = c.e_cdf * self.adf;
+        let ek2 = c.e_csus * self.asus;
+        let p00 = ek1 + ek2 * self.d21e2 + (s2 + self.a00);
+        let p01 = ek2 * self.e2 + self.a01;
+        let p10 = ek2 * self.d21 + self.a10;
+        let p11 = ek2 + (s2 + self.w2);
+        let inv = (p00 * p11 - p01 * p10).inv();
+        let v1 = t[0] * inj[0];
+        let v2 = t[1] * inj[1];
+        let k1v1 = c.cdf * v1 * self.adf;
+        let k2v2 = c.csus * v2 * self.asus;
+        let w0 = k1v1 + k2v2 * self.e2;
+        let x0 = (p11 * w0 - p01 * k2v2) * inv;
+        let x1 = (p00 * k2v2 - p10 * w0) * inv;
+        [c.e_oms * x0, c.e_oms * (x0 * self.d21 + x1)]
     }
 }
 
@@ -360,6 +427,32 @@ mod tests {
             }
         }
         assert_eq!(checked, 80);
+    }
+
+    #[test]
+    fn fast_kernel_equals_generic_response() {
+        let ctrl = Controllers::default();
+        let m = Masses::default();
+        let p = LtpParams {
+            dt1: 0.13,
+            dt2: 0.41,
+            ..Default::default()
+        };
+        let th = p.to_array();
+        let kern = LoopKernel::new(&th, &m);
+        for f in [1e-4, 3e-3, 0.05, 0.7, 4.0] {
+            let bc = BinConsts::new(f, &ctrl, 0.3);
+            let inj = [c(0.3, -1.1), c(-2.0, 0.4)];
+            let t = [crate::lti::delay(p.dt1, f), crate::lti::delay(p.dt2, f)];
+            let a = kern.eval(&bc, t, inj);
+            let b = response(&th, &bc, &m, inj);
+            for i in 0..2 {
+                assert!(
+                    (a[i] - b[i]).norm() <= 1e-13 * b[i].norm(),
+                    "{f}: {a:?} vs {b:?}"
+                );
+            }
+        }
     }
 
     #[test]

@@ -18,9 +18,10 @@ mod closed_loop;
 mod controllers;
 mod noise;
 mod params;
+pub mod timedomain;
 
 pub use closed_loop::{
-    BinConsts, ClosedLoop, LoopError, check_stable, closed_loop_poles, response,
+    BinConsts, ClosedLoop, LoopError, LoopKernel, check_stable, closed_loop_poles, response,
 };
 pub use controllers::{Controllers, design_lead_integrator};
 pub use noise::NoiseModel;

@@ -21,11 +21,33 @@
 //! delays the actuation by half a sample on average, so to first order the discrete loop equals
 //! the continuous loop with an extra in-loop delay `T/2` (a 0.05 s OMS delay at 10 Hz); Tustin
 //! only adds `O((2πf/fs)²)`. Measured with [`discretisation_discrepancy`] (θ = K14 Table I,
-//! §4 controllers, fs = 10 Hz, τ_o = 0), rows `(o1, o12)`, columns `(i1, i12)`:
+//! §4 controllers, fs = 10 Hz, τ_o = 0; the guidance delays cancel in the ratio), rows
+//! `(o1, o12)`, columns `(i1, i12)`:
 //!
 //! ```text
-//! DISCREPANCY_TABLE
+//! f (Hz)  |        |H_disc/H_cont − 1|          |       arg(H_disc/H_cont) (rad)
+//!         |      11       12       21       22 |       11       12       21       22
+//! 1e-4    |  6.6e-12   3.6e-5   3.6e-5   5.1e-6 |  9.1e-14   3.6e-5   3.6e-5   4.5e-6
+//! 3e-4    |  1.7e-10   1.3e-4   1.3e-4   4.0e-5 |  7.0e-12   1.3e-4   1.3e-4   3.1e-5
+//! 1e-3    |   1.6e-8   3.4e-4   3.4e-4   3.3e-4 |   2.2e-9   1.7e-4   1.7e-4  -1.5e-4
+//! 3e-3    |   1.2e-6   3.2e-4   3.2e-4   1.1e-3 |   4.6e-7  -1.6e-4  -1.6e-4  -1.1e-3
+//! 1e-2    |   1.0e-4   3.2e-5   2.8e-5   3.3e-3 |   9.4e-5  -3.2e-5  -2.8e-5  -3.3e-3
+//! 3e-2    |   3.3e-3   3.2e-3   3.3e-3   9.5e-3 |   2.7e-3   2.6e-3   2.6e-3  -9.5e-3
+//! 1e-1    |   3.9e-2   3.9e-2   3.9e-2   3.1e-2 |  -2.3e-2  -2.3e-2  -2.3e-2  -3.1e-2
+//! 3e-1    |   1.2e-1   1.1e-1   1.2e-1   9.4e-2 |  -1.1e-1  -1.1e-1  -1.1e-1  -9.4e-2
+//! 1e0     |   3.4e-1   3.2e-1   3.4e-1   3.1e-1 |  -3.5e-1  -3.2e-1  -3.5e-1  -3.1e-1
 //! ```
+//!
+//! Amplitude and phase agree to 1e−3 for every entry only up to 2.75 mHz: above, the suspension
+//! entry `H_io22` lags by about ωT/2 (the hold delay, where that loop's gain is near unity).
+//! Against the continuous loop with `τ_o = T/2` the difference drops to `O((2πf/fs)²)`
+//! (≤ 0.16·(2πf/fs)² measured from 1 mHz to 0.1 Hz). Data from [`DiscreteLoop::simulate`]
+//! should therefore be fitted with [`DiscreteLoop::at`], not with the continuous model.
+//!
+//! Numerical floor: the Tustin suspension controller in direct form carries its integral gain
+//! in a 5e−9 relative difference of its coefficients, so rounding leaves a slowly wandering
+//! error of about 1e−10 of the error-signal amplitude on `o12` (negligible next to any
+//! realistic noise).
 
 use crate::lti::LtiError;
 use crate::lti::discrete::{DiscreteTf, IirFilter, zoh};
@@ -40,7 +62,9 @@ pub const DEFAULT_FS: f64 = 10.0;
 /// Errors of the discretised loop and its simulator.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum SimError {
-    #[error("sample rate fs = {0} Hz must be a positive finite number (the LPF data rate is 10 Hz)")]
+    #[error(
+        "sample rate fs = {0} Hz must be a positive finite number (the LPF data rate is 10 Hz)"
+    )]
     SampleRate(f64),
     #[error(
         "OMS delay τ_o = {tau} s is {samples} samples at fs = {fs} Hz: the time-domain loop needs \
@@ -93,7 +117,8 @@ pub struct DiscreteLoop {
     dt: [f64; 2],
     d21: f64,
     phi: Matrix4<f64>,
-    /// `Φ − I`, kept separately so that `zI − Φ = (z − 1)I − (Φ − I)` loses no digits at low f.
+    /// `Φ − I`, so that `zI − Φ = (z − 1)I − (Φ − I)` avoids the cancellation in `z − 1` at
+    /// low f.
     phi_m_i: Matrix4<f64>,
     gam: Matrix4x2<f64>,
     /// `M A = [[A_df, (m2/m_sc) A_sus], [0, A_sus]]`.
@@ -103,13 +128,21 @@ pub struct DiscreteLoop {
     poles: Vec<Complex64>,
 }
 
-/// Dense closed-loop difference equations `ζ[n+1] = A ζ[n] + B_i i[n] + B_g g[n]`,
-/// `o[n] = O ζ[n] + n_o[n]`, with `ζ = (X, ξ_df, ξ_sus, delay line)`.
-struct StateSpaceLoop {
-    a: DMatrix<f64>,
-    b_i: DMatrix<f64>,
-    b_g: DMatrix<f64>,
-    o: DMatrix<f64>,
+/// The discrete closed loop as dense difference equations,
+/// `ζ[n+1] = A ζ[n] + B_i i[n] + B_g g[n]`, `o[n] = O ζ[n]` (+ `n_o[n]` when readout noise is
+/// simulated; it enters like `−i`), with the state `ζ = (x1, x12, ẋ1, ẋ12, ξ_df, ξ_sus, q)`:
+/// plant, the two controller states (those of [`IirFilter`]) and, for an OMS delay of `d`
+/// samples, a delay line `q` of `2d` past outputs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LoopStateSpace {
+    /// State transition matrix (its eigenvalues are [`DiscreteLoop::poles`]).
+    pub a: DMatrix<f64>,
+    /// Injection input matrix (columns `i1`, `i12`; injections already delayed).
+    pub b_i: DMatrix<f64>,
+    /// Force input matrix (columns `g_x1`, `g_x12`, held over each sample).
+    pub b_g: DMatrix<f64>,
+    /// Output matrix (rows `o1`, `o12`).
+    pub o: DMatrix<f64>,
 }
 
 impl DiscreteLoop {
@@ -258,7 +291,11 @@ impl DiscreteLoop {
         );
         let arr = |m: Matrix2<Complex64>| [[m[(0, 0)], m[(0, 1)]], [m[(1, 0)], m[(1, 1)]]];
         let rg = r * g;
-        if !(rg.iter().chain(r.iter()).all(|v| v.re.is_finite() && v.im.is_finite())) {
+        if !(rg
+            .iter()
+            .chain(r.iter())
+            .all(|v| v.re.is_finite() && v.im.is_finite()))
+        {
             return Err(SimError::Singular(f));
         }
         Ok(ClosedLoop {
@@ -284,10 +321,10 @@ impl DiscreteLoop {
     /// let lp = DiscreteLoop::new(&p, &Controllers::default(), &Masses::default(), DEFAULT_FS, 0.0)
     ///     .unwrap();
     /// // a 1 nm step on the x1 guidance: the spacecraft follows, o1 settles on 1 nm
-    /// let n = 40_000; // 4000 s
+    /// let n = 10_000; // 1000 s
     /// let i1 = vec![1e-9; n];
     /// let [o1, _o12] = lp.simulate(&i1, &vec![0.0; n], None, None).unwrap();
-    /// assert!((o1[n - 1] - 1e-9).abs() < 1e-12);
+    /// assert!((o1[n - 1] - 1e-9).abs() < 1e-15);
     /// ```
     pub fn simulate(
         &self,
@@ -342,8 +379,9 @@ impl DiscreteLoop {
         Ok([o1, o12])
     }
 
-    /// The dense closed-loop difference equations (used for the poles and as a test oracle).
-    fn state_space(&self) -> StateSpaceLoop {
+    /// The dense closed-loop difference equations (the poles come from them; the simulator
+    /// and [`Self::at`] are tested against them).
+    pub fn state_space(&self) -> LoopStateSpace {
         let sdf = self.kdf.to_state_space();
         let ssus = self.ksus.to_state_space();
         let (n1, n2) = (sdf.a.nrows(), ssus.a.nrows());
@@ -352,13 +390,12 @@ impl DiscreteLoop {
         let s = [[1.0, 0.0], [self.d21, 1.0]];
         // o = O ζ: the plant positions, or the oldest entry of the delay line
         let mut o = DMatrix::<f64>::zeros(2, n);
-        for i in 0..2 {
-            for j in 0..2 {
-                if self.delay == 0 {
-                    o[(i, j)] = s[i][j];
+        for (i, s_row) in s.iter().enumerate() {
+            if self.delay == 0 {
+                for (j, &v) in s_row.iter().enumerate() {
+                    o[(i, j)] = v;
                 }
-            }
-            if self.delay > 0 {
+            } else {
                 o[(i, oq + 2 * (self.delay - 1) + i)] = 1.0;
             }
         }
@@ -407,18 +444,18 @@ impl DiscreteLoop {
         }
         // delay line: q_1 ← S x, q_j ← q_{j−1}
         for q in 0..self.delay {
-            for i in 0..2 {
+            for (i, s_row) in s.iter().enumerate() {
                 let row = oq + 2 * q + i;
                 if q == 0 {
-                    for j in 0..2 {
-                        a[(row, j)] = s[i][j];
+                    for (j, &v) in s_row.iter().enumerate() {
+                        a[(row, j)] = v;
                     }
                 } else {
                     a[(row, row - 2)] = 1.0;
                 }
             }
         }
-        StateSpaceLoop { a, b_i, b_g, o }
+        LoopStateSpace { a, b_i, b_g, o }
     }
 }
 
@@ -581,7 +618,10 @@ mod tests {
             id - ss.a[(i, j)]
         });
         let phase = Complex64::from_polar(1.0, -2.0 * PI * f * delay);
-        let zss = m.lu().solve(&b.map(|x| Complex64::new(x, 0.0) * phase)).unwrap();
+        let zss = m
+            .lu()
+            .solve(&b.map(|x| Complex64::new(x, 0.0) * phase))
+            .unwrap();
         let mut eps = nalgebra::DVector::from_fn(dim, |i, _| -zss[i].re);
         let mut next = eps.clone();
         let mut out = [Vec::with_capacity(n), Vec::with_capacity(n)];
@@ -639,7 +679,10 @@ mod tests {
             .enumerate()
         {
             let hn = h[i].norm();
-            assert!(trans < 1e-7 * hn, "col {col}, f {f}, out {i}: transient {trans:.2e}");
+            assert!(
+                trans < 1e-7 * hn,
+                "col {col}, f {f}, out {i}: transient {trans:.2e}"
+            );
             assert!(
                 dev <= trans + 1e-6 * hn,
                 "col {col}, f {f}, out {i}: |sim − steady state| = {:.2e}·|h| (|h| = {hn:.3e})",
@@ -689,7 +732,7 @@ mod tests {
             let ss = lp.state_space();
             let dim = ss.a.nrows();
             assert_eq!(dim, 9 + 2 * lp.oms_delay_samples());
-            for f in [1e-3, 1e-2, 0.05, 0.5, 5.0] {
+            for f in [1e-3, 1e-2, 0.05, 0.5, 4.0] {
                 let wt = 2.0 * PI * f / DEFAULT_FS;
                 let tol = 1e-13 + 10.0 * f64::EPSILON / (wt * wt);
                 let z = Complex64::from_polar(1.0, wt);
@@ -707,15 +750,17 @@ mod tests {
                 for i in 0..2 {
                     for j in 0..2 {
                         let id = if i == j { 1.0 } else { 0.0 };
-                        // readout noise enters like a negative injection, plus feed-through
+                        // readout noise enters like a negative injection, plus feed-through;
+                        // the difference 1 − h keeps the absolute error of h, hence `scale`
                         let hn = id - hi[(i, j)];
-                        for (name, want, got) in [
-                            ("h_io", hi[(i, j)] * t[j], cl.h_io[i][j]),
-                            ("h_go", hg[(i, j)], cl.h_go[i][j]),
-                            ("h_no", hn, cl.h_no[i][j]),
+                        let hin = hi[(i, j)].norm();
+                        for (name, want, got, scale) in [
+                            ("h_io", hi[(i, j)] * t[j], cl.h_io[i][j], hin),
+                            ("h_go", hg[(i, j)], cl.h_go[i][j], hg[(i, j)].norm()),
+                            ("h_no", hn, cl.h_no[i][j], hn.norm().max(hin)),
                         ] {
                             assert!(
-                                (got - want).norm() <= tol * want.norm(),
+                                (got - want).norm() <= tol * scale,
                                 "{name}[{i}][{j}] at {f} Hz, τ_o = {tau}: {got} vs {want}"
                             );
                         }
@@ -729,7 +774,9 @@ mod tests {
     fn discrete_poles_map_to_the_continuous_poles() {
         let (p, c, m) = setup(0.0);
         let lp = DiscreteLoop::new(&p, &c, &m, DEFAULT_FS, 0.0).unwrap();
-        let key = |a: &Complex64, b: &Complex64| a.norm().total_cmp(&b.norm()).then(a.im.total_cmp(&b.im));
+        let key = |a: &Complex64, b: &Complex64| {
+            a.norm().total_cmp(&b.norm()).then(a.im.total_cmp(&b.im))
+        };
         let mut cont = crate::ltp::closed_loop_poles(&p, &c, &m).unwrap();
         cont.sort_by(key);
         let mut disc: Vec<Complex64> = lp.poles().iter().map(|z| z.ln() * DEFAULT_FS).collect();
@@ -771,14 +818,20 @@ mod tests {
         // −3.3e−3 rad at 10 mHz (see `discrepancy_table_in_the_docs_is_measured`).
         let (p, c, m) = setup(0.0);
         let lp = DiscreteLoop::new(&p, &c, &m, DEFAULT_FS, 0.0).unwrap();
-        // remaining transient after 2e5 samples: ≤ 24·e^{−16.4} ≈ 2e−6 of |H| (the largest
-        // relative start-up transient, on H_io12, is 24|H|), far below 1e−3
+        // whole periods in each window; the transient left after `settle` samples is computed
+        // and must be below 1e−5·|H| so that it cannot decide a 1e−3 comparison
         let settle = 200_000;
         for (f, window) in [(1e-4, 100_000), (1e-3, 20_000), (2.5e-3, 20_000)] {
             let hc = ClosedLoop::at(&p, &BinConsts::new(f, &c, 0.0), &m).h_io;
-            for col in 0..2 {
-                let (out, _) = drive(&lp, col, f, settle + window, 0.0);
-                for i in 0..2 {
+            for col in [0, 1] {
+                let n = settle + window;
+                let (out, hd) = drive(&lp, col, f, n, 0.0);
+                let tr = transient(&lp, col, f, n, 0.0);
+                for (i, (_, trans)) in window_errors(&out, &tr, hd, f, DEFAULT_FS, window)
+                    .into_iter()
+                    .enumerate()
+                {
+                    assert!(trans < 1e-5 * hc[i][col].norm(), "transient {trans:.2e}");
                     let q = phasor(&out[i], f, DEFAULT_FS, window) / hc[i][col];
                     let (amp, ph) = (q.norm() - 1.0, q.arg());
                     assert!(
@@ -807,7 +860,11 @@ mod tests {
             for i in 0..2 {
                 for j in 0..2 {
                     let r = (hd[i][j] / hh[i][j] - 1.0).norm();
-                    assert!(r < 0.6 * x * x, "H_io[{i}][{j}] at {f:.3e} Hz: {r:.2e} vs x² = {:.2e}", x * x);
+                    assert!(
+                        r < 0.6 * x * x,
+                        "H_io[{i}][{j}] at {f:.3e} Hz: {r:.2e} vs x² = {:.2e}",
+                        x * x
+                    );
                 }
             }
         }
@@ -824,7 +881,7 @@ mod tests {
                 let mut s = format!("{:<7.0e} |", d.f);
                 for i in 0..2 {
                     for j in 0..2 {
-                        s += &format!(" {:>8.1e}", d.amp[i][j]);
+                        s += &format!(" {:>8.1e}", d.rel[i][j]);
                     }
                 }
                 s += " |";
@@ -842,7 +899,10 @@ mod tests {
     fn discrepancy_table_in_the_docs_is_measured() {
         let src = include_str!("timedomain.rs");
         for row in table_rows() {
-            assert!(src.contains(&format!("//! {row}\n")), "doc table lacks the measured row\n{row}");
+            assert!(
+                src.contains(&format!("//! {row}\n")),
+                "doc table lacks the measured row\n{row}"
+            );
         }
     }
 
@@ -850,7 +910,10 @@ mod tests {
     fn free_functions_equal_the_loop_methods() {
         let (p, c, m) = setup(0.2);
         let lp = DiscreteLoop::new(&p, &c, &m, DEFAULT_FS, 0.0).unwrap();
-        assert_eq!(discrete_h_io(&p, &c, &m, DEFAULT_FS, 0.01).unwrap(), lp.at(0.01).unwrap().h_io);
+        assert_eq!(
+            discrete_h_io(&p, &c, &m, DEFAULT_FS, 0.01).unwrap(),
+            lp.at(0.01).unwrap().h_io
+        );
         let i1: Vec<f64> = (0..500).map(|k| (0.01 * k as f64).sin()).collect();
         let i12: Vec<f64> = (0..500).map(|k| (0.03 * k as f64).cos()).collect();
         let g1 = vec![1e-3; 500];
@@ -863,20 +926,47 @@ mod tests {
     fn rejects_bad_input() {
         let (p, c, m) = setup(0.0);
         let new = |p: &LtpParams, m: &Masses, fs, tau| DiscreteLoop::new(p, &c, m, fs, tau);
-        assert_eq!(new(&p, &m, 0.0, 0.0).unwrap_err(), SimError::SampleRate(0.0));
-        assert!(matches!(new(&p, &m, f64::NAN, 0.0), Err(SimError::SampleRate(_))));
-        assert!(matches!(new(&p, &m, 10.0, 0.25), Err(SimError::OmsDelay { .. })));
-        assert!(matches!(new(&p, &m, 10.0, -0.1), Err(SimError::OmsDelay { .. })));
-        let bad = LtpParams { a_sus: f64::INFINITY, ..p };
-        assert_eq!(new(&bad, &m, 10.0, 0.0).unwrap_err(), SimError::NonFiniteParam("a_sus"));
+        assert_eq!(
+            new(&p, &m, 0.0, 0.0).unwrap_err(),
+            SimError::SampleRate(0.0)
+        );
+        assert!(matches!(
+            new(&p, &m, f64::NAN, 0.0),
+            Err(SimError::SampleRate(_))
+        ));
+        assert!(matches!(
+            new(&p, &m, 10.0, 0.25),
+            Err(SimError::OmsDelay { .. })
+        ));
+        assert!(matches!(
+            new(&p, &m, 10.0, -0.1),
+            Err(SimError::OmsDelay { .. })
+        ));
+        let bad = LtpParams {
+            a_sus: f64::INFINITY,
+            ..p
+        };
+        assert_eq!(
+            new(&bad, &m, 10.0, 0.0).unwrap_err(),
+            SimError::NonFiniteParam("a_sus")
+        );
         let bad_m = Masses { msc: 0.0, ..m };
-        assert!(matches!(new(&p, &bad_m, 10.0, 0.0), Err(SimError::Mass { name: "msc", .. })));
+        assert!(matches!(
+            new(&p, &bad_m, 10.0, 0.0),
+            Err(SimError::Mass { name: "msc", .. })
+        ));
         let unstable = LtpParams { a_df: -0.5, ..p };
-        assert!(matches!(new(&unstable, &m, 10.0, 0.0), Err(SimError::Unstable { .. })));
+        assert!(matches!(
+            new(&unstable, &m, 10.0, 0.0),
+            Err(SimError::Unstable { .. })
+        ));
 
         let lp = new(&p, &m, 10.0, 0.0).unwrap();
         for f in [0.0, -1.0, 5.1, f64::NAN] {
-            assert!(matches!(lp.at(f), Err(SimError::Frequency { .. })), "f = {f}");
+            assert!(
+                matches!(lp.at(f), Err(SimError::Frequency { .. })),
+                "f = {f}"
+            );
         }
         let x = vec![0.0; 10];
         let short = vec![0.0; 9];
@@ -884,15 +974,26 @@ mod tests {
         nan[4] = f64::NAN;
         assert_eq!(
             lp.simulate(&x, &short, None, None).unwrap_err(),
-            SimError::Length { name: "i12", got: 9, want: 10 }
+            SimError::Length {
+                name: "i12",
+                got: 9,
+                want: 10
+            }
         );
         assert_eq!(
             lp.simulate(&x, &x, Some([&x, &nan]), None).unwrap_err(),
-            SimError::NonFiniteInput { name: "g_x12", index: 4 }
+            SimError::NonFiniteInput {
+                name: "g_x12",
+                index: 4
+            }
         );
         assert_eq!(
             lp.simulate(&x, &x, None, Some([&short, &x])).unwrap_err(),
-            SimError::Length { name: "n1", got: 9, want: 10 }
+            SimError::Length {
+                name: "n1",
+                got: 9,
+                want: 10
+            }
         );
     }
 

@@ -33,25 +33,38 @@ enum Kind {
     },
 }
 
-/// `10^floor(log10 x)` for `x > 0`, nudged so exact powers of ten are not pushed down a decade.
-fn decade(x: f64) -> f64 {
-    10f64.powi((x.log10() + 1e-9).floor() as i32)
+/// Number of multiples of `step` in `[lo, hi]`.
+fn tick_count(lo: f64, hi: f64, step: f64) -> i64 {
+    (hi / step).floor() as i64 - (lo / step).ceil() as i64 + 1
 }
 
-/// Smallest step of the form {1, 2, 5}×10ⁿ that is at least `raw`.
-fn nice_step(raw: f64) -> f64 {
-    let p = decade(raw);
-    let m = raw / p;
-    let f = if m <= 1.0 + 1e-9 {
-        1.0
-    } else if m <= 2.0 + 1e-9 {
-        2.0
-    } else if m <= 5.0 + 1e-9 {
-        5.0
-    } else {
-        10.0
-    };
-    f * p
+/// Tick spacing of the form {1, 2, 2.5, 5}×10ⁿ: the finest giving at most `max_ticks` ticks
+/// in `[lo, hi]`, or the next finer one if that leaves fewer than two.
+fn tick_step(lo: f64, hi: f64, max_ticks: usize) -> f64 {
+    let top = (hi - lo).log10().floor() as i32 + 1;
+    let steps = (top - 4..=top).flat_map(|k| [1.0, 2.0, 2.5, 5.0].map(|m| m * 10f64.powi(k)));
+    let mut previous = None;
+    for s in steps {
+        let n = tick_count(lo, hi, s);
+        if n <= max_ticks.max(1) as i64 {
+            return match previous {
+                Some(p) if n < 2 => p,
+                _ => s,
+            };
+        }
+        previous = Some(s);
+    }
+    10f64.powi(top)
+}
+
+/// Decimal places needed to print multiples of `step` exactly (`0.25` → 2).
+fn decimals_of(step: f64) -> usize {
+    (0..=15)
+        .find(|&d| {
+            let v = step * 10f64.powi(d);
+            (v - v.round()).abs() <= 1e-6 * v
+        })
+        .unwrap_or(15) as usize
 }
 
 /// Min and max of the finite values, `None` if there are none.
@@ -81,7 +94,7 @@ impl Axis {
             lo = min - 1.0;
             hi = min + 1.0;
         }
-        let step = nice_step((hi - lo) / max_ticks.max(1) as f64);
+        let step = tick_step(lo, hi, max_ticks);
         let first = (lo / step).ceil() as i64;
         let last = (hi / step).floor() as i64;
         let ticks: Vec<f64> = (first..=last).map(|k| k as f64 * step).collect();
@@ -98,9 +111,9 @@ impl Axis {
         };
         let shifted = (lo - offset).abs().max((hi - offset).abs());
         let e = (shifted.log10() + 1e-9).floor() as i32;
-        let exp = if (-2..=3).contains(&e) { 0 } else { e };
-        let scaled_step = step / 10f64.powi(exp);
-        let decimals = (-(scaled_step.log10() + 1e-9).floor()).max(0.0) as usize;
+        // Plain numbers up to 99999 (iteration counts) and down to 0.01.
+        let exp = if (-2..=4).contains(&e) { 0 } else { e };
+        let decimals = decimals_of(step / 10f64.powi(exp));
         Axis {
             lo,
             hi,
@@ -141,7 +154,10 @@ impl Axis {
         };
         if ticks.len() < 3 {
             // Under three decades visible: 1-2-5 ticks, then every mantissa if still sparse.
-            for mantissas in [&[1.0, 2.0, 5.0][..], &[1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0]] {
+            for mantissas in [
+                &[1.0, 2.0, 5.0][..],
+                &[1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0],
+            ] {
                 ticks = (lo.floor() as i64..=hi.ceil() as i64)
                     .flat_map(|k| mantissas.iter().map(move |m| k as f64 + f64::log10(*m)))
                     .filter(|t| (lo..=hi).contains(t))
@@ -169,9 +185,19 @@ impl Axis {
         Axis::log10(lo, hi, max_ticks)
     }
 
-    /// Whether this axis plots `log10` of the data.
-    pub fn is_log(&self) -> bool {
-        matches!(self.kind, Kind::Log10 { .. })
+    /// Drops ticks closer than `fraction` of the span to either end, keeping at least one, so
+    /// labels of side-by-side panels do not run into each other.
+    pub fn drop_edge_ticks(&mut self, fraction: f64) {
+        let margin = fraction * (self.hi - self.lo);
+        let inner: Vec<f64> = self
+            .ticks
+            .iter()
+            .copied()
+            .filter(|t| *t - self.lo >= margin && self.hi - *t >= margin)
+            .collect();
+        if !inner.is_empty() {
+            self.ticks = inner;
+        }
     }
 
     /// Data value → plotted coordinate; `None` for values that cannot be shown (non-finite,
@@ -241,7 +267,11 @@ impl Axis {
 /// Reduces a polyline to at most four points per horizontal bucket (first, lowest, highest,
 /// last; the "M4" scheme), which draws the same picture at `buckets` pixels of width while
 /// keeping SVG files small. Points are in plotted coordinates; `x_range` is the visible range.
-pub(crate) fn decimate(points: &[(f64, f64)], x_range: (f64, f64), buckets: usize) -> Vec<(f64, f64)> {
+pub(crate) fn decimate(
+    points: &[(f64, f64)],
+    x_range: (f64, f64),
+    buckets: usize,
+) -> Vec<(f64, f64)> {
     if points.len() <= 4 * buckets.max(1) {
         return points.to_vec();
     }
@@ -282,7 +312,9 @@ pub(crate) fn decimate(points: &[(f64, f64)], x_range: (f64, f64), buckets: usiz
 
 /// Splits a sequence of plotted points at the `None`s (values that cannot be shown), so a
 /// NaN leaves a gap instead of a line to nowhere.
-pub(crate) fn segments(points: impl IntoIterator<Item = Option<(f64, f64)>>) -> Vec<Vec<(f64, f64)>> {
+pub(crate) fn segments(
+    points: impl IntoIterator<Item = Option<(f64, f64)>>,
+) -> Vec<Vec<(f64, f64)>> {
     let mut out = vec![Vec::new()];
     for p in points {
         match p {
@@ -371,7 +403,14 @@ mod tests {
 
     #[test]
     fn nan_splits_segments() {
-        let s = segments([Some((0.0, 1.0)), None, None, Some((2.0, 3.0)), Some((3.0, 4.0)), None]);
+        let s = segments([
+            Some((0.0, 1.0)),
+            None,
+            None,
+            Some((2.0, 3.0)),
+            Some((3.0, 4.0)),
+            None,
+        ]);
         assert_eq!(s, vec![vec![(0.0, 1.0)], vec![(2.0, 3.0), (3.0, 4.0)]]);
     }
 }

@@ -6,8 +6,8 @@ use super::format::fmt_sig;
 use super::plots::{DrawResult, Figure, bad_input, chart, colour, render, text, y_label_area};
 use plotters::coord::Shift;
 use plotters::prelude::*;
-use plotters::style::text_anchor::{HPos, Pos, VPos};
 use plotters::style::FontTransform;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::path::Path;
 
 /// Writes `<dir>/<stem>.png` and `.svg`: one bar per model, its height the fraction of all
@@ -53,7 +53,12 @@ struct BarFigure {
 impl BarFigure {
     fn new(dir: &Path, stem: &str, labels: &[String], counts: &[f64]) -> Result<Self, ReportError> {
         if counts.is_empty() {
-            return Err(bad_input(dir, stem, "counts", "is empty; give one count per model"));
+            return Err(bad_input(
+                dir,
+                stem,
+                "counts",
+                "is empty; give one count per model",
+            ));
         }
         if labels.len() != counts.len() {
             return Err(bad_input(
@@ -77,7 +82,12 @@ impl BarFigure {
         }
         let total: f64 = counts.iter().sum();
         if total <= 0.0 {
-            return Err(bad_input(dir, stem, "counts", "are all zero; nothing to plot"));
+            return Err(bad_input(
+                dir,
+                stem,
+                "counts",
+                "are all zero; nothing to plot",
+            ));
         }
         let fractions: Vec<f64> = counts.iter().map(|c| c / total).collect();
         let peak = fractions.iter().copied().fold(0.0, f64::max);
@@ -102,42 +112,65 @@ impl BarFigure {
 
 impl Figure for BarFigure {
     fn size(&self) -> (u32, u32) {
-        let longest = self.labels.iter().map(|l| l.chars().count()).max().unwrap_or(0) as u32;
-        let extra = if self.vertical_labels { longest * CHAR_PX } else { 0 };
+        let longest = self
+            .labels
+            .iter()
+            .map(|l| l.chars().count())
+            .max()
+            .unwrap_or(0) as u32;
+        let extra = if self.vertical_labels {
+            longest * CHAR_PX
+        } else {
+            0
+        };
         (self.width, HEIGHT + extra)
     }
 
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult<DB> {
-        let title = format!("Model visits ({} in total)", fmt_sig(self.total, 6));
+        let total = if self.total.fract() == 0.0 && self.total < 1e15 {
+            format!("{:.0}", self.total)
+        } else {
+            fmt_sig(self.total, 6)
+        };
+        let title = format!("Model visits ({total} in total)");
         let area = root.titled(&title, text(18))?.margin(5, 10, 10, 20);
         let n = self.fractions.len();
         let mut x = Axis::linear(0.0, 1.0, 1);
         x.lo = -0.5;
         x.hi = n as f64 - 0.5;
         x.ticks = (0..n).map(|k| k as f64).collect();
-        let longest = self.labels.iter().map(|l| l.chars().count()).max().unwrap_or(0) as u32;
-        let x_area = if self.vertical_labels { longest * CHAR_PX + 45 } else { 50 };
-        let mut ch = chart(&area, (&x, &self.y), (x_area, y_label_area(&self.y, true)), None)?;
+        let longest = self
+            .labels
+            .iter()
+            .map(|l| l.chars().count())
+            .max()
+            .unwrap_or(0) as u32;
+        let x_area = if self.vertical_labels {
+            longest * CHAR_PX + 45
+        } else {
+            50
+        };
+        let mut ch = chart(
+            &area,
+            (&x, &self.y),
+            (x_area, y_label_area(&self.y, true)),
+            None,
+        )?;
+        // plotters misplaces rotated tick labels, so vertical ones are drawn by hand below.
         let label_of = |v: &f64| {
             let k = v.round();
-            if (v - k).abs() < 1e-9 && k >= 0.0 {
-                self.labels.get(k as usize).cloned().unwrap_or_default()
-            } else {
+            if self.vertical_labels || (v - k).abs() > 1e-9 || k < 0.0 {
                 String::new()
+            } else {
+                self.labels.get(k as usize).cloned().unwrap_or_default()
             }
         };
         let y_label = |v: &f64| self.y.label(*v);
-        let x_style = if self.vertical_labels {
-            text(14).transform(FontTransform::Rotate90)
-        } else {
-            text(14)
-        };
         ch.configure_mesh()
             .disable_x_mesh()
             .x_label_formatter(&label_of)
             .y_label_formatter(&y_label)
-            .x_label_style(x_style)
-            .y_label_style(text(14))
+            .label_style(text(14))
             .axis_desc_style(text(16))
             .bold_line_style(RGBColor(230, 230, 230))
             .axis_style(RGBColor(90, 90, 90))
@@ -149,12 +182,30 @@ impl Figure for BarFigure {
             let k = k as f64;
             Rectangle::new([(k - 0.38, 0.0), (k + 0.38, f)], fill)
         }))?;
+        if self.vertical_labels {
+            let style = text(14)
+                .transform(FontTransform::Rotate90)
+                .pos(Pos::new(HPos::Left, VPos::Center));
+            for (k, label) in self.labels.iter().enumerate() {
+                let (px, py) = ch.backend_coord(&(k as f64, self.y.lo));
+                root.draw_text(label, &style, (px, py + 10))?;
+            }
+        }
         if n <= LABEL_LIMIT {
             let style = text(13).pos(Pos::new(HPos::Center, VPos::Bottom));
             ch.draw_series(self.fractions.iter().enumerate().map(|(k, &f)| {
-                Text::new(fmt_sig(f, 3), (k as f64, f), style.clone())
+                Text::new(trim_zeros(fmt_sig(f, 3)), (k as f64, f), style.clone())
             }))?;
         }
         Ok(())
+    }
+}
+
+/// `0.0900` → `0.09`: the trailing zeros of a 3-significant-digit fraction are noise on a bar.
+fn trim_zeros(s: String) -> String {
+    if s.contains('.') && !s.contains('e') {
+        s.trim_end_matches('0').trim_end_matches('.').to_string()
+    } else {
+        s
     }
 }

@@ -65,7 +65,9 @@ struct CornerFigure {
 /// Index of the bin of width `(hi − lo)/n` holding `v`, if inside.
 fn bin(v: f64, axis: &Axis, n: usize) -> Option<usize> {
     let u = (v - axis.lo) / (axis.hi - axis.lo);
-    (0.0..1.0).contains(&u).then(|| ((u * n as f64) as usize).min(n - 1))
+    (0.0..1.0)
+        .contains(&u)
+        .then(|| ((u * n as f64) as usize).min(n - 1))
 }
 
 impl CornerFigure {
@@ -78,7 +80,12 @@ impl CornerFigure {
     ) -> Result<Self, ReportError> {
         let np = names.len();
         if np == 0 {
-            return Err(bad_input(dir, stem, "names", "is empty; give one name per parameter"));
+            return Err(bad_input(
+                dir,
+                stem,
+                "names",
+                "is empty; give one name per parameter",
+            ));
         }
         if samples.is_empty() {
             return Err(bad_input(dir, stem, "samples", "is empty; nothing to plot"));
@@ -101,7 +108,10 @@ impl CornerFigure {
                 dir,
                 stem,
                 "truth",
-                format!("has {} values but names has {np}; give one per parameter", t.len()),
+                format!(
+                    "has {} values but names has {np}; give one per parameter",
+                    t.len()
+                ),
             ));
         }
         let n = samples.len() as f64;
@@ -109,10 +119,14 @@ impl CornerFigure {
         // are shared among bins² cells.
         let bins1 = (n.sqrt().round() as usize).clamp(10, 50);
         let bins2 = ((n.sqrt() / 3.0).round() as usize).clamp(10, if np > 5 { 24 } else { 32 });
+        let cell = (1400 / np as u32).clamp(130, 260);
         let axes: Vec<Axis> = (0..np)
             .map(|p| {
                 let t = truth.map(|t| t[p]).filter(|t| t.is_finite());
-                Axis::linear_for(samples.iter().map(|s| s[p]).chain(t), 4)
+                let mut a = Axis::linear_for(samples.iter().map(|s| s[p]).chain(t), 4);
+                // Half a tick label (~22 px) must fit between a tick and the cell edge.
+                a.drop_edge_ticks(22.0 / cell as f64);
+                a
             })
             .collect();
         let marginals = (0..np)
@@ -155,7 +169,7 @@ impl CornerFigure {
             marginals,
             pairs,
             bins2,
-            cell: (1400 / np as u32).clamp(130, 260),
+            cell,
         })
     }
 
@@ -188,10 +202,14 @@ impl CornerFigure {
         mesh(&mut ch, (x, &y), &labels, 12)?;
         let w = (x.hi - x.lo) / h.len() as f64;
         let fill = colour(0).mix(0.45).filled();
-        let bars = h.iter().enumerate().filter(|(_, c)| **c > 0.0).map(|(k, &c)| {
-            let x0 = x.lo + k as f64 * w;
-            Rectangle::new([(x0, 0.0), (x0 + w, c)], fill)
-        });
+        let bars = h
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| **c > 0.0)
+            .map(|(k, &c)| {
+                let x0 = x.lo + k as f64 * w;
+                Rectangle::new([(x0, 0.0), (x0 + w, c)], fill)
+            });
         ch.draw_series(bars)?;
         // Outline as a step line so neighbouring bars of equal height read as one plateau.
         let step = h.iter().enumerate().flat_map(|(k, &c)| {
@@ -200,7 +218,10 @@ impl CornerFigure {
         });
         ch.draw_series(LineSeries::new(step, colour(0).stroke_width(1)))?;
         if let Some(t) = self.truth(p) {
-            ch.draw_series(LineSeries::new([(t, 0.0), (t, y.hi)], TRUTH.stroke_width(2)))?;
+            ch.draw_series(LineSeries::new(
+                [(t, 0.0), (t, y.hi)],
+                TRUTH.stroke_width(2),
+            ))?;
         }
         Ok(())
     }
@@ -228,22 +249,32 @@ impl CornerFigure {
         let peak = h.iter().copied().fold(0.0, f64::max);
         let (wx, wy) = ((x.hi - x.lo) / nb as f64, (y.hi - y.lo) / nb as f64);
         let dark = colour(0);
-        let cells = h.iter().enumerate().filter(|(_, c)| **c > 0.0).map(|(k, &c)| {
-            let (bx, by) = ((k % nb) as f64, (k / nb) as f64);
-            // Even one sample must stay visible against white: shade from 15 % to 100 %.
-            let a = 0.15 + 0.85 * c / peak;
-            let mix = |d: u8| (255.0 - a * (255.0 - d as f64)).round() as u8;
-            let shade = RGBColor(mix(dark.0), mix(dark.1), mix(dark.2));
-            let (x0, y0) = (x.lo + bx * wx, y.lo + by * wy);
-            Rectangle::new([(x0, y0), (x0 + wx, y0 + wy)], shade.filled())
-        });
+        let cells = h
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| **c > 0.0)
+            .map(|(k, &c)| {
+                let (bx, by) = ((k % nb) as f64, (k / nb) as f64);
+                // Even one sample must stay visible against white: shade from 15 % to 100 %.
+                let a = 0.15 + 0.85 * c / peak;
+                let mix = |d: u8| (255.0 - a * (255.0 - d as f64)).round() as u8;
+                let shade = RGBColor(mix(dark.0), mix(dark.1), mix(dark.2));
+                let (x0, y0) = (x.lo + bx * wx, y.lo + by * wy);
+                Rectangle::new([(x0, y0), (x0 + wx, y0 + wy)], shade.filled())
+            });
         ch.draw_series(cells)?;
         let (tx, ty) = (self.truth(j), self.truth(i));
         if let Some(t) = tx {
-            ch.draw_series(LineSeries::new([(t, y.lo), (t, y.hi)], TRUTH.stroke_width(1)))?;
+            ch.draw_series(LineSeries::new(
+                [(t, y.lo), (t, y.hi)],
+                TRUTH.stroke_width(1),
+            ))?;
         }
         if let Some(t) = ty {
-            ch.draw_series(LineSeries::new([(x.lo, t), (x.hi, t)], TRUTH.stroke_width(1)))?;
+            ch.draw_series(LineSeries::new(
+                [(x.lo, t), (x.hi, t)],
+                TRUTH.stroke_width(1),
+            ))?;
         }
         if let (Some(a), Some(b)) = (tx, ty) {
             ch.draw_series([Circle::new((a, b), 4, TRUTH.filled())])?;
@@ -255,12 +286,15 @@ impl CornerFigure {
 impl Figure for CornerFigure {
     fn size(&self) -> (u32, u32) {
         let n = self.axes.len() as u32;
-        (LEFT + n * self.cell + RIGHT, TITLE_H + n * self.cell + BOTTOM)
+        (
+            LEFT + n * self.cell + RIGHT,
+            TITLE_H + n * self.cell + BOTTOM,
+        )
     }
 
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult<DB> {
         let n = self.axes.len();
-        let area = root.titled(&self.title, text(16))?;
+        let area = root.titled(&self.title, text(16))?.margin(4, 0, 0, RIGHT);
         let xs: Vec<u32> = (1..n as u32).map(|k| LEFT + k * self.cell).collect();
         let ys: Vec<u32> = (1..n as u32).map(|k| k * self.cell).collect();
         let cells = area.split_by_breakpoints(xs, ys);

@@ -74,17 +74,15 @@ pub fn fmt_pm(value: f64, sigma: f64) -> String {
     let e_value = if value == 0.0 {
         i32::MIN
     } else {
-        // Rounded at `last` the value has `e - last + 1` digits, which depends on `e` after
-        // rounding (9.99996 -> 10.0000): iterate until the exponent is stable (≤ 2 passes).
-        let mut e = exponent_after_rounding(value, 17);
-        for _ in 0..2 {
-            let digits = e - last + 1;
-            if digits < 1 {
-                break;
-            }
-            e = exponent_after_rounding(value, digits as usize);
+        // Rounding at `last` may carry into a new leading digit (9.999996e-7 → 1.000000e-6);
+        // the exponent that matters is the one after that rounding.
+        let e = exponent_after_rounding(value, 17);
+        let digits = e - last + 1;
+        if digits < 1 {
+            e
+        } else {
+            exponent_after_rounding(value, digits as usize)
         }
-        e
     };
     let common = e_value.max(last + 1);
     if (-2..=3).contains(&common) {
@@ -92,10 +90,13 @@ pub fn fmt_pm(value: f64, sigma: f64) -> String {
             let unit = 10f64.powi(last);
             let v = (value / unit).round() * unit;
             let s = (sigma / unit).round() * unit;
-            format!("{} ± {}", fix_negative_zero(format!("{v:.0}")), format!("{s:.0}"))
+            format!("{} ± {s:.0}", fix_negative_zero(format!("{v:.0}")))
         } else {
             let d = (-last) as usize;
-            format!("{} ± {sigma:.d$}", fix_negative_zero(format!("{value:.d$}")))
+            format!(
+                "{} ± {sigma:.d$}",
+                fix_negative_zero(format!("{value:.d$}"))
+            )
         }
     } else {
         let scale = 10f64.powi(common);
@@ -166,9 +167,17 @@ pub fn kass_raftery(ln_b: f64) -> &'static str {
     if two_ln_b <= 2.0 {
         "not worth more than a bare mention"
     } else if two_ln_b <= 6.0 {
-        if x { "positive evidence for X" } else { "positive evidence for Y" }
+        if x {
+            "positive evidence for X"
+        } else {
+            "positive evidence for Y"
+        }
     } else if two_ln_b <= 10.0 {
-        if x { "strong evidence for X" } else { "strong evidence for Y" }
+        if x {
+            "strong evidence for X"
+        } else {
+            "strong evidence for Y"
+        }
     } else if x {
         "very strong evidence for X"
     } else {

@@ -8,6 +8,7 @@ use super::plots::{
 };
 use plotters::coord::Shift;
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::path::Path;
 
 /// A generic line plot. Build it with a struct literal and `..Default::default()`.
@@ -92,7 +93,7 @@ pub fn bayes_factor_evolution(
         log_y,
         ..Default::default()
     };
-    let reference = log_y.then_some(1.0);
+    let reference = log_y.then_some((1.0, "B = 1"));
     let fig = LineFigure::new(dir, stem, &plot, reference)?;
     render(dir, stem, &fig)
 }
@@ -101,6 +102,8 @@ const WIDTH: u32 = 900;
 const HEIGHT: u32 = 560;
 /// Series up to this many points get point markers.
 const MARKER_LIMIT: usize = 60;
+/// Series up to this many points are drawn 2 px wide, longer ones 1 px.
+const THICK_LIMIT: usize = 300;
 
 struct Prepared {
     name: String,
@@ -108,6 +111,7 @@ struct Prepared {
     /// `(x, low, centre, high)` in plotted coordinates.
     bars: Vec<(f64, f64, f64, f64)>,
     markers: bool,
+    stroke: u32,
 }
 
 struct LineFigure {
@@ -118,8 +122,8 @@ struct LineFigure {
     y: Axis,
     series: Vec<Prepared>,
     legend: bool,
-    /// Horizontal reference line (data value), drawn dashed if inside the range.
-    reference: Option<f64>,
+    /// Horizontal reference line `(plotted y, label)`.
+    reference: Option<(f64, &'static str)>,
 }
 
 impl LineFigure {
@@ -127,7 +131,7 @@ impl LineFigure {
         dir: &Path,
         stem: &str,
         plot: &LinePlot<'_>,
-        reference: Option<f64>,
+        reference: Option<(f64, &'static str)>,
     ) -> Result<Self, ReportError> {
         let series = plot.series;
         if series.is_empty() {
@@ -210,6 +214,8 @@ impl LineFigure {
         } else {
             Axis::linear_for(xs, 8)
         };
+        // The reference (B = 1) is always in view: it shows which model is ahead.
+        ys.extend(reference.map(|r| r.0));
         let y = if plot.log_y {
             Axis::log10_for(ys, 7)
         } else {
@@ -221,7 +227,9 @@ impl LineFigure {
             .iter()
             .enumerate()
             .map(|(i, (name, pts))| {
-                let mapped = pts.iter().map(|&(px, py)| Some((x.to_plot(px)?, y.to_plot(py)?)));
+                let mapped = pts
+                    .iter()
+                    .map(|&(px, py)| Some((x.to_plot(px)?, y.to_plot(py)?)));
                 let segments = segments(mapped)
                     .into_iter()
                     .map(|s| decimate(&s, (x.lo, x.hi), plot_px))
@@ -244,6 +252,9 @@ impl LineFigure {
                     segments,
                     bars,
                     markers: pts.len() <= MARKER_LIMIT,
+                    // Wide polylines get mitred joins without a limit in plotters' bitmap
+                    // backend, so sharp spikes in dense noisy data would shoot past the axes.
+                    stroke: if pts.len() <= THICK_LIMIT { 2 } else { 1 },
                 }
             })
             .collect();
@@ -252,7 +263,7 @@ impl LineFigure {
             x_title: plot.x_label.to_string(),
             y_title: plot.y_label.to_string(),
             legend: series.len() > 1 || !series[0].0.is_empty(),
-            reference: reference.and_then(|r| y.to_plot(r)).filter(|r| (y.lo..=y.hi).contains(r)),
+            reference: reference.and_then(|(r, label)| Some((y.to_plot(r)?, label))),
             x,
             y,
             series: prepared,
@@ -301,13 +312,19 @@ impl Figure for LineFigure {
             y_labels: true,
         };
         mesh(&mut ch, axes, &labels, 14)?;
-        if let Some(r) = self.reference {
+        if let Some((r, label)) = self.reference {
+            let grey = RGBColor(60, 60, 60);
             ch.draw_series(DashedLineSeries::new(
                 [(self.x.lo, r), (self.x.hi, r)],
                 8,
                 5,
-                RGBColor(60, 60, 60).stroke_width(1),
+                grey.stroke_width(1),
             ))?;
+            let style = text(13)
+                .color(&grey)
+                .pos(Pos::new(HPos::Left, VPos::Bottom));
+            let at = self.x.lo + 0.01 * (self.x.hi - self.x.lo);
+            ch.draw_series([Text::new(label, (at, r), style)])?;
         }
         for (i, s) in self.series.iter().enumerate() {
             let c = colour(i);
@@ -315,15 +332,24 @@ impl Figure for LineFigure {
                 ch.draw_series([ErrorBar::new_vertical(x, lo, mid, hi, c.stroke_width(1), 8)])?;
             }
             for seg in &s.segments {
-                ch.draw_series(LineSeries::new(seg.iter().copied(), c.stroke_width(2)))?;
+                ch.draw_series(LineSeries::new(
+                    seg.iter().copied(),
+                    c.stroke_width(s.stroke),
+                ))?;
             }
-            // Markers are drawn even for a lone point, which no line would show; the legend
-            // entry hangs on this (possibly empty) series.
-            let pts = s.segments.iter().flatten().copied().filter(|_| s.markers);
+            // A point cut off by NaNs on both sides has no line, so it always gets a marker;
+            // the legend entry hangs on this (possibly empty) series.
+            let pts = s
+                .segments
+                .iter()
+                .filter(|g| s.markers || g.len() == 1)
+                .flatten()
+                .copied();
             let a = ch.draw_series(pts.map(|p| Circle::new(p, 3, c.filled())))?;
             if self.legend {
+                let w = s.stroke;
                 a.label(s.name.clone()).legend(move |(x, y)| {
-                    PathElement::new([(x, y), (x + 20, y)], c.stroke_width(2))
+                    PathElement::new([(x, y), (x + 20, y)], c.stroke_width(w))
                 });
             }
         }

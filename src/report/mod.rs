@@ -26,6 +26,8 @@ mod format;
 mod lines;
 mod plots;
 mod table;
+#[cfg(test)]
+mod tests;
 mod trace;
 
 use std::path::PathBuf;
@@ -73,7 +75,9 @@ pub enum ReportError {
     )]
     Font,
     /// A table row has the wrong number of cells.
-    #[error("table row {row} has {found} cells but the header has {expected}; give one cell per column")]
+    #[error(
+        "table row {row} has {found} cells but the header has {expected}; give one cell per column"
+    )]
     RowWidth {
         /// Index of the offending row (0 = first row after the header).
         row: usize,

@@ -7,8 +7,8 @@ use crate::atomic;
 use plotters::coord::Shift;
 use plotters::coord::ranged1d::{DefaultFormatting, KeyPointHint, Ranged};
 use plotters::coord::types::RangedCoordf64;
-use std::ops::Range;
 use plotters::prelude::*;
+use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -114,7 +114,9 @@ fn render_png<F: Figure>(dir: &Path, stem: &str, fig: &F) -> Result<(), ReportEr
             file: file.clone(),
             source,
         };
-        std::fs::File::open(&tmp).and_then(|f| f.sync_all()).map_err(io)?;
+        std::fs::File::open(&tmp)
+            .and_then(|f| f.sync_all())
+            .map_err(io)?;
         std::fs::rename(&tmp, &file).map_err(io)
     })();
     if result.is_err() {
@@ -203,7 +205,12 @@ pub(crate) type Coords = Cartesian2d<Ticked, Ticked>;
 /// Pixel width needed for the tick labels of a vertical axis (DejaVu Sans at 14 px averages
 /// about 8 px per character), plus room for the rotated axis title.
 pub(crate) fn y_label_area(y: &Axis, with_title: bool) -> u32 {
-    let chars = y.ticks.iter().map(|&t| y.label(t).chars().count()).max().unwrap_or(1);
+    let chars = y
+        .ticks
+        .iter()
+        .map(|&t| y.label(t).chars().count())
+        .max()
+        .unwrap_or(1);
     chars as u32 * 8 + 14 + if with_title { 28 } else { 0 }
 }
 
@@ -242,8 +249,20 @@ pub(crate) fn mesh<DB: DrawingBackend>(
     t: &MeshText,
     label_size: u32,
 ) -> DrawResult<DB> {
-    let fx = |v: &f64| if t.x_labels { x.label(*v) } else { String::new() };
-    let fy = |v: &f64| if t.y_labels { y.label(*v) } else { String::new() };
+    let fx = |v: &f64| {
+        if t.x_labels {
+            x.label(*v)
+        } else {
+            String::new()
+        }
+    };
+    let fy = |v: &f64| {
+        if t.y_labels {
+            y.label(*v)
+        } else {
+            String::new()
+        }
+    };
     let mut m = chart.configure_mesh();
     m.x_label_formatter(&fx)
         .y_label_formatter(&fy)

@@ -255,10 +255,27 @@ A_df               0.8123 ± 0.0034     0.81
 
     #[test]
     fn numeric_detection() {
-        for s in ["0.309", "-1.2e-6", "1.9630 ± 0.0010", "(-1 ± 2)e-6", "NaN", "-inf", "12%"] {
+        for s in [
+            "0.309",
+            "-1.2e-6",
+            "1.9630 ± 0.0010",
+            "(-1 ± 2)e-6",
+            "NaN",
+            "-inf",
+            "12%",
+        ] {
             assert!(looks_numeric(s), "{s}");
         }
-        for s in ["RJMCMC", "strong evidence for X", "e", "-", "n/a", "1 s", "fan1", "(1)x"] {
+        for s in [
+            "RJMCMC",
+            "strong evidence for X",
+            "e",
+            "-",
+            "n/a",
+            "1 s",
+            "fan1",
+            "(1)x",
+        ] {
             assert!(!looks_numeric(s), "{s}");
         }
     }

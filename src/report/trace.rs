@@ -77,11 +77,21 @@ impl TraceFigure {
     ) -> Result<Self, ReportError> {
         let np = names.len();
         if np == 0 {
-            return Err(bad_input(dir, stem, "names", "is empty; give one name per parameter"));
+            return Err(bad_input(
+                dir,
+                stem,
+                "names",
+                "is empty; give one name per parameter",
+            ));
         }
         let longest = chains.iter().map(Vec::len).max().unwrap_or(0);
         if longest == 0 {
-            return Err(bad_input(dir, stem, "chains", "holds no samples; nothing to plot"));
+            return Err(bad_input(
+                dir,
+                stem,
+                "chains",
+                "holds no samples; nothing to plot",
+            ));
         }
         for (c, chain) in chains.iter().enumerate() {
             if let Some(s) = chain.iter().position(|v| v.len() != np) {
@@ -103,7 +113,10 @@ impl TraceFigure {
                 dir,
                 stem,
                 "truth",
-                format!("has {} values but names has {np}; give one per parameter", t.len()),
+                format!(
+                    "has {} values but names has {np}; give one per parameter",
+                    t.len()
+                ),
             ));
         }
         let x = Axis::linear(0.0, (longest - 1) as f64, 10);
@@ -116,9 +129,10 @@ impl TraceFigure {
                 let lines = chains
                     .iter()
                     .map(|chain| {
-                        let pts = chain.iter().enumerate().map(|(i, s)| {
-                            s[p].is_finite().then_some((i as f64, s[p]))
-                        });
+                        let pts = chain
+                            .iter()
+                            .enumerate()
+                            .map(|(i, s)| s[p].is_finite().then_some((i as f64, s[p])));
                         segments(pts)
                             .into_iter()
                             .map(|seg| decimate(&seg, (x.lo, x.hi), buckets))
@@ -135,7 +149,11 @@ impl TraceFigure {
                 }
             })
             .collect();
-        let y_area = panels.iter().map(|p| y_label_area(&p.y, false)).max().unwrap_or(60);
+        let y_area = panels
+            .iter()
+            .map(|p| y_label_area(&p.y, false))
+            .max()
+            .unwrap_or(60);
         let samples = if chains.iter().all(|c| c.len() == longest) {
             format!("{longest} samples each")
         } else {
@@ -193,7 +211,10 @@ impl Figure for TraceFigure {
                 ))?;
             }
             if panel.empty {
-                let mid = ((self.x.lo + self.x.hi) / 2.0, (panel.y.lo + panel.y.hi) / 2.0);
+                let mid = (
+                    (self.x.lo + self.x.hi) / 2.0,
+                    (panel.y.lo + panel.y.hi) / 2.0,
+                );
                 let style = text(15).pos(Pos::new(HPos::Center, VPos::Center));
                 ch.draw_series([Text::new("no finite values", mid, style)])?;
             }

@@ -1,0 +1,317 @@
+//! End-to-end checks of the plot functions: files written, complete, nothing left behind,
+//! and bad input rejected with a typed error before any file is touched.
+
+use super::*;
+use std::path::Path;
+
+const PNG_SIGNATURE: [u8; 8] = [137, 80, 78, 71, 13, 10, 26, 10];
+
+/// Asserts that `dir` holds exactly `<stem>.png` and `<stem>.svg` (no temporaries), that the
+/// PNG is complete (signature, IHDR first, IEND last, > 1 kB) and that the SVG is a whole
+/// document containing every string in `svg_has`. Returns the PNG's (width, height).
+fn check_outputs(dir: &Path, stem: &str, svg_has: &[&str]) -> (u32, u32) {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(names, [format!("{stem}.png"), format!("{stem}.svg")]);
+
+    let png = std::fs::read(dir.join(format!("{stem}.png"))).unwrap();
+    assert!(png.len() > 1024, "PNG only {} bytes", png.len());
+    assert_eq!(png[..8], PNG_SIGNATURE);
+    assert_eq!(&png[12..16], b"IHDR");
+    assert_eq!(&png[png.len() - 8..png.len() - 4], b"IEND", "PNG truncated");
+    let be = |i: usize| u32::from_be_bytes([png[i], png[i + 1], png[i + 2], png[i + 3]]);
+    let size = (be(16), be(20));
+
+    let svg = std::fs::read_to_string(dir.join(format!("{stem}.svg"))).unwrap();
+    assert!(svg.contains("<svg"), "no <svg> element");
+    assert!(svg.trim_end().ends_with("</svg>"), "SVG truncated");
+    assert!(
+        svg.contains(&format!("width=\"{}\"", size.0)),
+        "SVG and PNG sizes differ"
+    );
+    for s in svg_has {
+        assert!(svg.contains(s), "SVG lacks {s:?}");
+    }
+    size
+}
+
+fn names(n: &[&str]) -> Vec<String> {
+    n.iter().map(|s| s.to_string()).collect()
+}
+
+fn assert_invalid(r: Result<(), ReportError>, field: &str, dir: &Path) {
+    match r {
+        Err(ReportError::InvalidInput { field: f, .. }) => assert_eq!(f, field),
+        other => panic!("expected InvalidInput on {field}, got {other:?}"),
+    }
+    assert_eq!(
+        std::fs::read_dir(dir).unwrap().count(),
+        0,
+        "files written on bad input"
+    );
+}
+
+#[test]
+fn trace_plot_writes_both_formats_with_scaled_labels() {
+    let dir = tempfile::tempdir().unwrap();
+    // Parameter 0 at -1.3e-6 with a 1e-10 spread, parameter 1 constant, one NaN.
+    let chains: Vec<Vec<Vec<f64>>> = (0..3)
+        .map(|c| {
+            (0..100)
+                .map(|i| {
+                    let w = -1.29998e-6 + 1e-10 * ((i + 10 * c) as f64 * 0.3).sin();
+                    let a = if i == 50 { f64::NAN } else { 0.8 };
+                    vec![w, a]
+                })
+                .collect()
+        })
+        .collect();
+    let n = names(&["w", "A"]);
+    trace_plot(dir.path(), "trace", &n, &chains, Some(&[-1.3e-6, 0.8])).unwrap();
+    let (w, h) = check_outputs(
+        dir.path(),
+        "trace",
+        &[
+            "3 chains, 100 samples each",
+            "(w + 1.300×10⁻⁶) / 10⁻¹⁰",
+            "sample index",
+        ],
+    );
+    assert_eq!((w, h), (1000, 36 + 2 * 150 + 45));
+    // Rendering again replaces the files and still leaves no temporaries.
+    trace_plot(dir.path(), "trace", &n, &chains, None).unwrap();
+    check_outputs(dir.path(), "trace", &[]);
+}
+
+#[test]
+fn trace_plot_marks_a_parameter_without_finite_values() {
+    let dir = tempfile::tempdir().unwrap();
+    let chain: Vec<Vec<f64>> = (0..20).map(|i| vec![i as f64, f64::NAN]).collect();
+    trace_plot(dir.path(), "t", &names(&["x", "y"]), &[chain], None).unwrap();
+    check_outputs(dir.path(), "t", &["no finite values"]);
+}
+
+#[test]
+fn trace_plot_rejects_bad_shapes() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let ok = vec![vec![vec![1.0, 2.0]; 5]];
+    assert_invalid(trace_plot(d, "t", &[], &ok, None), "names", d);
+    assert_invalid(
+        trace_plot(d, "t", &names(&["a", "b"]), &[], None),
+        "chains",
+        d,
+    );
+    assert_invalid(
+        trace_plot(d, "t", &names(&["a", "b"]), &[vec![]], None),
+        "chains",
+        d,
+    );
+    let mut ragged = ok.clone();
+    ragged[0][3].pop();
+    assert_invalid(
+        trace_plot(d, "t", &names(&["a", "b"]), &ragged, None),
+        "chains[0][3]",
+        d,
+    );
+    let n = names(&["a", "b"]);
+    assert_invalid(trace_plot(d, "t", &n, &ok, Some(&[1.0])), "truth", d);
+    assert_invalid(trace_plot(d, "a/b", &n, &ok, None), "stem", d);
+    assert_invalid(trace_plot(d, "", &n, &ok, None), "stem", d);
+}
+
+#[test]
+fn corner_plot_handles_constant_and_nan_columns() {
+    let dir = tempfile::tempdir().unwrap();
+    let samples: Vec<Vec<f64>> = (0..300)
+        .map(|i| {
+            let u = (i as f64 * 0.61).sin();
+            let bad = if i % 7 == 0 { f64::NAN } else { 2e-6 * u };
+            vec![u, 0.5, bad]
+        })
+        .collect();
+    let n = names(&["a", "b", "c"]);
+    corner_plot(dir.path(), "corner", &n, &samples, Some(&[0.0, 0.5, 0.0])).unwrap();
+    let (w, h) = check_outputs(dir.path(), "corner", &["300 samples", "c / 10⁻⁶"]);
+    assert!(w > 3 * 130 && h > 3 * 130, "{w}×{h}");
+}
+
+#[test]
+fn corner_plot_rejects_bad_shapes() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let n = names(&["a", "b"]);
+    assert_invalid(corner_plot(d, "c", &n, &[], None), "samples", d);
+    assert_invalid(corner_plot(d, "c", &[], &[vec![]], None), "names", d);
+    let s = vec![vec![1.0, 2.0], vec![1.0]];
+    assert_invalid(corner_plot(d, "c", &n, &s, None), "samples[1]", d);
+    assert_invalid(
+        corner_plot(d, "c", &n, &s[..1], Some(&[0.0; 3])),
+        "truth",
+        d,
+    );
+}
+
+#[test]
+fn bayes_factor_evolution_linear_and_log() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |b0: f64| -> Vec<(f64, f64)> {
+        (1..=40)
+            .map(|i| (250.0 * i as f64, b0 / (1.0 + i as f64 / 8.0)))
+            .collect()
+    };
+    let series = vec![
+        ("SNR 5".to_string(), run(0.9)),
+        ("SNR 60".to_string(), run(1e-3)),
+    ];
+    bayes_factor_evolution(dir.path(), "b", &series, true, "B_XY").unwrap();
+    check_outputs(
+        dir.path(),
+        "b",
+        &["SNR 5", "SNR 60", "B = 1", "iteration", "10⁻³"],
+    );
+
+    let dir = tempfile::tempdir().unwrap();
+    // ln B with a NaN gap and a zero (drawable on a linear axis).
+    let mut lnb = run(3.0);
+    lnb[5].1 = f64::NAN;
+    lnb[6].1 = 0.0;
+    bayes_factor_evolution(dir.path(), "lnb", &[("run".into(), lnb)], false, "ln B_XY").unwrap();
+    check_outputs(dir.path(), "lnb", &["ln B_XY"]);
+}
+
+#[test]
+fn bayes_factor_evolution_rejects_nothing_drawable() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    assert_invalid(bayes_factor_evolution(d, "b", &[], true, "B"), "series", d);
+    // All B ≤ 0: nothing can go on a log axis.
+    let s = vec![(
+        "r".to_string(),
+        vec![(1.0, 0.0), (2.0, -1.0), (3.0, f64::NAN)],
+    )];
+    assert_invalid(bayes_factor_evolution(d, "b", &s, true, "B"), "series", d);
+}
+
+#[test]
+fn model_histogram_short_and_long_labels() {
+    let dir = tempfile::tempdir().unwrap();
+    let labels = names(&["3-D", "4-D", "5-D", "6-D"]);
+    model_histogram(dir.path(), "m", &labels, &[10.0, 90.0, 740.0, 0.0]).unwrap();
+    check_outputs(dir.path(), "m", &["5-D", "0.88", "840 in total"]);
+
+    let dir = tempfile::tempdir().unwrap();
+    let labels: Vec<String> = (0..6)
+        .map(|k| format!("ω₁, ω₂, A_df, δ₂₁, Δt{k}"))
+        .collect();
+    model_histogram(dir.path(), "long", &labels, &[0.1, 0.2, 0.3, 0.2, 0.1, 0.1]).unwrap();
+    let (_, h) = check_outputs(dir.path(), "long", &["δ₂₁, Δt5"]);
+    assert!(h > 520, "vertical labels need a taller canvas, got {h}");
+}
+
+#[test]
+fn model_histogram_rejects_bad_counts() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let l = names(&["a", "b"]);
+    assert_invalid(model_histogram(d, "m", &[], &[]), "counts", d);
+    assert_invalid(model_histogram(d, "m", &l, &[1.0]), "labels", d);
+    assert_invalid(model_histogram(d, "m", &l, &[0.0, 0.0]), "counts", d);
+    assert_invalid(model_histogram(d, "m", &l, &[1.0, -1.0]), "counts[1]", d);
+    assert_invalid(
+        model_histogram(d, "m", &l, &[f64::NAN, 1.0]),
+        "counts[0]",
+        d,
+    );
+}
+
+#[test]
+fn line_plot_log_log_with_error_bars_and_gaps() {
+    let dir = tempfile::tempdir().unwrap();
+    let psd: Vec<(f64, f64)> = (0..400)
+        .map(|k| {
+            let f = k as f64 * 1e-3; // f = 0 cannot go on a log axis and is skipped
+            (f, 1e-28 * (1.0 + (1e-2 / f).powi(2)))
+        })
+        .collect();
+    let snr = vec![(5.0, 2.0), (10.0, -1.0), (20.0, 30.0)]; // -1 skipped on the log axis
+    let series = vec![("PSD".to_string(), psd), ("ln B".to_string(), snr)];
+    let err = vec![vec![f64::NAN; 400], vec![0.5, 0.5, 40.0]]; // 30 − 40 < 0: bar clipped
+    let plot = LinePlot {
+        title: "log-log",
+        x_label: "frequency [Hz]",
+        y_label: "PSD",
+        series: &series,
+        y_err: Some(&err),
+        log_x: true,
+        log_y: true,
+    };
+    line_plot(dir.path(), "ll", &plot).unwrap();
+    let (w, h) = check_outputs(dir.path(), "ll", &["log-log", "frequency [Hz]", "10⁻²⁵"]);
+    assert_eq!((w, h), (900, 560));
+}
+
+#[test]
+fn line_plot_constant_series_and_single_point() {
+    let dir = tempfile::tempdir().unwrap();
+    let series = vec![(String::new(), vec![(1.0, 0.8), (2.0, 0.8), (3.0, 0.8)])];
+    line_plot(
+        dir.path(),
+        "flat",
+        &LinePlot {
+            series: &series,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    check_outputs(dir.path(), "flat", &["0.80"]);
+
+    let dir = tempfile::tempdir().unwrap();
+    let series = vec![("one".to_string(), vec![(2.0, 3.0)])];
+    line_plot(
+        dir.path(),
+        "one",
+        &LinePlot {
+            series: &series,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    check_outputs(dir.path(), "one", &["one", "<circle"]);
+}
+
+#[test]
+fn line_plot_rejects_mismatched_error_bars() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let series = vec![("a".to_string(), vec![(1.0, 1.0), (2.0, 2.0)])];
+    let cases = [
+        (vec![], "y_err"),
+        (vec![vec![1.0]], "y_err[0]"),
+        (vec![vec![1.0, -0.1]], "y_err[0][1]"),
+    ];
+    for (err, field) in &cases {
+        let p = LinePlot {
+            series: &series,
+            y_err: Some(err),
+            ..Default::default()
+        };
+        assert_invalid(line_plot(d, "l", &p), field, d);
+    }
+    let empty = LinePlot::default();
+    assert_invalid(line_plot(d, "l", &empty), "series", d);
+}
+
+#[test]
+fn errors_name_the_figure() {
+    let dir = tempfile::tempdir().unwrap();
+    let e = model_histogram(dir.path(), "models", &[], &[]).unwrap_err();
+    let msg = e.to_string();
+    assert!(
+        msg.contains("models.{png,svg}") && msg.contains("`counts`"),
+        "{msg}"
+    );
+}
