@@ -33,11 +33,19 @@ pub enum NestedError {
     )]
     IndexOutOfRange { index: usize, parent_dim: usize },
     /// A parameter is listed twice among the free indices.
-    #[error("sub-model: free index {index} (`{name}`) is listed twice; list each free parameter once")]
+    #[error(
+        "sub-model: free index {index} (`{name}`) is listed twice; list each free parameter once"
+    )]
     DuplicateIndex { index: usize, name: String },
     /// A fixed value is NaN or infinite.
-    #[error("sub-model: fixed value of `{name}` (index {index}) is {value}; fixed values must be finite")]
-    NonFiniteBase { index: usize, name: String, value: f64 },
+    #[error(
+        "sub-model: fixed value of `{name}` (index {index}) is {value}; fixed values must be finite"
+    )]
+    NonFiniteBase {
+        index: usize,
+        name: String,
+        value: f64,
+    },
 }
 
 /// A nested model of `parent`: the parameters at `free` vary, every other parameter stays at its

@@ -174,7 +174,10 @@ pub fn laplace_fisher<T: LogDensity + ?Sized>(
     }
     ln_prior_extended(target.prior(), theta_hat)?;
     let mut h = fisher.clone();
-    for (i, c) in prior_curvature(target.prior(), theta_hat).into_iter().enumerate() {
+    for (i, c) in prior_curvature(target.prior(), theta_hat)
+        .into_iter()
+        .enumerate()
+    {
         h[(i, i)] += c;
     }
     let chol = spd_cholesky(
@@ -324,8 +327,14 @@ fn assemble<T: LogDensity + ?Sized>(
         });
     }
     let (ln_box_mass, std_err) = if correct {
-        let lo: Vec<f64> = bounded.iter().map(|&i| prior.kinds()[i].bounds().0).collect();
-        let hi: Vec<f64> = bounded.iter().map(|&i| prior.kinds()[i].bounds().1).collect();
+        let lo: Vec<f64> = bounded
+            .iter()
+            .map(|&i| prior.kinds()[i].bounds().0)
+            .collect();
+        let hi: Vec<f64> = bounded
+            .iter()
+            .map(|&i| prior.kinds()[i].bounds().1)
+            .collect();
         let mean: Vec<f64> = bounded.iter().map(|&i| theta_hat[i]).collect();
         let sub = cov.select_rows(&bounded).select_columns(&bounded);
         let mvn = opts.map(|o| o.mvn).unwrap_or_default();
@@ -379,7 +388,9 @@ pub fn numerical_hessian<F: Fn(&[f64]) -> f64>(
             "expand at a point where it is defined",
         ));
     }
-    let tau = (12.0 * f64::EPSILON * f0.abs().max(1.0)).powf(0.25).clamp(1e-5, 0.1);
+    let tau = (12.0 * f64::EPSILON * f0.abs().max(1.0))
+        .powf(0.25)
+        .clamp(1e-5, 0.1);
     let mut p = x.to_vec();
     let eval = |p: &mut Vec<f64>, steps: &[(usize, f64)]| -> Result<f64, EvidenceError> {
         for &(i, s) in steps {
@@ -391,7 +402,10 @@ pub fn numerical_hessian<F: Fn(&[f64]) -> f64>(
             Ok(v)
         } else {
             Err(EvidenceError::non_finite(
-                format!("the log posterior near θ̂ (step along `{}`)", name(steps[0].0)),
+                format!(
+                    "the log posterior near θ̂ (step along `{}`)",
+                    name(steps[0].0)
+                ),
                 v,
                 "the likelihood must be defined a few posterior widths around θ̂",
             ))
@@ -413,7 +427,7 @@ pub fn numerical_hessian<F: Fn(&[f64]) -> f64>(
             let fp = eval(&mut p, &[(i, h[i])])?;
             let fm = eval(&mut p, &[(i, -h[i])])?;
             let d2 = (fp - 2.0 * f0 + fm) / (h[i] * h[i]);
-            if !(d2 < 0.0) {
+            if d2.is_nan() || d2 >= 0.0 {
                 shrink += 1;
                 if shrink > 6 {
                     return Err(EvidenceError::NotPositiveDefinite {
@@ -478,7 +492,15 @@ mod tests {
     #[test]
     fn fisher_is_exact_with_gaussian_priors_on_nested_models() {
         for d in 1..=6 {
-            let m = lg(RandomPrior::Gaussian { mu: 0.1, sigma: 2.0 }, d, 20.0, d as u64);
+            let m = lg(
+                RandomPrior::Gaussian {
+                    mu: 0.1,
+                    sigma: 2.0,
+                },
+                d,
+                20.0,
+                d as u64,
+            );
             for cols in [(0..d).collect::<Vec<_>>(), (0..d - 1).collect()] {
                 let sub = SubModel::new(&m, cols.clone(), vec![0.0; d]).unwrap();
                 let post = m.gaussian_posterior(&cols).unwrap();
@@ -505,7 +527,15 @@ mod tests {
     fn box_correction_repairs_a_narrow_box_and_boundary_map() {
         // Box half-width 0.15 vs posterior σ ≈ 0.13 and θ_true ≈ 1: the unconstrained maximum
         // lies far outside the box.
-        let m = lg(RandomPrior::Uniform { lo: -0.15, hi: 0.15 }, 3, 15.0, 4);
+        let m = lg(
+            RandomPrior::Uniform {
+                lo: -0.15,
+                hi: 0.15,
+            },
+            3,
+            15.0,
+            4,
+        );
         let cols = [0usize, 1, 2];
         let post = m.gaussian_posterior(&cols).unwrap();
         let f = m.fisher(&cols).unwrap();
@@ -527,10 +557,18 @@ mod tests {
         let est = laplace_fisher(&m, post.mean.as_slice(), &f, &opts).unwrap();
         let exact = m.exact_ln_evidence(&cols, &MvnOptions::default()).unwrap();
         let se = est.std_err.unwrap().hypot(exact.std_err);
-        assert!(est.ln_box_mass.unwrap() < -5.0, "the box term must matter here");
+        assert!(
+            est.ln_box_mass.unwrap() < -5.0,
+            "the box term must matter here"
+        );
         assert!(est.min_margin_sigma < 0.0);
         // Two independent QMC estimates of the same box mass: 5σ of their combined error.
-        assert!((est.ln_z - exact.ln_z).abs() < 5.0 * se + 1e-9, "{} vs {}", est.ln_z, exact.ln_z);
+        assert!(
+            (est.ln_z - exact.ln_z).abs() < 5.0 * se + 1e-9,
+            "{} vs {}",
+            est.ln_z,
+            exact.ln_z
+        );
         assert!((est.ln_z_raw - exact.ln_z).abs() > 5.0);
     }
 
@@ -540,7 +578,12 @@ mod tests {
         let post = m.gaussian_posterior(&[0, 1]).unwrap();
         let singular = DMatrix::from_row_slice(2, 2, &[1.0, 1.0, 1.0, 1.0]);
         assert!(matches!(
-            laplace_fisher(&m, post.mean.as_slice(), &singular, &LaplaceOptions::default()),
+            laplace_fisher(
+                &m,
+                post.mean.as_slice(),
+                &singular,
+                &LaplaceOptions::default()
+            ),
             Err(EvidenceError::NotPositiveDefinite { .. })
         ));
         let saddle = |t: &[f64]| t[0] * t[0] - t[1] * t[1];
@@ -569,7 +612,10 @@ mod tests {
         let d = 3;
         let m = lg(RandomPrior::Uniform { lo: -5.0, hi: 5.0 }, d, 10.0, 8);
         let cols: Vec<usize> = (0..d).collect();
-        let exact = m.exact_ln_evidence(&cols, &MvnOptions::default()).unwrap().ln_z;
+        let exact = m
+            .exact_ln_evidence(&cols, &MvnOptions::default())
+            .unwrap()
+            .ln_z;
         let post = m.gaussian_posterior(&cols).unwrap();
         let mut rng = Xoshiro256PlusPlus::seed_from_u64(3);
         let n = 4000;
@@ -600,7 +646,12 @@ mod tests {
         }
         let few = s.rows(0, 10).into_owned();
         assert!(matches!(
-            laplace_metropolis(&m, &theta_best, &few, &RobustMethod::Mcd(McdOptions::default())),
+            laplace_metropolis(
+                &m,
+                &theta_best,
+                &few,
+                &RobustMethod::Mcd(McdOptions::default())
+            ),
             Err(EvidenceError::TooFewSamples { .. })
         ));
     }

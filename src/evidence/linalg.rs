@@ -50,11 +50,26 @@ pub(crate) fn spd_cholesky(
     }
     let sym = (m + m.transpose()) * 0.5;
     match Cholesky::new(sym.clone()) {
-        Some(c) if c.l_dirty().diagonal().iter().all(|d| *d > 0.0 && d.is_finite()) => Ok(c),
+        Some(c)
+            if c.l_dirty()
+                .diagonal()
+                .iter()
+                .all(|d| *d > 0.0 && d.is_finite()) =>
+        {
+            Ok(c)
+        }
         _ => {
             let eig = SymmetricEigen::new(sym);
-            let min = eig.eigenvalues.iter().cloned().fold(f64::INFINITY, f64::min);
-            let max = eig.eigenvalues.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+            let min = eig
+                .eigenvalues
+                .iter()
+                .cloned()
+                .fold(f64::INFINITY, f64::min);
+            let max = eig
+                .eigenvalues
+                .iter()
+                .cloned()
+                .fold(f64::NEG_INFINITY, f64::max);
             Err(EvidenceError::NotPositiveDefinite {
                 what: what.to_string(),
                 detail: format!("eigenvalues range from {min:e} to {max:e}"),

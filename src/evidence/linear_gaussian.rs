@@ -90,7 +90,11 @@ impl LinearGaussian {
             ));
         }
         if data.len() != n {
-            return Err(EvidenceError::dimension("linear_gaussian data", n, data.len()));
+            return Err(EvidenceError::dimension(
+                "linear_gaussian data",
+                n,
+                data.len(),
+            ));
         }
         if prior.dim() != d {
             return Err(EvidenceError::dimension(
@@ -223,7 +227,11 @@ impl LinearGaussian {
         let (mean, cov) = if k == 0 {
             (DVector::zeros(0), DMatrix::zeros(0, 0))
         } else {
-            let ca = spd_cholesky(&a, "posterior precision A", "use linearly independent columns")?;
+            let ca = spd_cholesky(
+                &a,
+                "posterior precision A",
+                "use linearly independent columns",
+            )?;
             (ca.solve(&rhs), ca.inverse())
         };
         Ok((
@@ -491,7 +499,11 @@ impl LinearGaussian {
             ));
         }
         if !(snr.is_finite() && snr >= 0.0) {
-            return Err(EvidenceError::option("random snr", snr, "snr must be finite and ≥ 0"));
+            return Err(EvidenceError::option(
+                "random snr",
+                snr,
+                "snr must be finite and ≥ 0",
+            ));
         }
         if n_absent > d || (n_absent == d && snr > 0.0) {
             return Err(EvidenceError::option(
@@ -565,11 +577,30 @@ mod tests {
     #[test]
     fn gaussian_prior_evidence_matches_the_dense_oracle() {
         for d in 1..=5 {
-            let p = problem(RandomPrior::Gaussian { mu: 0.2, sigma: 0.8 }, d, 10.0, d as u64);
-            for cols in [(0..d).collect::<Vec<_>>(), (0..d - 1).collect(), vec![d - 1]] {
-                let z = p.model.exact_ln_evidence(&cols, &MvnOptions::default()).unwrap();
+            let p = problem(
+                RandomPrior::Gaussian {
+                    mu: 0.2,
+                    sigma: 0.8,
+                },
+                d,
+                10.0,
+                d as u64,
+            );
+            for cols in [
+                (0..d).collect::<Vec<_>>(),
+                (0..d - 1).collect(),
+                vec![d - 1],
+            ] {
+                let z = p
+                    .model
+                    .exact_ln_evidence(&cols, &MvnOptions::default())
+                    .unwrap();
                 let oracle = p.model.direct_ln_evidence_gaussian(&cols).unwrap();
-                assert!((z.ln_z - oracle).abs() < 1e-9, "d={d} {cols:?}: {} vs {oracle}", z.ln_z);
+                assert!(
+                    (z.ln_z - oracle).abs() < 1e-9,
+                    "d={d} {cols:?}: {} vs {oracle}",
+                    z.ln_z
+                );
                 assert_eq!(z.std_err, 0.0);
             }
         }
@@ -603,16 +634,33 @@ mod tests {
             }
         }
         let quad2 = ref_ln + (s2 * h * h / (hi - lo).powi(2)).ln();
-        let z2 = m.exact_ln_evidence(&[0, 1], &MvnOptions::default()).unwrap();
-        assert!((z2.ln_z - quad2).abs() < 1e-4 + 5.0 * z2.std_err, "{} vs {quad2}", z2.ln_z);
+        let z2 = m
+            .exact_ln_evidence(&[0, 1], &MvnOptions::default())
+            .unwrap();
+        assert!(
+            (z2.ln_z - quad2).abs() < 1e-4 + 5.0 * z2.std_err,
+            "{} vs {quad2}",
+            z2.ln_z
+        );
     }
 
     #[test]
     fn nested_models_are_submodels_with_zero_base() {
-        let p = problem(RandomPrior::Gaussian { mu: 0.0, sigma: 1.0 }, 3, 10.0, 3);
+        let p = problem(
+            RandomPrior::Gaussian {
+                mu: 0.0,
+                sigma: 1.0,
+            },
+            3,
+            10.0,
+            3,
+        );
         let sub = SubModel::new(&p.model, vec![0, 2], vec![0.0; 3]).unwrap();
         let theta = [0.4, -0.3];
-        assert_eq!(sub.ln_likelihood(&theta), p.model.ln_likelihood(&[0.4, 0.0, -0.3]));
+        assert_eq!(
+            sub.ln_likelihood(&theta),
+            p.model.ln_likelihood(&[0.4, 0.0, -0.3])
+        );
         let (ml, ln_l) = p.model.max_likelihood(&[0, 2]).unwrap();
         assert!((sub.ln_likelihood(&ml) - ln_l).abs() < 1e-9);
         let post = p.model.gaussian_posterior(&[0, 2]).unwrap();
@@ -643,9 +691,21 @@ mod tests {
         let b = LinearGaussian::random(&spec).unwrap();
         assert_eq!(a.theta_true, b.theta_true);
         assert_eq!(a.model.data(), b.model.data());
-        assert!(LinearGaussian::random(&RandomSpec { n_absent: 3, ..spec }).is_err());
+        assert!(
+            LinearGaussian::random(&RandomSpec {
+                n_absent: 3,
+                ..spec
+            })
+            .is_err()
+        );
         assert!(LinearGaussian::random(&RandomSpec { dim: 31, ..spec }).is_err());
-        assert!(LinearGaussian::random(&RandomSpec { snr: f64::NAN, ..spec }).is_err());
+        assert!(
+            LinearGaussian::random(&RandomSpec {
+                snr: f64::NAN,
+                ..spec
+            })
+            .is_err()
+        );
         let collinear = DMatrix::from_row_slice(3, 2, &[1.0, 2.0, 2.0, 4.0, 3.0, 6.0]);
         let prior = Prior::new(
             vec!["a".into(), "b".into()],
@@ -660,7 +720,15 @@ mod tests {
 
     #[test]
     fn posterior_draws_have_the_posterior_moments() {
-        let p = problem(RandomPrior::Gaussian { mu: 0.0, sigma: 1.0 }, 2, 10.0, 5);
+        let p = problem(
+            RandomPrior::Gaussian {
+                mu: 0.0,
+                sigma: 1.0,
+            },
+            2,
+            10.0,
+            5,
+        );
         let mut rng = Xoshiro256PlusPlus::seed_from_u64(1);
         let n = 20_000;
         let s = p.model.sample_posterior(&[0, 1], n, &mut rng).unwrap();

@@ -143,7 +143,9 @@ pub enum EvidenceError {
         min: usize,
     },
     /// The samples do not span all dimensions.
-    #[error("{what}: the covariance is singular ({detail}); check for constant or collinear parameters")]
+    #[error(
+        "{what}: the covariance is singular ({detail}); check for constant or collinear parameters"
+    )]
     SingularCovariance { what: String, detail: String },
     /// A prior kind the method cannot handle.
     #[error("prior of `{param}`: {why}")]

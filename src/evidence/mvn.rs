@@ -232,7 +232,7 @@ impl Prepared {
                 }
             }
             let v = c[i * d + i] - (0..i).map(|m| l[i * d + m].powi(2)).sum::<f64>();
-            if !(v > 0.0) {
+            if v.is_nan() || v <= 0.0 {
                 return Err(EvidenceError::NotPositiveDefinite {
                     what: "mvn covariance".into(),
                     detail: format!("pivot {v:e} during the reordered factorisation"),
@@ -359,7 +359,11 @@ fn first_primes(k: usize) -> Vec<u64> {
     let mut out = Vec::with_capacity(k);
     let mut n = 2u64;
     while out.len() < k {
-        if out.iter().take_while(|&&p| p * p <= n).all(|&p| n % p != 0) {
+        if out
+            .iter()
+            .take_while(|&&p| p * p <= n)
+            .all(|&p| !n.is_multiple_of(p))
+        {
             out.push(n);
         }
         n += 1;
@@ -412,9 +416,14 @@ mod tests {
         // 2-D: 1/4 + asin(ρ)/(2π); 3-D: 1/8 + (asin ρ12 + asin ρ13 + asin ρ23)/(4π).
         for rho in [-0.9, -0.3, 0.5, 0.95] {
             let cov = DMatrix::from_row_slice(2, 2, &[1.0, rho, rho, 1.0]);
-            let r =
-                mvn_rectangle(&[0.0, 0.0], &[INF, INF], &[0.0, 0.0], &cov, &MvnOptions::default())
-                    .unwrap();
+            let r = mvn_rectangle(
+                &[0.0, 0.0],
+                &[INF, INF],
+                &[0.0, 0.0],
+                &cov,
+                &MvnOptions::default(),
+            )
+            .unwrap();
             let exact = 0.25 + f64::asin(rho) / (2.0 * PI);
             // 5σ of the reported error, plus 1e-12 for the case where the error is ~0.
             assert!(
@@ -427,8 +436,14 @@ mod tests {
         }
         let (r12, r13, r23) = (0.5, -0.2, 0.3);
         let cov = DMatrix::from_row_slice(3, 3, &[1.0, r12, r13, r12, 1.0, r23, r13, r23, 1.0]);
-        let r = mvn_rectangle(&[-INF; 3], &[0.0; 3], &[0.0; 3], &cov, &MvnOptions::default())
-            .unwrap();
+        let r = mvn_rectangle(
+            &[-INF; 3],
+            &[0.0; 3],
+            &[0.0; 3],
+            &cov,
+            &MvnOptions::default(),
+        )
+        .unwrap();
         let exact = 0.125 + (f64::asin(r12) + f64::asin(r13) + f64::asin(r23)) / (4.0 * PI);
         assert!((r.p - exact).abs() < 5.0 * r.std_err + 1e-12);
     }
@@ -437,13 +452,12 @@ mod tests {
     #[test]
     fn correlated_rectangle_matches_quadrature() {
         let (s1, s2, rho) = (1.5, 0.8, 0.7);
-        let cov =
-            DMatrix::from_row_slice(2, 2, &[s1 * s1, rho * s1 * s2, rho * s1 * s2, s2 * s2]);
+        let cov = DMatrix::from_row_slice(2, 2, &[s1 * s1, rho * s1 * s2, rho * s1 * s2, s2 * s2]);
         let (mean, lo, hi) = ([0.3, -0.2], [-1.0, -0.5], [2.0, 0.1]);
         let r = mvn_rectangle(&lo, &hi, &mean, &cov, &MvnOptions::default()).unwrap();
         let n = 4000;
         let (a, b) = ((lo[0] - mean[0]) / s1, (hi[0] - mean[0]) / s1);
-        let c = (1.0 - rho * rho as f64).sqrt();
+        let c = (1.0 - rho * rho).sqrt();
         let g = |z: f64| {
             let m2 = mean[1] + rho * s2 * z;
             normal::pdf(z) * normal::interval((lo[1] - m2) / (s2 * c), (hi[1] - m2) / (s2 * c))
@@ -454,7 +468,11 @@ mod tests {
             s += g(a + h * i as f64) * if i % 2 == 1 { 4.0 } else { 2.0 };
         }
         let quad = s * h / 3.0;
-        assert!((r.p - quad).abs() < 5.0 * r.std_err + 1e-10, "{} vs {quad}", r.p);
+        assert!(
+            (r.p - quad).abs() < 5.0 * r.std_err + 1e-10,
+            "{} vs {quad}",
+            r.p
+        );
     }
 
     /// The reported error must be honest: over 40 seeds, |error| < 1σ in about 68 % of cases.
@@ -500,9 +518,19 @@ mod tests {
         // 100σ out, correlated: no underflow, and the 2-D result matches the 1-D marginal when
         // the second interval is unbounded.
         let cov = DMatrix::from_row_slice(2, 2, &[1.0, 0.6, 0.6, 1.0]);
-        let r = mvn_rectangle(&[100.0, -INF], &[INF, INF], &[0.0; 2], &cov, &MvnOptions::default())
-            .unwrap();
-        assert!((r.ln_p - normal::ln_upper(100.0)).abs() < 1e-9, "{}", r.ln_p);
+        let r = mvn_rectangle(
+            &[100.0, -INF],
+            &[INF, INF],
+            &[0.0; 2],
+            &cov,
+            &MvnOptions::default(),
+        )
+        .unwrap();
+        assert!(
+            (r.ln_p - normal::ln_upper(100.0)).abs() < 1e-9,
+            "{}",
+            r.ln_p
+        );
         assert_eq!(r.p, 0.0);
     }
 

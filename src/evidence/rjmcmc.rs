@@ -187,12 +187,7 @@ pub struct RjPair {
 
 impl RjPair {
     fn flipped(&self) -> RjPair {
-        let neg = |b: &Option<LnB>| {
-            b.map(|b| LnB {
-                ln_b: -b.ln_b,
-                ..b
-            })
-        };
+        let neg = |b: &Option<LnB>| b.map(|b| LnB { ln_b: -b.ln_b, ..b });
         RjPair {
             k: self.l,
             l: self.k,
@@ -359,7 +354,10 @@ pub fn run_rjmcmc(
     let prepared = prepare(models, opts)?;
     let (ln_box, ln_box_se) = box_masses(&prepared, opts)?;
     let n_post = opts.n_iter - opts.burn_in;
-    let batch = opts.batch_size.unwrap_or((n_post as f64).sqrt() as usize).max(1);
+    let batch = opts
+        .batch_size
+        .unwrap_or((n_post as f64).sqrt() as usize)
+        .max(1);
     let trace_every = if opts.trace_every == 0 {
         (n_post / 1000).max(1)
     } else {
@@ -369,9 +367,7 @@ pub fn run_rjmcmc(
     let ln_ratio: Vec<Vec<f64>> = (0..k_models)
         .map(|k| {
             (0..k_models)
-                .map(|l| {
-                    prior_p[l].ln() + jump[l][k].ln() - prior_p[k].ln() - jump[k][l].ln()
-                })
+                .map(|l| prior_p[l].ln() + jump[l][k].ln() - prior_p[k].ln() - jump[k][l].ln())
                 .collect()
         })
         .collect();
@@ -393,12 +389,13 @@ pub fn run_rjmcmc(
     let mut prop = vec![0.0; max_dim];
     let mut z = vec![0.0; max_dim];
     let mut scratch = vec![0.0; max_dim];
-    let chi2 = match opts.proposal {
-        ProposalShape::StudentT { nu } => Some(ChiSquared::new(nu).map_err(|_| {
-            EvidenceError::option("proposal nu", nu, "ν must be finite and > 0")
-        })?),
-        ProposalShape::Gaussian => None,
-    };
+    let chi2 =
+        match opts.proposal {
+            ProposalShape::StudentT { nu } => Some(ChiSquared::new(nu).map_err(|_| {
+                EvidenceError::option("proposal nu", nu, "ν must be finite and > 0")
+            })?),
+            ProposalShape::Gaussian => None,
+        };
 
     let mut k = opts.start_model;
     let mut d = prepared[k].dim;
@@ -506,7 +503,7 @@ pub fn run_rjmcmc(
             visits[k] += 1;
             sequence.push(k as u16);
             let done = t + 1 - opts.burn_in;
-            if done % trace_every == 0 || t + 1 == opts.n_iter {
+            if done.is_multiple_of(trace_every) || t + 1 == opts.n_iter {
                 trace.push(RjTracePoint {
                     iteration: t + 1,
                     visits: visits.clone(),
@@ -764,7 +761,9 @@ fn prepare<'a>(
             let ln_q_norm = match opts.proposal {
                 ProposalShape::Gaussian => -0.5 * df * (2.0 * PI).ln() - 0.5 * ln_det_q,
                 ProposalShape::StudentT { nu } => {
-                    ln_gamma(0.5 * (nu + df)) - ln_gamma(0.5 * nu) - 0.5 * df * (nu * PI).ln()
+                    ln_gamma(0.5 * (nu + df))
+                        - ln_gamma(0.5 * nu)
+                        - 0.5 * df * (nu * PI).ln()
                         - 0.5 * ln_det_q
                 }
             };
@@ -834,9 +833,9 @@ fn box_masses(
                         *zi = StandardNormal.sample(&mut mc_rng);
                     }
                     let s = (nu / chi2.sample(&mut mc_rng)).sqrt();
-                    for i in 0..d {
+                    for (i, xi) in x.iter_mut().enumerate() {
                         let row = &m.lq[i * d..i * d + i + 1];
-                        x[i] = m.center[i] + s * row.iter().zip(&z).map(|(a, b)| a * b).sum::<f64>();
+                        *xi = m.center[i] + s * row.iter().zip(&z).map(|(a, b)| a * b).sum::<f64>();
                     }
                     if m.target.prior().contains(&x) {
                         hits += 1;
@@ -1025,9 +1024,15 @@ fn bridge_estimate(
     }
     // Linearised series: ln r = ln ā − ln c̄₁ − ln b̄ + ln c̄₂.
     let (ga, gb) = if n2 == 0.0 {
-        (log_sum_exp(x.iter().flatten().cloned()) - (n as f64).ln(), 0.0)
+        (
+            log_sum_exp(x.iter().flatten().cloned()) - (n as f64).ln(),
+            0.0,
+        )
     } else if n1 == 0.0 {
-        (0.0, log_sum_exp(y.iter().flatten().map(|&v| -v)) - (n as f64).ln())
+        (
+            0.0,
+            log_sum_exp(y.iter().flatten().map(|&v| -v)) - (n as f64).ln(),
+        )
     } else {
         (
             mean_num(ln_r) + (n1 / n as f64).ln(),
@@ -1092,7 +1097,10 @@ mod tests {
             snr,
             n_absent,
             sigma: 1.0,
-            prior: RandomPrior::Uniform { lo: -half, hi: half },
+            prior: RandomPrior::Uniform {
+                lo: -half,
+                hi: half,
+            },
             seed,
         })
         .unwrap()
@@ -1166,7 +1174,10 @@ mod tests {
         assert!(p.rao_blackwell.is_none());
         let b = p.bridge.unwrap();
         // 5σ of its own error.
-        assert!((b.ln_b - truth).abs() < 5.0 * b.std_err.unwrap(), "{b:?} vs {truth}");
+        assert!(
+            (b.ln_b - truth).abs() < 5.0 * b.std_err.unwrap(),
+            "{b:?} vs {truth}"
+        );
         assert!(b.std_err.unwrap() < 0.1);
         // Orientation.
         let q = res.pair(1, 0).unwrap();

@@ -29,8 +29,8 @@
 //!
 //! Both are deterministic given their seed.
 
-use super::linalg::forward_solve_norm2;
 use super::EvidenceError;
+use super::linalg::forward_solve_norm2;
 use nalgebra::DMatrix;
 use rand::{RngExt, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
@@ -55,7 +55,7 @@ impl Default for MveOptions {
     fn default() -> Self {
         Self {
             n_subsets: 500,
-            seed: 0x4d56_45,
+            seed: 0x004d_5645,
         }
     }
 }
@@ -85,7 +85,7 @@ impl Default for McdOptions {
             subsample: 1500,
             n_best: 10,
             max_c_steps: 200,
-            seed: 0x4d43_44,
+            seed: 0x004d_4344,
         }
     }
 }
@@ -172,7 +172,7 @@ pub fn mve(samples: &DMatrix<f64>, opts: &MveOptions) -> Result<RobustCovariance
         let fit = data.random_fit(&mut rng, None)?;
         data.distances(&fit, &mut d2);
         let med2 = median(&d2, &mut scratch);
-        if !(med2 > 0.0) {
+        if med2.is_nan() || med2 <= 0.0 {
             continue;
         }
         let objective = fit.ln_det + p as f64 * med2.ln();
@@ -191,15 +191,13 @@ pub fn mve(samples: &DMatrix<f64>, opts: &MveOptions) -> Result<RobustCovariance
 pub fn mcd(samples: &DMatrix<f64>, opts: &McdOptions) -> Result<RobustCovariance, EvidenceError> {
     let data = Data::new(samples, "MCD")?;
     let (n, p) = (data.n, data.p);
-    let h = opts.h.unwrap_or((n + p + 1) / 2);
-    if h < (n + p + 1) / 2 || h > n {
+    let h_min = (n + p).div_ceil(2);
+    let h = opts.h.unwrap_or(h_min);
+    if h < h_min || h > n {
         return Err(EvidenceError::option(
             "mcd h",
             h,
-            &format!(
-                "h must lie in [⌊(n+p+1)/2⌋, n] = [{}, {n}]",
-                (n + p + 1) / 2
-            ),
+            &format!("h must lie in [⌊(n+p+1)/2⌋, n] = [{}, {n}]", h_min),
         ));
     }
     if opts.n_starts == 0 || opts.n_best == 0 || opts.subsample < min_samples(p) {
@@ -215,7 +213,15 @@ pub fn mcd(samples: &DMatrix<f64>, opts: &McdOptions) -> Result<RobustCovariance
     let h_for = |m: usize| (h * m).div_ceil(n).clamp(p + 1, m);
     let candidates = if n <= 2 * GROUP_SIZE {
         let all: Vec<usize> = (0..n).collect();
-        best_starts(&data, &all, opts.n_starts, h, opts.n_best, &mut rng, &mut buf)?
+        best_starts(
+            &data,
+            &all,
+            opts.n_starts,
+            h,
+            opts.n_best,
+            &mut rng,
+            &mut buf,
+        )?
     } else {
         // Nested scheme of the paper: a random merged set of up to `subsample` rows, split
         // into k ≤ 5 disjoint groups of about GROUP_SIZE; the starts and their first two
@@ -273,7 +279,7 @@ pub fn mcd(samples: &DMatrix<f64>, opts: &McdOptions) -> Result<RobustCovariance
     let mut d2 = vec![0.0; n];
     data.distances(&fit, &mut d2);
     let med2 = median(&d2, &mut buf.scratch);
-    if !(med2 > 0.0) {
+    if med2.is_nan() || med2 <= 0.0 {
         return Err(EvidenceError::SingularCovariance {
             what: "MCD".into(),
             detail: "more than half of the samples coincide".into(),
@@ -456,7 +462,10 @@ impl Data {
         }
         Err(EvidenceError::SingularCovariance {
             what: self.what.into(),
-            detail: format!("all {size} samples lie in a hyperplane of the {}-dimensional space", self.p),
+            detail: format!(
+                "all {size} samples lie in a hyperplane of the {}-dimensional space",
+                self.p
+            ),
         })
     }
 
@@ -488,12 +497,14 @@ impl Data {
             }
             buf.d2.push((forward_solve_norm2(&fit.l, p, &mut buf.x), i));
         }
-        buf.d2.select_nth_unstable_by(h - 1, |a, b| a.0.total_cmp(&b.0));
+        buf.d2
+            .select_nth_unstable_by(h - 1, |a, b| a.0.total_cmp(&b.0));
         let idx: Vec<usize> = buf.d2[..h].iter().map(|e| e.1).collect();
-        self.fit(&idx).ok_or_else(|| EvidenceError::SingularCovariance {
-            what: self.what.into(),
-            detail: format!("{h} of the samples lie in a hyperplane"),
-        })
+        self.fit(&idx)
+            .ok_or_else(|| EvidenceError::SingularCovariance {
+                what: self.what.into(),
+                detail: format!("{h} of the samples lie in a hyperplane"),
+            })
     }
 
     /// Consistency factor, reweighting at χ²_p(0.975) and the final consistency correction.
@@ -569,7 +580,7 @@ fn cholesky(a: &[f64], p: usize) -> Option<(Vec<f64>, f64)> {
                 s -= l[i * p + k] * l[j * p + k];
             }
             if i == j {
-                if !(s > 1e-12 * a[i * p + i]) || !s.is_finite() {
+                if s.is_nan() || s <= 1e-12 * a[i * p + i] || !s.is_finite() {
                     return None;
                 }
                 let d = s.sqrt();
@@ -682,7 +693,10 @@ mod tests {
             }
         }
         let (_, plain) = sample_covariance(&x).unwrap();
-        assert!(plain[(0, 0)] > 50.0 * truth[(0, 0)], "plain covariance should be ruined");
+        assert!(
+            plain[(0, 0)] > 50.0 * truth[(0, 0)],
+            "plain covariance should be ruined"
+        );
         let n_clean = clean.nrows();
         for (what, r) in [
             ("MVE", mve(&x, &MveOptions::default()).unwrap()),
@@ -705,7 +719,13 @@ mod tests {
             Err(EvidenceError::TooFewSamples { min: 20, .. })
         ));
         // Third column = first + second: every subset is singular.
-        let flat = DMatrix::from_fn(500, 3, |i, j| if j < 2 { x[(i, j)] } else { x[(i, 0)] + x[(i, 1)] });
+        let flat = DMatrix::from_fn(500, 3, |i, j| {
+            if j < 2 {
+                x[(i, j)]
+            } else {
+                x[(i, 0)] + x[(i, 1)]
+            }
+        });
         assert!(matches!(
             mve(&flat, &MveOptions::default()),
             Err(EvidenceError::SingularCovariance { .. })

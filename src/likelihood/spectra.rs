@@ -152,7 +152,7 @@ impl ExperimentSpectra {
                 })?;
                 freqs.iter().map(|&x| f(x)).collect()
             }
-            NoiseSource::Welch => welch_noise(e, opts, &freqs).map_err(|m| inv(m))?,
+            NoiseSource::Welch => welch_noise(e, opts, &freqs).map_err(&inv)?,
         };
         let scale = fs / 2.0 * sum_w2;
         let mut cinv = Vec::with_capacity(ks.len());
@@ -222,7 +222,7 @@ fn welch_noise(
     let cfg = WelchConfig::new(e.fs, opts.welch_window, seg);
     let s = welch_csd2(&e.noise[0], &e.noise[1], &cfg).map_err(|x| x.to_string())?;
     let first = e.fs / seg as f64;
-    let last_k = if seg % 2 == 0 { seg / 2 - 1 } else { seg / 2 };
+    let last_k = if seg.is_multiple_of(2) { seg / 2 - 1 } else { seg / 2 };
     let last = last_k as f64 * e.fs / seg as f64;
     let targets: Vec<f64> = freqs.iter().map(|f| f.clamp(first, last)).collect();
     let c = s.interpolate(&targets).map_err(|x| x.to_string())?;
