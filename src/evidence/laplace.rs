@@ -469,6 +469,7 @@ pub fn numerical_hessian<F: Fn(&[f64]) -> f64>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::evidence::LnB;
     use crate::evidence::linear_gaussian::{LinearGaussian, RandomPrior, RandomSpec};
     use crate::evidence::robust::{McdOptions, MveOptions};
     use crate::nested::SubModel;
@@ -501,6 +502,7 @@ mod tests {
                 20.0,
                 d as u64,
             );
+            let mut pair = Vec::new();
             for cols in [(0..d).collect::<Vec<_>>(), (0..d - 1).collect()] {
                 let sub = SubModel::new(&m, cols.clone(), vec![0.0; d]).unwrap();
                 let post = m.gaussian_posterior(&cols).unwrap();
@@ -519,7 +521,12 @@ mod tests {
                 let eh = laplace_hessian(&sub, post.mean.as_slice(), &LaplaceOptions::default())
                     .unwrap();
                 assert!((eh.ln_z - exact.ln_z).abs() < 1e-5, "hessian d={d}");
+                pair.push((est, exact.ln_z));
             }
+            let b = LnB::from_estimates(&pair[0].0, &pair[1].0);
+            assert_eq!(b.method, Method::LaplaceFisher);
+            assert!((b.ln_b - (pair[0].1 - pair[1].1)).abs() < 1e-8);
+            assert_eq!(b.std_err, None);
         }
     }
 

@@ -222,7 +222,11 @@ fn welch_noise(
     let cfg = WelchConfig::new(e.fs, opts.welch_window, seg);
     let s = welch_csd2(&e.noise[0], &e.noise[1], &cfg).map_err(|x| x.to_string())?;
     let first = e.fs / seg as f64;
-    let last_k = if seg.is_multiple_of(2) { seg / 2 - 1 } else { seg / 2 };
+    let last_k = if seg.is_multiple_of(2) {
+        seg / 2 - 1
+    } else {
+        seg / 2
+    };
     let last = last_k as f64 * e.fs / seg as f64;
     let targets: Vec<f64> = freqs.iter().map(|f| f.clamp(first, last)).collect();
     let c = s.interpolate(&targets).map_err(|x| x.to_string())?;

@@ -1,0 +1,123 @@
+//! End-to-end tests of `occam simulate`: outputs, determinism and errors on bad input.
+
+use occam::dataset::Dataset;
+use std::path::Path;
+use std::process::Command;
+
+fn occam(args: &[&str], cwd: &Path) -> (bool, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_occam"))
+        .args(args)
+        .current_dir(cwd)
+        .output()
+        .unwrap();
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+const SMALL: &str = r#"
+seed = 5
+output = "out"
+[[experiment]]
+name = "inv1"
+fs = 2.0
+pre_pad = 100.0
+post_pad = 1000.0
+noise_duration = 500.0
+x1 = { kind = "sine_train", gap = 10.0, segments = [
+  { freq = 0.005, amplitude = 1e-6, duration = 400.0 },
+  { freq = 0.05, amplitude = 1e-7, duration = 100.0 } ] }
+"#;
+
+#[test]
+fn writes_a_readable_deterministic_dataset() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("s.toml"), SMALL).unwrap();
+    let (ok, stdout, stderr) = occam(&["simulate", "s.toml"], dir.path());
+    assert!(ok, "{stderr}");
+    assert!(stdout.contains("rho_opt"), "{stdout}");
+    let d = Dataset::read(&dir.path().join("out")).unwrap();
+    let e = &d.experiments[0];
+    assert_eq!(e.fs, 2.0);
+    assert_eq!(e.noise[0].len(), 1000);
+    assert_eq!(e.o[0].len(), e.i[0].len());
+    assert_eq!(d.seed, Some(5));
+    assert!(d.truth.is_some());
+    let first = std::fs::read(dir.path().join("out/dataset.npz")).unwrap();
+    let (ok, _, _) = occam(&["simulate", "s.toml", "-o", "again"], dir.path());
+    assert!(ok);
+    let second = std::fs::read(dir.path().join("again/dataset.npz")).unwrap();
+    assert_eq!(first, second, "same seed, same bytes");
+    // no temporary files left behind
+    for entry in std::fs::read_dir(dir.path().join("out")).unwrap() {
+        let name = entry.unwrap().file_name().into_string().unwrap();
+        assert!(!name.starts_with('.'), "left over: {name}");
+    }
+}
+
+/// Each bad study fails with a message naming the file and the field, and writes nothing.
+#[test]
+fn bad_input_gets_a_clear_error_and_no_output() {
+    let cases: [(&str, String, &[&str]); 8] = [
+        ("unknown key", format!("{SMALL}colour = 3\n"), &["colour"]),
+        (
+            "wrong type",
+            SMALL.replace("seed = 5", "seed = \"five\""),
+            &["seed"],
+        ),
+        (
+            "missing field",
+            SMALL.replace("output = \"out\"\n", ""),
+            &["output"],
+        ),
+        (
+            "negative duration",
+            SMALL.replace("pre_pad = 100.0", "pre_pad = -1.0"),
+            &["experiment[0].pre_pad"],
+        ),
+        (
+            "above Nyquist",
+            SMALL.replace("freq = 0.05", "freq = 1.5"),
+            &["experiment[0].x1.segments[1].freq", "Nyquist"],
+        ),
+        (
+            "non-finite",
+            SMALL.replace("amplitude = 1e-7", "amplitude = nan"),
+            &["experiment[0].x1.segments[1].amplitude"],
+        ),
+        (
+            "unstable loop",
+            format!("{SMALL}[truth]\na_sus = -1.0\n"),
+            &["truth", "unstable"],
+        ),
+        (
+            "CSV with NaN",
+            SMALL.replace(
+                "x1 = { kind = \"sine_train\"",
+                "x12 = { kind = \"file\", path = \"inj.csv\" }\nx1 = { kind = \"sine_train\"",
+            ),
+            &["experiment[0].x12.path", "inj.csv", "line 3", "not finite"],
+        ),
+    ];
+    for (what, text, needles) in cases {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("inj.csv"), "i\n1e-9\nnan\n").unwrap();
+        std::fs::write(dir.path().join("s.toml"), &text).unwrap();
+        let (ok, _, stderr) = occam(&["simulate", "s.toml"], dir.path());
+        assert!(!ok, "{what}: should fail");
+        assert!(
+            stderr.contains("s.toml"),
+            "{what}: no file name in: {stderr}"
+        );
+        for n in needles {
+            assert!(stderr.contains(n), "{what}: `{n}` missing from: {stderr}");
+        }
+        assert!(!stderr.contains("panicked"), "{what}: {stderr}");
+        assert!(!dir.path().join("out").exists(), "{what}: wrote output");
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let (ok, _, stderr) = occam(&["simulate", "missing.toml"], dir.path());
+    assert!(!ok && stderr.contains("missing.toml"), "{stderr}");
+}
