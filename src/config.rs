@@ -18,7 +18,8 @@
 //! ```
 
 use crate::experiment::{ExperimentDesign, SineSegment, Waveform};
-use crate::ltp::{Controllers, LtpParams, Masses, NoiseModel, check_stable};
+use crate::ltp::{Controllers, LtpParams, Masses, NoiseModel, PARAM_NAMES, check_stable};
+use crate::prior::{Prior, PriorKind};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -137,6 +138,250 @@ pub struct ExperimentEntry {
     pub amplitude_scale: Option<f64>,
 }
 
+/// Which likelihood the samplers use.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum LikelihoodKind {
+    /// Relative binning around the MAP (fast; `|Δ ln L| < 0.01` in the 5σ region).
+    #[default]
+    Relbin,
+    /// Every in-band bin.
+    Exact,
+}
+
+/// `[analysis]`: how data become a likelihood (shared by `fit` and `select`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct AnalysisOptions {
+    /// A dataset directory written by `occam simulate` (relative to the working directory).
+    /// Without it the study is simulated on the fly.
+    pub dataset: Option<PathBuf>,
+    /// Fit band (Hz).
+    pub band: [f64; 2],
+    /// Window applied to data and injections before the DFT.
+    pub window: crate::signal::Window,
+    /// Noise CSD: `welch` (from the noise-only stretch) or `model`.
+    pub noise: crate::likelihood::NoiseSource,
+    pub welch_averages: usize,
+    pub welch_window: crate::signal::Window,
+    pub likelihood: LikelihoodKind,
+    /// Relative-binning accuracy: region radius (σ) and per-bin template error.
+    pub relbin_sigma: f64,
+    pub relbin_tolerance: f64,
+}
+
+impl Default for AnalysisOptions {
+    fn default() -> Self {
+        let s = crate::likelihood::SpectraOptions::default();
+        let r = crate::likelihood::RelBinOptions::default();
+        Self {
+            dataset: None,
+            band: s.band,
+            window: s.window,
+            noise: s.noise,
+            welch_averages: s.welch_averages,
+            welch_window: s.welch_window,
+            likelihood: LikelihoodKind::Relbin,
+            relbin_sigma: r.n_sigma,
+            relbin_tolerance: r.tolerance,
+        }
+    }
+}
+
+/// `[prior]`: one normalised prior per LTP parameter. Defaults: uniform boxes
+/// `w1sq, w2sq ∈ [−5e−6, 5e−6] s⁻²`, `dt1, dt2 ∈ [0, 1] s`, `a_df, a_sus ∈ [0.5, 1.5]`,
+/// `d21 ∈ [−1e−3, 1e−3]`. The box widths of parameters that differ between models set the
+/// Occam factor of every Bayes factor: choose them deliberately.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct PriorTable {
+    pub w1sq: PriorKind,
+    pub w2sq: PriorKind,
+    pub dt1: PriorKind,
+    pub dt2: PriorKind,
+    pub a_df: PriorKind,
+    pub a_sus: PriorKind,
+    pub d21: PriorKind,
+}
+
+impl Default for PriorTable {
+    fn default() -> Self {
+        let u = |lo, hi| PriorKind::Uniform { lo, hi };
+        Self {
+            w1sq: u(-5e-6, 5e-6),
+            w2sq: u(-5e-6, 5e-6),
+            dt1: u(0.0, 1.0),
+            dt2: u(0.0, 1.0),
+            a_df: u(0.5, 1.5),
+            a_sus: u(0.5, 1.5),
+            d21: u(-1e-3, 1e-3),
+        }
+    }
+}
+
+impl PriorTable {
+    /// The validated 7-parameter prior.
+    pub fn to_prior(&self, file: &str) -> Result<Prior, ConfigError> {
+        let kinds = vec![
+            self.w1sq, self.w2sq, self.dt1, self.dt2, self.a_df, self.a_sus, self.d21,
+        ];
+        Prior::new(PARAM_NAMES.iter().map(|s| s.to_string()).collect(), kinds).map_err(|e| {
+            let field = match &e {
+                crate::prior::PriorError::Invalid { name, .. } => format!("prior.{name}"),
+                _ => "prior".into(),
+            };
+            ConfigError::Invalid {
+                file: file.into(),
+                field,
+                msg: e.to_string(),
+            }
+        })
+    }
+}
+
+/// A (sub-)model of the 7-parameter closed loop: which parameters are free and the values of
+/// the others.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModelEntry {
+    /// Free parameter names (default: all seven).
+    #[serde(default = "all_params")]
+    pub free: Vec<String>,
+    /// Values of the parameters that are not free.
+    #[serde(default)]
+    pub fixed: std::collections::BTreeMap<String, f64>,
+}
+
+fn all_params() -> Vec<String> {
+    PARAM_NAMES.iter().map(|s| s.to_string()).collect()
+}
+
+impl Default for ModelEntry {
+    fn default() -> Self {
+        Self {
+            free: all_params(),
+            fixed: Default::default(),
+        }
+    }
+}
+
+/// A validated model: free indices and the full base vector.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ModelSpec {
+    pub free: Vec<usize>,
+    pub base: [f64; crate::ltp::N_PARAMS],
+}
+
+impl ModelEntry {
+    /// Checks names, duplicates and that every parameter is either free or fixed (finite).
+    pub fn resolve(&self, file: &str, at: &str) -> Result<ModelSpec, ConfigError> {
+        let bad = |field: String, msg: String| ConfigError::Invalid {
+            file: file.into(),
+            field,
+            msg,
+        };
+        let idx = |n: &str, field: String| {
+            PARAM_NAMES.iter().position(|p| *p == n).ok_or_else(|| {
+                bad(
+                    field,
+                    format!("unknown parameter `{n}`; the parameters are {PARAM_NAMES:?}"),
+                )
+            })
+        };
+        let mut free = Vec::new();
+        for (k, n) in self.free.iter().enumerate() {
+            let i = idx(n, format!("{at}free[{k}]"))?;
+            if free.contains(&i) {
+                return Err(bad(
+                    format!("{at}free[{k}]"),
+                    format!("`{n}` is listed twice"),
+                ));
+            }
+            free.push(i);
+        }
+        if free.is_empty() {
+            return Err(bad(
+                format!("{at}free"),
+                "at least one parameter must be free".into(),
+            ));
+        }
+        let mut base = [f64::NAN; crate::ltp::N_PARAMS];
+        for (n, &v) in &self.fixed {
+            let i = idx(n, format!("{at}fixed.{n}"))?;
+            if free.contains(&i) {
+                return Err(bad(
+                    format!("{at}fixed.{n}"),
+                    format!("`{n}` is both free and fixed; remove it from one of the lists"),
+                ));
+            }
+            if !v.is_finite() {
+                return Err(bad(
+                    format!("{at}fixed.{n}"),
+                    format!("must be finite (got {v})"),
+                ));
+            }
+            base[i] = v;
+        }
+        for (i, n) in PARAM_NAMES.iter().enumerate() {
+            if !free.contains(&i) && base[i].is_nan() {
+                return Err(bad(
+                    format!("{at}fixed"),
+                    format!(
+                        "`{n}` is neither free nor fixed: add it to `free` or give `fixed.{n}`"
+                    ),
+                ));
+            }
+            if free.contains(&i) {
+                base[i] = 0.0;
+            }
+        }
+        Ok(ModelSpec { free, base })
+    }
+}
+
+/// `[fit]`: MCMC parameter estimation of one model.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct FitOptions {
+    /// Free parameter names (default: all seven).
+    pub free: Vec<String>,
+    /// Values of the parameters that are not free.
+    pub fixed: std::collections::BTreeMap<String, f64>,
+    pub chains: usize,
+    pub iterations: usize,
+    pub burn_in: usize,
+    pub thin: usize,
+    /// Seed of the chains (default: the study seed + 1).
+    pub seed: Option<u64>,
+    /// Adapt the proposal covariance during the burn-in.
+    pub adapt: bool,
+    /// Iterations between checkpoints.
+    pub checkpoint_every: usize,
+    /// Multiplies the proposal covariance `(2.38²/D) F⁻¹`.
+    pub proposal_scale: f64,
+    /// Start of the MAP search (default: the centre of each prior box, or the mean of a
+    /// Gaussian prior).
+    pub start: Option<std::collections::BTreeMap<String, f64>>,
+}
+
+impl Default for FitOptions {
+    fn default() -> Self {
+        Self {
+            free: all_params(),
+            fixed: Default::default(),
+            chains: 4,
+            iterations: 20_000,
+            burn_in: 5_000,
+            thin: 1,
+            seed: None,
+            adapt: true,
+            checkpoint_every: 5_000,
+            proposal_scale: 1.0,
+            start: None,
+        }
+    }
+}
+
 /// The study file as written.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -154,6 +399,12 @@ pub struct StudyFile {
     pub oms_delay: f64,
     #[serde(default)]
     pub simulation: SimulationOptions,
+    #[serde(default)]
+    pub analysis: AnalysisOptions,
+    #[serde(default)]
+    pub prior: PriorTable,
+    #[serde(default)]
+    pub fit: FitOptions,
     pub experiment: Vec<ExperimentEntry>,
 }
 
@@ -168,6 +419,12 @@ pub struct Study {
     pub oms_delay: f64,
     pub simulation: SimulationOptions,
     pub experiments: Vec<ExperimentDesign>,
+    pub analysis: AnalysisOptions,
+    /// The validated 7-parameter prior.
+    pub prior: Prior,
+    pub fit: FitOptions,
+    /// The validated `[fit]` model.
+    pub fit_model: ModelSpec,
     /// The file it came from (for messages).
     pub source: String,
 }
@@ -346,7 +603,19 @@ impl StudyFile {
             validate_waveforms(&d, file, &at(""))?;
             experiments.push(d);
         }
+        let prior = self.prior.to_prior(file)?;
+        let fit_model = ModelEntry {
+            free: self.fit.free.clone(),
+            fixed: self.fit.fixed.clone(),
+        }
+        .resolve(file, "fit.")?;
+        validate_analysis(&self.analysis, file)?;
+        validate_fit(&self.fit, file)?;
         Ok(Study {
+            analysis: self.analysis,
+            prior,
+            fit: self.fit,
+            fit_model,
             seed: self.seed,
             output: self.output,
             truth: self.truth,
@@ -358,6 +627,86 @@ impl StudyFile {
             source: file.into(),
         })
     }
+}
+
+fn validate_analysis(a: &AnalysisOptions, file: &str) -> Result<(), ConfigError> {
+    let bad = |field: &str, msg: String| ConfigError::Invalid {
+        file: file.into(),
+        field: format!("analysis.{field}"),
+        msg,
+    };
+    let [lo, hi] = a.band;
+    if !(finite_pos(lo) && hi.is_finite() && hi > lo) {
+        return Err(bad(
+            "band",
+            format!("must be [lo, hi] with 0 < lo < hi Hz (got [{lo}, {hi}])"),
+        ));
+    }
+    if a.welch_averages == 0 {
+        return Err(bad("welch_averages", "must be ≥ 1".into()));
+    }
+    if !finite_pos(a.relbin_sigma) {
+        return Err(bad(
+            "relbin_sigma",
+            format!("must be > 0 (got {})", a.relbin_sigma),
+        ));
+    }
+    if !finite_pos(a.relbin_tolerance) {
+        return Err(bad(
+            "relbin_tolerance",
+            format!("must be > 0 (got {})", a.relbin_tolerance),
+        ));
+    }
+    Ok(())
+}
+
+fn validate_fit(f: &FitOptions, file: &str) -> Result<(), ConfigError> {
+    let bad = |field: &str, msg: String| ConfigError::Invalid {
+        file: file.into(),
+        field: format!("fit.{field}"),
+        msg,
+    };
+    if f.chains == 0 {
+        return Err(bad("chains", "must be ≥ 1".into()));
+    }
+    if f.iterations == 0 || f.burn_in >= f.iterations {
+        return Err(bad(
+            "burn_in",
+            format!(
+                "must be smaller than `iterations` (got burn_in = {}, iterations = {})",
+                f.burn_in, f.iterations
+            ),
+        ));
+    }
+    if f.thin == 0 || f.checkpoint_every == 0 {
+        return Err(bad(
+            "thin",
+            "`thin` and `checkpoint_every` must be ≥ 1".into(),
+        ));
+    }
+    if !finite_pos(f.proposal_scale) {
+        return Err(bad(
+            "proposal_scale",
+            format!("must be > 0 (got {})", f.proposal_scale),
+        ));
+    }
+    if let Some(start) = &f.start {
+        for (n, v) in start {
+            if !PARAM_NAMES.contains(&n.as_str()) {
+                return Err(bad(
+                    &format!("start.{n}"),
+                    format!("unknown parameter; the parameters are {PARAM_NAMES:?}"),
+                ));
+            }
+            if !v.is_finite() {
+                return Err(bad(
+                    &format!("start.{n}"),
+                    format!("must be finite (got {v})"),
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 fn to_waveform(

@@ -6,15 +6,18 @@
 //! `Y[k] = Σ_n y[n] e^{−2πikn/N}` (unnormalised) at `f_k = k fs/N`; likelihoods are natural
 //! logs (`ln L`, never χ²).
 
+pub mod analysis;
 pub mod atomic;
 pub mod config;
 pub mod dataset;
 pub mod density;
 pub mod experiment;
+pub mod fit;
 pub mod hermitian;
 pub mod likelihood;
 pub mod lti;
 pub mod ltp;
+pub mod nested;
 pub mod prior;
 pub mod report;
 pub mod sampler;

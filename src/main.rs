@@ -27,12 +27,32 @@ enum Command {
         #[arg(short, long)]
         output: Option<PathBuf>,
     },
+    /// Fit the study's `[fit]` model by MCMC: Table I layout, chains, plots, summary.json.
+    Fit {
+        /// The study file (TOML).
+        study: PathBuf,
+        /// Output directory (default: `<output>/fit`).
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+        /// Continue from the checkpoint in the output directory.
+        #[arg(long)]
+        resume: bool,
+        /// No progress bar.
+        #[arg(short, long)]
+        quiet: bool,
+    },
 }
 
 fn main() {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Simulate { study, output } => simulate(study, output),
+        Command::Fit {
+            study,
+            output,
+            resume,
+            quiet,
+        } => fit(study, output, resume, quiet),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");
@@ -66,5 +86,86 @@ fn simulate(path: PathBuf, output: Option<PathBuf>) -> Result<()> {
     );
     println!("wrote {} and {}", npz.display(), json.display());
     println!("took {:.2} s", t0.elapsed().as_secs_f64());
+    Ok(())
+}
+
+/// A progress bar over all chains' iterations, drawn only on a terminal.
+fn progress_bar(total: u64, quiet: bool) -> Option<indicatif::ProgressBar> {
+    use std::io::IsTerminal;
+    if quiet || !std::io::stderr().is_terminal() {
+        return None;
+    }
+    let pb = indicatif::ProgressBar::new(total);
+    pb.set_style(
+        indicatif::ProgressStyle::with_template(
+            "{bar:40} {pos}/{len} iterations  {per_sec}  eta {eta}  {msg}",
+        )
+        .expect("valid template"),
+    );
+    Some(pb)
+}
+
+fn fit(path: PathBuf, output: Option<PathBuf>, resume: bool, quiet: bool) -> Result<()> {
+    let t0 = Instant::now();
+    let study = Study::load(&path)?;
+    let out = output.unwrap_or_else(|| study.output.join("fit"));
+    let prep = occam::analysis::prepare(&study)
+        .with_context(|| format!("preparing the data of {}", path.display()))?;
+    println!(
+        "data: {} ({} experiments, {} bins in band)",
+        prep.origin,
+        prep.dataset.experiments.len(),
+        prep.likelihood.n_bins()
+    );
+    let total = (study.fit.iterations * study.fit.chains) as u64;
+    let pb = progress_bar(total, quiet);
+    let counts: Vec<std::sync::atomic::AtomicU64> =
+        (0..study.fit.chains).map(|_| Default::default()).collect();
+    let observer = |p: &occam::sampler::Progress| {
+        if let Some(pb) = &pb {
+            counts[p.chain].store(p.iteration as u64, std::sync::atomic::Ordering::Relaxed);
+            let done: u64 = counts
+                .iter()
+                .map(|c| c.load(std::sync::atomic::Ordering::Relaxed))
+                .sum();
+            pb.set_position(done);
+            pb.set_message(format!("acceptance {:.2}", p.acceptance));
+        }
+    };
+    let outcome = occam::fit::run(&study, &prep, &out, Some(&observer), resume)?;
+    if let Some(pb) = pb {
+        pb.finish_and_clear();
+    }
+    occam::fit::write_outputs(&outcome, &out)?;
+    let s = &outcome.summary;
+    println!("{}", occam::fit::table(s));
+    println!(
+        "rho_opt at MAP = {:.4e}; MAP found in {} Fisher-scoring iterations ({:.2} s)",
+        s.rho_opt_at_map, s.map_iterations, s.seconds_map
+    );
+    println!(
+        "MCMC: {} chains × {} iterations, {:.0} iterations/s ({} likelihood{}), acceptance {:?}",
+        s.chains,
+        study.fit.iterations,
+        s.iterations_per_second,
+        match s.likelihood {
+            occam::config::LikelihoodKind::Exact => "exact".to_string(),
+            occam::config::LikelihoodKind::Relbin => "relative-binned".to_string(),
+        },
+        s.n_coarse_bins
+            .map_or(String::new(), |n| format!(", {n} coarse bins")),
+        s.acceptance
+            .iter()
+            .map(|a| (a * 100.0).round() / 100.0)
+            .collect::<Vec<_>>()
+    );
+    for w in &s.warnings {
+        eprintln!("warning: {w}");
+    }
+    println!(
+        "wrote {}/{{summary.json, table.txt, table.md, chains.npz, trace.png, corner.png}}",
+        out.display()
+    );
+    println!("took {:.1} s", t0.elapsed().as_secs_f64());
     Ok(())
 }

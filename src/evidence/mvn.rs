@@ -15,7 +15,8 @@
 //! quasi-Monte Carlo: a Richtmyer (Kronecker) lattice `x_j = frac(j·√p_i + Δ_i)` (p_i the i-th
 //! prime) with `M` independent uniform shifts `Δ` and the baker's transform `|2x − 1|`. The `M`
 //! shift averages are independent unbiased estimates, so their spread gives an honest standard
-//! error. Variables are first reordered by the Gibson–Glasbey–Elston rule (tightest conditional
+//! error; a pilot chooses the point count and a fresh set of shifts gives the reported value, so
+//! the stopping rule cannot bias the error low. Variables are first reordered by the Gibson–Glasbey–Elston rule (tightest conditional
 //! interval first; Genz & Bretz 2009 §4.1.3), which changes only the variance.
 //!
 //! D = 1 is computed exactly with `erfc`. Everything is done in logs, including the conditional
@@ -42,7 +43,7 @@ pub struct MvnOptions {
     pub max_evals: usize,
     /// Stop when the standard error is below `rel_tol · P` …
     pub rel_tol: f64,
-    /// … or below `abs_tol`.
+    /// … or below `abs_tol` (0: off).
     pub abs_tol: f64,
 }
 
@@ -72,7 +73,8 @@ pub struct MvnProbability {
     pub ln_p_std_err: f64,
     /// Integrand evaluations used.
     pub n_evals: usize,
-    /// Whether the tolerance was met before `max_evals`.
+    /// Whether the pilot met the tolerance within `max_evals`. The reported error comes from an
+    /// independent final pass at the chosen point count, so it scatters around the tolerance.
     pub converged: bool,
 }
 
@@ -164,11 +166,11 @@ fn validate_options(o: &MvnOptions) -> Result<(), EvidenceError> {
             "use at least 4 shifts so the error estimate has 3 degrees of freedom",
         ));
     }
-    if o.initial_points == 0 || o.max_evals < o.n_shifts * o.initial_points {
+    if o.initial_points == 0 || o.max_evals < 2 * o.n_shifts * o.initial_points {
         return Err(EvidenceError::option(
             "mvn max_evals",
             o.max_evals,
-            "need initial_points ≥ 1 and max_evals ≥ n_shifts·initial_points",
+            "need initial_points ≥ 1 and max_evals ≥ 2·n_shifts·initial_points (pilot and final pass)",
         ));
     }
     if !(o.rel_tol >= 0.0 && o.abs_tol >= 0.0) {
@@ -274,6 +276,31 @@ impl Prepared {
         ln_f
     }
 
+    /// Adds the lattice points `from+1..=to` of every shift to the per-shift log sums.
+    fn accumulate(
+        &self,
+        gens: &[f64],
+        shifts: &[Vec<f64>],
+        from: usize,
+        to: usize,
+        lse: &mut [f64],
+    ) {
+        let mut w = vec![0.0; self.d - 1];
+        let mut y = vec![0.0; self.d];
+        for (acc, shift) in lse.iter_mut().zip(shifts) {
+            for j in from + 1..=to {
+                for ((wi, &g), &sh) in w.iter_mut().zip(gens).zip(shift) {
+                    let x = ((j as f64) * g + sh).fract();
+                    *wi = (2.0 * x - 1.0).abs();
+                }
+                *acc = log_add_exp(*acc, self.ln_integrand(&w, &mut y));
+            }
+        }
+    }
+
+    /// Pilot rounds (points per shift doubled until the tolerance is met) choose the point count;
+    /// the reported estimate and error come from fresh shifts at that count. Reusing the pilot
+    /// would bias the error low: a run stops exactly when its error estimate happens to be small.
     fn integrate(&self, opts: &MvnOptions) -> MvnProbability {
         let d = self.d;
         let m = opts.n_shifts;
@@ -282,40 +309,40 @@ impl Prepared {
             .map(|p| (p as f64).sqrt().fract())
             .collect();
         let mut rng = Xoshiro256PlusPlus::seed_from_u64(opts.seed);
-        let shifts: Vec<Vec<f64>> = (0..m)
-            .map(|_| (0..d - 1).map(|_| rng.random::<f64>()).collect())
-            .collect();
-        // Running log-sum-exp of the integrand per shift.
+        let mut draw_shifts = || -> Vec<Vec<f64>> {
+            (0..m)
+                .map(|_| (0..d - 1).map(|_| rng.random::<f64>()).collect())
+                .collect()
+        };
+        let pilot = draw_shifts();
         let mut lse = vec![f64::NEG_INFINITY; m];
-        let mut w = vec![0.0; d - 1];
-        let mut y = vec![0.0; d];
         let mut n_done = 0usize;
         let mut n_target = opts.initial_points;
-        loop {
-            for (k, shift) in shifts.iter().enumerate() {
-                for j in n_done + 1..=n_target {
-                    for ((wi, &g), &sh) in w.iter_mut().zip(&gens).zip(shift) {
-                        let x = ((j as f64) * g + sh).fract();
-                        *wi = (2.0 * x - 1.0).abs();
-                    }
-                    let v = self.ln_integrand(&w, &mut y);
-                    lse[k] = log_add_exp(lse[k], v);
-                }
-            }
+        let converged = loop {
+            self.accumulate(&gens, &pilot, n_done, n_target, &mut lse);
             n_done = n_target;
-            let evals = n_done * m;
             let est = shift_statistics(&lse, n_done);
-            let converged = est.std_err <= opts.abs_tol
-                || est.ln_p_std_err <= opts.rel_tol
-                || est.ln_p == f64::NEG_INFINITY;
-            if converged || evals * 2 > opts.max_evals {
+            if est.ln_p == f64::NEG_INFINITY {
                 return MvnProbability {
-                    n_evals: evals,
-                    converged,
+                    n_evals: n_done * m,
                     ..est
                 };
             }
+            let converged = (opts.abs_tol > 0.0 && est.std_err <= opts.abs_tol)
+                || est.ln_p_std_err <= opts.rel_tol;
+            // The final pass costs n_done·m more evaluations.
+            if converged || 3 * n_done * m > opts.max_evals {
+                break converged;
+            }
             n_target *= 2;
+        };
+        let fresh = draw_shifts();
+        let mut lse = vec![f64::NEG_INFINITY; m];
+        self.accumulate(&gens, &fresh, 0, n_done, &mut lse);
+        MvnProbability {
+            n_evals: 2 * n_done * m,
+            converged,
+            ..shift_statistics(&lse, n_done)
         }
     }
 }
@@ -487,7 +514,7 @@ mod tests {
             let opts = MvnOptions {
                 seed,
                 initial_points: 64,
-                max_evals: 64 * 16,
+                max_evals: 2 * 64 * 16,
                 ..MvnOptions::default()
             };
             let r = mvn_rectangle(&[0.0; 3], &[INF; 3], &[0.0; 3], &cov, &opts).unwrap();

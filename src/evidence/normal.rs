@@ -101,16 +101,20 @@ pub(crate) fn interval(a: f64, b: f64) -> f64 {
 /// `[a, b]` even hundreds of σ out. With no representable mass the nearest finite end is
 /// returned with `ln P = −∞`.
 pub(crate) fn truncated_quantile(a: f64, b: f64, w: f64) -> (f64, f64) {
+    // w = 0 or 1 exactly (the baker's transform can produce both) would put y at an infinite
+    // end; keeping w inside [2⁻⁵³, 1 − 2⁻⁵³] keeps every draw finite.
+    let w = w.clamp(f64::EPSILON / 2.0, 1.0 - f64::EPSILON / 2.0);
     if a > 0.0 {
         let (qa, qb) = (ln_upper(a), ln_upper(b));
         let r = (qb - qa).exp();
         let ln_p = qa + (-r).ln_1p();
-        if ln_p == f64::NEG_INFINITY || ln_p.is_nan() {
+        if !ln_p.is_finite() {
             return (a, f64::NEG_INFINITY);
         }
         // Q(y) = Q(a) − w (Q(a) − Q(b)) = Q(a)·(1 − w(1 − r)).
         let ln_t = qa + (-w * (1.0 - r)).ln_1p();
-        (upper_quantile(ln_t).clamp(a, b), ln_p)
+        let y = upper_quantile(ln_t);
+        (if y.is_nan() { a } else { y.clamp(a, b) }, ln_p)
     } else if b < 0.0 {
         let (y, ln_p) = truncated_quantile(-b, -a, 1.0 - w);
         (-y, ln_p)

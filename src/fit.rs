@@ -1,0 +1,341 @@
+//! `occam fit`: MAP, Fisher matrix and Metropolis–Hastings parameter estimation of one model,
+//! with the paper's Table I layout, chains on disk, plots and a JSON summary.
+
+use crate::analysis::{Prepared, default_start, relbin_of};
+use crate::config::{LikelihoodKind, Study};
+use crate::density::LogDensity;
+use crate::likelihood::{cramer_rao, fisher_exact, fisher_scoring};
+use crate::ltp::{N_PARAMS, PARAM_NAMES};
+use crate::nested::SubModel;
+use crate::report::{Table, fmt_pm, fmt_sig};
+use crate::sampler::{Adapt, Chains, MetropolisHastings, MhSettings, Progress, RunOutcome, Start};
+use nalgebra::DMatrix;
+use ndarray::Array;
+use ndarray_npy::NpzWriter;
+use serde::Serialize;
+use std::path::Path;
+use std::time::Instant;
+
+/// Errors of a fit.
+#[derive(Debug, thiserror::Error)]
+pub enum FitError {
+    #[error(transparent)]
+    Map(#[from] crate::likelihood::MapError),
+    #[error(transparent)]
+    Sampler(#[from] crate::sampler::SamplerError),
+    #[error(transparent)]
+    Analysis(#[from] crate::analysis::AnalysisError),
+    #[error(transparent)]
+    Nested(#[from] crate::nested::NestedError),
+    #[error(transparent)]
+    Report(#[from] crate::report::ReportError),
+    #[error("{0}")]
+    Other(String),
+}
+
+/// One row of the Table I layout.
+#[derive(Debug, Clone, Serialize)]
+pub struct ParamRow {
+    pub name: String,
+    pub truth: Option<f64>,
+    pub map: f64,
+    pub mean: f64,
+    pub sd: f64,
+    pub cramer_rao: f64,
+    pub rhat: f64,
+    pub ess: f64,
+    /// (mean − truth)/sd when the truth is known.
+    pub pull: Option<f64>,
+}
+
+/// Everything `occam fit` reports.
+#[derive(Debug, Clone, Serialize)]
+pub struct FitSummary {
+    pub origin: String,
+    pub likelihood: LikelihoodKind,
+    pub n_bins: usize,
+    pub n_coarse_bins: Option<usize>,
+    pub rho_opt_at_map: f64,
+    pub map_ln_posterior: f64,
+    pub map_iterations: usize,
+    pub rows: Vec<ParamRow>,
+    pub acceptance: Vec<f64>,
+    pub non_finite: Vec<u64>,
+    pub warnings: Vec<String>,
+    pub chains: usize,
+    pub kept_per_chain: usize,
+    pub seconds_map: f64,
+    pub seconds_mcmc: f64,
+    pub iterations_per_second: f64,
+    /// Fisher matrix at the MAP over the free parameters.
+    pub fisher: Vec<Vec<f64>>,
+}
+
+/// The outcome of [`run`].
+pub struct FitOutcome {
+    pub summary: FitSummary,
+    pub chains: Chains,
+    /// Free-parameter MAP and Fisher matrix (for reuse by evidence estimators).
+    pub map_full: [f64; N_PARAMS],
+    pub fisher: DMatrix<f64>,
+}
+
+/// Runs the fit of `study`'s `[fit]` model on prepared data; writes a checkpoint into `out`
+/// while it runs (and resumes from it if `resume`).
+pub fn run(
+    study: &Study,
+    prep: &Prepared,
+    out: &Path,
+    observer: Option<&(dyn Fn(&Progress) + Sync)>,
+    resume: bool,
+) -> Result<FitOutcome, FitError> {
+    let exact = &prep.likelihood;
+    let model = &study.fit_model;
+    let free = &model.free;
+    let t0 = Instant::now();
+    let start = default_start(study, model);
+    let map = fisher_scoring(exact, &start, free, 1e-3, 200)?;
+    let mut warnings = Vec::new();
+    if !map.converged {
+        warnings.push(format!(
+            "the MAP search stopped after {} iterations without converging; the chains may start far from the mode",
+            map.iterations
+        ));
+    }
+    let fisher = fisher_exact(exact, &map.theta, free);
+    let cr = cramer_rao(&fisher).ok_or_else(|| {
+        FitError::Other(format!(
+            "the Fisher matrix at the MAP is singular: the data do not constrain some of {:?}; fix them or add experiments",
+            free.iter().map(|&i| PARAM_NAMES[i]).collect::<Vec<_>>()
+        ))
+    })?;
+    let seconds_map = t0.elapsed().as_secs_f64();
+    let d = free.len();
+    let cov = fisher.clone().cholesky().expect("checked above").inverse()
+        * (study.fit.proposal_scale * 2.38f64.powi(2) / d as f64);
+    let f = &study.fit;
+    let settings = MhSettings {
+        n_iter: f.iterations,
+        burn_in: f.burn_in,
+        thin: f.thin,
+        n_chains: f.chains,
+        seed: f.seed.unwrap_or(study.seed.wrapping_add(1)),
+        anneal: None,
+        adapt: f.adapt.then(|| Adapt {
+            start: f.burn_in / 5,
+            ..Default::default()
+        }),
+        checkpoint_every: f.checkpoint_every,
+        progress_every: 200,
+    };
+    let centre: Vec<f64> = free.iter().map(|&i| map.theta[i]).collect();
+    let t1 = Instant::now();
+    let (chains, n_coarse) = match study.analysis.likelihood {
+        LikelihoodKind::Exact => (
+            sample(
+                exact, model, &map.theta, &cov, settings, &centre, out, observer, resume,
+            )?,
+            None,
+        ),
+        LikelihoodKind::Relbin => {
+            let rb = relbin_of(study, exact, &map.theta)?;
+            let n = rb.n_coarse();
+            (
+                sample(
+                    &rb, model, &map.theta, &cov, settings, &centre, out, observer, resume,
+                )?,
+                Some(n),
+            )
+        }
+    };
+    let seconds_mcmc = t1.elapsed().as_secs_f64();
+    let diag = chains.diagnostics()?;
+    warnings.extend(diag.warnings().iter().map(|w| w.to_string()));
+    let truth = prep.dataset.truth.map(|t| t.to_array());
+    let rows = free
+        .iter()
+        .enumerate()
+        .map(|(k, &i)| {
+            let tr = truth.map(|t| t[i]);
+            ParamRow {
+                name: PARAM_NAMES[i].into(),
+                truth: tr,
+                map: map.theta[i],
+                mean: diag.mean[k],
+                sd: diag.sd[k],
+                cramer_rao: cr[k],
+                rhat: diag.rhat[k],
+                ess: diag.ess[k],
+                pull: tr.map(|t| (diag.mean[k] - t) / diag.sd[k]),
+            }
+        })
+        .collect();
+    let total_iter = (f.iterations * f.chains) as f64;
+    let summary = FitSummary {
+        origin: prep.origin.clone(),
+        likelihood: study.analysis.likelihood,
+        n_bins: exact.n_bins(),
+        n_coarse_bins: n_coarse,
+        rho_opt_at_map: exact.snr(&map.theta),
+        map_ln_posterior: map.ln_posterior,
+        map_iterations: map.iterations,
+        rows,
+        acceptance: diag.acceptance.clone(),
+        non_finite: diag.non_finite.clone(),
+        warnings,
+        chains: f.chains,
+        kept_per_chain: chains.n_kept(),
+        seconds_map,
+        seconds_mcmc,
+        iterations_per_second: total_iter / seconds_mcmc,
+        fisher: (0..d)
+            .map(|i| (0..d).map(|j| fisher[(i, j)]).collect())
+            .collect(),
+    };
+    Ok(FitOutcome {
+        summary,
+        chains,
+        map_full: map.theta,
+        fisher,
+    })
+}
+
+#[allow(clippy::too_many_arguments)]
+fn sample<D: LogDensity>(
+    parent: &D,
+    model: &crate::config::ModelSpec,
+    map: &[f64; N_PARAMS],
+    cov: &DMatrix<f64>,
+    settings: MhSettings,
+    centre: &[f64],
+    out: &Path,
+    observer: Option<&(dyn Fn(&Progress) + Sync)>,
+    resume: bool,
+) -> Result<Chains, FitError> {
+    let mut base = model.base;
+    for &i in &model.free {
+        base[i] = map[i];
+    }
+    let sub = SubModel::new(parent, model.free.clone(), base.to_vec())?;
+    std::fs::create_dir_all(out).map_err(|e| FitError::Other(format!("{}: {e}", out.display())))?;
+    let ckpt = out.join("checkpoint.json");
+    let mut mh = MetropolisHastings::new(&sub, cov, settings)?.checkpoint(&ckpt);
+    if let Some(o) = observer {
+        mh = mh.observer(o);
+    }
+    let outcome = if resume && ckpt.exists() {
+        mh.resume(&ckpt)?
+    } else {
+        mh.run(&Start::Around {
+            centre: centre.to_vec(),
+            spread: 2.0,
+        })?
+    };
+    match outcome {
+        RunOutcome::Finished(c) => Ok(c),
+        RunOutcome::Stopped { iterations } => Err(FitError::Other(format!(
+            "stopped after {iterations} iterations; run again with --resume"
+        ))),
+    }
+}
+
+/// The Table I layout as a text table.
+pub fn table(s: &FitSummary) -> Table {
+    let mut t = Table::new([
+        "parameter",
+        "truth",
+        "MAP",
+        "estimate ± σ",
+        "Cramér-Rao σ",
+        "σ/CR",
+        "R-hat",
+        "ESS",
+    ]);
+    for r in &s.rows {
+        t.push_row([
+            r.name.clone(),
+            r.truth.map_or("–".into(), |v| fmt_sig(v, 4)),
+            fmt_sig(r.map, 6),
+            fmt_pm(r.mean, r.sd),
+            fmt_sig(r.cramer_rao, 3),
+            format!("{:.3}", r.sd / r.cramer_rao),
+            format!("{:.4}", r.rhat),
+            format!("{:.0}", r.ess),
+        ])
+        .expect("row width matches the header");
+    }
+    t
+}
+
+/// Writes `summary.json`, `table.txt`, `table.md`, `chains.npz` and the trace and corner plots
+/// into `out`; every file atomically.
+pub fn write_outputs(o: &FitOutcome, out: &Path) -> Result<(), FitError> {
+    let io = |p: &Path, e: std::io::Error| FitError::Other(format!("{}: {e}", p.display()));
+    std::fs::create_dir_all(out).map_err(|e| io(out, e))?;
+    let json = serde_json::to_string_pretty(&o.summary).expect("summary serialises") + "\n";
+    let p = out.join("summary.json");
+    crate::atomic::write_bytes(&p, json.as_bytes()).map_err(|e| io(&p, e))?;
+    let t = table(&o.summary);
+    let p = out.join("table.txt");
+    crate::atomic::write_bytes(&p, t.to_text().as_bytes()).map_err(|e| io(&p, e))?;
+    let p = out.join("table.md");
+    crate::atomic::write_bytes(&p, t.to_markdown().as_bytes()).map_err(|e| io(&p, e))?;
+    write_chains_npz(&o.chains, &out.join("chains.npz"))?;
+    let names = o.chains.names().to_vec();
+    let per_chain: Vec<Vec<Vec<f64>>> = o
+        .chains
+        .chains()
+        .iter()
+        .map(|c| c.samples.chunks(names.len()).map(|s| s.to_vec()).collect())
+        .collect();
+    let truth: Option<Vec<f64>> = o
+        .summary
+        .rows
+        .iter()
+        .map(|r| r.truth)
+        .collect::<Option<Vec<f64>>>();
+    crate::report::trace_plot(out, "trace", &names, &per_chain, truth.as_deref())?;
+    let pooled: Vec<Vec<f64>> = per_chain.iter().flatten().cloned().collect();
+    let step = (pooled.len() / 20_000).max(1);
+    let thinned: Vec<Vec<f64>> = pooled.into_iter().step_by(step).collect();
+    crate::report::corner_plot(out, "corner", &names, &thinned, truth.as_deref())?;
+    Ok(())
+}
+
+/// Chains as `.npz`: `samples` (chains × kept × parameters), `ln_posterior` and
+/// `ln_likelihood` (chains × kept); parameter names are in `summary.json`.
+pub fn write_chains_npz(chains: &Chains, path: &Path) -> Result<(), FitError> {
+    let m = chains.chains().len();
+    let n = chains.n_kept();
+    let d = chains.dim();
+    let flat: Vec<f64> = chains
+        .chains()
+        .iter()
+        .flat_map(|c| c.samples.iter().copied())
+        .collect();
+    let lp: Vec<f64> = chains
+        .chains()
+        .iter()
+        .flat_map(|c| c.ln_posterior.iter().copied())
+        .collect();
+    let ll: Vec<f64> = chains
+        .chains()
+        .iter()
+        .flat_map(|c| c.ln_likelihood.iter().copied())
+        .collect();
+    crate::atomic::write_with(path, |w| {
+        let to_io = |e: ndarray_npy::WriteNpzError| std::io::Error::other(e.to_string());
+        let mut z = NpzWriter::new(w);
+        let shape =
+            |v: Vec<f64>, s: &[usize]| Array::from_shape_vec(s.to_vec(), v).expect("shape matches");
+        z.add_array("samples", &shape(flat, &[m, n, d]))
+            .map_err(to_io)?;
+        z.add_array("ln_posterior", &shape(lp, &[m, n]))
+            .map_err(to_io)?;
+        z.add_array("ln_likelihood", &shape(ll, &[m, n]))
+            .map_err(to_io)?;
+        z.finish().map_err(to_io)?;
+        Ok(())
+    })
+    .map_err(|e| FitError::Other(format!("{}: {e}", path.display())))
+}
