@@ -1,0 +1,121 @@
+//! `occam fit` end to end on a small study, and its errors on bad input.
+
+use std::path::Path;
+use std::process::Command;
+
+fn occam(args: &[&str], cwd: &Path) -> (bool, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_occam"))
+        .args(args)
+        .current_dir(cwd)
+        .output()
+        .unwrap();
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+const SMALL: &str = r#"
+seed = 8
+output = "out"
+[analysis]
+band = [1e-3, 0.4]
+[fit]
+free = ["a_df", "a_sus", "d21"]
+fixed = { w1sq = -1.3e-6, w2sq = -1.9e-6, dt1 = 0.2, dt2 = 0.2 }
+chains = 2
+iterations = 3000
+burn_in = 1000
+[[experiment]]
+name = "a"
+fs = 1.0
+pre_pad = 200.0
+post_pad = 1500.0
+noise_duration = 8000.0
+x1 = { kind = "sine_train", gap = 20.0, segments = [
+  { freq = 0.002, amplitude = 1e-6, duration = 500.0 },
+  { freq = 0.05, amplitude = 1e-7, duration = 200.0 } ] }
+[[experiment]]
+name = "b"
+fs = 1.0
+pre_pad = 200.0
+post_pad = 1500.0
+noise_duration = 8000.0
+x12 = { kind = "sine", freq = 0.002, amplitude = 1e-6, duration = 500.0 }
+"#;
+
+#[test]
+fn fit_writes_table_chains_and_plots() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("s.toml"), SMALL).unwrap();
+    let (ok, stdout, stderr) = occam(&["fit", "s.toml", "-q"], dir.path());
+    assert!(ok, "{stderr}");
+    assert!(
+        stdout.contains("Cramér-Rao") && stdout.contains("a_sus"),
+        "{stdout}"
+    );
+    for f in [
+        "summary.json",
+        "table.md",
+        "chains.npz",
+        "trace.png",
+        "corner.svg",
+    ] {
+        assert!(dir.path().join("out/fit").join(f).exists(), "{f}");
+    }
+    let s: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.path().join("out/fit/summary.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(s["rows"].as_array().unwrap().len(), 3);
+}
+
+#[test]
+fn fit_errors_name_the_field() {
+    let cases: [(&str, String, &[&str]); 6] = [
+        (
+            "band outside the data",
+            SMALL.replace("band = [1e-3, 0.4]", "band = [0.6, 0.9]"),
+            &["band", "outside"],
+        ),
+        (
+            "singular noise",
+            SMALL.replace("[analysis]", "[simulation]\nnoise = \"none\"\n[analysis]"),
+            &["singular"],
+        ),
+        (
+            "start outside the prior",
+            SMALL.replace("burn_in = 1000", "burn_in = 1000\nstart = { a_df = 3.0 }"),
+            &["outside the prior", "a_df"],
+        ),
+        (
+            "zero-volume prior",
+            SMALL.replace(
+                "[fit]",
+                "[prior]\na_df = { kind = \"uniform\", lo = 1.0, hi = 1.0 }\n[fit]",
+            ),
+            &["prior.a_df", "lo < hi"],
+        ),
+        (
+            "parameter neither free nor fixed",
+            SMALL.replace("dt2 = 0.2 }", "}"),
+            &["fit.fixed", "dt2"],
+        ),
+        (
+            "burn-in too long",
+            SMALL.replace("burn_in = 1000", "burn_in = 3000"),
+            &["fit.burn_in"],
+        ),
+    ];
+    for (what, text, needles) in cases {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("s.toml"), &text).unwrap();
+        let (ok, _, stderr) = occam(&["fit", "s.toml", "-q"], dir.path());
+        assert!(!ok, "{what}: should fail");
+        for n in needles {
+            assert!(stderr.contains(n), "{what}: `{n}` missing from: {stderr}");
+        }
+        assert!(!stderr.contains("panicked"), "{what}: {stderr}");
+    }
+}
