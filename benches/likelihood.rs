@@ -1,8 +1,15 @@
 //! Benchmark: ln L of the 7-parameter model on the Table I study (examples/tn3045.toml),
-//! exact full band and relative-binned; a Fisher matrix; one MH iteration.
+//! exact full band and relative-binned; a Fisher matrix; one Metropolis–Hastings iteration on
+//! the relative-binned density; and, when `bench/peer/.venv` exists, the same exact ln L in
+//! vectorised numpy (bench/peer/numpy_lnl.py) for comparison.
 //!
-//! `cargo bench --bench likelihood` prints a table of evaluations per second.
+//! `cargo bench --bench likelihood` prints one table of evaluations per second (see
+//! BENCHMARKS.md). `bash bench/peer/setup.sh` creates the numpy venv.
 
+use nalgebra::DMatrix;
+use ndarray::{Array1, Array2};
+use ndarray_npy::NpzWriter;
+use num_complex::Complex64;
 use occam::config::Study;
 use occam::experiment::{System, simulate};
 use occam::likelihood::{
@@ -10,9 +17,16 @@ use occam::likelihood::{
 };
 use occam::ltp::{Controllers, N_PARAMS, PARAM_NAMES};
 use occam::prior::{Prior, PriorKind};
+use occam::sampler::{MetropolisHastings, MhSettings, Start};
 use std::hint::black_box;
-use std::path::Path;
+use std::path::{Path, PathBuf};
+use std::process::Command;
 use std::time::Instant;
+
+/// Seconds spent timing each ln L / Fisher kernel.
+const MIN_SECS: f64 = 2.0;
+/// Iterations of the timed Metropolis–Hastings run (burn-in included).
+const MH_ITERS: usize = 30_000;
 
 fn rate(mut f: impl FnMut() -> f64, min_secs: f64) -> (f64, f64) {
     // warm-up, then as many calls as fit in min_secs
@@ -28,8 +42,131 @@ fn rate(mut f: impl FnMut() -> f64, min_secs: f64) -> (f64, f64) {
     (n as f64 / dt, dt / n as f64)
 }
 
+fn fmt_time(s: f64) -> String {
+    if s >= 1e-3 {
+        format!("{:.3} ms", s * 1e3)
+    } else {
+        format!("{:.2} µs", s * 1e6)
+    }
+}
+
+/// What the numpy peer reported.
+struct Peer {
+    evals_per_s: f64,
+    max_rel: f64,
+    numpy: String,
+}
+
+/// Writes the in-band inputs of every experiment, the masses and the Rust ln L at a few
+/// parameter points to `path` for bench/peer/numpy_lnl.py.
+fn write_peer_inputs(
+    path: &Path,
+    lik: &LtpLikelihood,
+    truth: &[f64; N_PARAMS],
+    checks: &[[f64; N_PARAMS]],
+) -> Result<(), Box<dyn std::error::Error>> {
+    let mut z = NpzWriter::new(std::fs::File::create(path)?);
+    let spectra = lik.spectra();
+    z.add_array(
+        "n_experiments",
+        &Array1::from_vec(vec![spectra.len() as i64]),
+    )?;
+    for (j, e) in spectra.iter().enumerate() {
+        let n = e.len();
+        let pairs = |v: &[[Complex64; 2]]| Array2::from_shape_fn((n, 2), |(k, c)| v[k][c]);
+        let col = |g: &dyn Fn(usize) -> Complex64| Array1::from_iter((0..n).map(g));
+        z.add_array(format!("e{j}.freqs"), &Array1::from_vec(e.freqs.clone()))?;
+        z.add_array(format!("e{j}.y"), &pairs(&e.y))?;
+        z.add_array(format!("e{j}.inj"), &pairs(&e.inj))?;
+        z.add_array(
+            format!("e{j}.cinv_a"),
+            &Array1::from_iter(e.cinv.iter().map(|c| c.0)),
+        )?;
+        z.add_array(format!("e{j}.cinv_b"), &col(&|k| e.cinv[k].1))?;
+        z.add_array(
+            format!("e{j}.cinv_c"),
+            &Array1::from_iter(e.cinv.iter().map(|c| c.2)),
+        )?;
+        z.add_array(format!("e{j}.cdf"), &col(&|k| e.consts[k].cdf))?;
+        z.add_array(format!("e{j}.csus"), &col(&|k| e.consts[k].csus))?;
+        z.add_array(format!("e{j}.e_oms"), &col(&|k| e.consts[k].e_oms))?;
+    }
+    let m = lik.masses();
+    z.add_array("masses", &Array1::from_vec(vec![m.m1, m.m2, m.msc]))?;
+    z.add_array("theta_truth", &Array1::from_vec(truth.to_vec()))?;
+    z.add_array(
+        "theta",
+        &Array2::from_shape_fn((checks.len(), N_PARAMS), |(i, a)| checks[i][a]),
+    )?;
+    z.add_array(
+        "lnl",
+        &Array1::from_iter(checks.iter().map(|t| lik.ln_likelihood_full(t))),
+    )?;
+    z.add_array("ln_norm", &Array1::from_vec(vec![lik.ln_norm()]))?;
+    z.finish()?;
+    Ok(())
+}
+
+/// Runs the numpy peer if its venv exists. `Err` carries why there is no figure.
+fn run_peer(npz: &Path) -> Result<Peer, String> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let python = root.join("bench/peer/.venv/bin/python");
+    if !python.exists() {
+        return Err(format!(
+            "skipped: {} not found; set it up with `bash bench/peer/setup.sh`",
+            python.display()
+        ));
+    }
+    // Elementwise complex ufuncs do not call BLAS, so the OpenBLAS overrides this machine may
+    // set cannot matter; drop them for this one command anyway, as a benchmark should.
+    let out = Command::new(&python)
+        .arg(root.join("bench/peer/numpy_lnl.py"))
+        .arg(npz)
+        .env_remove("OPENBLAS_CORETYPE")
+        .env_remove("OPENBLAS_L2_SIZE")
+        .output()
+        .map_err(|e| format!("could not run {}: {e}", python.display()))?;
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    for line in stdout.lines().filter(|l| !l.starts_with("PEER ")) {
+        println!("  peer: {line}");
+    }
+    if !out.status.success() {
+        return Err(format!(
+            "FAILED ({}): {}{}",
+            out.status,
+            stdout
+                .lines()
+                .find(|l| l.starts_with("PEER "))
+                .unwrap_or(""),
+            String::from_utf8_lossy(&out.stderr)
+        ));
+    }
+    let line = stdout
+        .lines()
+        .find(|l| l.starts_with("PEER "))
+        .ok_or("the peer printed no `PEER ` line")?;
+    let field = |key: &str| {
+        line.split_whitespace()
+            .find_map(|w| w.strip_prefix(key)?.strip_prefix('='))
+            .map(str::to_string)
+            .ok_or(format!("no `{key}=` in the peer line `{line}`"))
+    };
+    let num = |key: &str| -> Result<f64, String> {
+        field(key)?
+            .parse::<f64>()
+            .map_err(|e| format!("`{key}` in `{line}`: {e}"))
+    };
+    Ok(Peer {
+        evals_per_s: num("evals_per_s")?,
+        max_rel: num("max_rel")?,
+        numpy: field("numpy")?,
+    })
+}
+
 fn main() {
-    let study = Study::load(Path::new("examples/tn3045.toml")).expect("examples/tn3045.toml");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let study =
+        Study::load(&root.join("examples/tn3045.toml")).expect("examples/tn3045.toml loads");
     let sim = simulate(&study).expect("simulate");
     let sys = System::of(&study);
     let csd = |f: f64| sys.noise_csd(f);
@@ -62,18 +199,17 @@ fn main() {
     let t0 = Instant::now();
     let rb = RelBinLikelihood::new(&lik, &th, &Default::default()).unwrap();
     let build = t0.elapsed().as_secs_f64();
+
+    // θ moves by a negligible amount at every call so that no kernel can reuse a result.
     let mut x = th;
     let mut k = 0usize;
-    let mut bump = |x: &mut [f64; N_PARAMS]| {
-        k += 1;
-        x[4] = th[4] + 1e-9 * (k % 7) as f64;
-    };
     let (exact_rate, exact_t) = rate(
         || {
-            bump(&mut x);
+            k += 1;
+            x[4] = th[4] + 1e-9 * (k % 7) as f64;
             lik.ln_likelihood_full(&x)
         },
-        2.0,
+        MIN_SECS,
     );
     let mut y = th;
     let mut k2 = 0usize;
@@ -83,10 +219,52 @@ fn main() {
             y[4] = th[4] + 1e-9 * (k2 % 7) as f64;
             rb.ln_likelihood_full(&y)
         },
-        2.0,
+        MIN_SECS,
     );
     let free: Vec<usize> = (0..N_PARAMS).collect();
-    let (f_rate, f_t) = rate(|| fisher_exact(&lik, &th, &free)[(0, 0)], 2.0);
+    let (f_rate, f_t) = rate(|| fisher_exact(&lik, &th, &free)[(0, 0)], MIN_SECS);
+
+    // One MH chain on the relative-binned 7-parameter density, proposal (2.38²/7)·F⁻¹ at the
+    // truth: the sampler's cost per iteration (proposal draw, prior check, ln L, bookkeeping).
+    let fisher = fisher_exact(&lik, &th, &free);
+    let cov: DMatrix<f64> = fisher
+        .clone()
+        .cholesky()
+        .expect("the Fisher matrix at the truth is positive definite")
+        .inverse()
+        * (2.38f64.powi(2) / N_PARAMS as f64);
+    let settings = MhSettings {
+        n_iter: MH_ITERS,
+        burn_in: MH_ITERS / 10,
+        n_chains: 1,
+        seed: 3045,
+        checkpoint_every: MH_ITERS,
+        ..MhSettings::default()
+    };
+    let mh = MetropolisHastings::new(&rb, &cov, settings).expect("MH settings");
+    let t0 = Instant::now();
+    let chains = mh
+        .run(&Start::Point(th.to_vec()))
+        .expect("MH run")
+        .into_chains()
+        .expect("not stopped");
+    let mh_t = t0.elapsed().as_secs_f64() / MH_ITERS as f64;
+    let counts = &chains.chains()[0].counts;
+    let accepted = counts.burn_in.accepted + counts.sampling.accepted;
+    let proposed = counts.burn_in.proposed + counts.sampling.proposed;
+    let outside = counts.burn_in.prior_rejected + counts.sampling.prior_rejected;
+
+    // the numpy peer: ln L at the truth and at points 1, 2 and 5 σ (Cramér–Rao) away
+    let sigma: Vec<f64> = (0..N_PARAMS)
+        .map(|a| (cov[(a, a)] * N_PARAMS as f64 / 2.38f64.powi(2)).sqrt())
+        .collect();
+    let checks: Vec<[f64; N_PARAMS]> = [0.0, 1.0, 2.0, 5.0]
+        .iter()
+        .map(|&c| {
+            std::array::from_fn(|a| th[a] + c * sigma[a] * if a % 2 == 0 { 1.0 } else { -1.0 })
+        })
+        .collect();
+    let npz = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("numpy_peer_inputs.npz");
     println!(
         "Table I study: {} experiments, {} bins in band, {} coarse bins",
         lik.spectra().len(),
@@ -94,23 +272,58 @@ fn main() {
         rb.n_coarse()
     );
     println!("relative-binning setup: {build:.3} s");
-    println!("{:<34} {:>14} {:>14}", "kernel", "evals/s", "time/eval");
     println!(
-        "{:<34} {:>14.1} {:>11.3} ms",
-        "ln L exact (full band)",
-        exact_rate,
-        exact_t * 1e3
+        "MH: {MH_ITERS} iterations, 1 chain, acceptance {:.1} %, {outside} proposals outside \
+         the prior (ln L not evaluated)",
+        100.0 * accepted as f64 / proposed as f64
     );
+    println!("numpy peer (exact ln L), inputs in {}:", npz.display());
+    let peer = write_peer_inputs(&npz, &lik, &th, &checks)
+        .map_err(|e| format!("could not write {}: {e}", npz.display()))
+        .and_then(|()| run_peer(&npz));
+    match &peer {
+        Ok(p) => println!(
+            "  peer: numpy {} agrees with the Rust ln L to {:.1e} relative (tolerance 1e-9)",
+            p.numpy, p.max_rel
+        ),
+        Err(why) => println!("  peer {why}"),
+    }
+
+    let rows: [(&str, f64, f64, bool); 4] = [
+        ("ln L exact (full band)", exact_rate, exact_t, true),
+        ("ln L relative-binned", rb_rate, rb_t, true),
+        ("MH iteration (rel.-binned, 7 par)", 1.0 / mh_t, mh_t, true),
+        ("Fisher matrix 7x7 (dual numbers)", f_rate, f_t, false),
+    ];
+    println!();
     println!(
-        "{:<34} {:>14.1} {:>11.3} µs",
-        "ln L relative-binned",
-        rb_rate,
-        rb_t * 1e6
+        "{:<36} {:>13} {:>13} {:>14}",
+        "kernel", "evals/s", "time/eval", "× numpy exact"
     );
+    if let Ok(p) = &peer {
+        println!(
+            "{:<36} {:>13.1} {:>13} {:>14}",
+            format!("numpy ln L exact (numpy {})", p.numpy),
+            p.evals_per_s,
+            fmt_time(1.0 / p.evals_per_s),
+            "1"
+        );
+    }
+    for (name, r, t, comparable) in rows {
+        let ratio = match (&peer, comparable) {
+            (Ok(p), true) => format!("{:.1}", r / p.evals_per_s),
+            _ => "—".into(),
+        };
+        println!("{name:<36} {r:>13.1} {:>13} {ratio:>14}", fmt_time(t));
+    }
     println!(
-        "{:<34} {:>14.2} {:>11.3} ms",
-        "Fisher matrix 7x7 (dual numbers)",
-        f_rate,
-        f_t * 1e3
+        "(× numpy exact = evaluations/s divided by the numpy peer's exact full-band ln L; \
+         a numpy MH iteration costs at least one such ln L)"
     );
+    if let Err(why) = &peer
+        && why.starts_with("FAILED")
+    {
+        eprintln!("the numpy peer disagrees with the Rust ln L: see above");
+        std::process::exit(1);
+    }
 }

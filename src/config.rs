@@ -382,6 +382,70 @@ impl Default for FitOptions {
     }
 }
 
+/// One competing model of `[[select.model]]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SelectModelEntry {
+    pub name: String,
+    /// Free parameter names (default: all seven).
+    #[serde(default = "all_params")]
+    pub free: Vec<String>,
+    /// Values of the parameters that are not free.
+    #[serde(default)]
+    pub fixed: std::collections::BTreeMap<String, f64>,
+    /// Prior model probability (default: equal).
+    #[serde(default)]
+    pub prior_probability: Option<f64>,
+}
+
+/// `[select]`: Bayes factors between two or more nested models with every estimator.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SelectOptions {
+    pub model: Vec<SelectModelEntry>,
+    /// Reversible-jump iterations (each: an in-model step and a jump attempt).
+    pub rj_iterations: usize,
+    pub rj_burn_in: usize,
+    /// `c` of the jump proposals `N(θ̂_k, c² F_k⁻¹)`.
+    pub jump_scale: f64,
+    /// Degrees of freedom of a Student-t jump proposal; 0 for Gaussian.
+    pub student_t: f64,
+    /// Metropolis–Hastings per model for Laplace–Metropolis: chains, iterations, burn-in.
+    pub chains: usize,
+    pub iterations: usize,
+    pub burn_in: usize,
+    /// Seed of the samplers (default: the study seed + 2).
+    pub seed: Option<u64>,
+    /// `n` of the Schwarz criterion (default: the number of real data values in the
+    /// likelihood, 4 × in-band bins).
+    pub schwarz_n: Option<f64>,
+}
+
+impl Default for SelectOptions {
+    fn default() -> Self {
+        Self {
+            model: Vec::new(),
+            rj_iterations: 100_000,
+            rj_burn_in: 2_000,
+            jump_scale: 1.2,
+            student_t: 0.0,
+            chains: 2,
+            iterations: 12_000,
+            burn_in: 4_000,
+            seed: None,
+            schwarz_n: None,
+        }
+    }
+}
+
+/// A validated competing model.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SelectModel {
+    pub name: String,
+    pub spec: ModelSpec,
+    pub prior_probability: f64,
+}
+
 /// The study file as written.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -405,6 +469,8 @@ pub struct StudyFile {
     pub prior: PriorTable,
     #[serde(default)]
     pub fit: FitOptions,
+    #[serde(default)]
+    pub select: SelectOptions,
     pub experiment: Vec<ExperimentEntry>,
 }
 
@@ -425,6 +491,9 @@ pub struct Study {
     pub fit: FitOptions,
     /// The validated `[fit]` model.
     pub fit_model: ModelSpec,
+    pub select: SelectOptions,
+    /// The validated `[[select.model]]` list (empty if none).
+    pub select_models: Vec<SelectModel>,
     /// The file it came from (for messages).
     pub source: String,
 }
@@ -611,7 +680,10 @@ impl StudyFile {
         .resolve(file, "fit.")?;
         validate_analysis(&self.analysis, file)?;
         validate_fit(&self.fit, file)?;
+        let select_models = validate_select(&self.select, file)?;
         Ok(Study {
+            select: self.select,
+            select_models,
             analysis: self.analysis,
             prior,
             fit: self.fit,
@@ -707,6 +779,93 @@ fn validate_fit(f: &FitOptions, file: &str) -> Result<(), ConfigError> {
         }
     }
     Ok(())
+}
+
+fn validate_select(s: &SelectOptions, file: &str) -> Result<Vec<SelectModel>, ConfigError> {
+    let bad = |field: String, msg: String| ConfigError::Invalid {
+        file: file.into(),
+        field,
+        msg,
+    };
+    if s.rj_iterations == 0 || s.rj_burn_in >= s.rj_iterations {
+        return Err(bad(
+            "select.rj_burn_in".into(),
+            format!(
+                "must be smaller than `rj_iterations` (got {} and {})",
+                s.rj_burn_in, s.rj_iterations
+            ),
+        ));
+    }
+    if s.iterations == 0 || s.burn_in >= s.iterations || s.chains == 0 {
+        return Err(bad(
+            "select.burn_in".into(),
+            format!(
+                "need chains ≥ 1 and burn_in < iterations (got chains = {}, burn_in = {}, iterations = {})",
+                s.chains, s.burn_in, s.iterations
+            ),
+        ));
+    }
+    if !finite_pos(s.jump_scale) {
+        return Err(bad(
+            "select.jump_scale".into(),
+            format!("must be > 0 (got {})", s.jump_scale),
+        ));
+    }
+    if !(s.student_t == 0.0 || (s.student_t.is_finite() && s.student_t > 0.0)) {
+        return Err(bad(
+            "select.student_t".into(),
+            format!(
+                "degrees of freedom must be > 0, or 0 for a Gaussian (got {})",
+                s.student_t
+            ),
+        ));
+    }
+    if let Some(n) = s.schwarz_n
+        && !(n.is_finite() && n > 1.0)
+    {
+        return Err(bad(
+            "select.schwarz_n".into(),
+            format!("must be > 1 (got {n})"),
+        ));
+    }
+    let mut out: Vec<SelectModel> = Vec::new();
+    for (k, m) in s.model.iter().enumerate() {
+        let at = format!("select.model[{k}].");
+        if m.name.is_empty() || out.iter().any(|o| o.name == m.name) {
+            return Err(bad(
+                format!("{at}name"),
+                format!("`{}` must be non-empty and unique", m.name),
+            ));
+        }
+        let spec = ModelEntry {
+            free: m.free.clone(),
+            fixed: m.fixed.clone(),
+        }
+        .resolve(file, &at)?;
+        let p = m.prior_probability.unwrap_or(1.0);
+        if !finite_pos(p) {
+            return Err(bad(
+                format!("{at}prior_probability"),
+                format!("must be > 0 (got {p})"),
+            ));
+        }
+        out.push(SelectModel {
+            name: m.name.clone(),
+            spec,
+            prior_probability: p,
+        });
+    }
+    if out.len() == 1 {
+        return Err(bad(
+            "select.model".into(),
+            "model selection needs at least two [[select.model]] tables".into(),
+        ));
+    }
+    let total: f64 = out.iter().map(|m| m.prior_probability).sum();
+    for m in &mut out {
+        m.prior_probability /= total;
+    }
+    Ok(out)
 }
 
 fn to_waveform(

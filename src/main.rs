@@ -41,6 +41,17 @@ enum Command {
         #[arg(short, long)]
         quiet: bool,
     },
+    /// Bayes factors between the study's `[[select.model]]` models with every estimator.
+    Select {
+        /// The study file (TOML).
+        study: PathBuf,
+        /// Output directory (default: `<output>/select`).
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+        /// No progress bar.
+        #[arg(short, long)]
+        quiet: bool,
+    },
 }
 
 fn main() {
@@ -53,6 +64,11 @@ fn main() {
             resume,
             quiet,
         } => fit(study, output, resume, quiet),
+        Command::Select {
+            study,
+            output,
+            quiet,
+        } => select(study, output, quiet),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");
@@ -164,6 +180,58 @@ fn fit(path: PathBuf, output: Option<PathBuf>, resume: bool, quiet: bool) -> Res
     }
     println!(
         "wrote {}/{{summary.json, table.txt, table.md, chains.npz, trace.png, corner.png}}",
+        out.display()
+    );
+    println!("took {:.1} s", t0.elapsed().as_secs_f64());
+    Ok(())
+}
+
+fn select(path: PathBuf, output: Option<PathBuf>, quiet: bool) -> Result<()> {
+    let study = Study::load(&path)?;
+    let out = output.unwrap_or_else(|| study.output.join("select"));
+    run_select(&study, &out, quiet)
+}
+
+fn run_select(study: &Study, out: &std::path::Path, quiet: bool) -> Result<()> {
+    let t0 = Instant::now();
+    let prep = occam::analysis::prepare(study)
+        .with_context(|| format!("preparing the data of {}", study.source))?;
+    println!(
+        "data: {} ({} experiments, {} bins in band)",
+        prep.origin,
+        prep.dataset.experiments.len(),
+        prep.likelihood.n_bins()
+    );
+    let pb = progress_bar(study.select.rj_iterations as u64, quiet);
+    let mut cb = |p: &occam::evidence::RjProgress<'_>| {
+        if let Some(pb) = &pb {
+            pb.set_position(p.iteration as u64);
+            pb.set_message(format!("visits {:?}", p.visits));
+        }
+    };
+    let s = occam::select::run(study, &prep, Some(&mut cb))?;
+    if let Some(pb) = pb {
+        pb.finish_and_clear();
+    }
+    occam::select::write_outputs(&s, out)?;
+    println!("{}", occam::select::table(&s));
+    for p in &s.pairs {
+        println!(
+            "{}/{}: reference {}; preferred model {} ({}); all estimators agree: {}",
+            p.x,
+            p.y,
+            p.reference,
+            p.preferred,
+            p.kass_raftery,
+            if p.all_agree { "yes" } else { "no" }
+        );
+    }
+    println!(
+        "rho_opt = {:.4e}; RJ visits {:?} over {} iterations ({:.0} iterations/s)",
+        s.rho_opt, s.rj.visits, s.rj.n_iter, s.rj_iterations_per_second
+    );
+    println!(
+        "wrote {}/{{summary.json, table.txt, table.md, bayes_factor.png, model_visits.png}}",
         out.display()
     );
     println!("took {:.1} s", t0.elapsed().as_secs_f64());

@@ -35,7 +35,8 @@ pub enum MapError {
 }
 
 /// Fisher scoring over the parameters `free`, from `start`, until every Newton step is below
-/// `tol` (in units of the Cramér–Rao σ) or `max_iter` iterations.
+/// `tol` (in units of the Cramér–Rao σ) or `max_iter` iterations. Steps are clipped to the
+/// prior box, so the result is the MAP, possibly on a bound.
 pub fn fisher_scoring(
     lik: &LtpLikelihood,
     start: &[f64; N_PARAMS],
@@ -43,12 +44,47 @@ pub fn fisher_scoring(
     tol: f64,
     max_iter: usize,
 ) -> Result<ScoringResult, MapError> {
+    scoring(lik, start, free, tol, max_iter, true)
+}
+
+/// As [`fisher_scoring`] but without the prior box: the maximum of `ln L` (plus the prior's
+/// Gaussian terms) where the likelihood is defined beyond the box, e.g. at negative delays.
+/// This is the expansion point of the box-corrected Laplace estimate (ltp-model.md §9.3).
+pub fn fisher_scoring_unbounded(
+    lik: &LtpLikelihood,
+    start: &[f64; N_PARAMS],
+    free: &[usize],
+    tol: f64,
+    max_iter: usize,
+) -> Result<ScoringResult, MapError> {
+    scoring(lik, start, free, tol, max_iter, false)
+}
+
+fn scoring(
+    lik: &LtpLikelihood,
+    start: &[f64; N_PARAMS],
+    free: &[usize],
+    tol: f64,
+    max_iter: usize,
+    bounded: bool,
+) -> Result<ScoringResult, MapError> {
     let names = lik.param_names();
-    let bounds = lik.prior().bounds();
-    let post = |th: &[f64; N_PARAMS]| lik.ln_posterior(th);
+    let bounds: Vec<(f64, f64)> = if bounded {
+        lik.prior().bounds()
+    } else {
+        vec![(f64::NEG_INFINITY, f64::INFINITY); N_PARAMS]
+    };
+    let post = |th: &[f64; N_PARAMS]| {
+        if bounded {
+            lik.ln_posterior(th)
+        } else {
+            lik.ln_likelihood_full(th)
+                + crate::evidence::laplace::ln_prior_extended(lik.prior(), th).unwrap_or(f64::NAN)
+        }
+    };
     let mut th = *start;
     let mut lp = post(&th);
-    if lp == f64::NEG_INFINITY {
+    if lp == f64::NEG_INFINITY || lp.is_nan() {
         let bad = (0..N_PARAMS)
             .find(|&i| !(bounds[i].0..=bounds[i].1).contains(&th[i]))
             .unwrap_or(0);

@@ -13,7 +13,7 @@ mod spectra;
 
 pub use exact::{LikelihoodError, LtpLikelihood};
 pub use fisher::{cramer_rao, default_step, fisher_exact, fisher_numeric, gradient_and_fisher};
-pub use map::{MapError, ScoringResult, fisher_scoring};
+pub use map::{MapError, ScoringResult, fisher_scoring, fisher_scoring_unbounded};
 pub use relbin::{RelBinError, RelBinLikelihood, RelBinOptions};
 pub use spectra::{ExperimentSpectra, NoiseSource, SpectraError, SpectraOptions};
 
