@@ -41,6 +41,28 @@ enum Command {
         #[arg(short, long)]
         quiet: bool,
     },
+    /// The paper's guidance-delay investigation (7- against 5-parameter model, data with
+    /// Δt1 = Δt2 = 0) in its competitive and non-competitive regimes, from built-in studies.
+    Demo {
+        /// Output directory.
+        #[arg(short, long, default_value = "runs/demo")]
+        output: PathBuf,
+        /// No progress bar.
+        #[arg(short, long)]
+        quiet: bool,
+    },
+    /// ln B of every estimator against ρ_opt: the study's `[[select.model]]` models on data
+    /// scaled to each `--snr` value (default: 8 values from 100 to 3e5).
+    Sweep {
+        /// The study file (TOML) with `[[select.model]]` tables.
+        study: PathBuf,
+        /// Target ρ_opt values.
+        #[arg(long, value_delimiter = ',')]
+        snr: Option<Vec<f64>>,
+        /// Output directory (default: `<output>/sweep`).
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+    },
     /// Bayes factors between the study's `[[select.model]]` models with every estimator.
     Select {
         /// The study file (TOML).
@@ -69,6 +91,8 @@ fn main() {
             output,
             quiet,
         } => select(study, output, quiet),
+        Command::Demo { output, quiet } => demo(output, quiet),
+        Command::Sweep { study, snr, output } => sweep(study, snr, output),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");
@@ -227,11 +251,109 @@ fn run_select(study: &Study, out: &std::path::Path, quiet: bool) -> Result<()> {
         );
     }
     println!(
-        "rho_opt = {:.4e}; RJ visits {:?} over {} iterations ({:.0} iterations/s)",
-        s.rho_opt, s.rj.visits, s.rj.n_iter, s.rj_iterations_per_second
+        "rho_opt = {} (simulation noise model), {:.4e} (analysis noise estimate); RJ visits {:?} over {} iterations ({:.0} iterations/s)",
+        s.rho_opt_simulated
+            .map_or("–".into(), |r| format!("{r:.4e}")),
+        s.rho_opt,
+        s.rj.visits,
+        s.rj.n_iter,
+        s.rj_iterations_per_second
     );
     println!(
         "wrote {}/{{summary.json, table.txt, table.md, bayes_factor.png, model_visits.png}}",
+        out.display()
+    );
+    println!("took {:.1} s", t0.elapsed().as_secs_f64());
+    Ok(())
+}
+
+const DEMO_STUDIES: [(&str, &str); 2] = [
+    (
+        "competitive",
+        include_str!("../examples/guidance-delays.toml"),
+    ),
+    (
+        "high-snr",
+        include_str!("../examples/guidance-delays-high-snr.toml"),
+    ),
+];
+
+fn demo(output: PathBuf, quiet: bool) -> Result<()> {
+    let t0 = Instant::now();
+    for (name, text) in DEMO_STUDIES {
+        let label = format!("built-in study `{name}` (examples/guidance-delays*.toml)");
+        let study = Study::from_toml(text, &label, std::path::Path::new("."))?;
+        println!("\n=== guidance delays, {name} regime ===");
+        run_select(&study, &output.join(name), quiet)?;
+    }
+    println!("\ndemo took {:.1} s", t0.elapsed().as_secs_f64());
+    Ok(())
+}
+
+fn sweep(path: PathBuf, snr: Option<Vec<f64>>, output: Option<PathBuf>) -> Result<()> {
+    let t0 = Instant::now();
+    let base = Study::load(&path)?;
+    let out = output.unwrap_or_else(|| base.output.join("sweep"));
+    let snrs = snr.unwrap_or_else(|| vec![100.0, 200.0, 450.0, 1e3, 3e3, 1e4, 5e4, 3e5]);
+    if let Some(bad) = snrs.iter().find(|v| !(v.is_finite() && **v > 0.0)) {
+        anyhow::bail!("--snr: every value must be a finite ρ_opt > 0 (got {bad})");
+    }
+    let mut rows = Vec::new();
+    for &rho in &snrs {
+        let mut study = base.clone();
+        study.simulation.target_snr = Some(rho);
+        let prep = occam::analysis::prepare(&study)?;
+        let s = occam::select::run(&study, &prep, None)?;
+        let p = &s.pairs[0];
+        print!("rho_opt {rho:>9.3e}:");
+        for e in &p.estimates {
+            print!(
+                "  {} {}",
+                e.method,
+                e.ln_b.map_or("–".into(), |v| format!("{v:.3}"))
+            );
+        }
+        println!();
+        rows.push((rho, s));
+    }
+    let first = &rows[0].1.pairs[0];
+    let methods: Vec<String> = first.estimates.iter().map(|e| e.method.clone()).collect();
+    let mut series = Vec::new();
+    let mut errs = Vec::new();
+    for (m, name) in methods.iter().enumerate() {
+        let pts: Vec<(f64, f64)> = rows
+            .iter()
+            .map(|(rho, s)| (*rho, s.pairs[0].estimates[m].ln_b.unwrap_or(f64::NAN)))
+            .collect();
+        let e: Vec<f64> = rows
+            .iter()
+            .map(|(_, s)| s.pairs[0].estimates[m].std_err.unwrap_or(f64::NAN))
+            .collect();
+        series.push((name.clone(), pts));
+        errs.push(e);
+    }
+    let title = format!("ln B {}/{} against rho_opt", first.x, first.y);
+    occam::report::line_plot(
+        &out,
+        "ln_b_vs_snr",
+        &occam::report::LinePlot {
+            title: &title,
+            x_label: "rho_opt",
+            y_label: "ln B_XY",
+            series: &series,
+            y_err: Some(&errs),
+            log_x: true,
+            log_y: false,
+        },
+    )?;
+    let json: Vec<serde_json::Value> = rows
+        .iter()
+        .map(|(rho, s)| serde_json::json!({"target_snr": rho, "pairs": s.pairs, "rj_visits": s.rj.visits}))
+        .collect();
+    let p = out.join("sweep.json");
+    occam::atomic::write_bytes(&p, (serde_json::to_string_pretty(&json)? + "\n").as_bytes())?;
+    println!(
+        "wrote {}/{{sweep.json, ln_b_vs_snr.png, ln_b_vs_snr.svg}}",
         out.display()
     );
     println!("took {:.1} s", t0.elapsed().as_secs_f64());

@@ -116,6 +116,10 @@ pub struct PairResult {
 #[derive(Debug, Clone, Serialize)]
 pub struct SelectSummary {
     pub origin: String,
+    /// ρ_opt of the injections under the simulation's exact noise model (when simulated).
+    pub rho_opt_simulated: Option<f64>,
+    /// ρ_opt = √⟨h|h⟩ at the truth (or the first model's MAP) under the analysis's noise
+    /// estimate (Welch by default), which differs from the model noise at low frequencies.
     pub rho_opt: f64,
     pub n_bins: usize,
     pub schwarz_n: f64,
@@ -215,6 +219,7 @@ pub fn run(
     let truth_snr = prep.dataset.truth.map(|t| exact.snr(&t.to_array()));
     Ok(SelectSummary {
         origin: prep.origin.clone(),
+        rho_opt_simulated: prep.dataset.extra.get("snr_total").and_then(|v| v.as_f64()),
         rho_opt: truth_snr.unwrap_or_else(|| exact.snr(&models[0].map)),
         n_bins: exact.n_bins(),
         schwarz_n: n_sbic,

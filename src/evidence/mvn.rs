@@ -41,7 +41,8 @@ pub struct MvnOptions {
     pub initial_points: usize,
     /// Upper bound on integrand evaluations (all shifts together).
     pub max_evals: usize,
-    /// Stop when the standard error is below `rel_tol · P` …
+    /// Stop when the standard error is below `rel_tol · P` (default 1e−3: an error of 0.001
+    /// in ln P, negligible next to any evidence estimate) …
     pub rel_tol: f64,
     /// … or below `abs_tol` (0: off).
     pub abs_tol: f64,
@@ -53,8 +54,8 @@ impl Default for MvnOptions {
             seed: 0x6e6f_726d_616c,
             n_shifts: 16,
             initial_points: 256,
-            max_evals: 4_000_000,
-            rel_tol: 1e-4,
+            max_evals: 1_000_000,
+            rel_tol: 1e-3,
             abs_tol: 0.0,
         }
     }
@@ -459,7 +460,8 @@ mod tests {
                 r.p,
                 r.std_err
             );
-            assert!(r.ln_p_std_err <= 1e-4);
+            // The final pass scatters around the tolerance (16 shifts: ~18 % relative sd).
+            assert!(r.ln_p_std_err < 2.0 * MvnOptions::default().rel_tol);
         }
         let (r12, r13, r23) = (0.5, -0.2, 0.3);
         let cov = DMatrix::from_row_slice(3, 3, &[1.0, r12, r13, r12, 1.0, r23, r13, r23, 1.0]);

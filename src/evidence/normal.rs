@@ -32,10 +32,10 @@ fn mills(x: f64) -> f64 {
     if x < CF_FROM {
         0.5 * erfc(x * FRAC_1_SQRT_2) / ln_pdf(x).exp()
     } else {
-        // Q/φ = 1/(x + 1/(x + 2/(x + 3/(x + …)))), evaluated backwards; 60 levels are far
-        // more than double precision needs at x ≥ 30.
+        // Q/φ = 1/(x + 1/(x + 2/(x + 3/(x + …)))), evaluated backwards; at x ≥ 30, 12 levels
+        // are accurate to 1e−25 (checked against 40-digit mpmath).
         let mut t = x;
-        for k in (1..=60).rev() {
+        for k in (1..=12).rev() {
             t = x + k as f64 / t;
         }
         1.0 / t
@@ -68,7 +68,8 @@ fn upper_quantile(ln_t: f64) -> f64 {
     let m = -2.0 * ln_t;
     let mut y = (m - m.ln() - (2.0 * PI).ln()).sqrt();
     for _ in 0..20 {
-        let step = (ln_upper(y) - ln_t) * mills(y);
+        let r = mills(y);
+        let step = (ln_pdf(y) + r.ln() - ln_t) * r;
         y += step;
         if step.abs() < 1e-14 * y {
             break;
