@@ -226,9 +226,7 @@ fn main() {
 
     // One MH chain on the relative-binned 7-parameter density, proposal (2.38²/7)·F⁻¹ at the
     // truth: the sampler's cost per iteration (proposal draw, prior check, ln L, bookkeeping).
-    let fisher = fisher_exact(&lik, &th, &free);
-    let cov: DMatrix<f64> = fisher
-        .clone()
+    let cov: DMatrix<f64> = fisher_exact(&lik, &th, &free)
         .cholesky()
         .expect("the Fisher matrix at the truth is positive definite")
         .inverse()

@@ -7,7 +7,10 @@ use occam::select::{PairResult, run};
 use std::path::Path;
 
 fn ln_b(p: &PairResult, method: &str) -> Option<f64> {
-    p.estimates.iter().find(|e| e.method == method).and_then(|e| e.ln_b)
+    p.estimates
+        .iter()
+        .find(|e| e.method == method)
+        .and_then(|e| e.ln_b)
 }
 
 fn study(file: &str) -> Study {
@@ -25,7 +28,11 @@ fn competitive_regime_prefers_the_simpler_model_but_not_decisively() {
     let out = run(&s, &prep, None).unwrap();
     let p = &out.pairs[0];
     assert_eq!((p.x.as_str(), p.y.as_str()), ("X", "Y"));
-    assert!(out.rj.visits.iter().all(|&v| v > 1000), "{:?}", out.rj.visits);
+    assert!(
+        out.rj.visits.iter().all(|&v| v > 1000),
+        "{:?}",
+        out.rj.visits
+    );
     let rj = ln_b(p, "RJMCMC visits").unwrap();
     assert!((0.05f64.ln()..0.0).contains(&rj), "RJ ln B = {rj}");
     for m in [
@@ -53,7 +60,10 @@ fn high_snr_regime_rj_never_enters_x_but_bridge_and_laplace_are_finite() {
     let bridge = ln_b(p, "RJMCMC bridge").unwrap();
     let lf = ln_b(p, "Laplace-Fisher box").unwrap();
     assert!(bridge < -10.0, "bridge ln B = {bridge}");
-    assert!((bridge - lf).abs() < 0.5, "bridge {bridge} vs Laplace-Fisher {lf}");
+    assert!(
+        (bridge - lf).abs() < 0.5,
+        "bridge {bridge} vs Laplace-Fisher {lf}"
+    );
     // the raw Laplace-Fisher sits at the bounded MAP Δt = 0: the formula does not apply there
     let raw = p
         .estimates
