@@ -486,8 +486,8 @@ pub fn table(s: &SelectSummary) -> Table {
                 .agrees
                 .map_or("–".into(), |a| if a { "yes" } else { "no" }.to_string());
             let note = e.note.clone().unwrap_or_default();
-            let note = if note.len() > 60 {
-                format!("{}…", &note[..note.floor_char_boundary(60)])
+            let note = if note.chars().count() > 60 {
+                format!("{}…", note.chars().take(60).collect::<String>())
             } else {
                 note
             };
