@@ -387,11 +387,18 @@ fn pair(models: &[ModelOutcome], rj: &RjResult, x: usize, y: usize) -> PairResul
         rjp.as_ref().and_then(|p| p.visits),
         "a model was never visited: the visit ratio is undefined (see Rao-Blackwell / bridge)",
     ));
-    est.push(from_lnb(
+    let mut rb = from_lnb(
         "RJMCMC Rao-Blackwell",
         rjp.as_ref().and_then(|p| p.rao_blackwell),
-        "no accepted-probability mass in one direction",
-    ));
+        "no jump proposals in either direction",
+    );
+    if rb.ln_b.is_some() && rjp.as_ref().is_some_and(|p| p.visits.is_none()) {
+        rb.note = Some(
+            "one-sided: the unvisited model's mean acceptance set to its bound 1 (exact when jumps out of it are always accepted)"
+                .into(),
+        );
+    }
+    est.push(rb);
     est.push(from_lnb(
         "RJMCMC bridge",
         rjp.as_ref().and_then(|p| p.bridge),

@@ -60,6 +60,12 @@ fn high_snr_regime_rj_never_enters_x_but_bridge_and_laplace_are_finite() {
     let bridge = ln_b(p, "RJMCMC bridge").unwrap();
     let lf = ln_b(p, "Laplace-Fisher box").unwrap();
     assert!(bridge < -10.0, "bridge ln B = {bridge}");
+    // the one-sided Rao-Blackwell estimate stays finite too
+    let rb = ln_b(p, "RJMCMC Rao-Blackwell").unwrap();
+    assert!(
+        (rb - bridge).abs() < 0.5,
+        "Rao-Blackwell {rb} vs bridge {bridge}"
+    );
     assert!(
         (bridge - lf).abs() < 0.5,
         "bridge {bridge} vs Laplace-Fisher {lf}"

@@ -31,7 +31,11 @@
 //!   with `ᾱ_{k→l}` the mean acceptance probability over the iterations spent in k that proposed l
 //!   (the realised accept/reject is replaced by its conditional expectation). Note the visit
 //!   counts cancel: the sums `Σ_{t∈l} α_{l→k}` must be divided by the number of such proposals.
-//!   Needs proposals in both directions.
+//!   **When a model was never visited** (no proposals out of it) its mean acceptance is replaced
+//!   by its bound `ᾱ = 1`: the estimate stays finite and is a lower bound on the unvisited
+//!   model's evidence ratio, exact when jumps out of that model would always be accepted —
+//!   which is the case the chain is in when it never enters it (for independence proposals
+//!   with `B ≪ 1`, `ᾱ_{l→k} = E[min(1, r)] = E[r] = B_kl·P(k)j(l|k)/(P(l)j(k|l))`).
 //! * **Bridge** (the optimal member of the same class, Meng & Wong 1996; BSM's "optimal"
 //!   estimator): for independence proposals every jump `k → l` is a draw from
 //!   `f₁(θ, θ') = L_kπ_k(θ) q̃_l(θ')/Z_k` on the product space, and every jump `l → k` a draw from
@@ -923,12 +927,22 @@ fn acceptance_estimate(
     let lk = by_iteration(records, n, l, k);
     let n1 = kl.iter().flatten().count() as f64;
     let n2 = lk.iter().flatten().count() as f64;
-    if n1 == 0.0 || n2 == 0.0 {
+    if n1 == 0.0 && n2 == 0.0 {
         return None;
     }
-    // ln of the per-iteration means over all n iterations.
-    let ln_a = log_sum_exp(kl.iter().flatten().map(|r| r.ln_alpha)) - (n as f64).ln();
-    let ln_b = log_sum_exp(lk.iter().flatten().map(|r| r.ln_alpha)) - (n as f64).ln();
+    // ln of the per-iteration means over all n iterations; a direction without proposals (its
+    // model was never visited) gets its bound ᾱ = 1, see the module docs
+    let ln_mean = |v: &[Option<Record>], c: f64| {
+        if c == 0.0 {
+            0.0
+        } else {
+            log_sum_exp(v.iter().flatten().map(|r| r.ln_alpha))
+                - (n as f64).ln()
+                - (c / n as f64).ln()
+        }
+    };
+    let ln_a = ln_mean(&kl, n1);
+    let ln_b = ln_mean(&lk, n2);
     if !(ln_a.is_finite() && ln_b.is_finite()) {
         return None;
     }
@@ -937,10 +951,10 @@ fn acceptance_estimate(
         |t| {
             let mut u = 0.0;
             if let Some(r) = kl[t] {
-                u += 1.0 / c1 - (r.ln_alpha - ln_a).exp();
+                u += 1.0 / c1 - (r.ln_alpha - ln_a).exp() / c1;
             }
             if let Some(r) = lk[t] {
-                u += (r.ln_alpha - ln_b).exp() - 1.0 / c2;
+                u += (r.ln_alpha - ln_b).exp() / c2 - 1.0 / c2;
             }
             u
         },
@@ -949,7 +963,7 @@ fn acceptance_estimate(
     );
     Some(LnB {
         method: Method::RjRaoBlackwell,
-        ln_b: ln_r_kl + (ln_b - c2.ln()) - (ln_a - c1.ln()),
+        ln_b: ln_r_kl + ln_b - ln_a,
         std_err: Some(var.sqrt()),
     })
 }
@@ -1171,7 +1185,13 @@ mod tests {
         assert_eq!(res.visits[1], 0);
         let p = res.pair(0, 1).unwrap();
         assert!(p.visits.is_none());
-        assert!(p.rao_blackwell.is_none());
+        // one-sided Rao-Blackwell: model 1 is never entered, its mean acceptance takes its
+        // bound 1, which is exact here (jumps 1 → 0 would always be accepted)
+        let rb = p.rao_blackwell.unwrap();
+        assert!(
+            (rb.ln_b - truth).abs() < 5.0 * rb.std_err.unwrap(),
+            "{rb:?} vs {truth}"
+        );
         let b = p.bridge.unwrap();
         // 5σ of its own error.
         assert!(

@@ -1,0 +1,602 @@
+//! Validation of every evidence estimator against exact Bayes factors.
+//!
+//! Linear-Gaussian problems (`ltp-model.md` §11) with n = 100 data values, σ = 1, design entries
+//! N(0, 1), D = 1..=10 parameters and SNR = |Xθ_true|/σ ∈ {3, 10, 30, 100}; 50 seeds per cell.
+//! The pair compared is the full model (D columns) against the nested model without the last
+//! column, both built as `SubModel`s of the same density, so every estimator runs through the
+//! code the LTP study uses. Prior widths scale with the signal size `s = σ·SNR/√n` (for D = 1
+//! with the extra parameter absent there is no signal and the SNR only sets `s`).
+//!
+//! * **G**: Gaussian priors N(0, (3s)²), extra parameter absent in truth. LF must be exact.
+//! * **U**: uniform priors U[−5s, 5s] (≥ 15 posterior σ wide), extra parameter absent. LF with
+//!   and without the box term, LM with exact posterior draws (θ̂ = best draw, as in K14), RJMCMC
+//!   (visit ratio, Rao-Blackwellised, bridge) with 1σ coverage of its error bars.
+//! * **N**: narrow uniform priors U[−1.5σ/√n, 1.5σ/√n] (prior-dominated; the unconstrained
+//!   maximum lies outside the box whenever the signal is strong): LF raw vs box-corrected.
+//! * **P**: uniform U[−5s, 5s], extra parameter *present* (|ln B| up to thousands): the visit
+//!   ratio fails (a model never visited), the bridge estimator stays finite.
+//!
+//! Coverage: over n runs a calibrated 1σ interval covers the truth with Binomial(n, 0.683)
+//! frequency (for n = 50: sd 0.066, so [0.49, 0.88] is ±3 sd); cells outside ±3 sd for their
+//! own n are marked `!`. The QMC seeds of the box masses differ per problem, so the runs are
+//! independent.
+//!
+//! Run with `cargo run --release --example evidence_validation`.
+
+use nalgebra::DMatrix;
+use occam::density::LogDensity;
+use occam::evidence::laplace::{
+    LaplaceEstimate, LaplaceOptions, laplace_fisher, laplace_hessian, laplace_metropolis,
+};
+use occam::evidence::linear_gaussian::{LinearGaussian, RandomPrior, RandomSpec};
+use occam::evidence::mvn::MvnOptions;
+use occam::evidence::rjmcmc::{RjModel, RjOptions, run_rjmcmc};
+use occam::evidence::robust::{McdOptions, MveOptions, RobustMethod};
+use occam::evidence::schwarz::schwarz_ln_b;
+use occam::nested::SubModel;
+use rand::SeedableRng;
+use rand_xoshiro::Xoshiro256PlusPlus;
+use rayon::prelude::*;
+use std::time::Instant;
+
+const N_DATA: usize = 100;
+const SIGMA: f64 = 1.0;
+const SEEDS: u64 = 50;
+const SNRS: [f64; 4] = [3.0, 10.0, 30.0, 100.0];
+const RJ_ITER: usize = 50_000;
+const LM_DRAWS: usize = 1_000;
+/// Nominal 1σ coverage of a calibrated error bar.
+const COVER: f64 = 0.683;
+
+#[derive(Clone, Copy)]
+struct Case {
+    d: usize,
+    snr_idx: usize,
+    seed: u64,
+}
+
+impl Case {
+    fn snr(&self) -> f64 {
+        SNRS[self.snr_idx]
+    }
+    fn scale(&self) -> f64 {
+        LinearGaussian::signal_scale(N_DATA, self.snr(), SIGMA)
+    }
+    fn problem_seed(&self, block: u64) -> u64 {
+        (block << 48) | ((self.d as u64) << 32) | ((self.snr_idx as u64) << 16) | self.seed
+    }
+    fn problem(&self, prior: RandomPrior, n_absent: usize, block: u64) -> LinearGaussian {
+        LinearGaussian::random(&RandomSpec {
+            n_data: N_DATA,
+            dim: self.d,
+            // D = 1 with the extra parameter absent has no signal at all; the SNR then only
+            // sets the prior width s.
+            snr: if n_absent >= self.d { 0.0 } else { self.snr() },
+            n_absent,
+            sigma: SIGMA,
+            prior,
+            seed: self.problem_seed(block),
+        })
+        .expect("valid random problem")
+        .model
+    }
+}
+
+/// An estimate minus the truth, and the combined one-sigma error when the estimator has one.
+#[derive(Clone, Copy)]
+struct Err {
+    err: f64,
+    se: Option<f64>,
+}
+
+struct Pair<'a> {
+    lg: &'a LinearGaussian,
+    full_cols: Vec<usize>,
+    nested_cols: Vec<usize>,
+    full: SubModel<&'a LinearGaussian>,
+    nested: SubModel<&'a LinearGaussian>,
+    truth: f64,
+    truth_se: f64,
+}
+
+impl<'a> Pair<'a> {
+    /// `seed` drives the QMC of the exact box masses; each problem gets its own, so the box-mass
+    /// errors of different problems are independent and coverage over seeds is binomial.
+    fn new(lg: &'a LinearGaussian, d: usize, seed: u64) -> Pair<'a> {
+        let full_cols: Vec<usize> = (0..d).collect();
+        let nested_cols: Vec<usize> = (0..d - 1).collect();
+        let o = MvnOptions {
+            seed,
+            ..MvnOptions::default()
+        };
+        let zf = lg.exact_ln_evidence(&full_cols, &o).expect("exact full");
+        let zn = lg
+            .exact_ln_evidence(&nested_cols, &o)
+            .expect("exact nested");
+        Pair {
+            lg,
+            full: SubModel::new(lg, full_cols.clone(), vec![0.0; d]).expect("sub-model"),
+            nested: SubModel::new(lg, nested_cols.clone(), vec![0.0; d]).expect("sub-model"),
+            full_cols,
+            nested_cols,
+            truth: zf.ln_z - zn.ln_z,
+            truth_se: zf.std_err.hypot(zn.std_err),
+        }
+    }
+
+    fn err(&self, ln_b: f64, se: Option<f64>) -> Err {
+        Err {
+            err: ln_b - self.truth,
+            se: se.map(|s| s.hypot(self.truth_se)),
+        }
+    }
+
+    /// Laplace–Fisher of both models: `None` if either errors (e.g. θ̂ outside the box without
+    /// the box term).
+    fn laplace_fisher(&self, box_correction: bool, seed: u64) -> Option<[LaplaceEstimate; 2]> {
+        let opts = LaplaceOptions {
+            box_correction,
+            mvn: MvnOptions {
+                seed,
+                ..MvnOptions::default()
+            },
+        };
+        let one = |sub: &SubModel<&LinearGaussian>, cols: &[usize]| {
+            let post = self.lg.gaussian_posterior(cols).ok()?;
+            laplace_fisher(
+                sub,
+                post.mean.as_slice(),
+                &self.lg.fisher(cols).ok()?,
+                &opts,
+            )
+            .ok()
+        };
+        Some([
+            one(&self.full, &self.full_cols)?,
+            one(&self.nested, &self.nested_cols)?,
+        ])
+    }
+
+    /// ln B error of the final Laplace values (box-corrected when the box term was computed).
+    fn laplace_err(&self, e: &Option<[LaplaceEstimate; 2]>) -> Option<Err> {
+        let [a, b] = e.as_ref()?;
+        let se = match (a.std_err, b.std_err) {
+            (None, None) => None,
+            (x, y) => Some(x.unwrap_or(0.0).hypot(y.unwrap_or(0.0))),
+        };
+        Some(self.err(a.ln_z - b.ln_z, se))
+    }
+
+    /// ln B error of the plain formula (no box term) at the same θ̂.
+    fn laplace_raw_err(&self, e: &Option<[LaplaceEstimate; 2]>) -> Option<Err> {
+        let [a, b] = e.as_ref()?;
+        Some(self.err(a.ln_z_raw - b.ln_z_raw, None))
+    }
+
+    fn laplace_hessian(&self) -> Option<Err> {
+        let opts = LaplaceOptions::default();
+        let one = |sub: &SubModel<&LinearGaussian>, cols: &[usize]| {
+            let post = self.lg.gaussian_posterior(cols).ok()?;
+            laplace_hessian(sub, post.mean.as_slice(), &opts).ok()
+        };
+        let a = one(&self.full, &self.full_cols)?;
+        let b = one(&self.nested, &self.nested_cols)?;
+        Some(self.err(a.ln_z - b.ln_z, None))
+    }
+
+    fn schwarz(&self) -> Err {
+        let (_, la) = self.lg.max_likelihood(&self.full_cols).expect("ML");
+        let (_, lb) = self.lg.max_likelihood(&self.nested_cols).expect("ML");
+        let b = schwarz_ln_b(
+            la,
+            self.full_cols.len(),
+            lb,
+            self.nested_cols.len(),
+            N_DATA as f64,
+        )
+        .expect("schwarz");
+        self.err(b.ln_b, None)
+    }
+
+    /// LM with exact posterior draws; θ̂ = the best draw.
+    fn laplace_metropolis(&self, seed: u64) -> [Option<Err>; 2] {
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
+        let draws = |cols: &[usize], rng: &mut Xoshiro256PlusPlus| {
+            self.lg.sample_posterior(cols, LM_DRAWS, rng).ok()
+        };
+        let (Some(sf), Some(sn)) = (
+            draws(&self.full_cols, &mut rng),
+            draws(&self.nested_cols, &mut rng),
+        ) else {
+            return [None, None];
+        };
+        let best = |sub: &SubModel<&LinearGaussian>, s: &DMatrix<f64>| -> Vec<f64> {
+            let mut best = (f64::NEG_INFINITY, 0);
+            for i in 0..s.nrows() {
+                let row: Vec<f64> = s.row(i).iter().cloned().collect();
+                let lp = sub.ln_posterior(&row);
+                if lp > best.0 {
+                    best = (lp, i);
+                }
+            }
+            s.row(best.1).iter().cloned().collect()
+        };
+        let (bf, bn) = (best(&self.full, &sf), best(&self.nested, &sn));
+        let methods = [
+            RobustMethod::Mve(MveOptions::default()),
+            RobustMethod::Mcd(McdOptions::default()),
+        ];
+        methods.map(|m| {
+            let a = laplace_metropolis(&self.full, &bf, &sf, &m).ok()?;
+            let b = laplace_metropolis(&self.nested, &bn, &sn, &m).ok()?;
+            Some(self.err(a.ln_z - b.ln_z, None))
+        })
+    }
+
+    /// [visits, Rao-Blackwell, bridge].
+    fn rjmcmc<'b>(&'b self, seed: u64) -> [Option<Err>; 3] {
+        let model = |name: &str, t: &'b dyn LogDensity, cols: &[usize]| -> RjModel<'b> {
+            let post = self.lg.gaussian_posterior(cols).expect("posterior");
+            RjModel {
+                name: name.into(),
+                target: t,
+                center: post.mean.as_slice().to_vec(),
+                cov: post.cov,
+            }
+        };
+        let full: &dyn LogDensity = &self.full;
+        let nested: &dyn LogDensity = &self.nested;
+        let models = [
+            model("full", full, &self.full_cols),
+            model("nested", nested, &self.nested_cols),
+        ];
+        let opts = RjOptions {
+            n_iter: RJ_ITER,
+            burn_in: 1_000,
+            seed,
+            box_mass: MvnOptions {
+                seed: seed ^ 0x5eed,
+                ..MvnOptions::default()
+            },
+            ..RjOptions::default()
+        };
+        let Ok(res) = run_rjmcmc(&models, &opts, None) else {
+            return [None, None, None];
+        };
+        let p = res.pair(0, 1).expect("pair");
+        [p.visits, p.rao_blackwell, p.bridge].map(|e| e.map(|e| self.err(e.ln_b, e.std_err)))
+    }
+}
+
+/// Mean and standard deviation of the errors that exist, and how many do not.
+fn stats(v: &[Option<Err>]) -> (f64, f64, f64, usize) {
+    let xs: Vec<f64> = v.iter().flatten().map(|e| e.err).collect();
+    let missing = v.len() - xs.len();
+    if xs.is_empty() {
+        return (f64::NAN, f64::NAN, f64::NAN, missing);
+    }
+    let n = xs.len() as f64;
+    let mean = xs.iter().sum::<f64>() / n;
+    let sd = (xs.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0).max(1.0)).sqrt();
+    let max = xs.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    (mean, sd, max, missing)
+}
+
+/// 1σ coverage among the estimates that exist and have a nonzero error (1-D box masses are
+/// exact: se = 0, coverage "-"). A 1e−9 floor stands for round-off.
+fn coverage(v: &[Option<Err>]) -> Option<(f64, usize)> {
+    let with: Vec<&Err> = v
+        .iter()
+        .flatten()
+        .filter(|e| e.se.is_some_and(|s| s > 0.0))
+        .collect();
+    if with.is_empty() {
+        return None;
+    }
+    let c = with
+        .iter()
+        .filter(|e| e.err.abs() < e.se.unwrap() + 1e-9)
+        .count();
+    Some((c as f64 / with.len() as f64, with.len()))
+}
+
+fn mean_se(v: &[Option<Err>]) -> f64 {
+    let s: Vec<f64> = v.iter().flatten().filter_map(|e| e.se).collect();
+    s.iter().sum::<f64>() / s.len().max(1) as f64
+}
+
+fn mean_truth<T>(rows: &[T], truth: impl Fn(&T) -> f64) -> f64 {
+    rows.iter().map(truth).sum::<f64>() / rows.len() as f64
+}
+
+/// Coverage with a `!` when it lies outside ±3 binomial sd of 0.683 for its number of runs.
+fn fmt_cov(c: Option<(f64, usize)>) -> String {
+    match c {
+        None => "   -  ".into(),
+        Some((c, n)) => {
+            let band = 3.0 * (COVER * (1.0 - COVER) / n as f64).sqrt();
+            let flag = if (c - COVER).abs() <= band { ' ' } else { '!' };
+            format!("{c:5.2}{flag}")
+        }
+    }
+}
+
+fn fmt_bias(v: &[Option<Err>]) -> String {
+    let (mean, sd, _, missing) = stats(v);
+    if missing == v.len() {
+        return format!("{:>15}", "n/a");
+    }
+    let m = if missing > 0 {
+        format!("[{missing}na]")
+    } else {
+        String::new()
+    };
+    format!("{mean:+7.3}±{sd:5.3}{m}")
+}
+
+fn cases(dims: &[usize]) -> Vec<Case> {
+    let mut v = Vec::new();
+    for &d in dims {
+        for snr_idx in 0..SNRS.len() {
+            for seed in 0..SEEDS {
+                v.push(Case { d, snr_idx, seed });
+            }
+        }
+    }
+    v
+}
+
+fn cells<T: Clone>(cs: &[Case], out: &[T]) -> Vec<((usize, usize), Vec<T>)> {
+    let mut res: Vec<((usize, usize), Vec<T>)> = Vec::new();
+    for (c, o) in cs.iter().zip(out) {
+        let key = (c.d, c.snr_idx);
+        match res.last_mut() {
+            Some((k, v)) if *k == key => v.push(o.clone()),
+            _ => res.push((key, vec![o.clone()])),
+        }
+    }
+    res
+}
+
+fn main() {
+    let t0 = Instant::now();
+    let dims: Vec<usize> = (1..=10).collect();
+    let all = cases(&dims);
+
+    // Block G.
+    let t = Instant::now();
+    let g: Vec<_> = all
+        .par_iter()
+        .map(|c| {
+            let s = c.scale();
+            let lg = c.problem(
+                RandomPrior::Gaussian {
+                    mu: 0.0,
+                    sigma: 3.0 * s,
+                },
+                1,
+                1,
+            );
+            let p = Pair::new(&lg, c.d, c.problem_seed(31));
+            let lf = p.laplace_fisher(true, c.problem_seed(40));
+            (
+                p.truth,
+                p.laplace_err(&lf),
+                p.laplace_hessian(),
+                Some(p.schwarz()),
+            )
+        })
+        .collect();
+    println!("Block G: Gaussian priors N(0, (3s)^2), extra parameter absent; ln B = full − nested");
+    println!(
+        "{:>3} {:>5} | {:>8} | {:>10} | {:>10} | {:>15}",
+        "D", "SNR", "lnB mean", "LF max|e|", "LH max|e|", "SBIC bias±sd"
+    );
+    for ((d, si), rows) in cells(&all, &g) {
+        let lf: Vec<_> = rows.iter().map(|r| r.1).collect();
+        let lh: Vec<_> = rows.iter().map(|r| r.2).collect();
+        let sb: Vec<_> = rows.iter().map(|r| r.3).collect();
+        println!(
+            "{d:>3} {:>5} | {:8.3} | {:10.2e} | {:10.2e} | {}",
+            SNRS[si],
+            mean_truth(&rows, |r| r.0),
+            stats(&lf).2,
+            stats(&lh).2,
+            fmt_bias(&sb)
+        );
+    }
+    println!("(block G: {:.1} s)\n", t.elapsed().as_secs_f64());
+
+    // Block U.
+    let t = Instant::now();
+    let u: Vec<_> = all
+        .par_iter()
+        .map(|c| {
+            let s = c.scale();
+            let lg = c.problem(
+                RandomPrior::Uniform {
+                    lo: -5.0 * s,
+                    hi: 5.0 * s,
+                },
+                1,
+                2,
+            );
+            let p = Pair::new(&lg, c.d, c.problem_seed(32));
+            let boxed = p.laplace_fisher(true, c.problem_seed(40));
+            let lf = [p.laplace_raw_err(&boxed), p.laplace_err(&boxed)];
+            (
+                p.truth,
+                lf,
+                p.laplace_metropolis(c.problem_seed(12)),
+                p.rjmcmc(c.problem_seed(22)),
+            )
+        })
+        .collect();
+    println!("Block U: uniform priors U[-5s, 5s], extra parameter absent");
+    println!(
+        "{:>3} {:>5} | {:>8} | {:>9} {:>9} | {:>15} {:>15} | {:>15} {:>6} | {:>15} {:>6} | {:>15} {:>6} | {:>6} {:>6}",
+        "D",
+        "SNR",
+        "lnB mean",
+        "LFraw|e|",
+        "LFbox|e|",
+        "LM-MVE bias",
+        "LM-MCD bias",
+        "RJ visits bias",
+        "cov1σ",
+        "RJ RB bias",
+        "cov1σ",
+        "RJ bridge bias",
+        "cov1σ",
+        "se vis",
+        "se br"
+    );
+    let mut rj_all: [Vec<Option<Err>>; 3] = Default::default();
+    for ((d, si), rows) in cells(&all, &u) {
+        let lf0: Vec<_> = rows.iter().map(|r| r.1[0]).collect();
+        let lf1: Vec<_> = rows.iter().map(|r| r.1[1]).collect();
+        let mve: Vec<_> = rows.iter().map(|r| r.2[0]).collect();
+        let mcd: Vec<_> = rows.iter().map(|r| r.2[1]).collect();
+        let rj: Vec<Vec<_>> = (0..3)
+            .map(|k| rows.iter().map(|r| r.3[k]).collect())
+            .collect();
+        for (acc, v) in rj_all.iter_mut().zip(&rj) {
+            acc.extend(v.iter().cloned());
+        }
+        println!(
+            "{d:>3} {:>5} | {:8.3} | {:9.2e} {:9.2e} | {:>15} {:>15} | {:>15} {} | {:>15} {} | {:>15} {} | {:6.3} {:6.3}",
+            SNRS[si],
+            mean_truth(&rows, |r| r.0),
+            stats(&lf0).2,
+            stats(&lf1).2,
+            fmt_bias(&mve),
+            fmt_bias(&mcd),
+            fmt_bias(&rj[0]),
+            fmt_cov(coverage(&rj[0])),
+            fmt_bias(&rj[1]),
+            fmt_cov(coverage(&rj[1])),
+            fmt_bias(&rj[2]),
+            fmt_cov(coverage(&rj[2])),
+            mean_se(&rj[0]),
+            mean_se(&rj[2]),
+        );
+    }
+    for (name, v) in ["visits", "Rao-Blackwell", "bridge"].iter().zip(&rj_all) {
+        let (c, n) = coverage(v).unwrap_or((f64::NAN, 0));
+        let n = n as f64;
+        // Pooled binomial: sd = √(0.683·0.317/n).
+        let z = (c - COVER) / (COVER * (1.0 - COVER) / n).sqrt();
+        println!(
+            "  RJ {name:>13}: pooled 1σ coverage over {n} runs = {c:.3} ({z:+.1} binomial sd from 0.683)"
+        );
+    }
+    println!("(block U: {:.1} s)\n", t.elapsed().as_secs_f64());
+
+    // Block N.
+    let t = Instant::now();
+    let nb: Vec<_> = all
+        .par_iter()
+        .map(|c| {
+            let h = 1.5 * SIGMA / (N_DATA as f64).sqrt();
+            let lg = c.problem(RandomPrior::Uniform { lo: -h, hi: h }, 1, 3);
+            let p = Pair::new(&lg, c.d, c.problem_seed(33));
+            let boxed = p.laplace_fisher(true, c.problem_seed(40));
+            (
+                p.truth,
+                p.laplace_fisher(false, c.problem_seed(40)).is_none(),
+                p.laplace_raw_err(&boxed),
+                p.laplace_err(&boxed),
+                Some(p.schwarz()),
+            )
+        })
+        .collect();
+    println!(
+        "Block N: narrow uniform priors U[-1.5σ/√n, 1.5σ/√n] (prior-dominated), extra parameter absent"
+    );
+    println!(
+        "{:>3} {:>5} | {:>9} | {:>5} | {:>15} | {:>15} {:>6} {:>9} | {:>15}",
+        "D",
+        "SNR",
+        "lnB mean",
+        "bound",
+        "LF raw bias",
+        "LF box bias",
+        "cov1σ",
+        "mean se",
+        "SBIC bias"
+    );
+    for ((d, si), rows) in cells(&all, &nb) {
+        let raw: Vec<_> = rows.iter().map(|r| r.2).collect();
+        let bx: Vec<_> = rows.iter().map(|r| r.3).collect();
+        let sb: Vec<_> = rows.iter().map(|r| r.4).collect();
+        println!(
+            "{d:>3} {:>5} | {:9.3} | {:5} | {:>15} | {:>15} {} {:9.1e} | {:>15}",
+            SNRS[si],
+            mean_truth(&rows, |r| r.0),
+            rows.iter().filter(|r| r.1).count(),
+            fmt_bias(&raw),
+            fmt_bias(&bx),
+            fmt_cov(coverage(&bx)),
+            mean_se(&bx),
+            fmt_bias(&sb)
+        );
+    }
+    println!("(block N: {:.1} s)\n", t.elapsed().as_secs_f64());
+
+    // Block P.
+    let t = Instant::now();
+    let pc = cases(&[1, 3, 10]);
+    let pr: Vec<_> = pc
+        .par_iter()
+        .map(|c| {
+            let s = c.scale();
+            let lg = c.problem(
+                RandomPrior::Uniform {
+                    lo: -5.0 * s,
+                    hi: 5.0 * s,
+                },
+                0,
+                4,
+            );
+            let p = Pair::new(&lg, c.d, c.problem_seed(34));
+            (p.truth, p.rjmcmc(c.problem_seed(24)))
+        })
+        .collect();
+    println!("Block P: uniform priors U[-5s, 5s], extra parameter present (large ln B)");
+    println!(
+        "{:>3} {:>5} | {:>9} {:>9} | {:>15} {:>6} | {:>15} {:>6} | {:>15} {:>6}",
+        "D",
+        "SNR",
+        "lnB mean",
+        "lnB min",
+        "RJ visits bias",
+        "cov1σ",
+        "RJ RB bias",
+        "cov1σ",
+        "RJ bridge bias",
+        "cov1σ"
+    );
+    for ((d, si), rows) in cells(&pc, &pr) {
+        let tmin = rows.iter().map(|r| r.0).fold(f64::INFINITY, f64::min);
+        let rj: Vec<Vec<_>> = (0..3)
+            .map(|k| rows.iter().map(|r| r.1[k]).collect())
+            .collect();
+        println!(
+            "{d:>3} {:>5} | {:9.2} {tmin:9.2} | {:>15} {} | {:>15} {} | {:>15} {}",
+            SNRS[si],
+            mean_truth(&rows, |r| r.0),
+            fmt_bias(&rj[0]),
+            fmt_cov(coverage(&rj[0])),
+            fmt_bias(&rj[1]),
+            fmt_cov(coverage(&rj[1])),
+            fmt_bias(&rj[2]),
+            fmt_cov(coverage(&rj[2])),
+        );
+    }
+    println!("(block P: {:.1} s)\n", t.elapsed().as_secs_f64());
+    println!(
+        "total {:.1} s on {} threads",
+        t0.elapsed().as_secs_f64(),
+        rayon::current_num_threads()
+    );
+}
