@@ -318,10 +318,34 @@ fn main() {
         "(× numpy exact = evaluations/s divided by the numpy peer's exact full-band ln L; \
          a numpy MH iteration costs at least one such ln L)"
     );
+    rj_rate();
     if let Err(why) = &peer
         && why.starts_with("FAILED")
     {
         eprintln!("the numpy peer disagrees with the Rust ln L: see above");
         std::process::exit(1);
     }
+}
+
+/// Reversible-jump iterations per second on the guidance-delay study (7- against 5-parameter
+/// model, `examples/guidance-delays.toml`, relative-binned likelihoods; each iteration is an
+/// in-model step and a jump attempt), and what 10⁸ iterations (K14's figure for
+/// non-competitive models) would take at that rate.
+fn rj_rate() {
+    let mut study = Study::load(Path::new("examples/guidance-delays.toml"))
+        .expect("examples/guidance-delays.toml");
+    study.select.rj_iterations = 200_000;
+    study.select.iterations = 4_000;
+    study.select.burn_in = 1_000;
+    let prep = occam::analysis::prepare(&study).expect("prepare");
+    let s = occam::select::run(&study, &prep, None).expect("select");
+    let rate = s.rj_iterations_per_second;
+    println!();
+    println!(
+        "RJMCMC, guidance-delay study: {rate:.0} iterations/s ({} iterations, visits {:?}); \
+         10^8 iterations would take {:.1} h",
+        s.rj.n_iter,
+        s.rj.visits,
+        1e8 / rate / 3600.0
+    );
 }
