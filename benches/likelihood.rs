@@ -15,8 +15,7 @@ use occam::experiment::{System, simulate};
 use occam::likelihood::{
     ExperimentSpectra, LtpLikelihood, NoiseSource, RelBinLikelihood, SpectraOptions, fisher_exact,
 };
-use occam::ltp::{Controllers, N_PARAMS, PARAM_NAMES};
-use occam::prior::{Prior, PriorKind};
+use occam::ltp::{Controllers, N_PARAMS};
 use occam::sampler::{MetropolisHastings, MhSettings, Start};
 use std::hint::black_box;
 use std::path::{Path, PathBuf};
@@ -181,19 +180,8 @@ fn main() {
         .iter()
         .map(|e| ExperimentSpectra::new(e, &opts, &ctrl, Some(&csd)).unwrap())
         .collect();
-    let kinds = vec![
-        PriorKind::Uniform { lo: -4e-6, hi: 0.0 },
-        PriorKind::Uniform { lo: -4e-6, hi: 0.0 },
-        PriorKind::Uniform { lo: 0.0, hi: 1.0 },
-        PriorKind::Uniform { lo: 0.0, hi: 1.0 },
-        PriorKind::Uniform { lo: 0.5, hi: 1.5 },
-        PriorKind::Uniform { lo: 0.5, hi: 1.5 },
-        PriorKind::Uniform {
-            lo: -1e-3,
-            hi: 1e-3,
-        },
-    ];
-    let prior = Prior::new(PARAM_NAMES.iter().map(|s| s.to_string()).collect(), kinds).unwrap();
+    // the study's prior (the default uniform boxes of `[prior]`)
+    let prior = study.prior.clone();
     let lik = LtpLikelihood::new(spectra, study.masses, prior).unwrap();
     let th = study.truth.to_array();
     let t0 = Instant::now();

@@ -1,21 +1,8 @@
 //! End-to-end tests of `occam simulate`: outputs, determinism and errors on bad input.
 
 use occam::dataset::Dataset;
-use std::path::Path;
-use std::process::Command;
-
-fn occam(args: &[&str], cwd: &Path) -> (bool, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_occam"))
-        .args(args)
-        .current_dir(cwd)
-        .output()
-        .unwrap();
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
+mod common;
+use common::occam;
 
 const SMALL: &str = r#"
 seed = 5

@@ -5,26 +5,17 @@ use crate::config::Study;
 use crate::dataset::ExperimentData;
 use crate::experiment::{System, simulate};
 use crate::hermitian::Mat2;
-use crate::ltp::{Controllers, LtpParams, N_PARAMS, PARAM_NAMES, response};
-use crate::prior::{Prior, PriorKind};
+use crate::ltp::{Controllers, LtpParams, N_PARAMS, response};
+use crate::prior::Prior;
 use crate::signal::dft_naive;
 use num_complex::Complex64;
 use std::path::Path;
 
+/// The default `[prior]` boxes.
 pub(crate) fn wide_prior() -> Prior {
-    let kinds = vec![
-        PriorKind::Uniform { lo: -4e-6, hi: 0.0 },
-        PriorKind::Uniform { lo: -4e-6, hi: 0.0 },
-        PriorKind::Uniform { lo: 0.0, hi: 1.0 },
-        PriorKind::Uniform { lo: 0.0, hi: 1.0 },
-        PriorKind::Uniform { lo: 0.5, hi: 1.5 },
-        PriorKind::Uniform { lo: 0.5, hi: 1.5 },
-        PriorKind::Uniform {
-            lo: -1e-3,
-            hi: 1e-3,
-        },
-    ];
-    Prior::new(PARAM_NAMES.iter().map(|s| s.to_string()).collect(), kinds).unwrap()
+    crate::config::PriorTable::default()
+        .to_prior("tests")
+        .unwrap()
 }
 
 /// A small two-experiment study (1 Hz sampling, short stretches) for fast tests.
