@@ -279,7 +279,7 @@ pub fn delayed_injections(
         let mut up = vec![Complex64::new(0.0, 0.0); fft.spectrum_len()];
         for (k, v) in spec[c].iter().enumerate() {
             // the inverse divides by m, not n; an even-length Nyquist bin is shared by ±fs/2
-            let half = if oversample > 1 && n % 2 == 0 && 2 * k == n {
+            let half = if oversample > 1 && 2 * k == n {
                 0.5
             } else {
                 1.0
