@@ -6,7 +6,7 @@
 //! `<experiment>.noise_o12`, and `truth` when known) plus `dataset.json`, a sidecar with the
 //! metadata. Users can also bring plain CSV time series ([`read_csv`], [`ExperimentData::from_csv`]).
 
-use crate::ltp::{LtpParams, PARAM_NAMES};
+use crate::ltp::LtpParams;
 use ndarray::Array1;
 use ndarray_npy::{NpzReader, NpzWriter};
 use serde::{Deserialize, Serialize};
@@ -416,11 +416,6 @@ pub fn read_csv(path: &Path) -> Result<CsvTable, DataError> {
         return Err(fmt_err(path, "no data rows after the header"));
     }
     Ok(CsvTable { names, columns })
-}
-
-/// Names of the parameter array `truth` in the npz file, in order.
-pub fn truth_names() -> [&'static str; 7] {
-    PARAM_NAMES
 }
 
 #[cfg(test)]

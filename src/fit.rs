@@ -128,12 +128,11 @@ pub fn run(
         checkpoint_every: f.checkpoint_every,
         progress_every: 200,
     };
-    let centre: Vec<f64> = free.iter().map(|&i| map.theta[i]).collect();
     let t1 = Instant::now();
     let (chains, n_coarse) = match study.analysis.likelihood {
         LikelihoodKind::Exact => (
             sample(
-                exact, model, &map.theta, &cov, settings, &centre, out, observer, resume,
+                exact, model, &map.theta, &cov, settings, out, observer, resume,
             )?,
             None,
         ),
@@ -142,7 +141,7 @@ pub fn run(
             let n = rb.n_coarse();
             (
                 sample(
-                    &rb, model, &map.theta, &cov, settings, &centre, out, observer, resume,
+                    &rb, model, &map.theta, &cov, settings, out, observer, resume,
                 )?,
                 Some(n),
             )
@@ -207,7 +206,6 @@ fn sample<D: LogDensity>(
     map: &[f64; N_PARAMS],
     cov: &DMatrix<f64>,
     settings: MhSettings,
-    centre: &[f64],
     out: &Path,
     observer: Option<&(dyn Fn(&Progress) + Sync)>,
     resume: bool,
@@ -227,7 +225,7 @@ fn sample<D: LogDensity>(
         mh.resume(&ckpt)?
     } else {
         mh.run(&Start::Around {
-            centre: centre.to_vec(),
+            centre: model.free.iter().map(|&i| map[i]).collect(),
             spread: 2.0,
         })?
     };

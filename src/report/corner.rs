@@ -2,7 +2,9 @@
 
 use super::ReportError;
 use super::axis::Axis;
-use super::plots::{DrawResult, Figure, MeshText, bad_input, chart, colour, mesh, render, text};
+use super::plots::{
+    DrawResult, Figure, MeshText, bad_input, chart, check_truth, colour, mesh, render, text,
+};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::Path;
@@ -101,19 +103,7 @@ impl CornerFigure {
                 ),
             ));
         }
-        if let Some(t) = truth
-            && t.len() != np
-        {
-            return Err(bad_input(
-                dir,
-                stem,
-                "truth",
-                format!(
-                    "has {} values but names has {np}; give one per parameter",
-                    t.len()
-                ),
-            ));
-        }
+        check_truth(dir, stem, truth, np)?;
         let n = samples.len() as f64;
         // About √N bins resolve a smooth marginal; the 2-D grid is coarser because its counts
         // are shared among bins² cells.

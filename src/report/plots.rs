@@ -62,6 +62,27 @@ pub(crate) fn bad_input(
     }
 }
 
+/// Checks that an optional truth vector has one value per parameter.
+pub(crate) fn check_truth(
+    dir: &Path,
+    stem: &str,
+    truth: Option<&[f64]>,
+    np: usize,
+) -> Result<(), ReportError> {
+    match truth {
+        Some(t) if t.len() != np => Err(bad_input(
+            dir,
+            stem,
+            "truth",
+            format!(
+                "has {} values but names has {np}; give one per parameter",
+                t.len()
+            ),
+        )),
+        _ => Ok(()),
+    }
+}
+
 fn check_stem(dir: &Path, stem: &str) -> Result<(), ReportError> {
     if stem.is_empty() || stem.contains(['/', '\\']) || stem.starts_with('.') {
         return Err(bad_input(

@@ -3,7 +3,8 @@
 use super::ReportError;
 use super::axis::{Axis, decimate, segments};
 use super::plots::{
-    DrawResult, Figure, MeshText, bad_input, chart, colour, mesh, render, text, y_label_area,
+    DrawResult, Figure, MeshText, bad_input, chart, check_truth, colour, mesh, render, text,
+    y_label_area,
 };
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -106,19 +107,7 @@ impl TraceFigure {
                 ));
             }
         }
-        if let Some(t) = truth
-            && t.len() != np
-        {
-            return Err(bad_input(
-                dir,
-                stem,
-                "truth",
-                format!(
-                    "has {} values but names has {np}; give one per parameter",
-                    t.len()
-                ),
-            ));
-        }
+        check_truth(dir, stem, truth, np)?;
         let x = Axis::linear(0.0, (longest - 1) as f64, 10);
         let buckets = WIDTH as usize - 120;
         let panels: Vec<Panel> = (0..np)
