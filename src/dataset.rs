@@ -140,6 +140,28 @@ impl ExperimentData {
         Ok(())
     }
 
+    /// The fit-stretch series of a named data channel (`o1`, `o12`, `i1`, `i12`), if the
+    /// experiment has it.
+    pub fn channel(&self, name: &str) -> Option<&[f64]> {
+        match name {
+            "o1" => Some(&self.o[0]),
+            "o12" => Some(&self.o[1]),
+            "i1" => Some(&self.i[0]),
+            "i12" => Some(&self.i[1]),
+            _ => None,
+        }
+    }
+
+    /// The noise-only series of a named data channel, if the experiment has one. Channels
+    /// without a noise-only series (the commanded injections) are noiseless by construction.
+    pub fn noise_channel(&self, name: &str) -> Option<&[f64]> {
+        match name {
+            "o1" => Some(&self.noise[0]),
+            "o12" => Some(&self.noise[1]),
+            _ => None,
+        }
+    }
+
     fn channels(&self) -> [(&'static str, &Vec<f64>); 6] {
         [
             ("o1", &self.o[0]),

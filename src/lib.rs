@@ -18,6 +18,7 @@ pub mod hermitian;
 pub mod likelihood;
 pub mod lti;
 pub mod ltp;
+pub mod model;
 pub mod nested;
 pub mod prior;
 pub mod report;

@@ -184,6 +184,49 @@ pub fn response<T: DualNum<Primitive = f64> + Copy>(
     [e * x0, e * (x0 * th[6] + x1)]
 }
 
+/// The full `H_io(f; θ)` (rows `o1, o12`, columns `i1, i12`) with an extra factor `r_df` on the
+/// drag-free actuation (`A_df → A_df r_df`; pass 1 for the plain loop), generic over dual
+/// numbers.
+///
+/// # Formula
+/// `H_io = E S P⁻¹ M A K T` with `P = D + E M A K S`, `M A K T = [[k1 t1, e2 k2 t2], [0, k2 t2]]`.
+#[inline]
+pub fn h_io_matrix<T: DualNum<Primitive = f64> + Copy>(
+    th: &[T; N_PARAMS],
+    c: &BinConsts,
+    m: &Masses,
+    r_df: Complex<T>,
+) -> [[Complex<T>; 2]; 2] {
+    let (w1, w2, asus, d21) = (th[0], th[1], th[5], th[6]);
+    let e1 = m.m1 / m.msc;
+    let e2 = m.m2 / m.msc;
+    let s2 = T::from(-c.omega * c.omega);
+    let e: Complex<T> = lift(c.e_oms);
+    let k1 = lift::<T>(c.cdf) * r_df * th[4];
+    let k2 = lift::<T>(c.csus) * asus;
+    let re = |x: T| Complex::new(x, T::from(0.0));
+    let p00 = re(s2 + w1 * (1.0 + e1) + w2 * e2) + e * (k1 + k2 * (d21 * e2));
+    let p01 = re(w2 * e2) + e * k2 * T::from(e2);
+    let p10 = re(w2 - w1) + e * k2 * d21;
+    let p11 = re(s2 + w2) + e * k2;
+    let inv = (p00 * p11 - p01 * p10).inv();
+    let (s1, c1) = (th[2] * c.omega).sin_cos();
+    let (s2d, c2) = (th[3] * c.omega).sin_cos();
+    let t1 = Complex::new(c1, -s1);
+    let t2 = Complex::new(c2, -s2d);
+    let a = k1 * t1 * inv;
+    let b = k2 * t2 * inv;
+    // X = P⁻¹ M A K T
+    let x00 = p11 * a;
+    let x10 = -p10 * a;
+    let x01 = (p11 * T::from(e2) - p01) * b;
+    let x11 = (p00 - p10 * T::from(e2)) * b;
+    [
+        [e * x00, e * x01],
+        [e * (x00 * d21 + x10), e * (x01 * d21 + x11)],
+    ]
+}
+
 /// The three closed-loop transfer matrices at one frequency (rows = outputs `(o1, o12)`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ClosedLoop {

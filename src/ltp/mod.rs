@@ -21,7 +21,8 @@ mod params;
 pub mod timedomain;
 
 pub use closed_loop::{
-    BinConsts, ClosedLoop, LoopError, LoopKernel, check_stable, closed_loop_poles, response,
+    BinConsts, ClosedLoop, LoopError, LoopKernel, check_stable, closed_loop_poles, h_io_matrix,
+    response,
 };
 pub use controllers::{Controllers, design_lead_integrator};
 pub use noise::NoiseModel;

@@ -1,0 +1,344 @@
+//! The built-in LTP closed-loop model: `r = o − H_io(θ) i` (ltp-model.md §3.2), with the
+//! fast per-bin kernel of wave 1 and optional extra factors on the drag-free actuation path.
+//!
+//! Data channels `(o1, o12, i1, i12)`, residual channels `(o1, o12)`, coefficients
+//! `M = [I | −H_io(f; θ)]`. Parameters: the seven of K14 (`w1sq, w2sq, dt1, dt2, a_df, a_sus,
+//! d21`) and, with a thruster response, one more:
+//!
+//! * `thruster = "delay"`: `A_df → A_df e^{−i2πf τ_df}` (parameter `tau_df`, s);
+//! * `thruster = "pole"`: `A_df → A_df / (1 + i f/f_df)` (parameter `f_df`, Hz; unity DC
+//!   gain, the e^{−i2πft} convention of ltp-model.md §7.1).
+//!
+//! These are the two thruster-response models of the Bayes-factor-against-SNR study (K14 §IV.A,
+//! ltp-model.md §10 item 8).
+
+use super::{Bin, BinBlock, Model};
+use crate::hermitian;
+use crate::lti::delay;
+use crate::ltp::{
+    BinConsts, Controllers, LoopKernel, LtpParams, Masses, N_PARAMS, PARAM_NAMES, check_stable,
+};
+use crate::prior::PriorKind;
+use num_complex::{Complex, Complex64};
+use num_dual::{Dual64, DualNum};
+use serde::{Deserialize, Serialize};
+use std::f64::consts::PI;
+
+/// How often the guidance-delay phasors are recomputed exactly in the fast kernel.
+pub const PHASOR_RESEED: usize = 256;
+
+/// An extra factor on the drag-free (thruster) actuation path.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum ThrusterResponse {
+    /// None: `A_df` alone (the 7-parameter model of K14).
+    #[default]
+    None,
+    /// A pure delay `e^{−i2πf τ_df}`.
+    Delay,
+    /// A single real pole `1/(1 + i f/f_df)`.
+    Pole,
+}
+
+impl ThrusterResponse {
+    /// The extra parameter's name, if any.
+    pub fn param(&self) -> Option<&'static str> {
+        match self {
+            ThrusterResponse::None => None,
+            ThrusterResponse::Delay => Some("tau_df"),
+            ThrusterResponse::Pole => Some("f_df"),
+        }
+    }
+
+    /// `R(f)` at parameter value `x`, generic over dual numbers.
+    #[inline]
+    fn factor<T: DualNum<Primitive = f64> + Copy>(&self, x: T, f: f64) -> Complex<T> {
+        match self {
+            ThrusterResponse::None => Complex::new(T::one(), T::zero()),
+            ThrusterResponse::Delay => {
+                let (s, c) = (x * (2.0 * PI * f)).sin_cos();
+                Complex::new(c, -s)
+            }
+            ThrusterResponse::Pole => {
+                // 1/(1 + i f/f0) = (1 − i u)/(1 + u²), u = f/f0
+                let u = x.recip() * f;
+                let d = (u * u + 1.0).recip();
+                Complex::new(d, -u * d)
+            }
+        }
+    }
+}
+
+/// Options of the built-in closed-loop model.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct LtpModelOptions {
+    /// Masses of the three bodies.
+    pub masses: Masses,
+    /// Fixed OMS delay τ_o (s).
+    pub oms_delay: f64,
+    /// Extra factor on the drag-free actuation.
+    pub thruster: ThrusterResponse,
+}
+
+impl Default for LtpModelOptions {
+    fn default() -> Self {
+        Self {
+            masses: Masses::default(),
+            oms_delay: 0.0,
+            thruster: ThrusterResponse::None,
+        }
+    }
+}
+
+/// The LTP closed loop as a [`Model`].
+#[derive(Debug, Clone)]
+pub struct LtpModel {
+    name: String,
+    opts: LtpModelOptions,
+    ctrl: Controllers,
+    names: Vec<String>,
+    data: Vec<String>,
+    res: Vec<String>,
+}
+
+/// Constants per bin: `C_df, C_sus, E, E·C_df, E·C_sus`.
+const N_CONSTS: usize = 5;
+
+impl LtpModel {
+    /// The closed loop with the §4 controllers.
+    pub fn new(name: &str, opts: LtpModelOptions) -> Self {
+        let mut names: Vec<String> = PARAM_NAMES.iter().map(|s| s.to_string()).collect();
+        if let Some(p) = opts.thruster.param() {
+            names.push(p.to_string());
+        }
+        let s = |v: &[&str]| v.iter().map(|x| x.to_string()).collect::<Vec<_>>();
+        Self {
+            name: name.to_string(),
+            opts,
+            ctrl: Controllers::default(),
+            names,
+            data: s(&["o1", "o12", "i1", "i12"]),
+            res: s(&["o1", "o12"]),
+        }
+    }
+
+    /// The options.
+    pub fn options(&self) -> &LtpModelOptions {
+        &self.opts
+    }
+
+    /// The default prior of every parameter: uniform boxes `w1sq, w2sq ∈ [−5e−6, 5e−6] s⁻²`,
+    /// `dt1, dt2 ∈ [0, 1] s`, `a_df, a_sus ∈ [0.5, 1.5]`, `d21 ∈ [−1e−3, 1e−3]`, `tau_df ∈
+    /// [0, 1] s`, `f_df ∈ [0.01, 10] Hz`.
+    pub fn default_priors(&self) -> Vec<(String, PriorKind)> {
+        let u = |lo, hi| PriorKind::Uniform { lo, hi };
+        self.names
+            .iter()
+            .map(|n| {
+                let k = match n.as_str() {
+                    "w1sq" | "w2sq" => u(-5e-6, 5e-6),
+                    "dt1" | "dt2" | "tau_df" => u(0.0, 1.0),
+                    "a_df" | "a_sus" => u(0.5, 1.5),
+                    "d21" => u(-1e-3, 1e-3),
+                    _ => u(0.01, 10.0),
+                };
+                (n.clone(), k)
+            })
+            .collect()
+    }
+
+    fn bin_consts_struct(&self, bin: &Bin) -> BinConsts {
+        let c = bin.consts;
+        BinConsts {
+            f: bin.f,
+            omega: 2.0 * PI * bin.f,
+            cdf: c[0],
+            csus: c[1],
+            e_oms: c[2],
+            e_cdf: c[3],
+            e_csus: c[4],
+        }
+    }
+
+    /// `H_io(f; θ)` (rows `o1, o12`, columns `i1, i12`), generic over dual numbers.
+    fn h_io<T: DualNum<Primitive = f64> + Copy>(&self, th: &[T], c: &BinConsts) -> [[Complex<T>; 2]; 2] {
+        let r_df = match self.opts.thruster.param() {
+            Some(_) => self.opts.thruster.factor(th[N_PARAMS], c.f),
+            None => Complex::new(T::one(), T::zero()),
+        };
+        let t7: &[T; N_PARAMS] = th[..N_PARAMS].try_into().expect("length checked");
+        crate::ltp::h_io_matrix(t7, c, &self.opts.masses, r_df)
+    }
+
+    fn fill<T: DualNum<Primitive = f64> + Copy>(&self, th: &[T], bin: &Bin, out: &mut [Complex<T>]) {
+        let c = self.bin_consts_struct(bin);
+        let h = self.h_io(th, &c);
+        let one = Complex::new(T::one(), T::zero());
+        let zero = Complex::new(T::zero(), T::zero());
+        // row-major [I | −H_io]
+        out[0] = one;
+        out[1] = zero;
+        out[2] = -h[0][0];
+        out[3] = -h[0][1];
+        out[4] = zero;
+        out[5] = one;
+        out[6] = -h[1][0];
+        out[7] = -h[1][1];
+    }
+}
+
+impl Model for LtpModel {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn param_names(&self) -> &[String] {
+        &self.names
+    }
+
+    fn data_channels(&self) -> &[String] {
+        &self.data
+    }
+
+    fn residual_channels(&self) -> &[String] {
+        &self.res
+    }
+
+    fn n_consts(&self) -> usize {
+        N_CONSTS
+    }
+
+    fn bin_consts(&self, f: f64, _fs: f64, out: &mut [Complex64]) {
+        let b = BinConsts::new(f, &self.ctrl, self.opts.oms_delay);
+        out.copy_from_slice(&[b.cdf, b.csus, b.e_oms, b.e_cdf, b.e_csus]);
+    }
+
+    fn coefficients(&self, theta: &[f64], bin: &Bin, out: &mut [Complex64]) {
+        self.fill(theta, bin, out);
+    }
+
+    fn coefficients_dual(&self, theta: &[Dual64], bin: &Bin, out: &mut [Complex<Dual64>]) {
+        self.fill(theta, bin, out);
+    }
+
+    fn check(&self, theta: &[f64]) -> Result<(), String> {
+        let t7: &[f64; N_PARAMS] = theta[..N_PARAMS]
+            .try_into()
+            .map_err(|_| "wrong parameter count".to_string())?;
+        check_stable(&LtpParams::from_array(t7), &self.ctrl, &self.opts.masses)
+            .map_err(|e| e.to_string())
+    }
+
+    /// The wave-1 kernel: θ-dependent loop scalars once per θ, one complex reciprocal per bin,
+    /// guidance-delay phasors by recurrence on the uniform grid (re-seeded exactly every
+    /// [`PHASOR_RESEED`] bins so rounding cannot accumulate beyond ~1e−14), no allocation.
+    /// With a thruster response the generic per-bin path is used.
+    fn residual_power(&self, theta: &[f64], b: &BinBlock) -> f64 {
+        if self.opts.thruster != ThrusterResponse::None {
+            return super::residual_power_generic(self, theta, b);
+        }
+        let th: &[f64; N_PARAMS] = match theta.try_into() {
+            Ok(t) => t,
+            Err(_) => return f64::NAN,
+        };
+        let kern = LoopKernel::new(th, &self.opts.masses);
+        let step = [delay(th[2], b.df), delay(th[3], b.df)];
+        let mut t = [Complex64::new(1.0, 0.0); 2];
+        let mut s = 0.0;
+        for k in 0..b.n {
+            let bin = b.bin(k, N_CONSTS);
+            if k % PHASOR_RESEED == 0 {
+                t = [delay(th[2], bin.f), delay(th[3], bin.f)];
+            }
+            let c = self.bin_consts_struct(&bin);
+            let d = &b.data[4 * k..4 * k + 4];
+            let h = kern.eval(&c, t, [d[2], d[3]]);
+            let r = [d[0] - h[0], d[1] - h[1]];
+            s += hermitian::quad(&b.cinv[k], r);
+            t[0] *= step[0];
+            t[1] *= step[1];
+        }
+        s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::{coefficients_at, residual_power_generic};
+
+    #[test]
+    fn coefficients_are_identity_and_minus_h_io() {
+        let m = LtpModel::new("ltp", LtpModelOptions::default());
+        let th = LtpParams::default().to_array();
+        for f in [1e-4, 1e-3, 1e-2, 0.1, 1.0] {
+            let c = coefficients_at(&m, &th, f, 10.0);
+            let bc = BinConsts::new(f, &Controllers::default(), 0.0);
+            let one = Complex64::new(1.0, 0.0);
+            let zero = Complex64::new(0.0, 0.0);
+            for j in 0..2 {
+                let mut inj = [zero; 2];
+                inj[j] = one;
+                let h = crate::ltp::response(&th, &bc, &Masses::default(), inj);
+                assert!((c[2 + j] + h[0]).norm() <= 1e-14 * h[0].norm().max(1e-300));
+                assert!((c[6 + j] + h[1]).norm() <= 1e-14 * h[1].norm().max(1e-300));
+            }
+            assert_eq!([c[0], c[1], c[4], c[5]], [one, zero, zero, one]);
+        }
+    }
+
+    #[test]
+    fn fast_kernel_equals_the_generic_path() {
+        let m = LtpModel::new("ltp", LtpModelOptions::default());
+        let th = LtpParams::default().to_array();
+        let n = 1000;
+        let (f0, df, fs) = (1e-3, 1e-3, 10.0);
+        let mut consts = vec![Complex64::new(0.0, 0.0); n * N_CONSTS];
+        for k in 0..n {
+            m.bin_consts(
+                f0 + k as f64 * df,
+                fs,
+                &mut consts[k * N_CONSTS..(k + 1) * N_CONSTS],
+            );
+        }
+        let data: Vec<Complex64> = (0..4 * n)
+            .map(|i| Complex64::new((i as f64 * 0.37).sin(), (i as f64 * 0.91).cos()))
+            .collect();
+        let cinv: Vec<_> = (0..n)
+            .map(|k| (2.0 + k as f64 * 1e-3, Complex64::new(0.1, -0.2), 3.0))
+            .collect();
+        let b = BinBlock {
+            f0,
+            df,
+            fs,
+            n,
+            data: &data,
+            cinv: &cinv,
+            consts: &consts,
+        };
+        let fast = m.residual_power(&th, &b);
+        let slow = residual_power_generic(&m, &th, &b);
+        assert!((fast - slow).abs() <= 1e-12 * slow.abs(), "{fast} vs {slow}");
+    }
+
+    #[test]
+    fn thruster_factors_have_unit_dc_gain_and_exact_derivatives() {
+        for (kind, x) in [
+            (ThrusterResponse::Delay, 0.3),
+            (ThrusterResponse::Pole, 1.963),
+        ] {
+            let r0 = kind.factor(x, 0.0);
+            assert!((r0 - Complex64::new(1.0, 0.0)).norm() < 1e-15);
+            let f = 0.7;
+            let d = kind.factor(Dual64::from(x).derivative(), f);
+            let h = 1e-6;
+            let num = (kind.factor(x + h, f) - kind.factor(x - h, f)) / (2.0 * h);
+            assert!((Complex64::new(d.re.eps, d.im.eps) - num).norm() < 1e-8);
+        }
+        // the pole at f_df has |R| = 1/√2 and phase −45°
+        let r = ThrusterResponse::Pole.factor(2.0, 2.0);
+        assert!((r.norm() - 0.5f64.sqrt()).abs() < 1e-15);
+        assert!((r.arg() + PI / 4.0).abs() < 1e-15);
+    }
+}
