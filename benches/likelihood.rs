@@ -13,13 +13,15 @@ use num_complex::Complex64;
 use occam::config::Study;
 use occam::experiment::{System, simulate};
 use occam::likelihood::{
-    ExperimentSpectra, LtpLikelihood, NoiseSource, RelBinLikelihood, SpectraOptions, fisher_exact,
+    ExperimentSpectra, Likelihood, NoiseSource, RelBinLikelihood, SpectraOptions, fisher_exact,
 };
-use occam::ltp::{Controllers, N_PARAMS};
+use occam::ltp::{Masses, N_PARAMS};
+use occam::model::{LtpModel, Model};
 use occam::sampler::{MetropolisHastings, MhSettings, Start};
 use std::hint::black_box;
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use std::sync::Arc;
 use std::time::Instant;
 
 /// Seconds spent timing each ln L / Fisher kernel.
@@ -60,7 +62,8 @@ struct Peer {
 /// parameter points to `path` for bench/peer/numpy_lnl.py.
 fn write_peer_inputs(
     path: &Path,
-    lik: &LtpLikelihood,
+    lik: &Likelihood,
+    masses: &Masses,
     truth: &[f64; N_PARAMS],
     checks: &[[f64; N_PARAMS]],
 ) -> Result<(), Box<dyn std::error::Error>> {
@@ -72,11 +75,13 @@ fn write_peer_inputs(
     )?;
     for (j, e) in spectra.iter().enumerate() {
         let n = e.len();
-        let pairs = |v: &[[Complex64; 2]]| Array2::from_shape_fn((n, 2), |(k, c)| v[k][c]);
+        // data channels (o1, o12, i1, i12); constants (C_df, C_sus, E, E·C_df, E·C_sus)
+        let pairs = |off: usize| Array2::from_shape_fn((n, 2), |(k, c)| e.data_at(k)[off + c]);
         let col = |g: &dyn Fn(usize) -> Complex64| Array1::from_iter((0..n).map(g));
+        let cst = |k: usize, i: usize| e.consts[5 * k + i];
         z.add_array(format!("e{j}.freqs"), &Array1::from_vec(e.freqs.clone()))?;
-        z.add_array(format!("e{j}.y"), &pairs(&e.y))?;
-        z.add_array(format!("e{j}.inj"), &pairs(&e.inj))?;
+        z.add_array(format!("e{j}.y"), &pairs(0))?;
+        z.add_array(format!("e{j}.inj"), &pairs(2))?;
         z.add_array(
             format!("e{j}.cinv_a"),
             &Array1::from_iter(e.cinv.iter().map(|c| c.0)),
@@ -86,11 +91,11 @@ fn write_peer_inputs(
             format!("e{j}.cinv_c"),
             &Array1::from_iter(e.cinv.iter().map(|c| c.2)),
         )?;
-        z.add_array(format!("e{j}.cdf"), &col(&|k| e.consts[k].cdf))?;
-        z.add_array(format!("e{j}.csus"), &col(&|k| e.consts[k].csus))?;
-        z.add_array(format!("e{j}.e_oms"), &col(&|k| e.consts[k].e_oms))?;
+        z.add_array(format!("e{j}.cdf"), &col(&|k| cst(k, 0)))?;
+        z.add_array(format!("e{j}.csus"), &col(&|k| cst(k, 1)))?;
+        z.add_array(format!("e{j}.e_oms"), &col(&|k| cst(k, 2)))?;
     }
-    let m = lik.masses();
+    let m = masses;
     z.add_array("masses", &Array1::from_vec(vec![m.m1, m.m2, m.msc]))?;
     z.add_array("theta_truth", &Array1::from_vec(truth.to_vec()))?;
     z.add_array(
@@ -173,17 +178,23 @@ fn main() {
         noise: NoiseSource::Welch,
         ..Default::default()
     };
-    let ctrl = Controllers::default();
+    let model: Arc<dyn Model> = Arc::new(LtpModel::new(
+        "ltp",
+        occam::model::LtpModelOptions {
+            masses: study.masses,
+            ..Default::default()
+        },
+    ));
+    let th = study.truth.to_array();
     let spectra: Vec<_> = sim
         .dataset
         .experiments
         .iter()
-        .map(|e| ExperimentSpectra::new(e, &opts, &ctrl, Some(&csd)).unwrap())
+        .map(|e| ExperimentSpectra::new(e, &opts, model.as_ref(), &th, Some(&csd)).unwrap())
         .collect();
     // the study's prior (the default uniform boxes of `[prior]`)
-    let prior = study.prior.clone();
-    let lik = LtpLikelihood::new(spectra, study.masses, prior).unwrap();
-    let th = study.truth.to_array();
+    let prior = study.models.priors[0].clone();
+    let lik = Likelihood::new(model, spectra, prior).unwrap();
     let t0 = Instant::now();
     let rb = RelBinLikelihood::new(&lik, &th, &Default::default()).unwrap();
     let build = t0.elapsed().as_secs_f64();
@@ -264,7 +275,7 @@ fn main() {
         100.0 * accepted as f64 / proposed as f64
     );
     println!("numpy peer (exact ln L), inputs in {}:", npz.display());
-    let peer = write_peer_inputs(&npz, &lik, &th, &checks)
+    let peer = write_peer_inputs(&npz, &lik, &study.masses, &th, &checks)
         .map_err(|e| format!("could not write {}: {e}", npz.display()))
         .and_then(|()| run_peer(&npz));
     match &peer {

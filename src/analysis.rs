@@ -1,14 +1,15 @@
-//! From a study to a likelihood: get the data (load a dataset or simulate the study), reduce
-//! each experiment to in-band spectra with a noise estimate, and build `ln L` with the
-//! study's normalised prior. Shared by `occam fit` and `occam select`.
+//! From a study to likelihoods: get the data (load a dataset or simulate the study), reduce
+//! each experiment to in-band spectra of a model's data channels with a residual-noise
+//! estimate, and build `ln L` of that model with its normalised prior. Shared by `occam fit`,
+//! `occam select` and `occam sweep`.
 
 use crate::config::{ModelSpec, Study};
 use crate::dataset::Dataset;
 use crate::experiment::{SimError, System, simulate};
 use crate::likelihood::{
-    ExperimentSpectra, LtpLikelihood, RelBinLikelihood, RelBinOptions, SpectraError, SpectraOptions,
+    ExperimentSpectra, Likelihood, RelBinLikelihood, RelBinOptions, SpectraError, SpectraOptions,
 };
-use crate::ltp::{Controllers, N_PARAMS};
+use crate::prior::PriorKind;
 
 /// Errors while preparing an analysis.
 #[derive(Debug, thiserror::Error)]
@@ -23,25 +24,31 @@ pub enum AnalysisError {
     Likelihood(String),
 }
 
-/// Data and likelihood of a study, ready for samplers.
+/// Data and the likelihood of the `[fit]` model, ready for samplers.
 #[derive(Debug, Clone)]
 pub struct Prepared {
     pub dataset: Dataset,
     /// Where the data came from (a path, or "simulated from <study>").
     pub origin: String,
-    pub likelihood: LtpLikelihood,
+    /// The exact likelihood of the `[fit]` model.
+    pub likelihood: Likelihood,
 }
 
-/// Loads or simulates the data and builds the exact likelihood.
-pub fn prepare(study: &Study) -> Result<Prepared, AnalysisError> {
-    let (dataset, origin) = match &study.analysis.dataset {
+/// The data of a study: its dataset, or a simulation of it; and where they came from.
+pub fn load_data(study: &Study) -> Result<(Dataset, String), AnalysisError> {
+    Ok(match &study.analysis.dataset {
         Some(p) => (Dataset::read(p)?, p.display().to_string()),
         None => (
             simulate(study)?.dataset,
             format!("simulated from {} (seed {})", study.source, study.seed),
         ),
-    };
-    let likelihood = likelihood_of(study, &dataset)?;
+    })
+}
+
+/// Loads or simulates the data and builds the exact likelihood of the `[fit]` model.
+pub fn prepare(study: &Study) -> Result<Prepared, AnalysisError> {
+    let (dataset, origin) = load_data(study)?;
+    let likelihood = likelihood_of(study, study.fit_model.model, &dataset)?;
     Ok(Prepared {
         dataset,
         origin,
@@ -58,29 +65,71 @@ pub fn spectra_options(study: &Study) -> SpectraOptions {
         noise: a.noise,
         welch_averages: a.welch_averages,
         welch_window: a.welch_window,
-        oms_delay: study.oms_delay,
     }
 }
 
-/// The exact likelihood of `dataset` under the study's analysis options and prior.
-pub fn likelihood_of(study: &Study, dataset: &Dataset) -> Result<LtpLikelihood, AnalysisError> {
+/// The reference point of model `mi`: the truth where the model has the truth's parameters,
+/// else `[fit] start`, else the prior centre. The residual noise is evaluated there.
+pub fn reference_point(study: &Study, mi: usize) -> Vec<f64> {
+    let m = &study.models.models[mi];
+    let prior = &study.models.priors[mi];
+    let truth = crate::ltp::PARAM_NAMES
+        .iter()
+        .zip(study.truth.to_array())
+        .collect::<Vec<_>>();
+    m.param_names()
+        .iter()
+        .enumerate()
+        .map(|(i, n)| {
+            truth
+                .iter()
+                .find(|(t, _)| *t == n)
+                .map(|(_, v)| *v)
+                .or_else(|| study.fit.start.as_ref().and_then(|s| s.get(n).copied()))
+                .unwrap_or_else(|| prior_centre(&prior.kinds()[i]))
+        })
+        .collect()
+}
+
+/// The centre of a prior: box midpoint, Gaussian mean, geometric mean of a log-uniform box.
+pub fn prior_centre(k: &PriorKind) -> f64 {
+    match *k {
+        PriorKind::Uniform { lo, hi } => 0.5 * (lo + hi),
+        PriorKind::Gaussian { mu, .. } => mu,
+        PriorKind::LogUniform { lo, hi } => (lo * hi).sqrt(),
+    }
+}
+
+/// The exact likelihood of model `mi` of the study on `dataset`.
+pub fn likelihood_of(
+    study: &Study,
+    mi: usize,
+    dataset: &Dataset,
+) -> Result<Likelihood, AnalysisError> {
     let opts = spectra_options(study);
     let sys = System::of(study);
     let csd = |f: f64| sys.noise_csd(f);
-    let ctrl = Controllers::default();
+    let model = study.models.models[mi].clone();
+    let reference = reference_point(study, mi);
     let mut spectra = Vec::new();
     for e in &dataset.experiments {
-        spectra.push(ExperimentSpectra::new(e, &opts, &ctrl, Some(&csd))?);
+        spectra.push(ExperimentSpectra::new(
+            e,
+            &opts,
+            model.as_ref(),
+            &reference,
+            Some(&csd),
+        )?);
     }
-    LtpLikelihood::new(spectra, study.masses, study.prior.clone())
+    Likelihood::new(model, spectra, study.models.priors[mi].clone())
         .map_err(|e| AnalysisError::Likelihood(e.to_string()))
 }
 
 /// The relative-binned likelihood around `fiducial` with the study's accuracy settings.
 pub fn relbin_of(
     study: &Study,
-    exact: &LtpLikelihood,
-    fiducial: &[f64; N_PARAMS],
+    exact: &Likelihood,
+    fiducial: &[f64],
 ) -> Result<RelBinLikelihood, AnalysisError> {
     let opts = RelBinOptions {
         n_sigma: study.analysis.relbin_sigma,
@@ -90,25 +139,34 @@ pub fn relbin_of(
         .map_err(|e| AnalysisError::Likelihood(e.to_string()))
 }
 
-/// The start of a MAP search for `model`: given values, else the prior centre (box midpoint
-/// or Gaussian mean; for a log-uniform box, the geometric mean).
-pub fn default_start(study: &Study, model: &ModelSpec) -> [f64; N_PARAMS] {
-    use crate::prior::PriorKind;
-    let mut th = model.base;
+/// The start of a MAP search for `model`: `[fit] start` values, else the prior centre (box
+/// midpoint or Gaussian mean; for a log-uniform box, the geometric mean); fixed values as
+/// given.
+pub fn default_start(study: &Study, model: &ModelSpec) -> Vec<f64> {
+    let mut th = model.base.clone();
+    let prior = &study.models.priors[model.model];
+    let names = study.models.models[model.model].param_names();
     for &i in &model.free {
-        th[i] = match study.prior.kinds()[i] {
-            PriorKind::Uniform { lo, hi } => 0.5 * (lo + hi),
-            PriorKind::Gaussian { mu, .. } => mu,
-            PriorKind::LogUniform { lo, hi } => (lo * hi).sqrt(),
-        };
-        if let Some(v) = study
-            .fit
-            .start
-            .as_ref()
-            .and_then(|s| s.get(crate::ltp::PARAM_NAMES[i]))
-        {
+        th[i] = prior_centre(&prior.kinds()[i]);
+        if let Some(v) = study.fit.start.as_ref().and_then(|s| s.get(&names[i])) {
             th[i] = *v;
         }
     }
     th
+}
+
+/// The true parameter values of model `mi` that the dataset knows, by name.
+pub fn truth_of(study: &Study, mi: usize, dataset: &Dataset) -> Option<Vec<Option<f64>>> {
+    let t = dataset.truth?;
+    let vals = crate::ltp::PARAM_NAMES
+        .iter()
+        .zip(t.to_array())
+        .collect::<Vec<_>>();
+    Some(
+        study.models.models[mi]
+            .param_names()
+            .iter()
+            .map(|n| vals.iter().find(|(p, _)| *p == n).map(|(_, v)| *v))
+            .collect(),
+    )
 }

@@ -1,11 +1,10 @@
 //! `occam fit`: MAP, Fisher matrix and Metropolis–Hastings parameter estimation of one model,
 //! with the paper's Table I layout, chains on disk, plots and a JSON summary.
 
-use crate::analysis::{Prepared, default_start, relbin_of};
+use crate::analysis::{Prepared, default_start, relbin_of, truth_of};
 use crate::config::{LikelihoodKind, Study};
 use crate::density::LogDensity;
 use crate::likelihood::{cramer_rao, fisher_exact, fisher_scoring};
-use crate::ltp::{N_PARAMS, PARAM_NAMES};
 use crate::nested::SubModel;
 use crate::report::{Table, fmt_pm, fmt_sig};
 use crate::sampler::{Adapt, Chains, MetropolisHastings, MhSettings, Progress, RunOutcome, Start};
@@ -52,6 +51,8 @@ pub struct ParamRow {
 #[derive(Debug, Clone, Serialize)]
 pub struct FitSummary {
     pub origin: String,
+    /// The fitted model.
+    pub model: String,
     pub likelihood: LikelihoodKind,
     pub n_bins: usize,
     pub n_coarse_bins: Option<usize>,
@@ -76,7 +77,7 @@ pub struct FitOutcome {
     pub summary: FitSummary,
     pub chains: Chains,
     /// Free-parameter MAP and Fisher matrix (for reuse by evidence estimators).
-    pub map_full: [f64; N_PARAMS],
+    pub map_full: Vec<f64>,
     pub fisher: DMatrix<f64>,
 }
 
@@ -92,6 +93,7 @@ pub fn run(
     let exact = &prep.likelihood;
     let model = &study.fit_model;
     let free = &model.free;
+    let names = exact.model().param_names().to_vec();
     let t0 = Instant::now();
     let start = default_start(study, model);
     let map = fisher_scoring(exact, &start, free, 1e-3, 200)?;
@@ -106,7 +108,7 @@ pub fn run(
     let cr = cramer_rao(&fisher).ok_or_else(|| {
         FitError::Other(format!(
             "the Fisher matrix at the MAP is singular: the data do not constrain some of {:?}; fix them or add experiments",
-            free.iter().map(|&i| PARAM_NAMES[i]).collect::<Vec<_>>()
+            free.iter().map(|&i| names[i].as_str()).collect::<Vec<_>>()
         ))
     })?;
     let seconds_map = t0.elapsed().as_secs_f64();
@@ -150,14 +152,14 @@ pub fn run(
     let seconds_mcmc = t1.elapsed().as_secs_f64();
     let diag = chains.diagnostics()?;
     warnings.extend(diag.warnings().iter().map(|w| w.to_string()));
-    let truth = prep.dataset.truth.map(|t| t.to_array());
+    let truth = truth_of(study, model.model, &prep.dataset);
     let rows = free
         .iter()
         .enumerate()
         .map(|(k, &i)| {
-            let tr = truth.map(|t| t[i]);
+            let tr = truth.as_ref().and_then(|t| t[i]);
             ParamRow {
-                name: PARAM_NAMES[i].into(),
+                name: names[i].clone(),
                 truth: tr,
                 map: map.theta[i],
                 mean: diag.mean[k],
@@ -172,6 +174,7 @@ pub fn run(
     let total_iter = (f.iterations * f.chains) as f64;
     let summary = FitSummary {
         origin: prep.origin.clone(),
+        model: exact.model().name().to_string(),
         likelihood: study.analysis.likelihood,
         n_bins: exact.n_bins(),
         n_coarse_bins: n_coarse,
@@ -203,18 +206,18 @@ pub fn run(
 fn sample<D: LogDensity>(
     parent: &D,
     model: &crate::config::ModelSpec,
-    map: &[f64; N_PARAMS],
+    map: &[f64],
     cov: &DMatrix<f64>,
     settings: MhSettings,
     out: &Path,
     observer: Option<&(dyn Fn(&Progress) + Sync)>,
     resume: bool,
 ) -> Result<Chains, FitError> {
-    let mut base = model.base;
+    let mut base = model.base.clone();
     for &i in &model.free {
         base[i] = map[i];
     }
-    let sub = SubModel::new(parent, model.free.clone(), base.to_vec())?;
+    let sub = SubModel::new(parent, model.free.clone(), base)?;
     std::fs::create_dir_all(out).map_err(|e| FitError::Other(format!("{}: {e}", out.display())))?;
     let ckpt = out.join("checkpoint.json");
     let mut mh = MetropolisHastings::new(&sub, cov, settings)?.checkpoint(&ckpt);

@@ -3,17 +3,16 @@
 //! MCD, Schwarz), the paper's Table II layout, the evolution of B (Fig. 2) and the model-visit
 //! histogram (Fig. 4).
 
-use crate::analysis::{Prepared, default_start, relbin_of};
-use crate::config::{ModelSpec, Study};
+use crate::analysis::{Prepared, default_start, likelihood_of, relbin_of, truth_of};
+use crate::config::{LikelihoodKind, ModelSpec, Study};
 use crate::density::LogDensity;
 use crate::evidence::{
     LaplaceEstimate, LaplaceOptions, LnB, McdOptions, MveOptions, ProposalShape, RjModel,
     RjOptions, RjResult, RobustMethod, laplace_fisher, laplace_metropolis, run_rjmcmc,
 };
 use crate::likelihood::{
-    LtpLikelihood, RelBinLikelihood, fisher_exact, fisher_scoring, fisher_scoring_unbounded,
+    Likelihood, RelBinLikelihood, fisher_exact, fisher_scoring, fisher_scoring_unbounded,
 };
-use crate::ltp::{N_PARAMS, PARAM_NAMES};
 use crate::nested::SubModel;
 use crate::report::{Table, kass_raftery};
 use crate::sampler::{MetropolisHastings, MhSettings, RunOutcome, Start};
@@ -65,13 +64,17 @@ impl Evidence {
 #[derive(Debug, Clone, Serialize)]
 pub struct ModelOutcome {
     pub name: String,
+    /// The model this is a sub-model of.
+    pub model: String,
+    /// That model's parameters (the order of `map` and `unbounded_max`).
+    pub params: Vec<String>,
     pub free: Vec<String>,
     pub prior_probability: f64,
-    /// MAP (full 7-vector), inside the prior box.
-    pub map: [f64; N_PARAMS],
+    /// MAP (full parameter vector of the model), inside the prior box.
+    pub map: Vec<f64>,
     pub ln_l_map: f64,
     /// Unconstrained maximum of `ln L` (the box-corrected Laplace expansion point).
-    pub unbounded_max: [f64; N_PARAMS],
+    pub unbounded_max: Vec<f64>,
     /// Smallest distance of the MAP from a prior bound, in Fisher σ.
     pub min_margin_sigma: f64,
     pub laplace_fisher_raw: Evidence,
@@ -132,16 +135,24 @@ pub struct SelectSummary {
 
 struct Prepped {
     spec: ModelSpec,
-    rb: RelBinLikelihood,
-    map: [f64; N_PARAMS],
+    /// The sampled likelihood: relative-binned around this model's MAP, or exact.
+    sampled: Sampled,
+    map: Vec<f64>,
     fisher: DMatrix<f64>,
 }
 
-fn free_vec(th: &[f64; N_PARAMS], free: &[usize]) -> Vec<f64> {
+enum Sampled {
+    RelBin(RelBinLikelihood),
+    Exact(usize),
+}
+
+fn free_vec(th: &[f64], free: &[usize]) -> Vec<f64> {
     free.iter().map(|&i| th[i]).collect()
 }
 
-/// Runs every estimator on the study's `[[select.model]]` list.
+/// Runs every estimator on the study's `[[select.model]]` list. Each competing model is a
+/// sub-model of one of the study's models; each of those gets its own exact likelihood on the
+/// data (the `[fit]` model's is `prep.likelihood`).
 pub fn run(
     study: &Study,
     prep: &Prepared,
@@ -155,9 +166,26 @@ pub fn run(
             study.source
         )));
     }
-    let exact = &prep.likelihood;
+    // one exact likelihood per parent model in use
+    let mut parents: Vec<usize> = study.select_models.iter().map(|m| m.spec.model).collect();
+    parents.sort_unstable();
+    parents.dedup();
+    let mut exacts: Vec<(usize, Likelihood)> = Vec::new();
+    for &mi in &parents {
+        let lik = if mi == study.fit_model.model {
+            prep.likelihood.clone()
+        } else {
+            likelihood_of(study, mi, &prep.dataset).map_err(|e| SelectError::Model {
+                model: study.models.defs[mi].name().to_string(),
+                msg: e.to_string(),
+            })?
+        };
+        exacts.push((mi, lik));
+    }
+    let exact_of = |mi: usize| &exacts.iter().find(|(i, _)| *i == mi).expect("built").1;
+    let first = exact_of(study.select_models[0].spec.model);
     let seed = sel.seed.unwrap_or(study.seed.wrapping_add(2));
-    let n_sbic = sel.schwarz_n.unwrap_or(exact.n_real_data() as f64);
+    let n_sbic = sel.schwarz_n.unwrap_or(first.n_real_data() as f64);
     let mut models = Vec::new();
     let mut prepped = Vec::new();
     for (k, m) in study.select_models.iter().enumerate() {
@@ -165,15 +193,29 @@ pub fn run(
             model: m.name.clone(),
             msg,
         };
-        let (outcome, pp) =
-            one_model(study, exact, m, seed.wrapping_add(k as u64), n_sbic).map_err(err)?;
+        let (outcome, pp) = one_model(
+            study,
+            exact_of(m.spec.model),
+            m,
+            seed.wrapping_add(k as u64),
+            n_sbic,
+        )
+        .map_err(err)?;
         models.push(outcome);
         prepped.push(pp);
     }
-    // reversible jump over all models, each on its own relative-binned likelihood
-    let subs: Vec<SubModel<&RelBinLikelihood>> = prepped
+    // reversible jump over all models, each on its own sampled likelihood
+    let targets: Vec<&dyn LogDensity> = prepped
         .iter()
-        .map(|p| SubModel::new(&p.rb, p.spec.free.clone(), p.map.to_vec()))
+        .map(|p| match &p.sampled {
+            Sampled::RelBin(rb) => rb as &dyn LogDensity,
+            Sampled::Exact(mi) => exact_of(*mi) as &dyn LogDensity,
+        })
+        .collect();
+    let subs: Vec<SubModel<&dyn LogDensity>> = prepped
+        .iter()
+        .zip(&targets)
+        .map(|(p, t)| SubModel::new(*t, p.spec.free.clone(), p.map.clone()))
         .collect::<Result<_, _>>()
         .map_err(|e| SelectError::Config(e.to_string()))?;
     let rj_models: Vec<RjModel<'_>> = prepped
@@ -216,12 +258,16 @@ pub fn run(
             pairs.push(pair(&models, &rj, x, y));
         }
     }
-    let truth_snr = prep.dataset.truth.map(|t| exact.snr(&t.to_array()));
+    // ρ_opt at the truth where the first model has every true value, else at its MAP
+    let m0 = study.select_models[0].spec.model;
+    let truth_snr = truth_of(study, m0, &prep.dataset)
+        .and_then(|t| t.into_iter().collect::<Option<Vec<f64>>>())
+        .map(|t| first.snr(&t));
     Ok(SelectSummary {
         origin: prep.origin.clone(),
         rho_opt_simulated: prep.dataset.extra.get("snr_total").and_then(|v| v.as_f64()),
-        rho_opt: truth_snr.unwrap_or_else(|| exact.snr(&models[0].map)),
-        n_bins: exact.n_bins(),
+        rho_opt: truth_snr.unwrap_or_else(|| first.snr(&models[0].map)),
+        n_bins: first.n_bins(),
         schwarz_n: n_sbic,
         models,
         pairs,
@@ -233,13 +279,14 @@ pub fn run(
 
 fn one_model(
     study: &Study,
-    exact: &LtpLikelihood,
+    exact: &Likelihood,
     m: &crate::config::SelectModel,
     seed: u64,
     n_sbic: f64,
 ) -> Result<(ModelOutcome, Prepped), String> {
     let spec = &m.spec;
     let free = &spec.free;
+    let names = exact.model().param_names().to_vec();
     let start = default_start(study, spec);
     let map = fisher_scoring(exact, &start, free, 1e-3, 200).map_err(|e| e.to_string())?;
     let unb =
@@ -249,12 +296,12 @@ fn one_model(
     let cov = f_map.clone().cholesky().ok_or_else(|| {
         format!(
             "the Fisher matrix at the MAP is singular: the data do not constrain some of {:?}",
-            free.iter().map(|&i| PARAM_NAMES[i]).collect::<Vec<_>>()
+            free.iter().map(|&i| names[i].as_str()).collect::<Vec<_>>()
         )
     })?;
     let cov = cov.inverse();
     let sub_exact =
-        SubModel::new(exact, free.clone(), map.theta.to_vec()).map_err(|e| e.to_string())?;
+        SubModel::new(exact, free.clone(), map.theta.clone()).map_err(|e| e.to_string())?;
     let raw_opts = LaplaceOptions {
         box_correction: false,
         ..Default::default()
@@ -270,9 +317,19 @@ fn one_model(
         &f_unb,
         &LaplaceOptions::default(),
     );
-    // in-model chains on the relative-binned likelihood around this model's MAP
-    let rb = relbin_of(study, exact, &map.theta).map_err(|e| e.to_string())?;
-    let sub_rb = SubModel::new(&rb, free.clone(), map.theta.to_vec()).map_err(|e| e.to_string())?;
+    // in-model chains on the sampled likelihood around this model's MAP
+    let sampled = match study.analysis.likelihood {
+        LikelihoodKind::Relbin => {
+            Sampled::RelBin(relbin_of(study, exact, &map.theta).map_err(|e| e.to_string())?)
+        }
+        LikelihoodKind::Exact => Sampled::Exact(spec.model),
+    };
+    let target: &dyn LogDensity = match &sampled {
+        Sampled::RelBin(rb) => rb,
+        Sampled::Exact(_) => exact,
+    };
+    let sub_s =
+        SubModel::new(target, free.clone(), map.theta.clone()).map_err(|e| e.to_string())?;
     let d = free.len();
     let prop = &cov * (2.38f64.powi(2) / d as f64);
     let sel = &study.select;
@@ -290,7 +347,7 @@ fn one_model(
         checkpoint_every: sel.iterations,
         progress_every: sel.iterations,
     };
-    let mh = MetropolisHastings::new(&sub_rb, &prop, settings).map_err(|e| e.to_string())?;
+    let mh = MetropolisHastings::new(&sub_s, &prop, settings).map_err(|e| e.to_string())?;
     let chains = match mh
         .run(&Start::Around {
             centre: free_vec(&map.theta, free),
@@ -323,9 +380,11 @@ fn one_model(
     let ln_l_map = exact.ln_likelihood_full(&map.theta);
     let outcome = ModelOutcome {
         name: m.name.clone(),
-        free: free.iter().map(|&i| PARAM_NAMES[i].to_string()).collect(),
+        model: exact.model().name().to_string(),
+        params: names.clone(),
+        free: free.iter().map(|&i| names[i].clone()).collect(),
         prior_probability: m.prior_probability,
-        map: map.theta,
+        map: map.theta.clone(),
         ln_l_map,
         unbounded_max: unb.theta,
         min_margin_sigma,
@@ -342,7 +401,7 @@ fn one_model(
         outcome,
         Prepped {
             spec: spec.clone(),
-            rb,
+            sampled,
             map: map.theta,
             fisher: f_map,
         },

@@ -14,7 +14,7 @@ fn study() -> Study {
 
 /// Points on the r-σ ellipsoid of F⁻¹: ± each axis of the Cholesky factor and random
 /// directions.
-fn ellipsoid(f: &nalgebra::DMatrix<f64>, c: &[f64; N_PARAMS], r: f64) -> Vec<[f64; N_PARAMS]> {
+fn ellipsoid(f: &nalgebra::DMatrix<f64>, c: &[f64], r: f64) -> Vec<[f64; N_PARAMS]> {
     use rand::SeedableRng;
     use rand_distr::{Distribution, StandardNormal};
     let l = f

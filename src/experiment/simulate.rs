@@ -9,7 +9,7 @@ use super::ExperimentDesign;
 use crate::config::{Method, NoiseSynthesis, Study};
 use crate::dataset::{Dataset, ExperimentData};
 use crate::hermitian;
-use crate::ltp::{BinConsts, ClosedLoop, Controllers, LtpParams, Masses, NoiseModel, response};
+use crate::ltp::{BinConsts, ClosedLoop, Controllers, LtpParams, Masses, NoiseModel};
 use crate::signal::{RealFft, SignalError, SynthMode, synth_two_channel};
 use num_complex::Complex64;
 use rand::SeedableRng;
@@ -33,6 +33,8 @@ pub struct System {
     pub noise: NoiseModel,
     /// Fixed OMS delay τ_o (s).
     pub oms_delay: f64,
+    /// Thruster response on the drag-free actuation (none by default).
+    pub thruster: Option<crate::config::TruthThruster>,
 }
 
 impl System {
@@ -44,6 +46,15 @@ impl System {
             masses: study.masses,
             noise: study.noise,
             oms_delay: study.oms_delay,
+            thruster: study.simulation.thruster,
+        }
+    }
+
+    /// The thruster factor `R(f)` on the drag-free actuation (1 without a thruster response).
+    pub fn thruster_factor(&self, f: f64) -> Complex64 {
+        match self.thruster {
+            Some(t) => t.response.factor(t.value, f),
+            None => Complex64::new(1.0, 0.0),
         }
     }
 
@@ -52,10 +63,11 @@ impl System {
         if f <= 0.0 {
             return [[Complex64::new(0.0, 0.0); 2]; 2];
         }
-        let cl = ClosedLoop::at(
+        let cl = ClosedLoop::with_thruster(
             &self.truth,
             &BinConsts::new(f, &self.controllers, self.oms_delay),
             &self.masses,
+            self.thruster_factor(f),
         );
         self.noise.output_csd(&cl, f, &self.masses)
     }
@@ -80,7 +92,12 @@ impl System {
             } else {
                 let f = k as f64 * fs / n as f64;
                 let bc = BinConsts::new(f, &self.controllers, self.oms_delay);
-                response(&th, &bc, &self.masses, [inj[0][k], inj[1][k]])
+                let h = crate::ltp::h_io_matrix(&th, &bc, &self.masses, self.thruster_factor(f));
+                let v = [inj[0][k], inj[1][k]];
+                [
+                    h[0][0] * v[0] + h[0][1] * v[1],
+                    h[1][0] * v[0] + h[1][1] * v[1],
+                ]
             };
             out[0][k] = h[0];
             out[1][k] = h[1];

@@ -1,27 +1,25 @@
-//! The exact frequency-domain likelihood of the 7-parameter LTP model over all in-band bins.
+//! The exact frequency-domain likelihood of any [`Model`] over all in-band bins.
 
 use super::spectra::ExperimentSpectra;
 use crate::density::LogDensity;
 use crate::hermitian;
-use crate::lti::delay;
-use crate::ltp::{LoopKernel, Masses, N_PARAMS, response};
+use crate::model::{MAX_CHANNELS, MAX_RESIDUALS, Model, residual};
 use crate::prior::Prior;
 use num_complex::Complex64;
+use std::sync::Arc;
 
-/// How often the delay phasors are recomputed exactly in [`LtpLikelihood::residual_power`].
-pub const PHASOR_RESEED: usize = 256;
-
-/// `ln L(θ)` of the full 7-parameter closed-loop model, summed over experiments.
+/// `ln L(θ)` of a model, summed over experiments.
 ///
 /// # Formula
-/// `ln L(θ) = −Σ_e Σ_{k ∈ band} R_kᴴ C_k⁻¹ R_k − Σ_e Σ_k ln(π² det C_k)`, with
-/// `R_k = Y_k − H_io(f_k; θ) I_k` and `C_k = (fs/2) Σw² S_k` (ltp-model.md §8.2). The constant
-/// makes `L` the density of the in-band DFT data (a circular complex Gaussian per bin), so
-/// evidences are proper densities; it cancels in every Bayes factor.
+/// `ln L(θ) = −Σ_e Σ_{k ∈ band} r_kᴴ C_k⁻¹ r_k − Σ_e Σ_k ln(π^R det C_k)`, with the residual
+/// `r_k = Σ_c M_c(f_k; θ) d_c,k` and `C_k = (fs/2) Σw² S_r,k` (ltp-model.md §8.2; for the LTP
+/// closed loop `r_k = Y_k − H_io(f_k; θ) I_k`). The constant makes `L` the density of the
+/// in-band residual DFTs (a circular complex Gaussian per bin), so evidences are proper
+/// densities; it cancels in every Bayes factor.
 #[derive(Debug, Clone)]
-pub struct LtpLikelihood {
+pub struct Likelihood {
+    model: Arc<dyn Model>,
     spectra: Vec<ExperimentSpectra>,
-    masses: Masses,
     prior: Prior,
     ln_norm: f64,
 }
@@ -29,43 +27,75 @@ pub struct LtpLikelihood {
 /// Errors building a likelihood.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum LikelihoodError {
-    #[error(
-        "the prior has {0} parameters; the LTP model has 7 (w1sq, w2sq, dt1, dt2, a_df, a_sus, d21)"
-    )]
-    PriorDim(usize),
+    #[error("the prior has parameters {prior:?}; model `{model}` has {params:?}")]
+    PriorNames {
+        model: String,
+        prior: Vec<String>,
+        params: Vec<String>,
+    },
     #[error("no experiments to fit")]
     NoData,
-    #[error("experiments have different sample rates or are inconsistent: {0}")]
-    Inconsistent(String),
+    #[error("model `{0}`: {1}")]
+    Model(String, String),
+    #[error(
+        "experiment `{exp}` was prepared for data channels {got:?}; model `{model}` reads {want:?}"
+    )]
+    Channels {
+        exp: String,
+        model: String,
+        got: Vec<String>,
+        want: Vec<String>,
+    },
 }
 
-impl LtpLikelihood {
-    /// A likelihood over `spectra` with a normalised 7-parameter prior.
+impl Likelihood {
+    /// A likelihood of `model` over `spectra` (prepared for this model) with a normalised prior
+    /// over the model's parameters, in its order.
     pub fn new(
+        model: Arc<dyn Model>,
         spectra: Vec<ExperimentSpectra>,
-        masses: Masses,
         prior: Prior,
     ) -> Result<Self, LikelihoodError> {
-        if prior.dim() != N_PARAMS {
-            return Err(LikelihoodError::PriorDim(prior.dim()));
+        crate::model::validate_shape(model.as_ref())
+            .map_err(|e| LikelihoodError::Model(model.name().into(), e))?;
+        if prior.names() != model.param_names() {
+            return Err(LikelihoodError::PriorNames {
+                model: model.name().into(),
+                prior: prior.names().to_vec(),
+                params: model.param_names().to_vec(),
+            });
         }
         if spectra.is_empty() {
             return Err(LikelihoodError::NoData);
         }
+        let nr = model.residual_channels().len();
         let mut ln_norm = 0.0;
         for e in &spectra {
+            if e.channels != model.data_channels() {
+                return Err(LikelihoodError::Channels {
+                    exp: e.name.clone(),
+                    model: model.name().into(),
+                    got: e.channels.clone(),
+                    want: model.data_channels().to_vec(),
+                });
+            }
             for &(a, b, c) in &e.cinv {
                 // det C = 1/det C⁻¹
-                let det_inv = a * c - b.norm_sqr();
-                ln_norm -= 2.0 * std::f64::consts::PI.ln() - det_inv.ln();
+                let det_inv = if nr == 2 { a * c - b.norm_sqr() } else { a };
+                ln_norm -= nr as f64 * std::f64::consts::PI.ln() - det_inv.ln();
             }
         }
         Ok(Self {
+            model,
             spectra,
-            masses,
             prior,
             ln_norm,
         })
+    }
+
+    /// The model.
+    pub fn model(&self) -> &Arc<dyn Model> {
+        &self.model
     }
 
     /// The prepared spectra.
@@ -73,12 +103,7 @@ impl LtpLikelihood {
         &self.spectra
     }
 
-    /// The masses of the fit model.
-    pub fn masses(&self) -> &Masses {
-        &self.masses
-    }
-
-    /// The θ-independent normalisation `−Σ ln(π² det C_k)`.
+    /// The θ-independent normalisation `−Σ ln(π^R det C_k)`.
     pub fn ln_norm(&self) -> f64 {
         self.ln_norm
     }
@@ -88,73 +113,73 @@ impl LtpLikelihood {
         self.spectra.iter().map(|e| e.len()).sum()
     }
 
-    /// Number of real data values entering the likelihood: 2 (re, im) × 2 channels × bins.
+    /// Number of real data values entering the likelihood: 2 (re, im) × residual channels ×
+    /// bins.
     pub fn n_real_data(&self) -> usize {
-        4 * self.n_bins()
+        2 * self.model.residual_channels().len() * self.n_bins()
     }
 
-    /// `Σ R_kᴴ C_k⁻¹ R_k` (the "χ²/2" of the residual; `ln L = −this + ln_norm`).
-    ///
-    /// The hot path: [`LoopKernel`] per bin, guidance-delay phasors by recurrence on the
-    /// uniform DFT grid (re-seeded exactly every [`PHASOR_RESEED`] bins, so rounding cannot
-    /// accumulate beyond ~1e−14), no allocation.
-    pub fn residual_power(&self, th: &[f64; N_PARAMS]) -> f64 {
-        let kern = LoopKernel::new(th, &self.masses);
-        let mut s = 0.0;
-        for e in &self.spectra {
-            let step = [delay(th[2], e.df), delay(th[3], e.df)];
-            let mut t = [Complex64::new(1.0, 0.0); 2];
-            for k in 0..e.len() {
-                if k % PHASOR_RESEED == 0 {
-                    let f = e.freqs[k];
-                    t = [delay(th[2], f), delay(th[3], f)];
-                }
-                let h = kern.eval(&e.consts[k], t, e.inj[k]);
-                let r = [e.y[k][0] - h[0], e.y[k][1] - h[1]];
-                s += hermitian::quad(&e.cinv[k], r);
-                t[0] *= step[0];
-                t[1] *= step[1];
-            }
-        }
-        s
+    /// `Σ r_kᴴ C_k⁻¹ r_k` (the "χ²/2" of the residual; `ln L = −this + ln_norm`), through the
+    /// model's kernel ([`Model::residual_power`]).
+    pub fn residual_power(&self, th: &[f64]) -> f64 {
+        self.spectra
+            .iter()
+            .map(|e| self.model.residual_power(th, &e.block()))
+            .sum()
     }
 
     /// `ln L` at a full parameter vector.
-    pub fn ln_likelihood_full(&self, th: &[f64; N_PARAMS]) -> f64 {
+    pub fn ln_likelihood_full(&self, th: &[f64]) -> f64 {
+        if th.len() != self.model.param_names().len() {
+            return f64::NAN;
+        }
         -self.residual_power(th) + self.ln_norm
     }
 
-    /// Templates `h_k(θ)` of every experiment.
-    pub fn templates(&self, th: &[f64; N_PARAMS]) -> Vec<Vec<[Complex64; 2]>> {
-        self.spectra
-            .iter()
-            .map(|e| {
-                (0..e.len())
-                    .map(|k| response(th, &e.consts[k], &self.masses, e.inj[k]))
-                    .collect()
-            })
-            .collect()
+    /// The residual `r_k(θ)` and the signal `s_k(θ)` (the part of the residual from the known
+    /// input channels) of every bin of experiment `e`, through `visit(k, r, s)`.
+    pub fn visit_residuals(
+        &self,
+        e: &ExperimentSpectra,
+        th: &[f64],
+        mut visit: impl FnMut(usize, [Complex64; 2], [Complex64; 2]),
+    ) {
+        let m = &self.model;
+        let nc = m.data_channels().len();
+        let nr = m.residual_channels().len();
+        let ncst = m.n_consts();
+        let mut coef = [Complex64::new(0.0, 0.0); MAX_CHANNELS * MAX_RESIDUALS];
+        let mut din = [Complex64::new(0.0, 0.0); MAX_CHANNELS];
+        for k in 0..e.len() {
+            m.coefficients(th, &e.bin(k, ncst), &mut coef[..nr * nc]);
+            let d = e.data_at(k);
+            for c in 0..nc {
+                din[c] = if e.is_input[c] {
+                    d[c]
+                } else {
+                    Complex64::new(0.0, 0.0)
+                };
+            }
+            visit(k, residual(&coef, nr, d), residual(&coef, nr, &din[..nc]));
+        }
     }
 
-    /// Optimal SNR `ρ_opt = √⟨h|h⟩ = √(2 Σ h_kᴴ C_k⁻¹ h_k)` of the template at θ.
-    pub fn snr(&self, th: &[f64; N_PARAMS]) -> f64 {
+    /// Optimal SNR `ρ_opt = √⟨s|s⟩ = √(2 Σ s_kᴴ C_k⁻¹ s_k)` of the signal at θ: the model's
+    /// response to the known inputs (for the closed loop, `H_io I`).
+    pub fn snr(&self, th: &[f64]) -> f64 {
         let mut s = 0.0;
-        for (e, h) in self.spectra.iter().zip(self.templates(th)) {
-            for (k, hk) in h.into_iter().enumerate() {
-                s += 2.0 * hermitian::quad(&e.cinv[k], hk);
-            }
+        for e in &self.spectra {
+            self.visit_residuals(e, th, |k, _, sig| {
+                s += 2.0 * hermitian::quad(&e.cinv[k], sig);
+            });
         }
         s.sqrt()
     }
 }
 
-impl LogDensity for LtpLikelihood {
+impl LogDensity for Likelihood {
     fn ln_likelihood(&self, theta: &[f64]) -> f64 {
-        let th: &[f64; N_PARAMS] = match theta.try_into() {
-            Ok(t) => t,
-            Err(_) => return f64::NAN,
-        };
-        self.ln_likelihood_full(th)
+        self.ln_likelihood_full(theta)
     }
 
     fn prior(&self) -> &Prior {

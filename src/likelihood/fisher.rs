@@ -1,54 +1,85 @@
-//! Fisher information of the LTP template: exact (dual numbers) and by central differences.
+//! Fisher information of any model's residual: exact (dual numbers) and by central
+//! differences.
+//!
+//! `∂_a r_k = Σ_c ∂_a M_c(f_k; θ) d_c,k`; `F_ab = Σ_e Σ_k 2 Re(∂_a r_kᴴ C_k⁻¹ ∂_b r_k)`
+//! (ltp-model.md §8.2; for the closed loop `∂r = −∂h`, the same matrix).
 
-use super::exact::LtpLikelihood;
+use super::exact::Likelihood;
+use super::spectra::ExperimentSpectra;
 use crate::hermitian;
-use crate::ltp::{N_PARAMS, response};
+use crate::model::{MAX_CHANNELS, MAX_RESIDUALS, Model, residual};
 use nalgebra::DMatrix;
-use num_complex::Complex64;
+use num_complex::{Complex, Complex64};
 use num_dual::Dual64;
 
-/// Fisher matrix over the parameters `free` (indices into the 7-vector) at `th`.
-///
-/// # Formula
-/// `F_ab = Σ_e Σ_k 2 Re(∂_a h_kᴴ C_k⁻¹ ∂_b h_k)` (ltp-model.md §8.2), with `∂_a h` exact by
-/// forward-mode dual numbers through the closed loop.
-pub fn fisher_exact(lik: &LtpLikelihood, th: &[f64; N_PARAMS], free: &[usize]) -> DMatrix<f64> {
-    fisher_with(lik, free, |e, k, a| {
-        let mut d: [Dual64; N_PARAMS] = th.map(Dual64::from);
-        d[a] = Dual64::from(th[a]).derivative();
-        let h = response(&d, &e.consts[k], lik.masses(), e.inj[k]);
-        [0, 1].map(|i| Complex64::new(h[i].re.eps, h[i].im.eps))
-    })
+const ZERO: Complex64 = Complex64::new(0.0, 0.0);
+
+/// `(r_k, ∂_a r_k)` at bin `k` by forward-mode dual numbers in the direction of parameter `a`.
+fn dual_residual(
+    m: &dyn Model,
+    e: &ExperimentSpectra,
+    k: usize,
+    th: &[f64],
+    a: usize,
+    buf: &mut [Dual64],
+) -> ([Complex64; 2], [Complex64; 2]) {
+    let nc = m.data_channels().len();
+    let nr = m.residual_channels().len();
+    for (b, &t) in buf.iter_mut().zip(th) {
+        *b = Dual64::from(t);
+    }
+    buf[a] = Dual64::from(th[a]).derivative();
+    let z = Complex::new(Dual64::from(0.0), Dual64::from(0.0));
+    let mut coef = [z; MAX_CHANNELS * MAX_RESIDUALS];
+    m.coefficients_dual(buf, &e.bin(k, m.n_consts()), &mut coef[..nr * nc]);
+    let d = e.data_at(k);
+    let mut r = [ZERO; 2];
+    let mut dr = [ZERO; 2];
+    for i in 0..nr {
+        for c in 0..nc {
+            let x = coef[i * nc + c];
+            r[i] += Complex64::new(x.re.re, x.im.re) * d[c];
+            dr[i] += Complex64::new(x.re.eps, x.im.eps) * d[c];
+        }
+    }
+    (r, dr)
+}
+
+/// Fisher matrix over the parameters `free` (indices into θ) at `th`, with exact derivatives.
+pub fn fisher_exact(lik: &Likelihood, th: &[f64], free: &[usize]) -> DMatrix<f64> {
+    gradient_and_fisher(lik, th, free).1
 }
 
 /// Gradient of `ln L` and the Fisher matrix over `free` at `th`, in one pass over the bins.
 ///
 /// # Formula
-/// `∂_a ln L = 2 Re Σ ∂_a h_kᴴ C_k⁻¹ R_k`, `F_ab = 2 Re Σ ∂_a h_kᴴ C_k⁻¹ ∂_b h_k`.
+/// `∂_a ln L = −2 Re Σ ∂_a r_kᴴ C_k⁻¹ r_k`, `F_ab = 2 Re Σ ∂_a r_kᴴ C_k⁻¹ ∂_b r_k`.
 pub fn gradient_and_fisher(
-    lik: &LtpLikelihood,
-    th: &[f64; N_PARAMS],
+    lik: &Likelihood,
+    th: &[f64],
     free: &[usize],
 ) -> (Vec<f64>, DMatrix<f64>) {
+    let m = lik.model().as_ref();
     let d = free.len();
     let mut g = vec![0.0; d];
     let mut f = DMatrix::<f64>::zeros(d, d);
-    let mut dh = vec![[Complex64::new(0.0, 0.0); 2]; d];
+    let mut dr = vec![[ZERO; 2]; d];
+    let mut buf = vec![Dual64::from(0.0); th.len()];
     for e in lik.spectra() {
         for k in 0..e.len() {
-            let mut h = [Complex64::new(0.0, 0.0); 2];
+            let mut r = [ZERO; 2];
             for (i, &a) in free.iter().enumerate() {
-                let mut x: [Dual64; N_PARAMS] = th.map(Dual64::from);
-                x[a] = Dual64::from(th[a]).derivative();
-                let hd = response(&x, &e.consts[k], lik.masses(), e.inj[k]);
-                dh[i] = [0, 1].map(|c| Complex64::new(hd[c].re.eps, hd[c].im.eps));
-                h = [0, 1].map(|c| Complex64::new(hd[c].re.re, hd[c].im.re));
+                let (rk, drk) = dual_residual(m, e, k, th, a, &mut buf);
+                r = rk;
+                dr[i] = drk;
             }
-            let r = [e.y[k][0] - h[0], e.y[k][1] - h[1]];
+            if d == 0 {
+                continue;
+            }
             for i in 0..d {
-                g[i] += 2.0 * hermitian::inner(&e.cinv[k], dh[i], r);
+                g[i] -= 2.0 * hermitian::inner(&e.cinv[k], dr[i], r);
                 for j in i..d {
-                    f[(i, j)] += 2.0 * hermitian::inner(&e.cinv[k], dh[i], dh[j]);
+                    f[(i, j)] += 2.0 * hermitian::inner(&e.cinv[k], dr[i], dr[j]);
                 }
             }
         }
@@ -61,52 +92,54 @@ pub fn gradient_and_fisher(
     (g, f)
 }
 
-/// The default central-difference step for parameter `a`: `ε^{1/3}` relative to the value,
-/// with a floor for parameters that may sit at zero (delays, cross-talk).
-pub fn default_step(a: usize, value: f64) -> f64 {
-    // floors: the scale each parameter is measured on (s⁻², s, gain, cross-talk)
-    const FLOOR: [f64; N_PARAMS] = [1e-7, 1e-7, 1e-2, 1e-2, 1e-2, 1e-2, 1e-4];
-    f64::EPSILON.cbrt() * value.abs().max(FLOOR[a])
+/// The default central-difference step for parameter `name` at `value`: `ε^{1/3}` relative to
+/// the value, with a floor on the scale the parameter is measured on, for parameters that may
+/// sit at zero (delays, cross-talk).
+pub fn default_step(name: &str, value: f64) -> f64 {
+    let floor = match name {
+        "w1sq" | "w2sq" => 1e-7,
+        "dt1" | "dt2" | "a_df" | "a_sus" | "tau_df" => 1e-2,
+        "d21" => 1e-4,
+        _ => 1e-3,
+    };
+    f64::EPSILON.cbrt() * value.abs().max(floor)
 }
 
-/// Fisher matrix by central differences of the template with steps `steps[a]` (or
-/// [`default_step`]); an oracle for [`fisher_exact`] and a fallback for other models.
+/// Fisher matrix by central differences of the residual with steps `steps[i]` (per free
+/// parameter, or [`default_step`]); an oracle for [`fisher_exact`].
 pub fn fisher_numeric(
-    lik: &LtpLikelihood,
-    th: &[f64; N_PARAMS],
+    lik: &Likelihood,
+    th: &[f64],
     free: &[usize],
     steps: Option<&[f64]>,
 ) -> DMatrix<f64> {
-    fisher_with(lik, free, |e, k, a| {
-        let i = free.iter().position(|&x| x == a).expect("a is free");
-        let h = steps.map_or_else(|| default_step(a, th[a]), |s| s[i]);
-        let mut p = *th;
-        let mut m = *th;
-        p[a] += h;
-        m[a] -= h;
-        let hp = response(&p, &e.consts[k], lik.masses(), e.inj[k]);
-        let hm = response(&m, &e.consts[k], lik.masses(), e.inj[k]);
-        [0, 1].map(|c| (hp[c] - hm[c]) / (2.0 * h))
-    })
-}
-
-fn fisher_with(
-    lik: &LtpLikelihood,
-    free: &[usize],
-    deriv: impl Fn(&super::ExperimentSpectra, usize, usize) -> [Complex64; 2],
-) -> DMatrix<f64> {
+    let m = lik.model();
+    let names = m.param_names();
+    let nc = m.data_channels().len();
+    let nr = m.residual_channels().len();
     let d = free.len();
     let mut f = DMatrix::<f64>::zeros(d, d);
-    let mut dh = vec![[Complex64::new(0.0, 0.0); 2]; d];
+    let mut dr = vec![[ZERO; 2]; d];
+    let mut cp = vec![ZERO; nr * nc];
+    let mut cm = vec![ZERO; nr * nc];
     for e in lik.spectra() {
         for k in 0..e.len() {
+            let bin = e.bin(k, m.n_consts());
             for (i, &a) in free.iter().enumerate() {
-                dh[i] = deriv(e, k, a);
+                let h = steps.map_or_else(|| default_step(&names[a], th[a]), |s| s[i]);
+                let mut p = th.to_vec();
+                let mut q = th.to_vec();
+                p[a] += h;
+                q[a] -= h;
+                m.coefficients(&p, &bin, &mut cp);
+                m.coefficients(&q, &bin, &mut cm);
+                let rp = residual(&cp, nr, e.data_at(k));
+                let rm = residual(&cm, nr, e.data_at(k));
+                dr[i] = [0, 1].map(|c| (rp[c] - rm[c]) / (2.0 * h));
             }
             for i in 0..d {
                 for j in i..d {
-                    let v = 2.0 * hermitian::inner(&e.cinv[k], dh[i], dh[j]);
-                    f[(i, j)] += v;
+                    f[(i, j)] += 2.0 * hermitian::inner(&e.cinv[k], dr[i], dr[j]);
                 }
             }
         }

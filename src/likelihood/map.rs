@@ -1,4 +1,4 @@
-//! Maximum-likelihood / MAP search for the LTP model by Fisher scoring (Gauss–Newton).
+//! Maximum-likelihood / MAP search for any model by Fisher scoring (Gauss–Newton).
 //!
 //! The template is smooth and the posterior close to Gaussian, so Newton steps with the
 //! Fisher matrix as the Hessian converge in a few iterations from anywhere the linearisation
@@ -6,16 +6,15 @@
 //! and steps are clipped to the prior box. Nelder–Mead ([`crate::sampler::find_map`]) is the
 //! derivative-free alternative for other models.
 
-use super::exact::LtpLikelihood;
+use super::exact::Likelihood;
 use super::fisher::gradient_and_fisher;
 use crate::density::LogDensity;
-use crate::ltp::N_PARAMS;
 
 /// Result of [`fisher_scoring`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct ScoringResult {
-    /// The maximum found (full 7-vector; fixed parameters unchanged).
-    pub theta: [f64; N_PARAMS],
+    /// The maximum found (full parameter vector; fixed parameters unchanged).
+    pub theta: Vec<f64>,
     /// `ln L + ln π` there.
     pub ln_posterior: f64,
     pub iterations: usize,
@@ -38,8 +37,8 @@ pub enum MapError {
 /// `tol` (in units of the Cramér–Rao σ) or `max_iter` iterations. Steps are clipped to the
 /// prior box, so the result is the MAP, possibly on a bound.
 pub fn fisher_scoring(
-    lik: &LtpLikelihood,
-    start: &[f64; N_PARAMS],
+    lik: &Likelihood,
+    start: &[f64],
     free: &[usize],
     tol: f64,
     max_iter: usize,
@@ -51,8 +50,8 @@ pub fn fisher_scoring(
 /// Gaussian terms) where the likelihood is defined beyond the box, e.g. at negative delays.
 /// This is the expansion point of the box-corrected Laplace estimate (ltp-model.md §9.3).
 pub fn fisher_scoring_unbounded(
-    lik: &LtpLikelihood,
-    start: &[f64; N_PARAMS],
+    lik: &Likelihood,
+    start: &[f64],
     free: &[usize],
     tol: f64,
     max_iter: usize,
@@ -61,8 +60,8 @@ pub fn fisher_scoring_unbounded(
 }
 
 fn scoring(
-    lik: &LtpLikelihood,
-    start: &[f64; N_PARAMS],
+    lik: &Likelihood,
+    start: &[f64],
     free: &[usize],
     tol: f64,
     max_iter: usize,
@@ -72,9 +71,9 @@ fn scoring(
     let bounds: Vec<(f64, f64)> = if bounded {
         lik.prior().bounds()
     } else {
-        vec![(f64::NEG_INFINITY, f64::INFINITY); N_PARAMS]
+        vec![(f64::NEG_INFINITY, f64::INFINITY); start.len()]
     };
-    let post = |th: &[f64; N_PARAMS]| {
+    let post = |th: &[f64]| {
         if bounded {
             lik.ln_posterior(th)
         } else {
@@ -82,10 +81,10 @@ fn scoring(
                 + crate::evidence::laplace::ln_prior_extended(lik.prior(), th).unwrap_or(f64::NAN)
         }
     };
-    let mut th = *start;
+    let mut th = start.to_vec();
     let mut lp = post(&th);
     if lp == f64::NEG_INFINITY || lp.is_nan() {
-        let bad = (0..N_PARAMS)
+        let bad = (0..start.len())
             .find(|&i| !(bounds[i].0..=bounds[i].1).contains(&th[i]))
             .unwrap_or(0);
         return Err(MapError::StartOutsidePrior(names[bad].clone()));
@@ -106,7 +105,7 @@ fn scoring(
         let mut t = 1.0;
         let mut accepted = false;
         for _ in 0..40 {
-            let mut cand = th;
+            let mut cand = th.clone();
             for (i, &a) in free.iter().enumerate() {
                 cand[a] = (th[a] + t * step[i]).clamp(bounds[a].0, bounds[a].1);
             }

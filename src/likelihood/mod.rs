@@ -1,7 +1,9 @@
-//! The frequency-domain likelihood (ltp-model.md §8): per-experiment spectra, the exact
-//! `ln L` over all in-band bins, a relative-binned fast `ln L`, and Fisher matrices.
+//! The frequency-domain likelihood (ltp-model.md §8) of any [`crate::model::Model`]:
+//! per-experiment spectra, the exact `ln L` over all in-band bins, a relative-binned fast
+//! `ln L`, Fisher matrices and the MAP search.
 //!
-//! `ln L = −Σ_e Σ_k R_kᴴ C_k⁻¹ R_k + const`, `R_k = Y_k − H_io(f_k; θ) I_k`,
+//! `ln L = −Σ_e Σ_k r_kᴴ C_k⁻¹ r_k + const`, `r_k = Σ_c M_c(f_k; θ) d_c,k` (for the closed loop
+//! `r_k = Y_k − H_io(f_k; θ) I_k`),
 //! `C_k = (fs/2) Σ_n w[n]² S_k` (`= (N fs/2) S_k` for the rectangular window): normalised by the
 //! series length `N`, not by the number of in-band bins.
 
@@ -11,7 +13,7 @@ mod map;
 mod relbin;
 mod spectra;
 
-pub use exact::{LikelihoodError, LtpLikelihood};
+pub use exact::{Likelihood, LikelihoodError};
 pub use fisher::{cramer_rao, default_step, fisher_exact, fisher_numeric, gradient_and_fisher};
 pub use map::{MapError, ScoringResult, fisher_scoring, fisher_scoring_unbounded};
 pub use relbin::{RelBinError, RelBinLikelihood, RelBinOptions};

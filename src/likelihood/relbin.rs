@@ -1,40 +1,44 @@
 //! Fast likelihood by relative binning (heterodyning; Cornish 2010, arXiv:1007.4820; Zackay,
 //! Dai & Venumadhav 2018, arXiv:1806.08792).
 //!
-//! Around a fiducial θ0 (the MAP), the ratio `r_ij(f; θ) = H_ij(f; θ)/H_ij(f; θ0)` of every
-//! transfer-matrix element is smooth in `f`. Interpolating `δr = r − 1` linearly across coarse
-//! bins turns the sums over all fine bins into sums over coarse bins of precomputed summary
-//! data. The likelihood is written around the fiducial residual `R0 = Y − h0`, so no term is
-//! of order ρ² and nothing cancels catastrophically:
+//! Works for any [`crate::model::Model`]: its coefficients `M_rc(f; θ)` are smooth in `f`.
+//! Around a fiducial θ0 (the MAP), the relative change `δ_rc(f; θ) = (M_rc(f; θ) −
+//! M_rc(f; θ0))/s_rc(f)` of every θ-dependent coefficient is smooth in `f`, with the scale
+//! `s_rc = M_rc(f; θ0)` (a ratio, as for the closed loop's `H_io(θ)/H_io(θ0)`) or, for a
+//! coefficient that vanishes somewhere at θ0 (a cross-talk term at δ21 = 0), `s_rc = 1` (a
+//! difference). Interpolating `δ` linearly across coarse bins turns the sums over all fine bins
+//! into sums over coarse bins of precomputed summary data. The likelihood is written around the
+//! fiducial residual `r0`, so no term is of order ρ² and nothing cancels catastrophically:
 //!
 //! ```text
-//! ln L̃ = ln_norm − Σ R0ᴴC⁻¹R0 + 2 Re Σ Δhᴴ C⁻¹ R0 − Σ Δhᴴ C⁻¹ Δh,   Δh_i = Σ_j δr̃_ij g_ij,
-//! g_ij,k = H_ij(f_k; θ0) I_j,k,   δr̃(x) = u + v x,  x = (f − f_lo)/(f_hi − f_lo)
+//! ln L̃ = ln_norm − Σ r0ᴴC⁻¹r0 − 2 Re Σ Δrᴴ C⁻¹ r0 − Σ Δrᴴ C⁻¹ Δr,   Δr_r = Σ_c δ̃_rc g_rc,
+//! g_rc,k = s_rc(f_k) d_c,k,   δ̃(x) = u + v x,  x = (f − f_lo)/(f_hi − f_lo)
 //! ```
 //!
-//! With summaries `A_p = Σ x^p g*ᵢ (C⁻¹R0)ᵢ` (p = 0, 1) and `B_p = Σ x^p g*_c C⁻¹_{c c'} g_c'`
-//! (p = 0, 1, 2) per coarse bin, `ln L̃` is *exact* for the interpolated template; the only
-//! approximation is the linear interpolation of `δr`.
+//! With summaries `A_p = Σ x^p g*_rc (C⁻¹r0)_r` (p = 0, 1) and `B_p = Σ x^p g*_rc C⁻¹_{r r'}
+//! g_r'c'` (p = 0, 1, 2) per coarse bin, `ln L̃` is *exact* for the interpolated residual; the
+//! only approximation is the linear interpolation of `δ`. Coefficients that do not depend on θ
+//! (the closed loop's identity on `o`) and inactive channels drop out of the summaries.
 
-use super::exact::LtpLikelihood;
+use super::exact::Likelihood;
 use super::fisher::fisher_exact;
 use super::spectra::ExperimentSpectra;
 use crate::density::LogDensity;
 use crate::hermitian;
-use crate::lti::delay;
-use crate::ltp::{BinConsts, LoopKernel, Masses, N_PARAMS, response};
+use crate::model::{Bin, MAX_CHANNELS, MAX_RESIDUALS, Model};
 use crate::prior::Prior;
 use nalgebra::DMatrix;
 use num_complex::Complex64;
 use serde::{Deserialize, Serialize};
+use std::sync::Arc;
 
 /// How the coarse bins are chosen.
 ///
 /// Bins are built greedily from the low end: a bin grows while, for every test point θ_p (the
 /// fiducial moved by `n_sigma` along each principal axis of the Fisher covariance, clipped to
-/// the prior box), the interpolation error of the template inside it stays below `tolerance`:
-/// `max_p Σ_{k ∈ bin} e_kᴴ C_k⁻¹ e_k ≤ tolerance`, `e_k = h̃_k(θ_p) − h_k(θ_p)`. The error of
-/// `ln L̃` is then bounded by `Σ_bins` of that plus a cross term `2 Re Σ eᴴC⁻¹(Y − h)` of the
+/// the prior box), the interpolation error of the residual inside it stays below `tolerance`:
+/// `max_p Σ_{k ∈ bin} e_kᴴ C_k⁻¹ e_k ≤ tolerance`, `e_k = r̃_k(θ_p) − r_k(θ_p)`. The error of
+/// `ln L̃` is then bounded by `Σ_bins` of that plus a cross term `2 Re Σ eᴴC⁻¹r` of the
 /// order of its square root times the residual. Measured on the Table I study (200 random
 /// points of the 5σ ellipsoid, `tests/table1.rs`): tolerance 1e−9 → 363 coarse bins, worst
 /// `|Δ ln L|` 6.7e−4; 1e−8 (the default) → 267 bins, 3.2e−3; 3e−8 → 228 bins, 4.4e−3.
@@ -44,7 +48,7 @@ pub struct RelBinOptions {
     /// Radius (in standard deviations of the Fisher covariance) of the region the
     /// approximation must hold in.
     pub n_sigma: f64,
-    /// Largest template interpolation error `Σ eᴴC⁻¹e` allowed in one coarse bin.
+    /// Largest residual interpolation error `Σ eᴴC⁻¹e` allowed in one coarse bin.
     pub tolerance: f64,
 }
 
@@ -65,34 +69,37 @@ pub enum RelBinError {
 }
 
 const ZERO: Complex64 = Complex64::new(0.0, 0.0);
+const MAX_COMPS: usize = MAX_CHANNELS * MAX_RESIDUALS;
 
 /// One experiment's summary data.
 #[derive(Debug, Clone)]
 struct Summary {
-    /// Loop constants at the coarse-bin edges.
-    edges: Vec<BinConsts>,
-    /// Active components `(output i, input j)`.
-    comps: Vec<(usize, usize)>,
-    /// Active input channels.
-    inputs: Vec<usize>,
-    /// `1/H_ij(edge; θ0)` per edge, per component.
-    h0inv: Vec<Complex64>,
+    /// Frequencies of the coarse-bin edges.
+    edge_f: Vec<f64>,
+    /// The model's constants at the edges, `edges × n_consts`.
+    edge_consts: Vec<Complex64>,
+    /// Varying components: `r·C + c` indices into the coefficient matrix.
+    comps: Vec<usize>,
+    /// `δ = M·inv_s − off` per (edge, component).
+    inv_s: Vec<Complex64>,
+    off: Vec<Complex64>,
     /// `[A0, A1]` per (coarse bin, component).
     a: Vec<[Complex64; 2]>,
     /// `[B0, B1, B2]` per (coarse bin, component, component).
     b: Vec<[Complex64; 3]>,
+    fs: f64,
 }
 
 /// `ln L` by relative binning around a fiducial point; same value convention as
-/// [`LtpLikelihood`].
+/// [`Likelihood`].
 #[derive(Debug, Clone)]
 pub struct RelBinLikelihood {
     exps: Vec<Summary>,
-    masses: Masses,
+    model: Arc<dyn Model>,
     prior: Prior,
-    /// `ln_norm − Σ R0ᴴ C⁻¹ R0` at the fiducial point.
+    /// `ln_norm − Σ r0ᴴ C⁻¹ r0` at the fiducial point.
     base: f64,
-    fiducial: [f64; N_PARAMS],
+    fiducial: Vec<f64>,
     n_coarse: usize,
 }
 
@@ -100,40 +107,44 @@ impl RelBinLikelihood {
     /// Summarises `exact`'s data around the fiducial point `fid` (usually the MAP), with
     /// coarse bins chosen so the approximation holds within `opts.n_sigma` of `fid` (see
     /// [`RelBinOptions`]).
-    pub fn new(
-        exact: &LtpLikelihood,
-        fid: &[f64; N_PARAMS],
-        opts: &RelBinOptions,
-    ) -> Result<Self, RelBinError> {
+    pub fn new(exact: &Likelihood, fid: &[f64], opts: &RelBinOptions) -> Result<Self, RelBinError> {
         if !(opts.n_sigma > 0.0 && opts.n_sigma.is_finite() && opts.tolerance > 0.0) {
             return Err(RelBinError::Invalid(format!(
                 "n_sigma and tolerance must be > 0 (got {} and {})",
                 opts.n_sigma, opts.tolerance
             )));
         }
+        if fid.len() != exact.model().param_names().len() {
+            return Err(RelBinError::Invalid(format!(
+                "the fiducial point has {} entries; model `{}` has {} parameters",
+                fid.len(),
+                exact.model().name(),
+                exact.model().param_names().len()
+            )));
+        }
         let tests = test_points(exact, fid, opts.n_sigma);
-        let masses = *exact.masses();
+        let model = exact.model().clone();
         let mut base = exact.ln_norm();
         let mut exps = Vec::new();
         let mut n_coarse = 0;
         for e in exact.spectra() {
-            let (s, r0) = summarise(e, fid, &masses, &tests, opts.tolerance)?;
+            let (s, r0) = summarise(model.as_ref(), e, fid, &tests, opts.tolerance)?;
             base -= r0;
-            n_coarse += s.edges.len() - 1;
+            n_coarse += s.edge_f.len() - 1;
             exps.push(s);
         }
         Ok(Self {
             exps,
-            masses,
+            model,
             prior: exact.prior().clone(),
             base,
-            fiducial: *fid,
+            fiducial: fid.to_vec(),
             n_coarse,
         })
     }
 
     /// The fiducial point.
-    pub fn fiducial(&self) -> &[f64; N_PARAMS] {
+    pub fn fiducial(&self) -> &[f64] {
         &self.fiducial
     }
 
@@ -143,30 +154,35 @@ impl RelBinLikelihood {
     }
 
     /// `ln L̃` at a full parameter vector. Allocation-free.
-    pub fn ln_likelihood_full(&self, th: &[f64; N_PARAMS]) -> f64 {
-        let kern = LoopKernel::new(th, &self.masses);
+    pub fn ln_likelihood_full(&self, th: &[f64]) -> f64 {
+        if th.len() != self.fiducial.len() {
+            return f64::NAN;
+        }
+        let m = self.model.as_ref();
+        let ncst = m.n_consts();
+        let ncoef = m.data_channels().len() * m.residual_channels().len();
+        let mut coef = [ZERO; MAX_COMPS];
         let mut lin = 0.0;
         let mut quad = 0.0;
         for s in &self.exps {
             let nc = s.comps.len();
-            // δr at the previous edge, per component (at most 4 components)
-            let mut prev = [ZERO; 4];
-            for (ei, edge) in s.edges.iter().enumerate() {
-                let mut cur = [ZERO; 4];
-                for &j in &s.inputs {
-                    let mut unit = [ZERO; 2];
-                    unit[j] = delay(th[2 + j], edge.f);
-                    let col = kern.eval(edge, [Complex64::new(1.0, 0.0); 2], unit);
-                    for (c, &(i, jj)) in s.comps.iter().enumerate() {
-                        if jj == j {
-                            cur[c] = col[i] * s.h0inv[ei * nc + c] - 1.0;
-                        }
-                    }
+            // δ at the previous edge, per component
+            let mut prev = [ZERO; MAX_COMPS];
+            for (ei, &f) in s.edge_f.iter().enumerate() {
+                let bin = Bin {
+                    f,
+                    fs: s.fs,
+                    consts: &s.edge_consts[ei * ncst..(ei + 1) * ncst],
+                };
+                m.coefficients(th, &bin, &mut coef[..ncoef]);
+                let mut cur = [ZERO; MAX_COMPS];
+                for (c, &idx) in s.comps.iter().enumerate() {
+                    cur[c] = coef[idx] * s.inv_s[ei * nc + c] - s.off[ei * nc + c];
                 }
                 if ei > 0 {
                     let b = ei - 1;
                     let u = &prev;
-                    let mut v = [ZERO; 4];
+                    let mut v = [ZERO; MAX_COMPS];
                     for c in 0..nc {
                         v[c] = cur[c] - prev[c];
                     }
@@ -192,20 +208,21 @@ impl RelBinLikelihood {
                 prev = cur;
             }
         }
-        self.base + 2.0 * lin - quad
+        self.base - 2.0 * lin - quad
     }
 }
 
 /// Test points: the fiducial moved by `n_sigma` along ± each principal axis of the Fisher
-/// covariance over all seven parameters, each step shortened if needed to stay in the prior
+/// covariance over all parameters, each step shortened if needed to stay in the prior
 /// box. Directions the data do not constrain (eigenvalues of F below 1e−12 of the largest)
 /// are skipped.
-fn test_points(exact: &LtpLikelihood, fid: &[f64; N_PARAMS], n_sigma: f64) -> Vec<[f64; N_PARAMS]> {
-    let free: Vec<usize> = (0..N_PARAMS).collect();
+fn test_points(exact: &Likelihood, fid: &[f64], n_sigma: f64) -> Vec<Vec<f64>> {
+    let np = fid.len();
+    let free: Vec<usize> = (0..np).collect();
     let f = fisher_exact(exact, fid, &free);
     // scale to unit diagonal so the eigen-decomposition is well conditioned
-    let d: Vec<f64> = (0..N_PARAMS).map(|i| f[(i, i)].sqrt()).collect();
-    let fs = DMatrix::from_fn(N_PARAMS, N_PARAMS, |i, j| {
+    let d: Vec<f64> = (0..np).map(|i| f[(i, i)].sqrt()).collect();
+    let fs = DMatrix::from_fn(np, np, |i, j| {
         if d[i] > 0.0 && d[j] > 0.0 {
             f[(i, j)] / (d[i] * d[j])
         } else {
@@ -215,21 +232,21 @@ fn test_points(exact: &LtpLikelihood, fid: &[f64; N_PARAMS], n_sigma: f64) -> Ve
     let eig = fs.symmetric_eigen();
     let lmax = eig.eigenvalues.iter().cloned().fold(0.0, f64::max);
     let bounds = exact.prior().bounds();
-    let mut pts = vec![*fid];
+    let mut pts = vec![fid.to_vec()];
     for (m, &lam) in eig.eigenvalues.iter().enumerate() {
         if !(lam > 1e-12 * lmax) {
             continue;
         }
         for sign in [-1.0, 1.0] {
-            let mut step = [0.0; N_PARAMS];
-            for i in 0..N_PARAMS {
+            let mut step = vec![0.0; np];
+            for i in 0..np {
                 if d[i] > 0.0 {
                     step[i] = sign * n_sigma * eig.eigenvectors[(i, m)] / (lam.sqrt() * d[i]);
                 }
             }
             // shorten to stay inside the prior box
             let mut t: f64 = 1.0;
-            for i in 0..N_PARAMS {
+            for i in 0..np {
                 let (lo, hi) = bounds[i];
                 let x = fid[i] + step[i];
                 if x > hi && step[i] > 0.0 {
@@ -239,23 +256,20 @@ fn test_points(exact: &LtpLikelihood, fid: &[f64; N_PARAMS], n_sigma: f64) -> Ve
                 }
             }
             let t = t.max(0.0);
-            pts.push(std::array::from_fn(|i| fid[i] + t * step[i]));
+            pts.push((0..np).map(|i| fid[i] + t * step[i]).collect());
         }
     }
     pts
 }
 
-/// Summary data of one experiment; returns it and `Σ R0ᴴ C⁻¹ R0`.
+/// Summary data of one experiment; returns it and `Σ r0ᴴ C⁻¹ r0`.
 fn summarise(
+    m: &dyn Model,
     e: &ExperimentSpectra,
-    fid: &[f64; N_PARAMS],
-    masses: &Masses,
-    tests: &[[f64; N_PARAMS]],
+    fid: &[f64],
+    tests: &[Vec<f64>],
     tolerance: f64,
 ) -> Result<(Summary, f64), RelBinError> {
-    let inputs: Vec<usize> = (0..2).filter(|&j| e.active[j]).collect();
-    let comps: Vec<(usize, usize)> = inputs.iter().flat_map(|&j| [(0, j), (1, j)]).collect();
-    let nc = comps.len();
     let nk = e.len();
     if nk < 2 {
         return Err(RelBinError::Invalid(format!(
@@ -263,47 +277,75 @@ fn summarise(
             e.name
         )));
     }
-    let column = |th: &[f64; N_PARAMS], bc: &BinConsts, j: usize| {
-        let mut unit = [ZERO; 2];
-        unit[j] = Complex64::new(1.0, 0.0);
-        response(th, bc, masses, unit)
-    };
-    // fiducial transfer elements and their ratios at every test point, on the fine grid
-    let mut h0 = vec![ZERO; nk * nc];
-    for k in 0..nk {
-        for &j in &inputs {
-            let col = column(fid, &e.consts[k], j);
-            for (c, &(i, jj)) in comps.iter().enumerate() {
-                if jj == j {
-                    h0[k * nc + c] = col[i];
-                }
-            }
+    let ndc = m.data_channels().len();
+    let nr = m.residual_channels().len();
+    let ncoef = nr * ndc;
+    let ncst = m.n_consts();
+    let coefs = |th: &[f64]| -> Vec<Complex64> {
+        let mut out = vec![ZERO; nk * ncoef];
+        for k in 0..nk {
+            m.coefficients(th, &e.bin(k, ncst), &mut out[k * ncoef..(k + 1) * ncoef]);
         }
-    }
-    if let Some(k) = (0..nk * nc).find(|&x| !(h0[x].norm() > 0.0 && h0[x].norm().is_finite())) {
-        let (i, j) = comps[k % nc];
+        out
+    };
+    let m0 = coefs(fid);
+    let at_tests: Vec<Vec<Complex64>> = tests.iter().map(|t| coefs(t)).collect();
+    if let Some(x) = m0
+        .iter()
+        .position(|z| !(z.re.is_finite() && z.im.is_finite()))
+    {
         return Err(RelBinError::Invalid(format!(
-            "experiment `{}`: H_io[{i}][{j}] at the fiducial point is {} at {} Hz; cannot form ratios",
+            "experiment `{}`: coefficient {} of model `{}` at the fiducial point is {} at {} Hz",
             e.name,
-            h0[k],
-            e.freqs[k / nc]
+            x % ncoef,
+            m.name(),
+            m0[x],
+            e.freqs[x / ncoef]
         )));
     }
+    // the varying components of active channels; ratio where M0 never vanishes
+    let mut comps = Vec::new();
+    let mut ratio = Vec::new();
+    for idx in 0..ncoef {
+        let c = idx % ndc;
+        if !e.active[c] {
+            continue;
+        }
+        let varies = at_tests
+            .iter()
+            .any(|t| (0..nk).any(|k| t[k * ncoef + idx] != m0[k * ncoef + idx]));
+        if !varies {
+            continue;
+        }
+        comps.push(idx);
+        ratio.push((0..nk).all(|k| m0[k * ncoef + idx].norm() > 0.0));
+    }
+    let nc = comps.len();
+    let scale = |k: usize, c: usize| {
+        if ratio[c] {
+            m0[k * ncoef + comps[c]]
+        } else {
+            Complex64::new(1.0, 0.0)
+        }
+    };
+    let delta = |t: &[Complex64], k: usize, c: usize| {
+        let idx = comps[c];
+        if ratio[c] {
+            t[k * ncoef + idx] / m0[k * ncoef + idx] - 1.0
+        } else {
+            t[k * ncoef + idx] - m0[k * ncoef + idx]
+        }
+    };
     let np = tests.len();
     let mut dr = vec![ZERO; np * nk * nc];
-    for (p, th) in tests.iter().enumerate() {
+    for (p, t) in at_tests.iter().enumerate() {
         for k in 0..nk {
-            for &j in &inputs {
-                let col = column(th, &e.consts[k], j);
-                for (c, &(i, jj)) in comps.iter().enumerate() {
-                    if jj == j {
-                        dr[(p * nk + k) * nc + c] = col[i] / h0[k * nc + c] - 1.0;
-                    }
-                }
+            for c in 0..nc {
+                dr[(p * nk + k) * nc + c] = delta(t, k, c);
             }
         }
     }
-    // interpolation error of the template inside fine bins k0..=k1, worst test point
+    // interpolation error of the residual inside fine bins k0..=k1, worst test point
     let cost = |k0: usize, k1: usize| -> f64 {
         let mut worst: f64 = 0.0;
         for p in 0..np {
@@ -311,11 +353,12 @@ fn summarise(
             for k in k0 + 1..k1 {
                 let x = (e.freqs[k] - e.freqs[k0]) / (e.freqs[k1] - e.freqs[k0]);
                 let mut err = [ZERO; 2];
-                for (c, &(i, j)) in comps.iter().enumerate() {
+                for (c, &idx) in comps.iter().enumerate() {
                     let a = dr[(p * nk + k0) * nc + c];
                     let b = dr[(p * nk + k1) * nc + c];
                     let lin = a + (b - a) * x;
-                    err[i] += (dr[(p * nk + k) * nc + c] - lin) * h0[k * nc + c] * e.inj[k][j];
+                    err[idx / ndc] +=
+                        (dr[(p * nk + k) * nc + c] - lin) * scale(k, c) * e.data_at(k)[idx % ndc];
                 }
                 s += hermitian::quad(&e.cinv[k], err);
             }
@@ -354,31 +397,38 @@ fn summarise(
         k0 = good;
     }
     let edge_f: Vec<f64> = edge_k.iter().map(|&k| e.freqs[k]).collect();
-    let edges: Vec<BinConsts> = edge_k.iter().map(|&k| e.consts[k]).collect();
-    let mut h0inv = Vec::with_capacity(edges.len() * nc);
+    let mut edge_consts = Vec::with_capacity(edge_k.len() * ncst);
+    let mut inv_s = Vec::with_capacity(edge_k.len() * nc);
+    let mut off = Vec::with_capacity(edge_k.len() * nc);
     for &k in &edge_k {
+        edge_consts.extend_from_slice(&e.consts[k * ncst..(k + 1) * ncst]);
         for c in 0..nc {
-            h0inv.push(1.0 / h0[k * nc + c]);
+            if ratio[c] {
+                inv_s.push(1.0 / m0[k * ncoef + comps[c]]);
+                off.push(Complex64::new(1.0, 0.0));
+            } else {
+                inv_s.push(Complex64::new(1.0, 0.0));
+                off.push(m0[k * ncoef + comps[c]]);
+            }
         }
     }
-    let nb = edges.len() - 1;
+    let nb = edge_k.len() - 1;
     let mut a = vec![[ZERO; 2]; nb * nc];
     let mut b = vec![[ZERO; 3]; nb * nc * nc];
     let mut r0sum = 0.0;
     let mut bin = 0;
-    for k in 0..e.len() {
+    let mut g = [ZERO; MAX_COMPS];
+    for k in 0..nk {
         let f = e.freqs[k];
         while bin + 1 < nb && f >= edge_f[bin + 1] {
             bin += 1;
         }
         let x = (f - edge_f[bin]) / (edge_f[bin + 1] - edge_f[bin]);
-        let mut g = [ZERO; 4];
-        let mut hf = [ZERO; 2];
-        for (c, &(i, j)) in comps.iter().enumerate() {
-            g[c] = h0[k * nc + c] * e.inj[k][j];
-            hf[i] += g[c];
+        let d = e.data_at(k);
+        for (c, &idx) in comps.iter().enumerate() {
+            g[c] = scale(k, c) * d[idx % ndc];
         }
-        let r0 = [e.y[k][0] - hf[0], e.y[k][1] - hf[1]];
+        let r0 = crate::model::residual(&m0[k * ncoef..(k + 1) * ncoef], nr, d);
         let (ca, cb, cc) = e.cinv[k];
         r0sum += hermitian::quad(&e.cinv[k], r0);
         // C⁻¹ = [[a, b], [b*, c]]
@@ -392,13 +442,13 @@ fn summarise(
         ];
         let xp = [1.0, x, x * x];
         for c in 0..nc {
-            let (i, _) = comps[c];
+            let i = comps[c] / ndc;
             let t = g[c].conj() * w[i];
             let slot = &mut a[bin * nc + c];
             slot[0] += t;
             slot[1] += t * x;
             for c2 in 0..nc {
-                let (i2, _) = comps[c2];
+                let i2 = comps[c2] / ndc;
                 let t = g[c].conj() * cinv[i][i2] * g[c2];
                 let slot = &mut b[(bin * nc + c) * nc + c2];
                 for p in 0..3 {
@@ -409,12 +459,14 @@ fn summarise(
     }
     Ok((
         Summary {
-            edges,
+            edge_f,
+            edge_consts,
             comps,
-            inputs,
-            h0inv,
+            inv_s,
+            off,
             a,
             b,
+            fs: e.fs,
         },
         r0sum,
     ))
@@ -422,10 +474,7 @@ fn summarise(
 
 impl LogDensity for RelBinLikelihood {
     fn ln_likelihood(&self, theta: &[f64]) -> f64 {
-        match <&[f64; N_PARAMS]>::try_from(theta) {
-            Ok(th) => self.ln_likelihood_full(th),
-            Err(_) => f64::NAN,
-        }
+        self.ln_likelihood_full(theta)
     }
 
     fn prior(&self) -> &Prior {

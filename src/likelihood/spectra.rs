@@ -3,7 +3,7 @@
 
 use crate::dataset::ExperimentData;
 use crate::hermitian::{self, Mat2};
-use crate::ltp::{BinConsts, Controllers};
+use crate::model::{Bin, BinBlock, Model};
 use crate::signal::{RealFft, SignalError, WelchConfig, Window, welch_csd2};
 use num_complex::Complex64;
 use serde::{Deserialize, Serialize};
@@ -37,8 +37,6 @@ pub struct SpectraOptions {
     pub welch_averages: usize,
     /// Welch window (with its recommended overlap).
     pub welch_window: Window,
-    /// Fixed OMS delay τ_o of the fit model (s).
-    pub oms_delay: f64,
 }
 
 impl Default for SpectraOptions {
@@ -49,7 +47,6 @@ impl Default for SpectraOptions {
             noise: NoiseSource::Welch,
             welch_averages: 16,
             welch_window: Window::Bh92,
-            oms_delay: 0.0,
         }
     }
 }
@@ -67,8 +64,19 @@ pub enum SpectraError {
     },
 }
 
-/// One experiment reduced to what the likelihood needs, per in-band bin `k`:
-/// data `Y_k`, injections `I_k`, packed `C_k⁻¹` and the closed-loop constants.
+/// One experiment reduced to what the likelihood needs, per in-band bin `k`: the DFTs of the
+/// model's data channels, the packed inverse residual-noise matrix `C_k⁻¹` and the model's
+/// θ-independent constants.
+///
+/// # Residual noise
+/// The residual `r = Σ_c M_c d_c` carries the noise of the measured channels through the
+/// model's coefficients. Its CSD is `S_r = M(θ_ref) S_d M(θ_ref)ᴴ`, with `S_d` the CSD of the
+/// data channels (Welch of the noise-only stretch, or the simulator's noise model) and
+/// `θ_ref` a reference point (the start of the analysis), held fixed during sampling as in K14
+/// ("noise independent of the parameters"). Channels with no noise-only series (commanded
+/// injections) are noiseless. For the LTP closed loop `M_o = I`, so `S_r = S_o` exactly and
+/// `θ_ref` plays no role; for models whose output coefficients depend on θ (the acceleration
+/// domain) the reference point matters at the level of the parameter's relative error.
 #[derive(Debug, Clone)]
 pub struct ExperimentSpectra {
     pub name: String,
@@ -79,27 +87,31 @@ pub struct ExperimentSpectra {
     pub df: f64,
     /// Frequencies of the in-band bins (Hz).
     pub freqs: Vec<f64>,
-    /// DFT of `(o1, o12)` per bin.
-    pub y: Vec<[Complex64; 2]>,
-    /// DFT of the commanded `(i1, i12)` per bin.
-    pub inj: Vec<[Complex64; 2]>,
-    /// `C_k⁻¹` packed as `(a, b, c)`, `C_k = (fs/2) Σw² S_k`.
+    /// Data channels (the model's, in its order).
+    pub channels: Vec<String>,
+    /// DFTs of the data channels, `len × C`, bin-major.
+    pub data: Vec<Complex64>,
+    /// `C_k⁻¹` packed as `(a, b, c)`, `C_k = (fs/2) Σw² S_r,k`.
     pub cinv: Vec<(f64, Complex64, f64)>,
-    /// The noise CSD `S_k` used (one-sided).
+    /// The residual-noise CSD `S_r,k` used (one-sided; for one residual channel only `[0][0]`).
     pub csd: Vec<Mat2>,
-    /// θ-independent loop factors per bin.
-    pub consts: Vec<BinConsts>,
-    /// Which injection channels carry anything.
-    pub active: [bool; 2],
+    /// The model's θ-independent constants, `len × n_consts`, bin-major.
+    pub consts: Vec<Complex64>,
+    /// Which data channels carry anything in band.
+    pub active: Vec<bool>,
+    /// Which data channels are known inputs (no noise): the "signal" of ρ_opt.
+    pub is_input: Vec<bool>,
 }
 
 impl ExperimentSpectra {
-    /// Prepares one experiment. `model_csd` supplies the noise CSD when
+    /// Prepares one experiment for `model`, with the residual noise evaluated at `theta_ref`.
+    /// `model_csd` supplies the CSD of the measured outputs `(o1, o12)` when
     /// `opts.noise == NoiseSource::Model`.
     pub fn new(
         e: &ExperimentData,
         opts: &SpectraOptions,
-        ctrl: &Controllers,
+        model: &dyn Model,
+        theta_ref: &[f64],
         model_csd: Option<&dyn Fn(f64) -> Mat2>,
     ) -> Result<Self, SpectraError> {
         let inv = |msg: String| SpectraError::Invalid {
@@ -110,7 +122,24 @@ impl ExperimentSpectra {
             exp: e.name.clone(),
             source,
         };
-        let n = e.o[0].len();
+        let channels: Vec<String> = model.data_channels().to_vec();
+        let mut series = Vec::with_capacity(channels.len());
+        for c in &channels {
+            series.push(e.channel(c).ok_or_else(|| {
+                inv(format!(
+                    "model `{}` reads data channel `{c}`, which this experiment does not have",
+                    model.name()
+                ))
+            })?);
+        }
+        let n = series[0].len();
+        if let Some((c, s)) = channels.iter().zip(&series).find(|(_, s)| s.len() != n) {
+            return Err(inv(format!(
+                "channel `{c}` has {} samples, `{}` has {n}",
+                s.len(),
+                channels[0]
+            )));
+        }
         let fs = e.fs;
         let [lo, hi] = opts.band;
         let df = fs / n as f64;
@@ -127,10 +156,11 @@ impl ExperimentSpectra {
         let sum_w2: f64 = w.iter().map(|x| x * x).sum();
         let mut fft = RealFft::new(n).map_err(sig)?;
         let m = fft.spectrum_len();
-        let mut spec = [(); 4].map(|_| vec![Complex64::new(0.0, 0.0); m]);
+        let nc = channels.len();
+        let mut spec = vec![vec![Complex64::new(0.0, 0.0); m]; nc];
         let mut buf = vec![0.0; n];
-        for (c, series) in [&e.o[0], &e.o[1], &e.i[0], &e.i[1]].into_iter().enumerate() {
-            for (b, (x, wi)) in buf.iter_mut().zip(series.iter().zip(&w)) {
+        for (c, x) in series.iter().enumerate() {
+            for (b, (x, wi)) in buf.iter_mut().zip(x.iter().zip(&w)) {
                 *b = x * wi;
             }
             fft.forward(&buf, &mut spec[c]).map_err(sig)?;
@@ -149,48 +179,123 @@ impl ExperimentSpectra {
             )));
         }
         let freqs: Vec<f64> = ks.iter().map(|&k| k as f64 * df).collect();
-        let csd: Vec<Mat2> = match opts.noise {
+        // the CSD of the measured channels, S_d, over the noisy channels
+        let (noisy, sd): (Vec<usize>, Vec<Vec<Complex64>>) = match opts.noise {
             NoiseSource::Model => {
                 let f = model_csd.ok_or_else(|| {
                     inv("noise = \"model\" needs the noise model of the study".into())
                 })?;
-                freqs.iter().map(|&x| f(x)).collect()
+                let idx: Vec<usize> = ["o1", "o12"]
+                    .iter()
+                    .map(|o| channels.iter().position(|c| c == o))
+                    .collect::<Option<_>>()
+                    .ok_or_else(|| {
+                        inv(format!(
+                            "noise = \"model\" knows the noise of `o1` and `o12` only, and model `{}` does not read both; use noise = \"welch\"",
+                            model.name()
+                        ))
+                    })?;
+                let sd = freqs
+                    .iter()
+                    .map(|&x| {
+                        let s = f(x);
+                        vec![s[0][0], s[0][1], s[1][0], s[1][1]]
+                    })
+                    .collect();
+                (idx, sd)
             }
-            NoiseSource::Welch => welch_noise(e, opts, &freqs).map_err(&inv)?,
+            NoiseSource::Welch => {
+                let noisy: Vec<usize> = (0..nc)
+                    .filter(|&c| e.noise_channel(&channels[c]).is_some())
+                    .collect();
+                if noisy.is_empty() {
+                    return Err(inv(format!(
+                        "Welch noise needs a noise-only stretch of at least one channel model `{}` reads ({})",
+                        model.name(),
+                        channels.join(", ")
+                    )));
+                }
+                let ser: Vec<&[f64]> = noisy
+                    .iter()
+                    .map(|&c| e.noise_channel(&channels[c]).expect("filtered"))
+                    .collect();
+                (noisy, welch_noise(e, &ser, opts, &freqs).map_err(&inv)?)
+            }
         };
+        let nr = model.residual_channels().len();
+        let ncst = model.n_consts();
+        let mut consts = vec![Complex64::new(0.0, 0.0); freqs.len() * ncst];
+        let mut coef = vec![Complex64::new(0.0, 0.0); nr * nc];
+        let mut csd = Vec::with_capacity(freqs.len());
         let scale = fs / 2.0 * sum_w2;
         let mut cinv = Vec::with_capacity(ks.len());
-        for (s, f) in csd.iter().zip(&freqs) {
-            let c = [
-                [s[0][0] * scale, s[0][1] * scale],
-                [s[1][0] * scale, s[1][1] * scale],
-            ];
-            cinv.push(hermitian::inverse(&c).ok_or_else(|| {
+        let nn = noisy.len();
+        for (k, &f) in freqs.iter().enumerate() {
+            let cst = &mut consts[k * ncst..(k + 1) * ncst];
+            model.bin_consts(f, fs, cst);
+            model.coefficients(theta_ref, &Bin { f, fs, consts: cst }, &mut coef);
+            // S_r = M S_d Mᴴ over the noisy channels
+            let mut s: Mat2 = [[Complex64::new(0.0, 0.0); 2]; 2];
+            for r1 in 0..nr {
+                for r2 in 0..nr {
+                    let mut acc = Complex64::new(0.0, 0.0);
+                    for (a, &ca) in noisy.iter().enumerate() {
+                        for (b, &cb) in noisy.iter().enumerate() {
+                            acc +=
+                                coef[r1 * nc + ca] * sd[k][a * nn + b] * coef[r2 * nc + cb].conj();
+                        }
+                    }
+                    s[r1][r2] = acc;
+                }
+            }
+            let bad = || {
                 inv(format!(
-                    "the noise CSD is singular (or not positive definite) at {f:.6e} Hz: S11 = {:.3e}, S22 = {:.3e}, |S12| = {:.3e}; a channel without noise cannot be fitted: check the noise-only stretch or the noise levels",
-                    s[0][0].re, s[1][1].re, s[0][1].norm()
+                    "the residual noise CSD is singular (or not positive definite) at {f:.6e} Hz: S11 = {:.3e}, S22 = {:.3e}, |S12| = {:.3e}; a channel without noise cannot be fitted: check the noise-only stretch or the noise levels",
+                    s[0][0].re,
+                    s[1][1].re,
+                    s[0][1].norm()
                 ))
-            })?);
+            };
+            let packed = if nr == 2 {
+                let c = [
+                    [s[0][0] * scale, s[0][1] * scale],
+                    [s[1][0] * scale, s[1][1] * scale],
+                ];
+                hermitian::inverse(&c).ok_or_else(bad)?
+            } else {
+                let v = s[0][0].re * scale;
+                if !(v > 0.0 && v.is_finite()) {
+                    return Err(bad());
+                }
+                (1.0 / v, Complex64::new(0.0, 0.0), 0.0)
+            };
+            cinv.push(packed);
+            csd.push(s);
         }
-        let y = ks.iter().map(|&k| [spec[0][k], spec[1][k]]).collect();
-        let inj: Vec<[Complex64; 2]> = ks.iter().map(|&k| [spec[2][k], spec[3][k]]).collect();
-        let active = [0, 1].map(|c| inj.iter().any(|v| v[c] != Complex64::new(0.0, 0.0)));
-        let consts = freqs
-            .iter()
-            .map(|&f| BinConsts::new(f, ctrl, opts.oms_delay))
+        let mut data = Vec::with_capacity(ks.len() * nc);
+        for &k in &ks {
+            for sp in &spec {
+                data.push(sp[k]);
+            }
+        }
+        let zero = Complex64::new(0.0, 0.0);
+        let active = (0..nc)
+            .map(|c| (0..ks.len()).any(|k| data[k * nc + c] != zero))
             .collect();
+        let is_input = (0..nc).map(|c| !noisy.contains(&c)).collect();
         Ok(Self {
             name: e.name.clone(),
             fs,
             n,
             df,
             freqs,
-            y,
-            inj,
+            channels,
+            data,
             cinv,
             csd,
             consts,
             active,
+            is_input,
         })
     }
 
@@ -203,16 +308,53 @@ impl ExperimentSpectra {
     pub fn is_empty(&self) -> bool {
         self.freqs.is_empty()
     }
+
+    /// The whole experiment as a [`BinBlock`].
+    pub fn block(&self) -> BinBlock<'_> {
+        BinBlock {
+            f0: self.freqs[0],
+            df: self.df,
+            fs: self.fs,
+            n: self.len(),
+            data: &self.data,
+            cinv: &self.cinv,
+            consts: &self.consts,
+        }
+    }
+
+    /// The data of bin `k` (one value per channel).
+    pub fn data_at(&self, k: usize) -> &[Complex64] {
+        let nc = self.channels.len();
+        &self.data[k * nc..(k + 1) * nc]
+    }
+
+    /// The model's constants of bin `k`.
+    pub fn bin(&self, k: usize, n_consts: usize) -> Bin<'_> {
+        Bin {
+            f: self.freqs[k],
+            fs: self.fs,
+            consts: &self.consts[k * n_consts..(k + 1) * n_consts],
+        }
+    }
 }
 
-/// Welch CSD of the noise-only stretch, interpolated onto `freqs`. Below the first Welch
-/// frequency (and above the last regular one) the nearest estimate is used.
+/// Welch CSD matrix of the noise-only series `ser` (all the same length), interpolated onto
+/// `freqs`, flattened row-major per frequency. Below the first Welch frequency (and above the
+/// last regular one) the nearest estimate is used. Pairs of channels are estimated together,
+/// so two channels give exactly the two-channel estimate.
 fn welch_noise(
     e: &ExperimentData,
+    ser: &[&[f64]],
     opts: &SpectraOptions,
     freqs: &[f64],
-) -> Result<Vec<Mat2>, String> {
-    let len = e.noise[0].len();
+) -> Result<Vec<Vec<Complex64>>, String> {
+    let len = ser[0].len();
+    if let Some(s) = ser.iter().find(|s| s.len() != len) {
+        return Err(format!(
+            "the noise-only series have different lengths ({} and {len} samples)",
+            s.len()
+        ));
+    }
     let navs = opts.welch_averages.max(1) as f64;
     let ov = opts.welch_window.recommended_overlap();
     // M segments of length L overlapping by ov·L span L (1 + (M − 1)(1 − ov)) samples
@@ -224,7 +366,6 @@ fn welch_noise(
         ));
     }
     let cfg = WelchConfig::new(e.fs, opts.welch_window, seg);
-    let s = welch_csd2(&e.noise[0], &e.noise[1], &cfg).map_err(|x| x.to_string())?;
     let first = e.fs / seg as f64;
     let last_k = if seg.is_multiple_of(2) {
         seg / 2 - 1
@@ -233,6 +374,30 @@ fn welch_noise(
     };
     let last = last_k as f64 * e.fs / seg as f64;
     let targets: Vec<f64> = freqs.iter().map(|f| f.clamp(first, last)).collect();
-    let c = s.interpolate(&targets).map_err(|x| x.to_string())?;
-    Ok((0..freqs.len()).map(|k| c.matrix(k)).collect())
+    let nn = ser.len();
+    let mut out = vec![vec![Complex64::new(0.0, 0.0); nn * nn]; freqs.len()];
+    let pair = |a: usize, b: usize| -> Result<_, String> {
+        let s = welch_csd2(ser[a], ser[b], &cfg).map_err(|x| x.to_string())?;
+        s.interpolate(&targets).map_err(|x| x.to_string())
+    };
+    if nn == 1 {
+        let c = pair(0, 0)?;
+        for (k, o) in out.iter_mut().enumerate() {
+            o[0] = c.matrix(k)[0][0];
+        }
+        return Ok(out);
+    }
+    for a in 0..nn {
+        for b in a + 1..nn {
+            let c = pair(a, b)?;
+            for (k, o) in out.iter_mut().enumerate() {
+                let m = c.matrix(k);
+                o[a * nn + a] = m[0][0];
+                o[b * nn + b] = m[1][1];
+                o[a * nn + b] = m[0][1];
+                o[b * nn + a] = m[1][0];
+            }
+        }
+    }
+    Ok(out)
 }

@@ -13,9 +13,18 @@ use std::path::Path;
 
 /// The default `[prior]` boxes.
 pub(crate) fn wide_prior() -> Prior {
-    crate::config::PriorTable::default()
-        .to_prior("tests")
-        .unwrap()
+    let m = ltp_model();
+    let (names, kinds) = crate::model::LtpModel::new("ltp", Default::default())
+        .default_priors()
+        .into_iter()
+        .unzip();
+    assert_eq!(m.param_names(), &names);
+    Prior::new(names, kinds).unwrap()
+}
+
+/// The built-in closed loop with default options.
+pub(crate) fn ltp_model() -> std::sync::Arc<dyn crate::model::Model> {
+    std::sync::Arc::new(crate::model::LtpModel::new("ltp", Default::default()))
 }
 
 /// A small two-experiment study (1 Hz sampling, short stretches) for fast tests.
@@ -49,17 +58,18 @@ x12 = {{ kind = "sine_train", gap = 20.0, segments = [
     Study::from_toml(&text, "small.toml", Path::new(".")).unwrap()
 }
 
-pub(crate) fn likelihood_of(study: &Study, opts: &SpectraOptions) -> LtpLikelihood {
+pub(crate) fn likelihood_of(study: &Study, opts: &SpectraOptions) -> Likelihood {
     let sim = simulate(study).unwrap();
     let sys = System::of(study);
     let csd = |f: f64| -> Mat2 { sys.noise_csd(f) };
+    let truth = study.truth.to_array();
     let spectra = sim
         .dataset
         .experiments
         .iter()
-        .map(|e| ExperimentSpectra::new(e, opts, &Controllers::default(), Some(&csd)).unwrap())
+        .map(|e| ExperimentSpectra::new(e, opts, ltp_model().as_ref(), &truth, Some(&csd)).unwrap())
         .collect();
-    LtpLikelihood::new(spectra, study.masses, wide_prior()).unwrap()
+    Likelihood::new(ltp_model(), spectra, wide_prior()).unwrap()
 }
 
 fn model_opts() -> SpectraOptions {
@@ -265,9 +275,15 @@ fn bad_bands_are_reported() {
             band,
             ..Default::default()
         };
-        let err = ExperimentSpectra::new(e, &opts, &Controllers::default(), None)
-            .unwrap_err()
-            .to_string();
+        let err = ExperimentSpectra::new(
+            e,
+            &opts,
+            ltp_model().as_ref(),
+            &LtpParams::default().to_array(),
+            None,
+        )
+        .unwrap_err()
+        .to_string();
         assert!(err.contains("band"), "{err}");
     }
     let _ = Complex64::new(0.0, 0.0);

@@ -130,13 +130,14 @@ fn loop_matrix<T: DualNum<Primitive = f64> + Copy>(
     th: &[T; N_PARAMS],
     c: &BinConsts,
     m: &Masses,
+    r_df: Complex<T>,
 ) -> ([[Complex<T>; 2]; 2], Complex<T>, Complex<T>) {
     let (w1, w2, adf, asus, d21) = (th[0], th[1], th[4], th[5], th[6]);
     let e1 = m.m1 / m.msc;
     let e2 = m.m2 / m.msc;
     let s2 = T::from(-c.omega * c.omega);
     let e: Complex<T> = lift(c.e_oms);
-    let k1 = lift::<T>(c.cdf) * adf;
+    let k1 = lift::<T>(c.cdf) * r_df * adf;
     let k2 = lift::<T>(c.csus) * asus;
     let re = |x: T| Complex::new(x, T::from(0.0));
     let p00 = re(s2 + w1 * (1.0 + e1) + w2 * e2) + e * (k1 + k2 * (d21 * e2));
@@ -168,7 +169,8 @@ pub fn response<T: DualNum<Primitive = f64> + Copy>(
     m: &Masses,
     inj: [Complex64; 2],
 ) -> [Complex<T>; 2] {
-    let ([[p00, p01], [p10, p11]], k1, k2) = loop_matrix(th, c, m);
+    let one = Complex::new(T::one(), T::zero());
+    let ([[p00, p01], [p10, p11]], k1, k2) = loop_matrix(th, c, m, one);
     let e2 = m.m2 / m.msc;
     // guidance delays act on the injections only: T = diag(e^{−iωΔt1}, e^{−iωΔt2})
     let (s1, c1) = (th[2] * c.omega).sin_cos();
@@ -241,8 +243,14 @@ pub struct ClosedLoop {
 impl ClosedLoop {
     /// Evaluates `H_io`, `H_go`, `H_no` at the frequency of `c`.
     pub fn at(p: &LtpParams, c: &BinConsts, m: &Masses) -> Self {
+        Self::with_thruster(p, c, m, Complex64::new(1.0, 0.0))
+    }
+
+    /// As [`ClosedLoop::at`] with an extra factor `r_df` on the drag-free actuation
+    /// (`A_df → A_df r_df`: a thruster response).
+    pub fn with_thruster(p: &LtpParams, c: &BinConsts, m: &Masses, r_df: Complex64) -> Self {
         let th = p.to_array();
-        let ([[p00, p01], [p10, p11]], k1, k2) = loop_matrix::<f64>(&th, c, m);
+        let ([[p00, p01], [p10, p11]], k1, k2) = loop_matrix::<f64>(&th, c, m, r_df);
         let det = p00 * p11 - p01 * p10;
         let pinv = [[p11 / det, -p01 / det], [-p10 / det, p00 / det]];
         let e = c.e_oms;

@@ -18,8 +18,11 @@
 //! ```
 
 use crate::experiment::{ExperimentDesign, SineSegment, Waveform};
-use crate::ltp::{Controllers, LtpParams, Masses, NoiseModel, PARAM_NAMES, check_stable};
-use crate::prior::{Prior, PriorKind};
+use crate::ltp::{Controllers, LtpParams, Masses, NoiseModel, check_stable};
+use crate::prior::PriorKind;
+
+mod models;
+pub use models::{BUILTIN_LTP, LtpModelEntry, ModelDef, ModelEntry, ModelSet, ModelSpec};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
@@ -70,6 +73,9 @@ pub enum NoiseSynthesis {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct SimulationOptions {
+    /// A thruster response of the simulated system (default none): the truth of the
+    /// thruster-response models (`[[model]] kind = "ltp"`, `thruster = "delay" | "pole"`).
+    pub thruster: Option<TruthThruster>,
     pub method: Method,
     pub noise: NoiseSynthesis,
     /// If set, every injection amplitude is scaled by one common factor so that the optimal
@@ -84,9 +90,19 @@ pub struct SimulationOptions {
     pub oversample: usize,
 }
 
+/// The true thruster response of a simulation: `response = "delay"` with `value` = τ_df (s),
+/// or `"pole"` with `value` = f_df (Hz).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TruthThruster {
+    pub response: crate::model::ThrusterResponse,
+    pub value: f64,
+}
+
 impl Default for SimulationOptions {
     fn default() -> Self {
         Self {
+            thruster: None,
             oversample: 1,
             method: Method::Frequency,
             noise: NoiseSynthesis::Circular,
@@ -194,163 +210,14 @@ impl Default for AnalysisOptions {
     }
 }
 
-/// `[prior]`: one normalised prior per LTP parameter. Defaults: uniform boxes
-/// `w1sq, w2sq ∈ [−5e−6, 5e−6] s⁻²`, `dt1, dt2 ∈ [0, 1] s`, `a_df, a_sus ∈ [0.5, 1.5]`,
-/// `d21 ∈ [−1e−3, 1e−3]`. The box widths of parameters that differ between models set the
-/// Occam factor of every Bayes factor: choose them deliberately.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct PriorTable {
-    pub w1sq: PriorKind,
-    pub w2sq: PriorKind,
-    pub dt1: PriorKind,
-    pub dt2: PriorKind,
-    pub a_df: PriorKind,
-    pub a_sus: PriorKind,
-    pub d21: PriorKind,
-}
-
-impl Default for PriorTable {
-    fn default() -> Self {
-        let u = |lo, hi| PriorKind::Uniform { lo, hi };
-        Self {
-            w1sq: u(-5e-6, 5e-6),
-            w2sq: u(-5e-6, 5e-6),
-            dt1: u(0.0, 1.0),
-            dt2: u(0.0, 1.0),
-            a_df: u(0.5, 1.5),
-            a_sus: u(0.5, 1.5),
-            d21: u(-1e-3, 1e-3),
-        }
-    }
-}
-
-impl PriorTable {
-    /// The validated 7-parameter prior.
-    pub fn to_prior(&self, file: &str) -> Result<Prior, ConfigError> {
-        let kinds = vec![
-            self.w1sq, self.w2sq, self.dt1, self.dt2, self.a_df, self.a_sus, self.d21,
-        ];
-        Prior::new(PARAM_NAMES.iter().map(|s| s.to_string()).collect(), kinds).map_err(|e| {
-            let field = match &e {
-                crate::prior::PriorError::Invalid { name, .. } => format!("prior.{name}"),
-                _ => "prior".into(),
-            };
-            ConfigError::Invalid {
-                file: file.into(),
-                field,
-                msg: e.to_string(),
-            }
-        })
-    }
-}
-
-/// A (sub-)model of the 7-parameter closed loop: which parameters are free and the values of
-/// the others.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ModelEntry {
-    /// Free parameter names (default: all seven).
-    #[serde(default = "all_params")]
-    pub free: Vec<String>,
-    /// Values of the parameters that are not free.
-    #[serde(default)]
-    pub fixed: std::collections::BTreeMap<String, f64>,
-}
-
-fn all_params() -> Vec<String> {
-    PARAM_NAMES.iter().map(|s| s.to_string()).collect()
-}
-
-impl Default for ModelEntry {
-    fn default() -> Self {
-        Self {
-            free: all_params(),
-            fixed: Default::default(),
-        }
-    }
-}
-
-/// A validated model: free indices and the full base vector.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct ModelSpec {
-    pub free: Vec<usize>,
-    pub base: [f64; crate::ltp::N_PARAMS],
-}
-
-impl ModelEntry {
-    /// Checks names, duplicates and that every parameter is either free or fixed (finite).
-    pub fn resolve(&self, file: &str, at: &str) -> Result<ModelSpec, ConfigError> {
-        let bad = |field: String, msg: String| ConfigError::Invalid {
-            file: file.into(),
-            field,
-            msg,
-        };
-        let idx = |n: &str, field: String| {
-            PARAM_NAMES.iter().position(|p| *p == n).ok_or_else(|| {
-                bad(
-                    field,
-                    format!("unknown parameter `{n}`; the parameters are {PARAM_NAMES:?}"),
-                )
-            })
-        };
-        let mut free = Vec::new();
-        for (k, n) in self.free.iter().enumerate() {
-            let i = idx(n, format!("{at}free[{k}]"))?;
-            if free.contains(&i) {
-                return Err(bad(
-                    format!("{at}free[{k}]"),
-                    format!("`{n}` is listed twice"),
-                ));
-            }
-            free.push(i);
-        }
-        if free.is_empty() {
-            return Err(bad(
-                format!("{at}free"),
-                "at least one parameter must be free".into(),
-            ));
-        }
-        let mut base = [f64::NAN; crate::ltp::N_PARAMS];
-        for (n, &v) in &self.fixed {
-            let i = idx(n, format!("{at}fixed.{n}"))?;
-            if free.contains(&i) {
-                return Err(bad(
-                    format!("{at}fixed.{n}"),
-                    format!("`{n}` is both free and fixed; remove it from one of the lists"),
-                ));
-            }
-            if !v.is_finite() {
-                return Err(bad(
-                    format!("{at}fixed.{n}"),
-                    format!("must be finite (got {v})"),
-                ));
-            }
-            base[i] = v;
-        }
-        for (i, n) in PARAM_NAMES.iter().enumerate() {
-            if !free.contains(&i) && base[i].is_nan() {
-                return Err(bad(
-                    format!("{at}fixed"),
-                    format!(
-                        "`{n}` is neither free nor fixed: add it to `free` or give `fixed.{n}`"
-                    ),
-                ));
-            }
-            if free.contains(&i) {
-                base[i] = 0.0;
-            }
-        }
-        Ok(ModelSpec { free, base })
-    }
-}
-
 /// `[fit]`: MCMC parameter estimation of one model.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct FitOptions {
-    /// Free parameter names (default: all seven).
-    pub free: Vec<String>,
+    /// The model to fit (default: the built-in closed loop `ltp`).
+    pub model: Option<String>,
+    /// Free parameter names (default: all of the model's).
+    pub free: Option<Vec<String>>,
     /// Values of the parameters that are not free.
     pub fixed: std::collections::BTreeMap<String, f64>,
     pub chains: usize,
@@ -373,7 +240,8 @@ pub struct FitOptions {
 impl Default for FitOptions {
     fn default() -> Self {
         Self {
-            free: all_params(),
+            model: None,
+            free: None,
             fixed: Default::default(),
             chains: 4,
             iterations: 20_000,
@@ -393,9 +261,12 @@ impl Default for FitOptions {
 #[serde(deny_unknown_fields)]
 pub struct SelectModelEntry {
     pub name: String,
-    /// Free parameter names (default: all seven).
-    #[serde(default = "all_params")]
-    pub free: Vec<String>,
+    /// The model this is a sub-model of (default: the built-in closed loop `ltp`).
+    #[serde(default)]
+    pub model: Option<String>,
+    /// Free parameter names (default: all of the model's).
+    #[serde(default)]
+    pub free: Option<Vec<String>>,
     /// Values of the parameters that are not free.
     #[serde(default)]
     pub fixed: std::collections::BTreeMap<String, f64>,
@@ -471,8 +342,14 @@ pub struct StudyFile {
     pub simulation: SimulationOptions,
     #[serde(default)]
     pub analysis: AnalysisOptions,
+    /// Normalised priors by parameter name (defaults: the built-in model's boxes, see
+    /// [`crate::model::LtpModel::default_priors`]); every parameter of a user-defined model
+    /// needs one.
     #[serde(default)]
-    pub prior: PriorTable,
+    pub prior: std::collections::BTreeMap<String, PriorKind>,
+    /// `[[model]]` tables: built-in closed loops with options and user-defined models.
+    #[serde(default)]
+    pub model: Vec<toml::Table>,
     #[serde(default)]
     pub fit: FitOptions,
     #[serde(default)]
@@ -492,8 +369,8 @@ pub struct Study {
     pub simulation: SimulationOptions,
     pub experiments: Vec<ExperimentDesign>,
     pub analysis: AnalysisOptions,
-    /// The validated 7-parameter prior.
-    pub prior: Prior,
+    /// Every model with its validated prior.
+    pub models: ModelSet,
     pub fit: FitOptions,
     /// The validated `[fit]` model.
     pub fit_model: ModelSpec,
@@ -569,6 +446,29 @@ impl StudyFile {
         check_stable(&self.truth, &Controllers::default(), &self.masses)
             .map_err(|e| bad("truth".into(), e.to_string()))?;
         let sim = &self.simulation;
+        if let Some(t) = &sim.thruster {
+            use crate::model::ThrusterResponse as R;
+            let ok = match t.response {
+                R::None => true,
+                R::Delay => t.value.is_finite() && t.value >= 0.0,
+                R::Pole => finite_pos(t.value),
+            };
+            if !ok {
+                return Err(bad(
+                    "simulation.thruster.value".into(),
+                    format!(
+                        "must be a delay ≥ 0 s (response = \"delay\") or a pole frequency > 0 Hz (response = \"pole\"); got {}",
+                        t.value
+                    ),
+                ));
+            }
+            if t.response != R::None && sim.method == Method::Time {
+                return Err(bad(
+                    "simulation.thruster".into(),
+                    "a thruster response is simulated in the frequency domain only; use method = \"frequency\"".into(),
+                ));
+            }
+        }
         if let Some(t) = sim.target_snr
             && !finite_pos(t)
         {
@@ -684,20 +584,26 @@ impl StudyFile {
             validate_waveforms(&d, file, &at(""))?;
             experiments.push(d);
         }
-        let prior = self.prior.to_prior(file)?;
+        let ltp_defaults = crate::model::LtpModelOptions {
+            masses: self.masses,
+            oms_delay: self.oms_delay,
+            ..Default::default()
+        };
+        let models = ModelSet::resolve(&self.model, &self.prior, &ltp_defaults, file)?;
         let fit_model = ModelEntry {
+            model: self.fit.model.clone(),
             free: self.fit.free.clone(),
             fixed: self.fit.fixed.clone(),
         }
-        .resolve(file, "fit.")?;
+        .resolve(&models, file, "fit.")?;
         validate_analysis(&self.analysis, file)?;
-        validate_fit(&self.fit, file)?;
-        let select_models = validate_select(&self.select, file)?;
+        validate_fit(&self.fit, &models.models[fit_model.model], file)?;
+        let select_models = validate_select(&self.select, &models, file)?;
         Ok(Study {
             select: self.select,
             select_models,
             analysis: self.analysis,
-            prior,
+            models,
             fit: self.fit,
             fit_model,
             seed: self.seed,
@@ -744,7 +650,11 @@ fn validate_analysis(a: &AnalysisOptions, file: &str) -> Result<(), ConfigError>
     Ok(())
 }
 
-fn validate_fit(f: &FitOptions, file: &str) -> Result<(), ConfigError> {
+fn validate_fit(
+    f: &FitOptions,
+    model: &std::sync::Arc<dyn crate::model::Model>,
+    file: &str,
+) -> Result<(), ConfigError> {
     let bad = |field: &str, msg: String| ConfigError::Invalid {
         file: file.into(),
         field: format!("fit.{field}"),
@@ -776,10 +686,14 @@ fn validate_fit(f: &FitOptions, file: &str) -> Result<(), ConfigError> {
     }
     if let Some(start) = &f.start {
         for (n, v) in start {
-            if !PARAM_NAMES.contains(&n.as_str()) {
+            if !model.param_names().contains(n) {
                 return Err(bad(
                     &format!("start.{n}"),
-                    format!("unknown parameter; the parameters are {PARAM_NAMES:?}"),
+                    format!(
+                        "unknown parameter of model `{}`; its parameters are {:?}",
+                        model.name(),
+                        model.param_names()
+                    ),
                 ));
             }
             if !v.is_finite() {
@@ -793,7 +707,11 @@ fn validate_fit(f: &FitOptions, file: &str) -> Result<(), ConfigError> {
     Ok(())
 }
 
-fn validate_select(s: &SelectOptions, file: &str) -> Result<Vec<SelectModel>, ConfigError> {
+fn validate_select(
+    s: &SelectOptions,
+    models: &ModelSet,
+    file: &str,
+) -> Result<Vec<SelectModel>, ConfigError> {
     let bad = |field: String, msg: String| ConfigError::Invalid {
         file: file.into(),
         field,
@@ -850,10 +768,11 @@ fn validate_select(s: &SelectOptions, file: &str) -> Result<Vec<SelectModel>, Co
             ));
         }
         let spec = ModelEntry {
+            model: m.model.clone(),
             free: m.free.clone(),
             fixed: m.fixed.clone(),
         }
-        .resolve(file, &at)?;
+        .resolve(models, file, &at)?;
         let p = m.prior_probability.unwrap_or(1.0);
         if !finite_pos(p) {
             return Err(bad(

@@ -1,0 +1,326 @@
+//! The model part of the study file: `[[model]]` definitions, the `[prior]` table keyed by
+//! parameter name, and the (sub-)models that `[fit]` and `[[select.model]]` pick from them.
+//!
+//! ```toml
+//! [[model]]                 # a built-in closed loop with a thruster pole (K14 §IV.A)
+//! kind = "ltp"
+//! name = "pole"
+//! thruster = "pole"         # adds parameter f_df (Hz)
+//! [prior]
+//! f_df = { kind = "uniform", lo = 0.1, hi = 10.0 }
+//! [fit]
+//! model = "pole"
+//! ```
+//!
+//! The built-in closed loop is always available as the model `ltp` (the study's masses and
+//! OMS delay, no thruster response).
+
+use super::ConfigError;
+use crate::model::{LtpModel, LtpModelOptions, Model, ThrusterResponse};
+use crate::prior::{Prior, PriorKind};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+/// The name of the built-in closed loop.
+pub const BUILTIN_LTP: &str = "ltp";
+
+/// A `[[model]]` table of kind `ltp`: the built-in closed loop with options.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LtpModelEntry {
+    pub name: String,
+    /// Extra factor on the drag-free actuation: `none`, `delay` (parameter `tau_df`) or `pole`
+    /// (parameter `f_df`).
+    #[serde(default)]
+    pub thruster: ThrusterResponse,
+}
+
+/// A validated model definition (serialisable, so the resolved study can be written out).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum ModelDef {
+    /// The built-in closed loop.
+    Ltp {
+        name: String,
+        options: LtpModelOptions,
+    },
+}
+
+impl ModelDef {
+    /// The model's name.
+    pub fn name(&self) -> &str {
+        match self {
+            ModelDef::Ltp { name, .. } => name,
+        }
+    }
+
+    fn build(&self) -> (Arc<dyn Model>, Vec<(String, PriorKind)>) {
+        match self {
+            ModelDef::Ltp { name, options } => {
+                let m = LtpModel::new(name, options.clone());
+                let d = m.default_priors();
+                (Arc::new(m), d)
+            }
+        }
+    }
+}
+
+/// Every model of a study with its validated prior.
+#[derive(Debug, Clone, Serialize)]
+pub struct ModelSet {
+    pub defs: Vec<ModelDef>,
+    #[serde(skip)]
+    pub models: Vec<Arc<dyn Model>>,
+    #[serde(skip)]
+    pub priors: Vec<Prior>,
+}
+
+impl PartialEq for ModelSet {
+    fn eq(&self, o: &Self) -> bool {
+        self.defs == o.defs && self.priors == o.priors
+    }
+}
+
+impl ModelSet {
+    /// The index of the model called `name`.
+    pub fn index(&self, name: &str) -> Option<usize> {
+        self.defs.iter().position(|d| d.name() == name)
+    }
+
+    /// The names of all models.
+    pub fn names(&self) -> Vec<String> {
+        self.defs.iter().map(|d| d.name().to_string()).collect()
+    }
+
+    /// Parses the `[[model]]` tables (plus the built-in `ltp` unless one is called that),
+    /// builds every model and its prior from `[prior]` and the model's defaults.
+    pub fn resolve(
+        tables: &[toml::Table],
+        prior: &BTreeMap<String, PriorKind>,
+        ltp_defaults: &LtpModelOptions,
+        file: &str,
+    ) -> Result<ModelSet, ConfigError> {
+        let bad = |field: String, msg: String| ConfigError::Invalid {
+            file: file.into(),
+            field,
+            msg,
+        };
+        let mut defs = Vec::new();
+        for (k, t) in tables.iter().enumerate() {
+            let at = format!("model[{k}]");
+            let mut t = t.clone();
+            let kind = match t.remove("kind") {
+                Some(toml::Value::String(s)) => s,
+                Some(v) => {
+                    return Err(bad(
+                        format!("{at}.kind"),
+                        format!("must be a string, \"ltp\" or \"user\" (got {v})"),
+                    ));
+                }
+                None => {
+                    return Err(bad(
+                        format!("{at}.kind"),
+                        "missing: say kind = \"ltp\" (the built-in closed loop) or kind = \"user\" (a model defined in this file)".into(),
+                    ));
+                }
+            };
+            let parse_err = |e: toml::de::Error| bad(at.clone(), e.message().to_string());
+            let def = match kind.as_str() {
+                "ltp" => {
+                    let e: LtpModelEntry = t.try_into().map_err(parse_err)?;
+                    ModelDef::Ltp {
+                        name: e.name,
+                        options: LtpModelOptions {
+                            thruster: e.thruster,
+                            ..ltp_defaults.clone()
+                        },
+                    }
+                }
+                other => {
+                    return Err(bad(
+                        format!("{at}.kind"),
+                        format!("unknown model kind `{other}`; the kinds are \"ltp\" and \"user\""),
+                    ));
+                }
+            };
+            if def.name().is_empty() || defs.iter().any(|d: &ModelDef| d.name() == def.name()) {
+                return Err(bad(
+                    format!("{at}.name"),
+                    format!("`{}` must be non-empty and unique", def.name()),
+                ));
+            }
+            defs.push(def);
+        }
+        if !defs.iter().any(|d| d.name() == BUILTIN_LTP) {
+            defs.insert(
+                0,
+                ModelDef::Ltp {
+                    name: BUILTIN_LTP.into(),
+                    options: ltp_defaults.clone(),
+                },
+            );
+        }
+        let mut models = Vec::new();
+        let mut priors = Vec::new();
+        for d in &defs {
+            let (m, defaults) = d.build();
+            crate::model::validate_shape(m.as_ref())
+                .map_err(|e| bad(format!("model.{}", d.name()), e))?;
+            let mut kinds = Vec::new();
+            for n in m.param_names() {
+                let k = prior
+                    .get(n)
+                    .copied()
+                    .or_else(|| defaults.iter().find(|(x, _)| x == n).map(|(_, k)| *k))
+                    .ok_or_else(|| {
+                        bad(
+                            format!("prior.{n}"),
+                            format!(
+                                "parameter `{n}` of model `{}` has no prior; add e.g. `{n} = {{ kind = \"uniform\", lo = …, hi = … }}` to [prior]",
+                                d.name()
+                            ),
+                        )
+                    })?;
+                kinds.push(k);
+            }
+            let p = Prior::new(m.param_names().to_vec(), kinds).map_err(|e| {
+                let field = match &e {
+                    crate::prior::PriorError::Invalid { name, .. } => format!("prior.{name}"),
+                    _ => "prior".into(),
+                };
+                bad(field, e.to_string())
+            })?;
+            models.push(m);
+            priors.push(p);
+        }
+        for n in prior.keys() {
+            if !models.iter().any(|m| m.param_names().contains(n)) {
+                let mut all: Vec<String> = models
+                    .iter()
+                    .flat_map(|m| m.param_names().iter().cloned())
+                    .collect();
+                all.sort();
+                all.dedup();
+                return Err(bad(
+                    format!("prior.{n}"),
+                    format!("`{n}` is not a parameter of any model; the parameters are {all:?}"),
+                ));
+            }
+        }
+        Ok(ModelSet {
+            defs,
+            models,
+            priors,
+        })
+    }
+}
+
+/// A (sub-)model as written: which model, which parameters are free and the values of the
+/// others.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModelEntry {
+    /// The model (default: the built-in `ltp`).
+    pub model: Option<String>,
+    /// Free parameter names (default: all of the model's).
+    pub free: Option<Vec<String>>,
+    /// Values of the parameters that are not free.
+    #[serde(default)]
+    pub fixed: BTreeMap<String, f64>,
+}
+
+/// A validated (sub-)model: the model's index in the [`ModelSet`], the free indices and the
+/// full base vector (fixed values; free entries 0).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct ModelSpec {
+    pub model: usize,
+    pub free: Vec<usize>,
+    pub base: Vec<f64>,
+}
+
+impl ModelEntry {
+    /// Checks names, duplicates and that every parameter is either free or fixed (finite).
+    pub fn resolve(&self, set: &ModelSet, file: &str, at: &str) -> Result<ModelSpec, ConfigError> {
+        let bad = |field: String, msg: String| ConfigError::Invalid {
+            file: file.into(),
+            field,
+            msg,
+        };
+        let mname = self.model.as_deref().unwrap_or(BUILTIN_LTP);
+        let mi = set.index(mname).ok_or_else(|| {
+            bad(
+                format!("{at}model"),
+                format!("unknown model `{mname}`; the models are {:?}", set.names()),
+            )
+        })?;
+        let names = set.models[mi].param_names();
+        let idx = |n: &str, field: String| {
+            names.iter().position(|p| p == n).ok_or_else(|| {
+                bad(
+                    field,
+                    format!(
+                        "unknown parameter `{n}` of model `{mname}`; its parameters are {names:?}"
+                    ),
+                )
+            })
+        };
+        let mut free = Vec::new();
+        match &self.free {
+            None => free.extend(0..names.len()),
+            Some(list) => {
+                for (k, n) in list.iter().enumerate() {
+                    let i = idx(n, format!("{at}free[{k}]"))?;
+                    if free.contains(&i) {
+                        return Err(bad(
+                            format!("{at}free[{k}]"),
+                            format!("`{n}` is listed twice"),
+                        ));
+                    }
+                    free.push(i);
+                }
+            }
+        }
+        if free.is_empty() {
+            return Err(bad(
+                format!("{at}free"),
+                "at least one parameter must be free".into(),
+            ));
+        }
+        let mut base = vec![f64::NAN; names.len()];
+        for (n, &v) in &self.fixed {
+            let i = idx(n, format!("{at}fixed.{n}"))?;
+            if free.contains(&i) {
+                return Err(bad(
+                    format!("{at}fixed.{n}"),
+                    format!("`{n}` is both free and fixed; remove it from one of the lists"),
+                ));
+            }
+            if !v.is_finite() {
+                return Err(bad(
+                    format!("{at}fixed.{n}"),
+                    format!("must be finite (got {v})"),
+                ));
+            }
+            base[i] = v;
+        }
+        for (i, n) in names.iter().enumerate() {
+            if !free.contains(&i) && base[i].is_nan() {
+                return Err(bad(
+                    format!("{at}fixed"),
+                    format!(
+                        "`{n}` is neither free nor fixed: add it to `free` or give `fixed.{n}`"
+                    ),
+                ));
+            }
+            if free.contains(&i) {
+                base[i] = 0.0;
+            }
+        }
+        Ok(ModelSpec {
+            model: mi,
+            free,
+            base,
+        })
+    }
+}
