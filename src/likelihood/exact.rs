@@ -3,7 +3,7 @@
 use super::spectra::ExperimentSpectra;
 use crate::density::LogDensity;
 use crate::hermitian;
-use crate::model::{MAX_CHANNELS, MAX_RESIDUALS, Model, residual};
+use crate::model::{BlockKernel, MAX_CHANNELS, MAX_RESIDUALS, Model, residual};
 use crate::prior::Prior;
 use num_complex::Complex64;
 use std::sync::Arc;
@@ -20,6 +20,8 @@ use std::sync::Arc;
 pub struct Likelihood {
     model: Arc<dyn Model>,
     spectra: Vec<ExperimentSpectra>,
+    /// The model's prepared kernel per experiment, if it has one.
+    kernels: Vec<Option<Arc<dyn BlockKernel>>>,
     prior: Prior,
     ln_norm: f64,
 }
@@ -85,9 +87,14 @@ impl Likelihood {
                 ln_norm -= nr as f64 * std::f64::consts::PI.ln() - det_inv.ln();
             }
         }
+        let kernels = spectra
+            .iter()
+            .map(|e| model.prepare_kernel(&e.block()))
+            .collect();
         Ok(Self {
             model,
             spectra,
+            kernels,
             prior,
             ln_norm,
         })
@@ -120,8 +127,21 @@ impl Likelihood {
     }
 
     /// `Σ r_kᴴ C_k⁻¹ r_k` (the "χ²/2" of the residual; `ln L = −this + ln_norm`), through the
-    /// model's kernel ([`Model::residual_power`]).
+    /// model's prepared kernel ([`Model::prepare_kernel`]) or [`Model::residual_power`].
     pub fn residual_power(&self, th: &[f64]) -> f64 {
+        self.spectra
+            .iter()
+            .zip(&self.kernels)
+            .map(|(e, k)| match k {
+                Some(k) => k.residual_power(th),
+                None => self.model.residual_power(th, &e.block()),
+            })
+            .sum()
+    }
+
+    /// As [`Likelihood::residual_power`] through [`Model::residual_power`] only (no prepared
+    /// kernel): the reference prepared kernels are tested against.
+    pub fn residual_power_unprepared(&self, th: &[f64]) -> f64 {
         self.spectra
             .iter()
             .map(|e| self.model.residual_power(th, &e.block()))

@@ -161,6 +161,20 @@ pub trait Model: Send + Sync + std::fmt::Debug {
     fn residual_power(&self, theta: &[f64], block: &BinBlock) -> f64 {
         residual_power_generic(self, theta, block)
     }
+
+    /// A kernel for one block of bins, prepared once (it may precompute anything that does not
+    /// depend on θ, data included) and then evaluated for many θ, like an FFT plan. `None`
+    /// (the default) means [`Model::residual_power`] is used. A prepared kernel must give the
+    /// same value as [`residual_power_generic`] to rounding; its tests say how close.
+    fn prepare_kernel(&self, _block: &BinBlock) -> Option<std::sync::Arc<dyn BlockKernel>> {
+        None
+    }
+}
+
+/// A prepared per-block evaluation of `Σ_k r_kᴴ C_k⁻¹ r_k` (see [`Model::prepare_kernel`]).
+pub trait BlockKernel: Send + Sync + std::fmt::Debug {
+    /// `Σ_k r_kᴴ C_k⁻¹ r_k` at θ. Allocation-free.
+    fn residual_power(&self, theta: &[f64]) -> f64;
 }
 
 /// The default [`Model::residual_power`]: coefficients bin by bin. Kept callable so fast
