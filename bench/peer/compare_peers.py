@@ -11,6 +11,14 @@ alternating which goes first, with θ moved as the Rust bench moves it; the scri
 round and the medians of the rates and of the per-round ratio (the ratio is steadier than the
 rates on a shared machine).
 
+The old peer allocates about 25 temporaries of 0.3–0.6 MB per evaluation. glibc serves
+allocations that large with fresh mmap pages unless its (adaptive) mmap threshold has risen,
+so its speed depends on the allocator's history: about 3× slower with fresh pages (page
+faults and zeroing), which is what a standalone run of the old peer mostly gets. This script
+fixes the threshold at 32 MiB with mallopt, so the old peer is timed at its best (its
+temporaries reuse heap memory) whatever ran before. The new peer writes into preallocated
+buffers and does not care.
+
 Before timing it checks the two against each other (and against the Rust values in the file)
 at random points around the truth, including delays far from it, and on two synthetic
 variants of the data that exercise the code paths the Table I study does not: an experiment
@@ -22,6 +30,7 @@ import os
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
+import ctypes  # noqa: E402
 import statistics  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
@@ -69,8 +78,13 @@ def rate(f, th, truth, evals, k0):
 
 
 def main():
-    path = sys.argv[1] if len(sys.argv) > 1 else "target/tmp/numpy_peer_inputs.npz"
-    rounds = int(sys.argv[2]) if len(sys.argv) > 2 else 9
+    args = sys.argv[1:]
+    path = args[0] if args else "target/tmp/numpy_peer_inputs.npz"
+    rounds = int(args[1]) if len(args) > 1 else 9
+    libc = ctypes.CDLL("libc.so.6")
+    m_trim_threshold, m_mmap_threshold = -1, -3
+    ok = libc.mallopt(m_mmap_threshold, 32 << 20) and libc.mallopt(m_trim_threshold, 1 << 30)
+    print(f"malloc: mmap threshold fixed at 32 MiB ({'ok' if ok else 'mallopt FAILED'})")
     z, exps, masses = peer.load(path)
     truth = np.array(z["theta_truth"], dtype=float)
     rng = np.random.default_rng(3045)
