@@ -597,7 +597,7 @@ impl StudyFile {
         }
         .resolve(&models, file, "fit.")?;
         validate_analysis(&self.analysis, file)?;
-        validate_fit(&self.fit, &models.models[fit_model.model], file)?;
+        validate_fit(&self.fit, &models, file)?;
         let select_models = validate_select(&self.select, &models, file)?;
         Ok(Study {
             select: self.select,
@@ -650,11 +650,7 @@ fn validate_analysis(a: &AnalysisOptions, file: &str) -> Result<(), ConfigError>
     Ok(())
 }
 
-fn validate_fit(
-    f: &FitOptions,
-    model: &std::sync::Arc<dyn crate::model::Model>,
-    file: &str,
-) -> Result<(), ConfigError> {
+fn validate_fit(f: &FitOptions, models: &ModelSet, file: &str) -> Result<(), ConfigError> {
     let bad = |field: &str, msg: String| ConfigError::Invalid {
         file: file.into(),
         field: format!("fit.{field}"),
@@ -686,13 +682,13 @@ fn validate_fit(
     }
     if let Some(start) = &f.start {
         for (n, v) in start {
-            if !model.param_names().contains(n) {
+            // the start applies to every model that has the parameter (`select` too)
+            if !models.models.iter().any(|m| m.param_names().contains(n)) {
                 return Err(bad(
                     &format!("start.{n}"),
                     format!(
-                        "unknown parameter of model `{}`; its parameters are {:?}",
-                        model.name(),
-                        model.param_names()
+                        "not a parameter of any model; the parameters are {:?}",
+                        models.all_param_names()
                     ),
                 ));
             }

@@ -93,6 +93,18 @@ impl ModelSet {
         self.defs.iter().map(|d| d.name().to_string()).collect()
     }
 
+    /// Every parameter name of every model, sorted, once each.
+    pub fn all_param_names(&self) -> Vec<String> {
+        let mut all: Vec<String> = self
+            .models
+            .iter()
+            .flat_map(|m| m.param_names().iter().cloned())
+            .collect();
+        all.sort();
+        all.dedup();
+        all
+    }
+
     /// Parses the `[[model]]` tables (plus the built-in `ltp` unless one is called that),
     /// builds every model and its prior from `[prior]` and the model's defaults.
     pub fn resolve(
@@ -194,25 +206,23 @@ impl ModelSet {
             models.push(m);
             priors.push(p);
         }
-        for n in prior.keys() {
-            if !models.iter().any(|m| m.param_names().contains(n)) {
-                let mut all: Vec<String> = models
-                    .iter()
-                    .flat_map(|m| m.param_names().iter().cloned())
-                    .collect();
-                all.sort();
-                all.dedup();
-                return Err(bad(
-                    format!("prior.{n}"),
-                    format!("`{n}` is not a parameter of any model; the parameters are {all:?}"),
-                ));
-            }
-        }
-        Ok(ModelSet {
+        let set = ModelSet {
             defs,
             models,
             priors,
-        })
+        };
+        for n in prior.keys() {
+            if !set.models.iter().any(|m| m.param_names().contains(n)) {
+                return Err(bad(
+                    format!("prior.{n}"),
+                    format!(
+                        "`{n}` is not a parameter of any model; the parameters are {:?}",
+                        set.all_param_names()
+                    ),
+                ));
+            }
+        }
+        Ok(set)
     }
 }
 
