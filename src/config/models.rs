@@ -16,7 +16,7 @@
 //! OMS delay, no thruster response).
 
 use super::ConfigError;
-use crate::model::{LtpModel, LtpModelOptions, Model, ThrusterResponse};
+use crate::model::{LoopResponse, LtpModel, LtpModelOptions, Model, ThrusterResponse};
 use crate::prior::{Prior, PriorKind};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -34,6 +34,11 @@ pub struct LtpModelEntry {
     /// (parameter `f_df`).
     #[serde(default)]
     pub thruster: ThrusterResponse,
+    /// `continuous` (default) or `discrete`: the response of the digital loop at the data's
+    /// sample rate (ZOH plant, Tustin controllers), for data from a discrete-time system such
+    /// as `[simulation] method = "time"`.
+    #[serde(default)]
+    pub response: LoopResponse,
 }
 
 /// A validated model definition (serialisable, so the resolved study can be written out).
@@ -145,6 +150,7 @@ impl ModelSet {
                         name: e.name,
                         options: LtpModelOptions {
                             thruster: e.thruster,
+                            response: e.response,
                             ..ltp_defaults.clone()
                         },
                     }

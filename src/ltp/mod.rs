@@ -16,6 +16,7 @@
 
 mod closed_loop;
 mod controllers;
+pub mod discrete_response;
 mod noise;
 mod params;
 pub mod timedomain;
@@ -25,5 +26,8 @@ pub use closed_loop::{
     response,
 };
 pub use controllers::{Controllers, design_lead_integrator};
+pub use discrete_response::{
+    DiscreteBinConsts, DiscreteControllers, DiscreteLoopKernel, N_DISCRETE_CONSTS, h_io_discrete,
+};
 pub use noise::NoiseModel;
 pub use params::{LtpParams, Masses, N_PARAMS, PARAM_NAMES};

@@ -11,12 +11,35 @@
 //!
 //! These are the two thruster-response models of the Bayes-factor-against-SNR study (K14 §IV.A,
 //! ltp-model.md §10 item 8).
+//!
+//! # Continuous or discrete loop response (`response`)
+//!
+//! * `response = "continuous"` (the default): `H_io` of the continuous loop
+//!   ([`h_io_matrix`](crate::ltp::h_io_matrix)), the model of K14 and of data simulated in the
+//!   frequency domain.
+//! * `response = "discrete"`: the exact `H_io` of the loop discretised at the data's sample
+//!   rate (the bin's `fs`): plant by zero-order hold, controllers by Tustin, OMS delay in whole
+//!   samples ([`h_io_discrete`](crate::ltp::h_io_discrete)); the loop that
+//!   [`DiscreteLoop::simulate`](crate::ltp::timedomain::DiscreteLoop::simulate) runs, i.e. the
+//!   model for data from `[simulation] method = "time"` and for a real digital loop. An OMS
+//!   delay that is not a whole number of samples is applied as a fractional delay.
+//!
+//! The two differ mainly by the hold: to first order the discrete loop is the continuous one
+//! with an extra in-loop delay `T/2 = 1/(2fs)`. At fs = 10 Hz (K14 Table I) `|H_disc/H_cont − 1|`
+//! is ≲ 4e−4 below 3 mHz, 3e−3 on `H_io22` at 10 mHz, 4e−2 at 0.1 Hz and 0.3 at 1 Hz
+//! (table in [`timedomain`](crate::ltp::timedomain)); it shrinks like `1/fs`. Per-bin SNRs of
+//! the K14 injections are large enough that fitting discretely sampled data with the continuous
+//! model biases Δt2, A_sus and Δt1 by many σ (137σ, 46σ, −9.6σ at 10 Hz): use `discrete` for
+//! time-domain data, `continuous` only for data generated from the continuous response. Both
+//! have a fast kernel; [`Model::check`] tests the stability of the continuous loop (the discrete loop's
+//! stability depends on `fs`, which `check` does not know).
 
 use super::{Bin, BinBlock, Model};
 use crate::hermitian;
 use crate::lti::delay;
 use crate::ltp::{
-    BinConsts, Controllers, LoopKernel, LtpParams, Masses, N_PARAMS, PARAM_NAMES, check_stable,
+    BinConsts, Controllers, DiscreteBinConsts, DiscreteControllers, DiscreteLoopKernel, LoopKernel,
+    LtpParams, Masses, N_DISCRETE_CONSTS, N_PARAMS, PARAM_NAMES, check_stable,
 };
 use crate::prior::PriorKind;
 use num_complex::{Complex, Complex64};
@@ -69,6 +92,17 @@ impl ThrusterResponse {
     }
 }
 
+/// Which loop response the model uses (see the module docs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum LoopResponse {
+    /// The continuous loop (K14).
+    #[default]
+    Continuous,
+    /// The loop discretised at the data's sample rate: ZOH plant, Tustin controllers.
+    Discrete,
+}
+
 /// Options of the built-in closed-loop model.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -79,6 +113,8 @@ pub struct LtpModelOptions {
     pub oms_delay: f64,
     /// Extra factor on the drag-free actuation.
     pub thruster: ThrusterResponse,
+    /// Continuous or discrete-time loop response.
+    pub response: LoopResponse,
 }
 
 impl Default for LtpModelOptions {
@@ -87,6 +123,7 @@ impl Default for LtpModelOptions {
             masses: Masses::default(),
             oms_delay: 0.0,
             thruster: ThrusterResponse::None,
+            response: LoopResponse::Continuous,
         }
     }
 }
@@ -102,8 +139,10 @@ pub struct LtpModel {
     res: Vec<String>,
 }
 
-/// Constants per bin: `C_df, C_sus, E, E·C_df, E·C_sus`.
+/// Constants per bin: `C_df, C_sus, E, E·C_df, E·C_sus` (continuous) or
+/// [`DiscreteBinConsts::to_array`] (discrete).
 const N_CONSTS: usize = 5;
+const _: () = assert!(N_DISCRETE_CONSTS <= N_CONSTS);
 
 impl LtpModel {
     /// The closed loop with the §4 controllers.
@@ -175,14 +214,54 @@ impl LtpModel {
         crate::ltp::h_io_matrix(t7, c, &self.opts.masses, r_df)
     }
 
+    /// `H_io(z; θ)` of the discretised loop at the bin's `fs`.
+    fn h_io_discrete<T: DualNum<Primitive = f64> + Copy>(
+        &self,
+        th: &[T],
+        bin: &Bin,
+    ) -> [[Complex<T>; 2]; 2] {
+        let c = DiscreteBinConsts::from_array(bin.f, bin.fs, bin.consts);
+        let r_df = match self.opts.thruster.param() {
+            Some(_) => self.opts.thruster.factor(th[N_PARAMS], c.f),
+            None => Complex::new(T::one(), T::zero()),
+        };
+        let t7: &[T; N_PARAMS] = th[..N_PARAMS].try_into().expect("length checked");
+        crate::ltp::h_io_discrete(t7, &c, &self.opts.masses, r_df)
+    }
+
+    /// The fast kernel of the discrete loop (as the continuous one in
+    /// [`Model::residual_power`]).
+    fn residual_power_discrete(&self, th: &[f64; N_PARAMS], b: &BinBlock) -> f64 {
+        let kern = DiscreteLoopKernel::new(th, &self.opts.masses, b.fs);
+        let step = [delay(th[2], b.df), delay(th[3], b.df)];
+        let mut t = [Complex64::new(1.0, 0.0); 2];
+        let mut s = 0.0;
+        for k in 0..b.n {
+            let bin = b.bin(k, N_CONSTS);
+            if k % PHASOR_RESEED == 0 {
+                t = [delay(th[2], bin.f), delay(th[3], bin.f)];
+            }
+            let c = DiscreteBinConsts::from_array(bin.f, bin.fs, bin.consts);
+            let d = &b.data[4 * k..4 * k + 4];
+            let h = kern.eval(&c, t, [d[2], d[3]]);
+            let r = [d[0] - h[0], d[1] - h[1]];
+            s += hermitian::quad(&b.cinv[k], r);
+            t[0] *= step[0];
+            t[1] *= step[1];
+        }
+        s
+    }
+
     fn fill<T: DualNum<Primitive = f64> + Copy>(
         &self,
         th: &[T],
         bin: &Bin,
         out: &mut [Complex<T>],
     ) {
-        let c = self.bin_consts_struct(bin);
-        let h = self.h_io(th, &c);
+        let h = match self.opts.response {
+            LoopResponse::Continuous => self.h_io(th, &self.bin_consts_struct(bin)),
+            LoopResponse::Discrete => self.h_io_discrete(th, bin),
+        };
         let one = Complex::new(T::one(), T::zero());
         let zero = Complex::new(T::zero(), T::zero());
         // row-major [I | −H_io]
@@ -218,9 +297,23 @@ impl Model for LtpModel {
         N_CONSTS
     }
 
-    fn bin_consts(&self, f: f64, _fs: f64, out: &mut [Complex64]) {
-        let b = BinConsts::new(f, &self.ctrl, self.opts.oms_delay);
-        out.copy_from_slice(&[b.cdf, b.csus, b.e_oms, b.e_cdf, b.e_csus]);
+    /// Continuous: the controller and OMS-delay responses at `f`. Discrete: the constants of
+    /// the loop discretised at `fs` ([`DiscreteBinConsts`]); an invalid `fs` gives NaNs.
+    fn bin_consts(&self, f: f64, fs: f64, out: &mut [Complex64]) {
+        match self.opts.response {
+            LoopResponse::Continuous => {
+                let b = BinConsts::new(f, &self.ctrl, self.opts.oms_delay);
+                out.copy_from_slice(&[b.cdf, b.csus, b.e_oms, b.e_cdf, b.e_csus]);
+            }
+            LoopResponse::Discrete => match DiscreteControllers::tustin(&self.ctrl, fs) {
+                Ok(dc) => {
+                    let b = DiscreteBinConsts::new(f, &dc, self.opts.oms_delay);
+                    out[..N_DISCRETE_CONSTS].copy_from_slice(&b.to_array());
+                    out[N_DISCRETE_CONSTS..].fill(Complex64::new(0.0, 0.0));
+                }
+                Err(_) => out.fill(Complex64::new(f64::NAN, f64::NAN)),
+            },
+        }
     }
 
     fn coefficients(&self, theta: &[f64], bin: &Bin, out: &mut [Complex64]) {
@@ -242,7 +335,8 @@ impl Model for LtpModel {
     /// The wave-1 kernel: θ-dependent loop scalars once per θ, one complex reciprocal per bin,
     /// guidance-delay phasors by recurrence on the uniform grid (re-seeded exactly every
     /// [`PHASOR_RESEED`] bins so rounding cannot accumulate beyond ~1e−14), no allocation.
-    /// With a thruster response the generic per-bin path is used.
+    /// The discrete loop has the same kind of kernel ([`DiscreteLoopKernel`]). With a thruster
+    /// response the generic per-bin path is used.
     fn residual_power(&self, theta: &[f64], b: &BinBlock) -> f64 {
         if self.opts.thruster != ThrusterResponse::None {
             return super::residual_power_generic(self, theta, b);
@@ -251,6 +345,9 @@ impl Model for LtpModel {
             Ok(t) => t,
             Err(_) => return f64::NAN,
         };
+        if self.opts.response == LoopResponse::Discrete {
+            return self.residual_power_discrete(th, b);
+        }
         let kern = LoopKernel::new(th, &self.opts.masses);
         let step = [delay(th[2], b.df), delay(th[3], b.df)];
         let mut t = [Complex64::new(1.0, 0.0); 2];
@@ -352,5 +449,151 @@ mod tests {
         let r = ThrusterResponse::Pole.factor(2.0, 2.0);
         assert!((r.norm() - 0.5f64.sqrt()).abs() < 1e-15);
         assert!((r.arg() + PI / 4.0).abs() < 1e-15);
+    }
+
+    fn discrete(thruster: ThrusterResponse) -> LtpModel {
+        LtpModel::new(
+            "ltp",
+            LtpModelOptions {
+                oms_delay: 0.3,
+                thruster,
+                response: LoopResponse::Discrete,
+                ..Default::default()
+            },
+        )
+    }
+
+    #[test]
+    fn discrete_coefficients_are_the_discrete_loop_at_the_bin_sample_rate() {
+        use crate::ltp::timedomain::DiscreteLoop;
+        let m = discrete(ThrusterResponse::None);
+        let p = LtpParams {
+            dt1: 0.13,
+            dt2: 0.41,
+            ..Default::default()
+        };
+        let th = p.to_array();
+        for fs in [10.0, 100.0] {
+            let lp = DiscreteLoop::new(&p, &Controllers::default(), &Masses::default(), fs, 0.3)
+                .unwrap();
+            // from 1 mHz: below, the oracle's own rounding (ε/(ωT)², see
+            // ltp::discrete_response) exceeds 1e−10; fs/2 is the hold's zero
+            for f in [1e-3, 1e-2, 0.1, 1.0, 0.45 * fs] {
+                let c = coefficients_at(&m, &th, f, fs);
+                let h = lp.at(f).unwrap().h_io;
+                for i in 0..2 {
+                    for j in 0..2 {
+                        let got = -c[4 * i + 2 + j];
+                        assert!(
+                            (got - h[i][j]).norm() <= 1e-10 * h[i][j].norm(),
+                            "fs {fs}, f {f}: [{i}][{j}] {got} vs {}",
+                            h[i][j]
+                        );
+                    }
+                }
+            }
+        }
+        // and differs from the continuous model
+        let cont = LtpModel::new(
+            "ltp",
+            LtpModelOptions {
+                oms_delay: 0.3,
+                ..Default::default()
+            },
+        );
+        let (a, b) = (
+            coefficients_at(&m, &th, 0.1, 10.0),
+            coefficients_at(&cont, &th, 0.1, 10.0),
+        );
+        assert!((a[2] / b[2] - 1.0).norm() > 1e-2);
+    }
+
+    #[test]
+    fn discrete_dual_coefficients_have_exact_derivatives() {
+        let m = discrete(ThrusterResponse::Delay);
+        let mut th = LtpParams::default().to_array().to_vec();
+        th.push(0.15);
+        let (f, fs) = (0.02, 10.0);
+        let mut consts = [Complex64::new(0.0, 0.0); N_CONSTS];
+        m.bin_consts(f, fs, &mut consts);
+        let bin = Bin {
+            f,
+            fs,
+            consts: &consts,
+        };
+        for j in 0..th.len() {
+            let mut td: Vec<Dual64> = th.iter().map(|&x| Dual64::from(x)).collect();
+            td[j] = td[j].derivative();
+            let mut cd = [Complex::new(Dual64::from(0.0), Dual64::from(0.0)); 8];
+            m.coefficients_dual(&td, &bin, &mut cd);
+            let h = 1e-3 * th[j].abs();
+            let at = |k: f64| {
+                let mut t = th.clone();
+                t[j] += k * h;
+                let mut c = [Complex64::new(0.0, 0.0); 8];
+                m.coefficients(&t, &bin, &mut c);
+                c
+            };
+            let (p1, m1, p2, m2) = (at(1.0), at(-1.0), at(2.0), at(-2.0));
+            let mut c0 = [Complex64::new(0.0, 0.0); 8];
+            m.coefficients(&th, &bin, &mut c0);
+            for k in 0..8 {
+                assert_eq!(Complex64::new(cd[k].re.re, cd[k].im.re), c0[k]);
+                let exact = Complex64::new(cd[k].re.eps, cd[k].im.eps);
+                // O(h⁴) central difference; it resolves no better than the rounding of M
+                let num = (8.0 * (p1[k] - m1[k]) - (p2[k] - m2[k])) / (12.0 * h);
+                let tol = 1e-6 * exact.norm() + 4.0 * f64::EPSILON * c0[k].norm() / h;
+                assert!(
+                    (num - exact).norm() <= tol,
+                    "θ{j}, coefficient {k}: {num} vs {exact}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn discrete_residual_power_equals_the_generic_path() {
+        let m = discrete(ThrusterResponse::None);
+        let th = LtpParams::default().to_array();
+        let n = 1000;
+        let (f0, df, fs) = (1e-3, 1e-3, 10.0);
+        let mut consts = vec![Complex64::new(0.0, 0.0); n * N_CONSTS];
+        for k in 0..n {
+            m.bin_consts(
+                f0 + k as f64 * df,
+                fs,
+                &mut consts[k * N_CONSTS..(k + 1) * N_CONSTS],
+            );
+        }
+        let data: Vec<Complex64> = (0..4 * n)
+            .map(|i| Complex64::new((i as f64 * 0.37).sin(), (i as f64 * 0.91).cos()))
+            .collect();
+        let cinv: Vec<_> = (0..n)
+            .map(|k| (2.0 + k as f64 * 1e-3, Complex64::new(0.1, -0.2), 3.0))
+            .collect();
+        let b = BinBlock {
+            f0,
+            df,
+            fs,
+            n,
+            data: &data,
+            cinv: &cinv,
+            consts: &consts,
+        };
+        let fast = m.residual_power(&th, &b);
+        let slow = residual_power_generic(&m, &th, &b);
+        assert!(
+            (fast - slow).abs() <= 1e-12 * slow.abs(),
+            "{fast} vs {slow}"
+        );
+    }
+
+    #[test]
+    fn response_option_parses_in_snake_case_and_defaults_to_continuous() {
+        let o: LtpModelOptions = toml::from_str("response = \"discrete\"").unwrap();
+        assert_eq!(o.response, LoopResponse::Discrete);
+        let o: LtpModelOptions = toml::from_str("oms_delay = 0.3").unwrap();
+        assert_eq!(o.response, LoopResponse::Continuous);
+        assert!(toml::from_str::<LtpModelOptions>("response = \"zoh\"").is_err());
     }
 }

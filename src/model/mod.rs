@@ -23,7 +23,7 @@
 
 pub mod ltp;
 
-pub use ltp::{LtpModel, LtpModelOptions, ThrusterResponse};
+pub use ltp::{LoopResponse, LtpModel, LtpModelOptions, ThrusterResponse};
 
 use num_complex::{Complex, Complex64};
 use num_dual::Dual64;
