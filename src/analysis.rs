@@ -170,3 +170,20 @@ pub fn truth_of(study: &Study, mi: usize, dataset: &Dataset) -> Option<Vec<Optio
             .collect(),
     )
 }
+
+/// Warnings about fitting model `mi` to `dataset`: a continuous-time closed loop fitted to
+/// data from the discretised loop (`[simulation] method = "time"`) is biased by the
+/// zero-order hold's half-sample lag (tens of σ on the Table I study).
+pub fn model_warnings(study: &Study, mi: usize, dataset: &Dataset) -> Vec<String> {
+    let mut w = Vec::new();
+    let time_domain = dataset.extra.get("method").and_then(|v| v.as_str()) == Some("time");
+    if let crate::config::ModelDef::Ltp { name, options } = &study.models.defs[mi]
+        && time_domain
+        && options.response == crate::model::LoopResponse::Continuous
+    {
+        w.push(format!(
+            "model `{name}` is the continuous-time loop, but the data come from the discretised loop (method = \"time\"): expect biased parameters; use a [[model]] with kind = \"ltp\", response = \"discrete\""
+        ));
+    }
+    w
+}

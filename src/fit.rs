@@ -1,7 +1,7 @@
 //! `occam fit`: MAP, Fisher matrix and Metropolis–Hastings parameter estimation of one model,
 //! with the paper's Table I layout, chains on disk, plots and a JSON summary.
 
-use crate::analysis::{Prepared, default_start, relbin_of, truth_of};
+use crate::analysis::{Prepared, default_start, model_warnings, relbin_of, truth_of};
 use crate::config::{LikelihoodKind, Study};
 use crate::density::LogDensity;
 use crate::likelihood::{cramer_rao, fisher_exact, fisher_scoring};
@@ -97,7 +97,7 @@ pub fn run(
     let t0 = Instant::now();
     let start = default_start(study, model);
     let map = fisher_scoring(exact, &start, free, 1e-3, 200)?;
-    let mut warnings = Vec::new();
+    let mut warnings = model_warnings(study, model.model, &prep.dataset);
     if !map.converged {
         warnings.push(format!(
             "the MAP search stopped after {} iterations without converging; the chains may start far from the mode",

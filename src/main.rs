@@ -259,6 +259,9 @@ fn run_select(study: &Study, out: &std::path::Path, quiet: bool) -> Result<()> {
         s.rj.n_iter,
         s.rj_iterations_per_second
     );
+    for w in &s.warnings {
+        eprintln!("warning: {w}");
+    }
     println!(
         "wrote {}/{{summary.json, table.txt, table.md, bayes_factor.png, model_visits.png}}",
         out.display()

@@ -3,7 +3,9 @@
 //! MCD, Schwarz), the paper's Table II layout, the evolution of B (Fig. 2) and the model-visit
 //! histogram (Fig. 4).
 
-use crate::analysis::{Prepared, default_start, likelihood_of, relbin_of, truth_of};
+use crate::analysis::{
+    Prepared, default_start, likelihood_of, model_warnings, relbin_of, truth_of,
+};
 use crate::config::{LikelihoodKind, ModelSpec, Study};
 use crate::density::LogDensity;
 use crate::evidence::{
@@ -131,6 +133,8 @@ pub struct SelectSummary {
     pub rj: RjResult,
     pub rj_iterations_per_second: f64,
     pub seconds: f64,
+    /// Warnings about the models and the data.
+    pub warnings: Vec<String>,
 }
 
 struct Prepped {
@@ -274,6 +278,10 @@ pub fn run(
         rj,
         rj_iterations_per_second: rj_rate,
         seconds: t0.elapsed().as_secs_f64(),
+        warnings: parents
+            .iter()
+            .flat_map(|&mi| model_warnings(study, mi, &prep.dataset))
+            .collect(),
     })
 }
 

@@ -253,6 +253,7 @@ pub fn simulate(study: &Study) -> Result<Simulation, SimError> {
     let extra = serde_json::json!({
         "source": study.source,
         "method": opts.method,
+        "thruster": opts.thruster,
         "noise_synthesis": opts.noise,
         "noise_model": study.noise,
         "masses": study.masses,
