@@ -242,7 +242,8 @@ impl DataSource {
                 fmt_err(
                     &data,
                     format!(
-                        "experiment `{name}` needs channel `{c}`: no column `{col}` (the file has {} {}){hint}",
+                        "experiment `{name}` needs channel `{c}`: no {} `{col}` (the file has {} {}){hint}",
+                        table.kind().trim_end_matches('s'),
                         table.kind(),
                         table.listing()
                     ),
@@ -363,5 +364,391 @@ impl DataSource {
         }
         e.validate(&data)?;
         Ok(e)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ndarray_npy::NpzWriter;
+
+    fn chans(c: &[&str]) -> Vec<String> {
+        c.iter().map(|s| s.to_string()).collect()
+    }
+
+    /// A CSV with a comment, renamed columns and `n` rows at 10 Hz; `row(k)` gives the values.
+    fn csv(header: &str, n: usize, row: impl Fn(usize) -> String) -> String {
+        let mut s = format!("# exported by a test\n{header}\n");
+        for k in 0..n {
+            s += &row(k);
+            s.push('\n');
+        }
+        s
+    }
+
+    fn renamed() -> DataSource {
+        DataSource {
+            data: "run.csv".into(),
+            columns: [
+                ("t", "t_s"),
+                ("o1", "o1_m"),
+                ("o12", "o12_m"),
+                ("i1", "i1_m"),
+                ("i12", "i12_m"),
+                ("g1", "g1_N"),
+            ]
+            .into_iter()
+            .map(|(a, b)| (a.to_string(), b.to_string()))
+            .collect(),
+            fs: None,
+            noise_data: Some("quiet.csv".into()),
+        }
+    }
+
+    const HEADER: &str = "t_s,o1_m,o12_m,i1_m,i12_m,g1_N,unused";
+
+    fn write_good(dir: &Path) {
+        let s = csv(HEADER, 40, |k| {
+            format!(
+                "{},{k},{},{},0,{},7",
+                100.0 + 0.1 * k as f64,
+                -(k as f64),
+                2 * k,
+                0.5 * k as f64
+            )
+        });
+        std::fs::write(dir.join("run.csv"), s).unwrap();
+        let s = csv("t_s,o1_m,o12_m,g1_N", 30, |k| {
+            format!("{},{},{},{}", 0.1 * k as f64, 1e-9 * k as f64, 2.0, 3.0)
+        });
+        std::fs::write(dir.join("quiet.csv"), s).unwrap();
+    }
+
+    fn load_err(src: &DataSource, dir: &Path, c: &[&str]) -> String {
+        src.load("inv1", dir, &chans(c)).unwrap_err().to_string()
+    }
+
+    #[test]
+    fn csv_with_renamed_columns() {
+        let dir = tempfile::tempdir().unwrap();
+        write_good(dir.path());
+        let src = renamed();
+        let e = src
+            .load("inv1", dir.path(), &chans(&["o1", "o12", "i1", "i12", "g1"]))
+            .unwrap();
+        assert_eq!(e.name, "inv1");
+        assert!((e.fs - 10.0).abs() < 1e-9, "{}", e.fs);
+        assert_eq!(e.channel("o12").unwrap()[3], -3.0);
+        assert_eq!(e.channel("i1").unwrap()[4], 8.0);
+        assert_eq!(e.channel("g1").unwrap()[2], 1.0);
+        assert_eq!(e.channel("unused"), None);
+        assert_eq!(e.n_samples(), 40);
+        // the noise stretch has the measured channels, not the injections
+        assert_eq!(e.noise_channel("o1").unwrap().len(), 30);
+        assert_eq!(e.noise_channel("g1").unwrap()[0], 3.0);
+        assert_eq!(e.noise_channel("i1"), None);
+        assert_eq!(e.n_noise_samples(), 30);
+        // only what the models need is read; `fs` given and agreeing is fine
+        let mut s = src.clone();
+        s.fs = Some(10.0);
+        s.noise_data = None;
+        let e = s.load("inv1", dir.path(), &chans(&["o1", "g1"])).unwrap();
+        assert_eq!(e.channel_names(), chans(&["o1", "g1"]));
+        assert_eq!(e.n_noise_samples(), 0);
+        // and the experiment round-trips through a dataset directory
+        let d = crate::dataset::Dataset {
+            experiments: vec![
+                src.load("inv1", dir.path(), &chans(&["o1", "o12", "i1", "i12", "g1"]))
+                    .unwrap(),
+            ],
+            seed: None,
+            truth: None,
+            extra: serde_json::Value::Null,
+        };
+        d.write(&dir.path().join("ds")).unwrap();
+        let back = crate::dataset::Dataset::read(&dir.path().join("ds")).unwrap();
+        assert_eq!(back, d);
+    }
+
+    fn write_npz(path: &Path, arrays: &[(&str, Vec<f64>)]) {
+        let mut z = NpzWriter::new(std::fs::File::create(path).unwrap());
+        for (n, v) in arrays {
+            z.add_array(*n, &Array1::from_vec(v.clone())).unwrap();
+        }
+        z.finish().unwrap();
+    }
+
+    #[test]
+    fn npz_source() {
+        let dir = tempfile::tempdir().unwrap();
+        let ramp = |a: f64, n: usize| (0..n).map(|k| a * k as f64).collect::<Vec<_>>();
+        write_npz(
+            &dir.path().join("run.npz"),
+            &[
+                ("time", ramp(0.5, 64)),
+                ("o1", ramp(1.0, 64)),
+                ("x12", ramp(2.0, 64)),
+                ("g2", ramp(3.0, 64)),
+                ("label", vec![1.0]),
+            ],
+        );
+        write_npz(
+            &dir.path().join("noise.npz"),
+            &[("o1", ramp(1.0, 20)), ("x12", ramp(1.0, 20))],
+        );
+        let src = DataSource {
+            data: "run.npz".into(),
+            columns: [("t", "time"), ("o12", "x12")]
+                .into_iter()
+                .map(|(a, b)| (a.to_string(), b.to_string()))
+                .collect(),
+            fs: None,
+            noise_data: Some("noise.npz".into()),
+        };
+        let e = src
+            .load("x", dir.path(), &chans(&["o1", "o12", "g2"]))
+            .unwrap();
+        assert!((e.fs - 2.0).abs() < 1e-12);
+        assert_eq!(e.channel("o12").unwrap()[5], 10.0);
+        assert_eq!(e.channel("g2").unwrap()[5], 15.0);
+        assert_eq!(e.noise_channel("o12").unwrap().len(), 20);
+        assert_eq!(e.noise_channel("g2"), None);
+
+        // arrays of different lengths
+        write_npz(
+            &dir.path().join("run.npz"),
+            &[("o1", ramp(1.0, 64)), ("x12", ramp(2.0, 60))],
+        );
+        let mut s = src.clone();
+        s.fs = Some(2.0);
+        s.columns.remove("t");
+        s.noise_data = None;
+        let err = load_err(&s, dir.path(), &["o1", "o12"]);
+        assert!(
+            err.contains("run.npz") && err.contains("`x12` has 60") && err.contains("`o1` has 64"),
+            "{err}"
+        );
+        // a NaN names the array and the sample
+        let mut bad = ramp(1.0, 64);
+        bad[9] = f64::NAN;
+        write_npz(&dir.path().join("run.npz"), &[("o1", bad)]);
+        let err = load_err(&s, dir.path(), &["o1"]);
+        assert!(
+            err.contains("run.npz") && err.contains("array `o1`, sample 9") && err.contains("NaN"),
+            "{err}"
+        );
+        // a missing array lists the ones that exist
+        write_npz(
+            &dir.path().join("run.npz"),
+            &[("o1", ramp(1.0, 64)), ("x12", ramp(2.0, 64))],
+        );
+        let err = load_err(&s, dir.path(), &["o1", "o12", "g2"]);
+        assert!(
+            err.contains("run.npz")
+                && err.contains("channel `g2`: no array `g2`")
+                && err.contains("arrays `o1`, `x12`"),
+            "{err}"
+        );
+    }
+
+    /// Writes `text` as the data file and returns the load error.
+    fn csv_err(dir: &Path, text: &str, fs: Option<f64>, c: &[&str]) -> String {
+        std::fs::write(dir.join("bad.csv"), text).unwrap();
+        let src = DataSource {
+            data: "bad.csv".into(),
+            columns: BTreeMap::new(),
+            fs,
+            noise_data: None,
+        };
+        load_err(&src, dir, c)
+    }
+
+    fn good_rows(n: usize) -> String {
+        (0..n).map(|k| format!("{},{k}\n", 0.1 * k as f64)).collect()
+    }
+
+    #[test]
+    fn bad_csv_values_name_file_line_and_column() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        // line 1 comment, line 2 header, data from line 3: row k on line k + 3
+        let rows = |bad_row: usize, cell: &str| {
+            let mut s = String::from("# comment\nt,o1\n");
+            for k in 0..20 {
+                if k == bad_row {
+                    s += &format!("{},{cell}\n", 0.1 * k as f64);
+                } else {
+                    s += &format!("{},{k}\n", 0.1 * k as f64);
+                }
+            }
+            s
+        };
+        for cell in ["nan", "inf", "-inf"] {
+            let e = csv_err(d, &rows(4, cell), None, &["o1"]);
+            assert!(
+                e.contains("bad.csv") && e.contains("line 7") && e.contains("column `o1`"),
+                "{cell}: {e}"
+            );
+            assert!(e.contains("not finite"), "{e}");
+        }
+        let e = csv_err(d, &rows(5, "1.2.3"), None, &["o1"]);
+        assert!(
+            e.contains("bad.csv")
+                && e.contains("line 8")
+                && e.contains("column `o1`")
+                && e.contains("`1.2.3` is not a number"),
+            "{e}"
+        );
+        // ragged row
+        let e = csv_err(d, "t,o1\n0,1\n0.1,2,3\n", None, &["o1"]);
+        assert!(
+            e.contains("bad.csv") && e.contains("line 3") && e.contains("3 values for 2 columns"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn bad_csv_headers() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        // a missing column names the channel, the column and the columns there are
+        let e = csv_err(d, &format!("t,o1\n{}", good_rows(20)), None, &["o1", "o12"]);
+        assert!(
+            e.contains("bad.csv")
+                && e.contains("channel `o12`")
+                && e.contains("no column `o12`")
+                && e.contains("`t`, `o1`"),
+            "{e}"
+        );
+        // a mapped column that is missing
+        std::fs::write(d.join("m.csv"), format!("t,o1\n{}", good_rows(20))).unwrap();
+        let src = DataSource {
+            data: "m.csv".into(),
+            columns: [("o1".to_string(), "o1_m".to_string())].into(),
+            fs: None,
+            noise_data: None,
+        };
+        let e = load_err(&src, d, &["o1"]);
+        assert!(
+            e.contains("m.csv") && e.contains("channel `o1`") && e.contains("no column `o1_m`"),
+            "{e}"
+        );
+        // duplicated header
+        let e = csv_err(d, &format!("t,o1,o1\n0,1,2\n"), None, &["o1"]);
+        assert!(
+            e.contains("bad.csv")
+                && e.contains("line 1")
+                && e.contains("`o1` appears twice")
+                && e.contains("columns 2 and 3"),
+            "{e}"
+        );
+        // missing header (numbers in the first row), an unnamed column
+        let e = csv_err(d, "0,1\n0.1,2\n", None, &["o1"]);
+        assert!(e.contains("bad.csv") && e.contains("line 1, column 1"), "{e}");
+        let e = csv_err(d, "# c\nt,,o1\n0,1,2\n", None, &["o1"]);
+        assert!(e.contains("line 2, column 2"), "{e}");
+        // empty file, header only
+        let e = csv_err(d, "", None, &["o1"]);
+        assert!(e.contains("bad.csv") && e.contains("empty file"), "{e}");
+        let e = csv_err(d, "# only a comment\n\n", None, &["o1"]);
+        assert!(e.contains("empty file"), "{e}");
+        let e = csv_err(d, "t,o1\n", None, &["o1"]);
+        assert!(e.contains("no data rows") && e.contains("line 1"), "{e}");
+    }
+
+    #[test]
+    fn bad_time_columns_and_rates() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        // a gap: row 10 (line 12) is 0.1 s late
+        let mut s = String::from("t,o1\n");
+        for k in 0..30 {
+            let t = 0.1 * k as f64 + if k >= 10 { 0.1 } else { 0.0 };
+            s += &format!("{t},{k}\n");
+        }
+        let e = csv_err(d, &s, None, &["o1"]);
+        assert!(
+            e.contains("bad.csv")
+                && e.contains("line 12, column `t`")
+                && e.contains("from line 11")
+                && e.contains("step from line 11 is 0.2")
+                && e.contains("spacing is 0.1"),
+            "{e}"
+        );
+        // not increasing
+        let e = csv_err(d, "t,o1\n0,1\n1,2\n1,3\n", None, &["o1"]);
+        assert!(e.contains("line 4, column `t`") && e.contains("does not increase"), "{e}");
+        // `fs` disagreeing with the time column
+        let e = csv_err(d, &format!("t,o1\n{}", good_rows(20)), Some(4.0), &["o1"]);
+        assert!(
+            e.contains("bad.csv") && e.contains("10") && e.contains("fs = 4 Hz"),
+            "{e}"
+        );
+        // no time column and no fs; with fs it loads
+        let no_t: String = (0..20).map(|k| format!("{k}\n")).collect();
+        let e = csv_err(d, &format!("o1\n{no_t}"), None, &["o1"]);
+        assert!(e.contains("sample rate is unknown"), "{e}");
+        std::fs::write(d.join("ok.csv"), format!("o1\n{no_t}")).unwrap();
+        let src = DataSource {
+            data: "ok.csv".into(),
+            columns: BTreeMap::new(),
+            fs: Some(3.0),
+            noise_data: Some("n.csv".into()),
+        };
+        // a noise file at another sample rate
+        let slow: String = (0..20).map(|k| format!("{},{k}\n", 0.5 * k as f64)).collect();
+        std::fs::write(d.join("n.csv"), format!("t,o1\n{slow}")).unwrap();
+        let e = load_err(&src, d, &["o1"]);
+        assert!(
+            e.contains("n.csv") && e.contains("2 Hz") && e.contains("3 Hz") && e.contains("ok.csv"),
+            "{e}"
+        );
+        // a noise file without any of the channels
+        std::fs::write(d.join("n.csv"), format!("x\n{no_t}")).unwrap();
+        let e = load_err(&src, d, &["o1"]);
+        assert!(e.contains("n.csv") && e.contains("`o1`") && e.contains("`x`"), "{e}");
+        // too few rows
+        let e = csv_err(d, &format!("t,o1\n{}", good_rows(5)), None, &["o1"]);
+        assert!(e.contains("bad.csv") && e.contains("too short"), "{e}");
+    }
+
+    #[test]
+    fn missing_files_and_formats() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let src = DataSource {
+            data: "nope/run.csv".into(),
+            columns: BTreeMap::new(),
+            fs: Some(1.0),
+            noise_data: None,
+        };
+        let e = load_err(&src, d, &["o1"]);
+        assert!(e.contains("nope/run.csv") && e.contains("no such file"), "{e}");
+        std::fs::write(d.join("run.txt"), "o1\n1\n").unwrap();
+        let mut s = src.clone();
+        s.data = "run.txt".into();
+        let e = load_err(&s, d, &["o1"]);
+        assert!(e.contains("run.txt") && e.contains(".csv"), "{e}");
+        // the noise file too
+        std::fs::write(d.join("run.csv"), format!("o1\n{}", "1\n".repeat(20))).unwrap();
+        s.data = "run.csv".into();
+        s.noise_data = Some("quiet.csv".into());
+        let e = load_err(&s, d, &["o1"]);
+        assert!(e.contains("quiet.csv") && e.contains("no such file"), "{e}");
+        // a reserved channel name
+        s.noise_data = None;
+        let e = load_err(&s, d, &["o1", "t"]);
+        assert!(e.contains("reserved"), "{e}");
+    }
+
+    #[test]
+    fn source_from_toml() {
+        let s: DataSource = toml::from_str(
+            "data = \"a.csv\"\nfs = 2.0\ncolumns = { o1 = \"x\" }\nnoise_data = \"n.npz\"\n",
+        )
+        .unwrap();
+        assert_eq!(s.column_of("o1"), "x");
+        assert_eq!(s.column_of("o12"), "o12");
+        assert!(toml::from_str::<DataSource>("data = \"a.csv\"\ncolumn = {}\n").is_err());
     }
 }
