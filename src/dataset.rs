@@ -774,4 +774,167 @@ mod tests {
             .to_string();
         assert!(err.contains("o12"), "{err}");
     }
+
+    fn with_extras() -> Dataset {
+        let mut d = sample();
+        let e = &mut d.experiments[0];
+        e.extra.insert("g1".into(), vec![0.5; 64]);
+        e.extra.insert("g2".into(), vec![-0.5; 64]);
+        e.noise_extra.insert("g1".into(), vec![0.25; 32]);
+        d
+    }
+
+    #[test]
+    fn extra_channels_round_trip() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = with_extras();
+        let (npz, json) = d.write(dir.path()).unwrap();
+        let side: Sidecar =
+            serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        assert_eq!(side.experiments[0].channels, vec!["g1", "g2"]);
+        assert_eq!(side.experiments[0].noise_channels, vec!["g1"]);
+        let mut z = NpzReader::new(std::fs::File::open(&npz).unwrap()).unwrap();
+        let names = z.names().unwrap();
+        assert!(names.contains(&"inv1.g2".to_string()), "{names:?}");
+        assert!(names.contains(&"inv1.noise_g1".to_string()), "{names:?}");
+        // read back from the directory, the json or the npz
+        for p in [dir.path().to_path_buf(), json, npz] {
+            let back = Dataset::read(&p).unwrap();
+            assert_eq!(back, d);
+            let e = &back.experiments[0];
+            assert_eq!(e.channel("g2").unwrap()[0], -0.5);
+            assert_eq!(e.noise_channel("g1").unwrap().len(), 32);
+            assert_eq!(e.noise_channel("g2"), None);
+            assert_eq!(e.noise_channel("i1"), None);
+        }
+    }
+
+    #[test]
+    fn old_sidecar_without_channels_loads() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = sample();
+        let (_, json) = d.write(dir.path()).unwrap();
+        let mut v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        let e = v["experiments"][0].as_object_mut().unwrap();
+        assert!(e.remove("channels").is_some() && e.remove("noise_channels").is_some());
+        std::fs::write(&json, serde_json::to_string_pretty(&v).unwrap()).unwrap();
+        assert_eq!(Dataset::read(dir.path()).unwrap(), d);
+    }
+
+    /// Writes `d`, applies `edit` to its sidecar, and returns the read error.
+    fn mismatch(d: &Dataset, edit: impl Fn(&mut serde_json::Value)) -> String {
+        let dir = tempfile::tempdir().unwrap();
+        let (_, json) = d.write(dir.path()).unwrap();
+        let mut v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        edit(&mut v);
+        std::fs::write(&json, serde_json::to_string_pretty(&v).unwrap()).unwrap();
+        let e = Dataset::read(dir.path()).unwrap_err().to_string();
+        assert!(
+            e.contains("dataset.json") && e.contains("dataset.npz") && e.contains("disagree"),
+            "{e}"
+        );
+        e
+    }
+
+    #[test]
+    fn sidecar_and_archive_must_agree() {
+        let d = with_extras();
+        let e = mismatch(&d, |v| v["experiments"][0]["n_samples"] = 60.into());
+        assert!(e.contains("n_samples = 60") && e.contains("64 samples"), "{e}");
+        let e = mismatch(&d, |v| v["experiments"][0]["n_noise_samples"] = 31.into());
+        assert!(e.contains("n_noise_samples = 31"), "{e}");
+        let e = mismatch(&d, |v| v["experiments"][0]["fs"] = 20.0.into());
+        assert!(e.contains("fs = 20 Hz") && e.contains("inv1.fs"), "{e}");
+        let e = mismatch(&d, |v| v["experiments"][0]["name"] = "inv2".into());
+        assert!(e.contains("inv2."), "{e}");
+        let e = mismatch(&d, |v| {
+            v["experiments"].as_array_mut().unwrap().clear();
+        });
+        assert!(e.contains("experiment `inv1`"), "{e}");
+        let e = mismatch(&d, |v| v["experiments"][0]["channels"] = serde_json::json!(["g1"]));
+        assert!(e.contains("inv1.g2"), "{e}");
+        let e = mismatch(&d, |v| {
+            v["experiments"][0]["channels"] = serde_json::json!(["g1", "g2", "g3"])
+        });
+        assert!(e.contains("inv1.g3"), "{e}");
+        let e = mismatch(&d, |v| v["experiments"][0]["noise_channels"] = serde_json::json!([]));
+        assert!(e.contains("inv1.noise_g1"), "{e}");
+        let e = mismatch(&d, |v| v["truth"]["d21"] = 2.5.into());
+        assert!(e.contains("truth"), "{e}");
+        let e = mismatch(&d, |v| v["truth"] = serde_json::Value::Null);
+        assert!(e.contains("`truth`"), "{e}");
+    }
+
+    #[test]
+    fn nonexistent_paths_are_errors() {
+        let dir = tempfile::tempdir().unwrap();
+        sample().write(dir.path()).unwrap();
+        // a typo below a dataset directory must not load the parent's dataset
+        for p in [
+            dir.path().join("typo"),
+            dir.path().join("typo/dataset.json"),
+            dir.path().join("datset.npz"),
+        ] {
+            let e = Dataset::read(&p).unwrap_err().to_string();
+            assert!(e.contains(&p.display().to_string()), "{e}");
+            assert!(e.contains("cannot open the dataset"), "{e}");
+        }
+        // an existing file that is not a dataset, a directory without one
+        let other = dir.path().join("notes.txt");
+        std::fs::write(&other, "x").unwrap();
+        let e = Dataset::read(&other).unwrap_err().to_string();
+        assert!(e.contains("notes.txt") && e.contains("not a dataset"), "{e}");
+        let empty = dir.path().join("empty");
+        std::fs::create_dir(&empty).unwrap();
+        let e = Dataset::read(&empty).unwrap_err().to_string();
+        assert!(e.contains("empty/dataset.json") && e.contains("no such file"), "{e}");
+        std::fs::remove_file(dir.path().join("dataset.npz")).unwrap();
+        let e = Dataset::read(dir.path()).unwrap_err().to_string();
+        assert!(e.contains("dataset.npz") && e.contains("no such file"), "{e}");
+    }
+
+    #[test]
+    fn check_names_lists_missing_and_surplus() {
+        let d = sample();
+        d.check_names(&["inv1".to_string()]).unwrap();
+        let e = d
+            .check_names(&["inv1".to_string(), "inv2".to_string()])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("missing from the dataset: `inv2`"), "{e}");
+        let e = d.check_names(&["x".to_string()]).unwrap_err().to_string();
+        assert!(e.contains("missing from the dataset: `x`") && e.contains("not in the study: `inv1`"), "{e}");
+    }
+
+    #[test]
+    fn validate_extra_channels() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = Path::new("x.npz");
+        let mut d = with_extras();
+        d.experiments[0].extra.insert("g3".into(), vec![0.0; 63]);
+        let e = d.write(dir.path()).unwrap_err().to_string();
+        assert!(e.contains("`g3` has 63 samples") && e.contains("64"), "{e}");
+        let mut e = with_extras().experiments.remove(0);
+        e.noise_extra.insert("g9".into(), vec![0.0; 32]);
+        let m = e.validate(p).unwrap_err().to_string();
+        assert!(m.contains("`g9`") && m.contains("no fit-stretch"), "{m}");
+        let mut e = with_extras().experiments.remove(0);
+        e.extra.insert("noise_x".into(), vec![0.0; 64]);
+        assert!(e.validate(p).unwrap_err().to_string().contains("reserved"));
+        let mut e = with_extras().experiments.remove(0);
+        e.extra.insert("o1".into(), vec![0.0; 64]);
+        assert!(e.validate(p).unwrap_err().to_string().contains("fixed"));
+        let mut e = with_extras().experiments.remove(0);
+        e.noise_extra.get_mut("g1").unwrap()[3] = f64::INFINITY;
+        let m = e.validate(p).unwrap_err().to_string();
+        assert!(m.contains("`noise_g1` sample 3"), "{m}");
+        // an absent fixed channel is fine, and not reported as present
+        let mut e = with_extras().experiments.remove(0);
+        e.i[1].clear();
+        e.validate(p).unwrap();
+        assert_eq!(e.channel("i12"), None);
+        assert_eq!(e.channel_names(), vec!["o1", "o12", "i1", "g1", "g2"]);
+    }
 }
