@@ -146,7 +146,13 @@ enum Stretch {
 
 impl ExperimentData {
     /// An experiment with only the fixed channels (`extra`, `noise_extra` empty).
-    pub fn new(name: &str, fs: f64, o: [Vec<f64>; 2], i: [Vec<f64>; 2], noise: [Vec<f64>; 2]) -> Self {
+    pub fn new(
+        name: &str,
+        fs: f64,
+        o: [Vec<f64>; 2],
+        i: [Vec<f64>; 2],
+        noise: [Vec<f64>; 2],
+    ) -> Self {
         ExperimentData {
             name: name.into(),
             fs,
@@ -225,7 +231,11 @@ impl ExperimentData {
             }
             check_channel_name(c).map_err(&err)?;
         }
-        if let Some(c) = self.noise_extra.keys().find(|c| !self.extra.contains_key(*c)) {
+        if let Some(c) = self
+            .noise_extra
+            .keys()
+            .find(|c| !self.extra.contains_key(*c))
+        {
             return Err(err(format!(
                 "channel `{c}` has a noise-only series but no fit-stretch series"
             )));
@@ -789,8 +799,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let d = with_extras();
         let (npz, json) = d.write(dir.path()).unwrap();
-        let side: Sidecar =
-            serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        let side: Sidecar = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
         assert_eq!(side.experiments[0].channels, vec!["g1", "g2"]);
         assert_eq!(side.experiments[0].noise_channels, vec!["g1"]);
         let mut z = NpzReader::new(std::fs::File::open(&npz).unwrap()).unwrap();
@@ -842,7 +851,10 @@ mod tests {
     fn sidecar_and_archive_must_agree() {
         let d = with_extras();
         let e = mismatch(&d, |v| v["experiments"][0]["n_samples"] = 60.into());
-        assert!(e.contains("n_samples = 60") && e.contains("64 samples"), "{e}");
+        assert!(
+            e.contains("n_samples = 60") && e.contains("64 samples"),
+            "{e}"
+        );
         let e = mismatch(&d, |v| v["experiments"][0]["n_noise_samples"] = 31.into());
         assert!(e.contains("n_noise_samples = 31"), "{e}");
         let e = mismatch(&d, |v| v["experiments"][0]["fs"] = 20.0.into());
@@ -853,13 +865,17 @@ mod tests {
             v["experiments"].as_array_mut().unwrap().clear();
         });
         assert!(e.contains("experiment `inv1`"), "{e}");
-        let e = mismatch(&d, |v| v["experiments"][0]["channels"] = serde_json::json!(["g1"]));
+        let e = mismatch(&d, |v| {
+            v["experiments"][0]["channels"] = serde_json::json!(["g1"])
+        });
         assert!(e.contains("inv1.g2"), "{e}");
         let e = mismatch(&d, |v| {
             v["experiments"][0]["channels"] = serde_json::json!(["g1", "g2", "g3"])
         });
         assert!(e.contains("inv1.g3"), "{e}");
-        let e = mismatch(&d, |v| v["experiments"][0]["noise_channels"] = serde_json::json!([]));
+        let e = mismatch(&d, |v| {
+            v["experiments"][0]["noise_channels"] = serde_json::json!([])
+        });
         assert!(e.contains("inv1.noise_g1"), "{e}");
         let e = mismatch(&d, |v| v["truth"]["d21"] = 2.5.into());
         assert!(e.contains("truth"), "{e}");
@@ -885,14 +901,23 @@ mod tests {
         let other = dir.path().join("notes.txt");
         std::fs::write(&other, "x").unwrap();
         let e = Dataset::read(&other).unwrap_err().to_string();
-        assert!(e.contains("notes.txt") && e.contains("not a dataset"), "{e}");
+        assert!(
+            e.contains("notes.txt") && e.contains("not a dataset"),
+            "{e}"
+        );
         let empty = dir.path().join("empty");
         std::fs::create_dir(&empty).unwrap();
         let e = Dataset::read(&empty).unwrap_err().to_string();
-        assert!(e.contains("empty/dataset.json") && e.contains("no such file"), "{e}");
+        assert!(
+            e.contains("empty/dataset.json") && e.contains("no such file"),
+            "{e}"
+        );
         std::fs::remove_file(dir.path().join("dataset.npz")).unwrap();
         let e = Dataset::read(dir.path()).unwrap_err().to_string();
-        assert!(e.contains("dataset.npz") && e.contains("no such file"), "{e}");
+        assert!(
+            e.contains("dataset.npz") && e.contains("no such file"),
+            "{e}"
+        );
     }
 
     #[test]
@@ -905,7 +930,10 @@ mod tests {
             .to_string();
         assert!(e.contains("missing from the dataset: `inv2`"), "{e}");
         let e = d.check_names(&["x".to_string()]).unwrap_err().to_string();
-        assert!(e.contains("missing from the dataset: `x`") && e.contains("not in the study: `inv1`"), "{e}");
+        assert!(
+            e.contains("missing from the dataset: `x`") && e.contains("not in the study: `inv1`"),
+            "{e}"
+        );
     }
 
     #[test]

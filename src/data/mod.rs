@@ -16,11 +16,7 @@ pub const TIME_TOLERANCE: f64 = 1e-6;
 /// of the median step, plus the rounding of `t` itself (a few ulp, which matters for absolute
 /// times such as GPS seconds). `at(k)` locates sample `k` in messages (`"line 7"`,
 /// `"sample 5"`). Returns `(n − 1) / (t_last − t_0)`.
-pub fn uniform_rate(
-    t: &[f64],
-    column: &str,
-    at: impl Fn(usize) -> String,
-) -> Result<f64, String> {
+pub fn uniform_rate(t: &[f64], column: &str, at: impl Fn(usize) -> String) -> Result<f64, String> {
     if t.len() < 2 {
         return Err(format!(
             "time column `{column}` needs at least two samples to give a sample rate"
@@ -68,6 +64,9 @@ mod tests {
         let e = uniform_rate(&g, "t", |k| format!("sample {k}")).unwrap_err();
         assert!(e.contains("sample 500") && e.contains("sample 499"), "{e}");
         let e = uniform_rate(&[0.0, 1.0, 1.0], "time", |k| format!("line {}", k + 2)).unwrap_err();
-        assert!(e.contains("line 4") && e.contains("`time`") && e.contains("increas"), "{e}");
+        assert!(
+            e.contains("line 4") && e.contains("`time`") && e.contains("increas"),
+            "{e}"
+        );
     }
 }

@@ -434,7 +434,11 @@ mod tests {
         write_good(dir.path());
         let src = renamed();
         let e = src
-            .load("inv1", dir.path(), &chans(&["o1", "o12", "i1", "i12", "g1"]))
+            .load(
+                "inv1",
+                dir.path(),
+                &chans(&["o1", "o12", "i1", "i12", "g1"]),
+            )
             .unwrap();
         assert_eq!(e.name, "inv1");
         assert!((e.fs - 10.0).abs() < 1e-9, "{}", e.fs);
@@ -458,8 +462,12 @@ mod tests {
         // and the experiment round-trips through a dataset directory
         let d = crate::dataset::Dataset {
             experiments: vec![
-                src.load("inv1", dir.path(), &chans(&["o1", "o12", "i1", "i12", "g1"]))
-                    .unwrap(),
+                src.load(
+                    "inv1",
+                    dir.path(),
+                    &chans(&["o1", "o12", "i1", "i12", "g1"]),
+                )
+                .unwrap(),
             ],
             seed: None,
             truth: None,
@@ -564,7 +572,9 @@ mod tests {
     }
 
     fn good_rows(n: usize) -> String {
-        (0..n).map(|k| format!("{},{k}\n", 0.1 * k as f64)).collect()
+        (0..n)
+            .map(|k| format!("{},{k}\n", 0.1 * k as f64))
+            .collect()
     }
 
     #[test]
@@ -634,7 +644,7 @@ mod tests {
             "{e}"
         );
         // duplicated header
-        let e = csv_err(d, &format!("t,o1,o1\n0,1,2\n"), None, &["o1"]);
+        let e = csv_err(d, "t,o1,o1\n0,1,2\n", None, &["o1"]);
         assert!(
             e.contains("bad.csv")
                 && e.contains("line 1")
@@ -644,7 +654,10 @@ mod tests {
         );
         // missing header (numbers in the first row), an unnamed column
         let e = csv_err(d, "0,1\n0.1,2\n", None, &["o1"]);
-        assert!(e.contains("bad.csv") && e.contains("line 1, column 1"), "{e}");
+        assert!(
+            e.contains("bad.csv") && e.contains("line 1, column 1"),
+            "{e}"
+        );
         let e = csv_err(d, "# c\nt,,o1\n0,1,2\n", None, &["o1"]);
         assert!(e.contains("line 2, column 2"), "{e}");
         // empty file, header only
@@ -677,7 +690,10 @@ mod tests {
         );
         // not increasing
         let e = csv_err(d, "t,o1\n0,1\n1,2\n1,3\n", None, &["o1"]);
-        assert!(e.contains("line 4, column `t`") && e.contains("does not increase"), "{e}");
+        assert!(
+            e.contains("line 4, column `t`") && e.contains("does not increase"),
+            "{e}"
+        );
         // `fs` disagreeing with the time column
         let e = csv_err(d, &format!("t,o1\n{}", good_rows(20)), Some(4.0), &["o1"]);
         assert!(
@@ -696,7 +712,9 @@ mod tests {
             noise_data: Some("n.csv".into()),
         };
         // a noise file at another sample rate
-        let slow: String = (0..20).map(|k| format!("{},{k}\n", 0.5 * k as f64)).collect();
+        let slow: String = (0..20)
+            .map(|k| format!("{},{k}\n", 0.5 * k as f64))
+            .collect();
         std::fs::write(d.join("n.csv"), format!("t,o1\n{slow}")).unwrap();
         let e = load_err(&src, d, &["o1"]);
         assert!(
@@ -706,7 +724,10 @@ mod tests {
         // a noise file without any of the channels
         std::fs::write(d.join("n.csv"), format!("x\n{no_t}")).unwrap();
         let e = load_err(&src, d, &["o1"]);
-        assert!(e.contains("n.csv") && e.contains("`o1`") && e.contains("`x`"), "{e}");
+        assert!(
+            e.contains("n.csv") && e.contains("`o1`") && e.contains("`x`"),
+            "{e}"
+        );
         // too few rows
         let e = csv_err(d, &format!("t,o1\n{}", good_rows(5)), None, &["o1"]);
         assert!(e.contains("bad.csv") && e.contains("too short"), "{e}");
@@ -723,7 +744,10 @@ mod tests {
             noise_data: None,
         };
         let e = load_err(&src, d, &["o1"]);
-        assert!(e.contains("nope/run.csv") && e.contains("no such file"), "{e}");
+        assert!(
+            e.contains("nope/run.csv") && e.contains("no such file"),
+            "{e}"
+        );
         std::fs::write(d.join("run.txt"), "o1\n1\n").unwrap();
         let mut s = src.clone();
         s.data = "run.txt".into();
