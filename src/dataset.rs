@@ -1,10 +1,14 @@
-//! Datasets on disk: per experiment the outputs `o1, o12`, the commanded injections `i1, i12`
-//! and a noise-only stretch, with the sample rate, the truth and the seed.
+//! Datasets on disk: per experiment the outputs `o1, o12`, the commanded injections `i1, i12`,
+//! any further named channels (`g1`, `g2`, …) and a noise-only stretch, with the sample rate,
+//! the truth and the seed.
 //!
 //! Format: `dataset.npz` (readable with `numpy.load`; arrays named `<experiment>.o1`,
 //! `<experiment>.o12`, `<experiment>.i1`, `<experiment>.i12`, `<experiment>.noise_o1`,
-//! `<experiment>.noise_o12`, and `truth` when known) plus `dataset.json`, a sidecar with the
-//! metadata. Users can also bring plain CSV time series ([`read_csv`], [`ExperimentData::from_csv`]).
+//! `<experiment>.noise_o12` (empty when the channel is absent), `<experiment>.<channel>` and
+//! `<experiment>.noise_<channel>` for further channels, `<experiment>.fs`, and `truth` when
+//! known) plus `dataset.json`, a sidecar with the metadata that lists the further channels.
+//! [`Dataset::read`] checks the two against each other. Users' own files are read by
+//! [`crate::data::DataSource`] (CSV via [`read_csv`], or npz).
 
 use crate::ltp::LtpParams;
 use ndarray::Array1;
