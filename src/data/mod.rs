@@ -8,6 +8,11 @@ pub mod source;
 
 pub use source::DataSource;
 
+/// `x` rounded to 10 significant digits, for messages (`0.1`, not `0.10000000000000009`).
+fn sig(x: f64) -> f64 {
+    format!("{x:.9e}").parse().unwrap_or(x)
+}
+
 /// Relative tolerance on the spacing of a time column.
 pub const TIME_TOLERANCE: f64 = 1e-6;
 
@@ -41,9 +46,11 @@ pub fn uniform_rate(t: &[f64], column: &str, at: impl Fn(usize) -> String) -> Re
         let tol = TIME_TOLERANCE * dt + 4.0 * f64::EPSILON * t[k].abs().max(t[k - 1].abs());
         if (step - dt).abs() > tol {
             return Err(format!(
-                "{}, column `{column}`: not uniformly sampled: the step from {} is {step} s but the series' spacing is {dt} s (tolerance {TIME_TOLERANCE} relative); gaps must be filled or the series split",
+                "{}, column `{column}`: not uniformly sampled: the step from {} is {} s but the series' spacing is {} s (tolerance {TIME_TOLERANCE} relative); gaps must be filled or the series split",
                 at(k),
-                at(k - 1)
+                at(k - 1),
+                sig(step),
+                sig(dt)
             ));
         }
     }

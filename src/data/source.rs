@@ -684,8 +684,8 @@ mod tests {
             e.contains("bad.csv")
                 && e.contains("line 12, column `t`")
                 && e.contains("from line 11")
-                && e.contains("step from line 11 is 0.2")
-                && e.contains("spacing is 0.1"),
+                && e.contains("step from line 11 is 0.2 s")
+                && e.contains("spacing is 0.1 s"),
             "{e}"
         );
         // not increasing
