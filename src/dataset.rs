@@ -1,15 +1,20 @@
-//! Datasets on disk: per experiment the outputs `o1, o12`, the commanded injections `i1, i12`
-//! and a noise-only stretch, with the sample rate, the truth and the seed.
+//! Datasets on disk: per experiment the outputs `o1, o12`, the commanded injections `i1, i12`,
+//! any further named channels (`g1`, `g2`, …) and a noise-only stretch, with the sample rate,
+//! the truth and the seed.
 //!
 //! Format: `dataset.npz` (readable with `numpy.load`; arrays named `<experiment>.o1`,
 //! `<experiment>.o12`, `<experiment>.i1`, `<experiment>.i12`, `<experiment>.noise_o1`,
-//! `<experiment>.noise_o12`, and `truth` when known) plus `dataset.json`, a sidecar with the
-//! metadata. Users can also bring plain CSV time series ([`read_csv`], [`ExperimentData::from_csv`]).
+//! `<experiment>.noise_o12` (empty when the channel is absent), `<experiment>.<channel>` and
+//! `<experiment>.noise_<channel>` for further channels, `<experiment>.fs`, and `truth` when
+//! known) plus `dataset.json`, a sidecar with the metadata that lists the further channels.
+//! [`Dataset::read`] checks the two against each other. Users' own files are read by
+//! [`crate::data::DataSource`] (CSV via [`read_csv`], or npz).
 
 use crate::ltp::LtpParams;
 use ndarray::Array1;
 use ndarray_npy::{NpzReader, NpzWriter};
 use serde::{Deserialize, Serialize};
+use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 
 /// Problems reading or writing data files; every message names the file.
@@ -23,6 +28,17 @@ pub enum DataError {
     },
     #[error("{file}: {msg}")]
     Format { file: String, msg: String },
+    /// The dataset's experiments are not the study's ([`Dataset::check_names`]); the caller
+    /// knows which files are involved and says so.
+    #[error("{msg}")]
+    Names { msg: String },
+    /// A dataset's sidecar and arrays tell different stories.
+    #[error("{json} and {npz} disagree: {msg}")]
+    Mismatch {
+        json: String,
+        npz: String,
+        msg: String,
+    },
 }
 
 fn io_err(file: &Path) -> impl FnOnce(std::io::Error) -> DataError + '_ {
@@ -32,14 +48,41 @@ fn io_err(file: &Path) -> impl FnOnce(std::io::Error) -> DataError + '_ {
     }
 }
 
-fn fmt_err(file: &Path, msg: impl Into<String>) -> DataError {
+pub(crate) fn fmt_err(file: &Path, msg: impl Into<String>) -> DataError {
     DataError::Format {
         file: file.display().to_string(),
         msg: msg.into(),
     }
 }
 
+/// The channels every experiment has a slot for; an empty series means the channel is absent.
+pub const FIXED_CHANNELS: [&str; 4] = ["o1", "o12", "i1", "i12"];
+
+/// Checks that `name` can name a data channel: letters, digits, `_` or `-`; not `t` (the time
+/// column), not `fs`, and not starting with `noise_` (those name noise-only arrays on disk).
+pub fn check_channel_name(name: &str) -> Result<(), String> {
+    if name.is_empty()
+        || !name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+    {
+        return Err(format!(
+            "channel name `{name}`: use letters, digits, `_` or `-` (it names arrays in the dataset)"
+        ));
+    }
+    if name == "t" || name == "fs" || name.starts_with("noise_") {
+        return Err(format!(
+            "channel name `{name}` is reserved (`t` is the time column, `fs` the sample rate, `noise_*` the noise-only arrays)"
+        ));
+    }
+    Ok(())
+}
+
 /// One experiment's time series (SI units: metres, seconds).
+///
+/// The outputs and injections have fixed slots; any further channel (commanded forces `g1`,
+/// `g2`, …) lives in [`ExperimentData::extra`]. An empty fixed series means the experiment
+/// does not have that channel ([`ExperimentData::channel`] returns `None` for it).
 #[derive(Debug, Clone, PartialEq)]
 pub struct ExperimentData {
     pub name: String,
@@ -49,8 +92,12 @@ pub struct ExperimentData {
     pub o: [Vec<f64>; 2],
     /// Commanded injections `(i1, i12)` over the fit stretch.
     pub i: [Vec<f64>; 2],
-    /// Outputs `(o1, o12)` over the noise-only stretch.
+    /// Outputs `(o1, o12)` over the noise-only stretch (empty when there is none).
     pub noise: [Vec<f64>; 2],
+    /// Further named channels over the fit stretch.
+    pub extra: BTreeMap<String, Vec<f64>>,
+    /// Noise-only series of further channels (a subset of the keys of `extra`).
+    pub noise_extra: BTreeMap<String, Vec<f64>>,
 }
 
 /// Metadata written beside the arrays.
@@ -74,6 +121,12 @@ pub struct SidecarExperiment {
     pub fs: f64,
     pub n_samples: usize,
     pub n_noise_samples: usize,
+    /// Channels beyond `o1, o12, i1, i12` (arrays `<experiment>.<channel>`).
+    #[serde(default)]
+    pub channels: Vec<String>,
+    /// Those of `channels` with a noise-only series (arrays `<experiment>.noise_<channel>`).
+    #[serde(default)]
+    pub noise_channels: Vec<String>,
 }
 
 /// A set of experiments plus metadata.
@@ -85,148 +138,200 @@ pub struct Dataset {
     pub extra: serde_json::Value,
 }
 
-const CHANNELS: [&str; 6] = ["o1", "o12", "i1", "i12", "noise_o1", "noise_o12"];
+/// Arrays every experiment has in `dataset.npz` (possibly empty), in writing order.
+const NPZ_FIXED: [&str; 6] = ["o1", "o12", "i1", "i12", "noise_o1", "noise_o12"];
+
+/// Which stretch a series belongs to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Stretch {
+    Fit,
+    Noise,
+}
 
 impl ExperimentData {
-    /// Checks lengths and finiteness; the message names the array.
-    pub fn validate(&self, file: &Path) -> Result<(), DataError> {
-        if !(self.fs.is_finite() && self.fs > 0.0) {
-            return Err(fmt_err(
-                file,
-                format!(
-                    "experiment `{}`: sample rate {} is not > 0",
-                    self.name, self.fs
-                ),
-            ));
+    /// An experiment with only the fixed channels (`extra`, `noise_extra` empty).
+    pub fn new(
+        name: &str,
+        fs: f64,
+        o: [Vec<f64>; 2],
+        i: [Vec<f64>; 2],
+        noise: [Vec<f64>; 2],
+    ) -> Self {
+        ExperimentData {
+            name: name.into(),
+            fs,
+            o,
+            i,
+            noise,
+            extra: BTreeMap::new(),
+            noise_extra: BTreeMap::new(),
         }
-        let n = self.o[0].len();
-        for (name, v) in self.channels() {
-            let want = if name.starts_with("noise") {
-                self.noise[0].len()
-            } else {
-                n
+    }
+
+    /// Every stored series as `(array suffix, stretch, series)`, fixed slots first (including
+    /// empty ones), then the extra channels in name order.
+    fn series(&self) -> Vec<(String, Stretch, &Vec<f64>)> {
+        let mut v: Vec<(String, Stretch, &Vec<f64>)> = vec![
+            ("o1".into(), Stretch::Fit, &self.o[0]),
+            ("o12".into(), Stretch::Fit, &self.o[1]),
+            ("i1".into(), Stretch::Fit, &self.i[0]),
+            ("i12".into(), Stretch::Fit, &self.i[1]),
+            ("noise_o1".into(), Stretch::Noise, &self.noise[0]),
+            ("noise_o12".into(), Stretch::Noise, &self.noise[1]),
+        ];
+        for (c, s) in &self.extra {
+            v.push((c.clone(), Stretch::Fit, s));
+        }
+        for (c, s) in &self.noise_extra {
+            v.push((format!("noise_{c}"), Stretch::Noise, s));
+        }
+        v
+    }
+
+    /// Number of samples of the fit stretch (the length of its channels).
+    pub fn n_samples(&self) -> usize {
+        self.series()
+            .iter()
+            .filter(|(_, s, _)| *s == Stretch::Fit)
+            .map(|(_, _, v)| v.len())
+            .max()
+            .unwrap_or(0)
+    }
+
+    /// Number of samples of the noise-only stretch (0 when there is none).
+    pub fn n_noise_samples(&self) -> usize {
+        self.series()
+            .iter()
+            .filter(|(_, s, _)| *s == Stretch::Noise)
+            .map(|(_, _, v)| v.len())
+            .max()
+            .unwrap_or(0)
+    }
+
+    /// The names of the channels the experiment has over the fit stretch.
+    pub fn channel_names(&self) -> Vec<String> {
+        FIXED_CHANNELS
+            .iter()
+            .filter(|c| self.channel(c).is_some())
+            .map(|c| c.to_string())
+            .chain(self.extra.keys().cloned())
+            .collect()
+    }
+
+    /// Checks channel names, lengths and finiteness; the message names the array.
+    ///
+    /// Every present fit-stretch channel has the same length (≥ 16); the noise-only channels
+    /// likewise (≥ 16, or no noise-only stretch at all).
+    pub fn validate(&self, file: &Path) -> Result<(), DataError> {
+        let err = |msg: String| fmt_err(file, format!("experiment `{}`: {msg}", self.name));
+        if !(self.fs.is_finite() && self.fs > 0.0) {
+            return Err(err(format!("sample rate {} is not > 0", self.fs)));
+        }
+        for c in self.extra.keys().chain(self.noise_extra.keys()) {
+            if FIXED_CHANNELS.contains(&c.as_str()) {
+                return Err(err(format!(
+                    "extra channel `{c}` duplicates a fixed channel (store it in `o`/`i`/`noise`)"
+                )));
+            }
+            check_channel_name(c).map_err(&err)?;
+        }
+        if let Some(c) = self
+            .noise_extra
+            .keys()
+            .find(|c| !self.extra.contains_key(*c))
+        {
+            return Err(err(format!(
+                "channel `{c}` has a noise-only series but no fit-stretch series"
+            )));
+        }
+        for (k, s) in self.extra.iter() {
+            if s.is_empty() {
+                return Err(err(format!("channel `{k}` has no samples")));
+            }
+        }
+        for (k, s) in self.noise_extra.iter() {
+            if s.is_empty() {
+                return Err(err(format!("`noise_{k}` has no samples")));
+            }
+        }
+        let (n, m) = (self.n_samples(), self.n_noise_samples());
+        for (name, stretch, v) in self.series() {
+            let want = match stretch {
+                Stretch::Fit => n,
+                Stretch::Noise => m,
             };
-            if v.len() != want {
-                return Err(fmt_err(
-                    file,
-                    format!(
-                        "experiment `{}`: `{name}` has {} samples but its companions have {want}; all channels of a stretch must have the same length",
-                        self.name,
-                        v.len()
-                    ),
-                ));
+            if !v.is_empty() && v.len() != want {
+                return Err(err(format!(
+                    "`{name}` has {} samples but its companions have {want}; all channels of a stretch must have the same length",
+                    v.len()
+                )));
             }
             if let Some(k) = v.iter().position(|x| !x.is_finite()) {
-                return Err(fmt_err(
-                    file,
-                    format!(
-                        "experiment `{}`: `{name}` sample {k} is {} (every sample must be finite)",
-                        self.name, v[k]
-                    ),
-                ));
+                return Err(err(format!(
+                    "`{name}` sample {k} is {} (every sample must be finite)",
+                    v[k]
+                )));
             }
         }
-        if n < 16 || self.noise[0].len() < 16 {
-            return Err(fmt_err(
-                file,
-                format!(
-                    "experiment `{}`: too short ({} fit samples, {} noise samples; need ≥ 16 each)",
-                    self.name,
-                    n,
-                    self.noise[0].len()
-                ),
-            ));
+        if n < 16 || (m > 0 && m < 16) {
+            return Err(err(format!(
+                "too short ({n} fit samples, {m} noise samples; need ≥ 16 each, or no noise-only stretch)"
+            )));
         }
         Ok(())
     }
 
-    /// The fit-stretch series of a named data channel (`o1`, `o12`, `i1`, `i12`), if the
-    /// experiment has it.
+    /// The fit-stretch series of a named data channel (`o1`, `o12`, `i1`, `i12`, or an extra
+    /// channel such as `g1`), if the experiment has it.
     pub fn channel(&self, name: &str) -> Option<&[f64]> {
-        match name {
-            "o1" => Some(&self.o[0]),
-            "o12" => Some(&self.o[1]),
-            "i1" => Some(&self.i[0]),
-            "i12" => Some(&self.i[1]),
-            _ => None,
-        }
+        let v = match name {
+            "o1" => &self.o[0],
+            "o12" => &self.o[1],
+            "i1" => &self.i[0],
+            "i12" => &self.i[1],
+            _ => return self.extra.get(name).map(|v| v.as_slice()),
+        };
+        (!v.is_empty()).then_some(v.as_slice())
     }
 
     /// The noise-only series of a named data channel, if the experiment has one. Channels
     /// without a noise-only series (the commanded injections) are noiseless by construction.
     pub fn noise_channel(&self, name: &str) -> Option<&[f64]> {
-        match name {
-            "o1" => Some(&self.noise[0]),
-            "o12" => Some(&self.noise[1]),
-            _ => None,
-        }
-    }
-
-    fn channels(&self) -> [(&'static str, &Vec<f64>); 6] {
-        [
-            ("o1", &self.o[0]),
-            ("o12", &self.o[1]),
-            ("i1", &self.i[0]),
-            ("i12", &self.i[1]),
-            ("noise_o1", &self.noise[0]),
-            ("noise_o12", &self.noise[1]),
-        ]
+        let v = match name {
+            "o1" => &self.noise[0],
+            "o12" => &self.noise[1],
+            "i1" | "i12" => return None,
+            _ => return self.noise_extra.get(name).map(|v| v.as_slice()),
+        };
+        (!v.is_empty()).then_some(v.as_slice())
     }
 
     /// Builds an experiment from two CSV files: `data` with columns `o1, o12, i1, i12` (and an
     /// optional uniformly spaced time column `t`), and `noise` with `o1, o12` (optional `t`).
-    /// The sample rate comes from `t` when present, else from `fs`.
+    /// The sample rate comes from `t` when present, else from `fs`. See
+    /// [`crate::data::DataSource`] for renamed columns, npz files and further channels.
     pub fn from_csv(
         name: &str,
         data: &Path,
         noise: &Path,
         fs: Option<f64>,
     ) -> Result<Self, DataError> {
-        let d = read_csv(data)?;
-        let nz = read_csv(noise)?;
-        let get = |t: &CsvTable, file: &Path, c: &str| -> Result<Vec<f64>, DataError> {
-            t.column(c).cloned().ok_or_else(|| {
-                fmt_err(
-                    file,
-                    format!(
-                        "no column `{c}` (columns: {:?}); expected o1, o12, i1, i12",
-                        t.names
-                    ),
-                )
-            })
+        let src = crate::data::DataSource {
+            data: data.to_path_buf(),
+            columns: BTreeMap::new(),
+            fs,
+            noise_data: Some(noise.to_path_buf()),
         };
-        let rate = |t: &CsvTable, file: &Path| -> Result<Option<f64>, DataError> {
-            t.sample_rate().map_err(|m| fmt_err(file, m))
-        };
-        let fs = match (rate(&d, data)?, rate(&nz, noise)?, fs) {
-            (Some(a), Some(b), _) if (a - b).abs() > 1e-9 * a => {
+        let channels = FIXED_CHANNELS.map(String::from);
+        let e = src.load(name, Path::new(""), &channels)?;
+        for (c, v) in ["o1", "o12"].iter().zip(&e.noise) {
+            if v.is_empty() {
                 return Err(fmt_err(
                     noise,
-                    format!("sample rate {b} Hz differs from the data file's {a} Hz"),
+                    format!("no column `{c}`: the noise-only stretch needs o1 and o12"),
                 ));
             }
-            (Some(a), _, Some(f)) if (a - f).abs() > 1e-9 * a => {
-                return Err(fmt_err(
-                    data,
-                    format!("time column gives {a} Hz but the study says fs = {f} Hz"),
-                ));
-            }
-            (Some(a), _, _) | (None, Some(a), _) | (None, None, Some(a)) => a,
-            (None, None, None) => {
-                return Err(fmt_err(
-                    data,
-                    "no time column `t` and no `fs` given: the sample rate is unknown",
-                ));
-            }
-        };
-        let e = ExperimentData {
-            name: name.into(),
-            fs,
-            o: [get(&d, data, "o1")?, get(&d, data, "o12")?],
-            i: [get(&d, data, "i1")?, get(&d, data, "i12")?],
-            noise: [get(&nz, noise, "o1")?, get(&nz, noise, "o12")?],
-        };
-        e.validate(data)?;
+        }
         Ok(e)
     }
 }
@@ -236,11 +341,14 @@ impl Dataset {
     pub fn write(&self, dir: &Path) -> Result<(PathBuf, PathBuf), DataError> {
         std::fs::create_dir_all(dir).map_err(io_err(dir))?;
         let npz = dir.join("dataset.npz");
+        for e in &self.experiments {
+            e.validate(&npz)?;
+        }
         crate::atomic::write_with(&npz, |w| {
             let mut z = NpzWriter::new(w);
             let to_io = |e: ndarray_npy::WriteNpzError| std::io::Error::other(e.to_string());
             for e in &self.experiments {
-                for (c, v) in e.channels() {
+                for (c, _, v) in e.series() {
                     z.add_array(format!("{}.{c}", e.name), &Array1::from_vec(v.clone()))
                         .map_err(to_io)?;
                 }
@@ -265,8 +373,10 @@ impl Dataset {
                 .map(|e| SidecarExperiment {
                     name: e.name.clone(),
                     fs: e.fs,
-                    n_samples: e.o[0].len(),
-                    n_noise_samples: e.noise[0].len(),
+                    n_samples: e.n_samples(),
+                    n_noise_samples: e.n_noise_samples(),
+                    channels: e.extra.keys().cloned().collect(),
+                    noise_channels: e.noise_extra.keys().cloned().collect(),
                 })
                 .collect(),
             extra: self.extra.clone(),
@@ -278,50 +388,163 @@ impl Dataset {
         Ok((npz, json))
     }
 
-    /// Reads a dataset written by [`Dataset::write`]: `path` is the directory, the `.npz` or
-    /// the `.json`.
-    pub fn read(path: &Path) -> Result<Dataset, DataError> {
-        let dir = if path.is_dir() {
-            path.to_path_buf()
+    /// The sidecar and array files of a dataset given as its directory, its `.json` or its
+    /// `.npz`. The path must exist.
+    fn files(path: &Path) -> Result<(PathBuf, PathBuf), DataError> {
+        let meta = std::fs::metadata(path).map_err(|e| {
+            fmt_err(
+                path,
+                format!(
+                    "cannot open the dataset ({e}); give the directory written by `occam simulate` (holding dataset.json and dataset.npz)"
+                ),
+            )
+        })?;
+        let (json, npz) = if meta.is_dir() {
+            (path.join("dataset.json"), path.join("dataset.npz"))
         } else {
-            path.parent().unwrap_or(Path::new(".")).to_path_buf()
+            match path.extension().and_then(|x| x.to_str()) {
+                Some("json") | Some("npz") => {
+                    (path.with_extension("json"), path.with_extension("npz"))
+                }
+                _ => {
+                    return Err(fmt_err(
+                        path,
+                        "not a dataset: give the directory written by `occam simulate`, or its dataset.json or dataset.npz",
+                    ));
+                }
+            }
         };
-        let json = dir.join("dataset.json");
-        let npz = dir.join("dataset.npz");
+        for f in [&json, &npz] {
+            if !f.is_file() {
+                return Err(fmt_err(
+                    f,
+                    format!(
+                        "no such file: {} is not a complete occam dataset (it needs dataset.json and dataset.npz)",
+                        path.display()
+                    ),
+                ));
+            }
+        }
+        Ok((json, npz))
+    }
+
+    /// Reads a dataset written by [`Dataset::write`]: `path` is the directory, the `.npz` or
+    /// the `.json` (which must exist). The sidecar is checked against the arrays: the same
+    /// experiments, sample rates, lengths and channels, and the same truth.
+    pub fn read(path: &Path) -> Result<Dataset, DataError> {
+        let (json, npz) = Self::files(path)?;
         let text = std::fs::read_to_string(&json).map_err(io_err(&json))?;
         let side: Sidecar = serde_json::from_str(&text)
             .map_err(|e| fmt_err(&json, format!("not an occam dataset sidecar: {e}")))?;
+        let mismatch = |msg: String| DataError::Mismatch {
+            json: json.display().to_string(),
+            npz: npz.display().to_string(),
+            msg,
+        };
         let f = std::fs::File::open(&npz).map_err(io_err(&npz))?;
         let mut z = NpzReader::new(f).map_err(|e| fmt_err(&npz, e.to_string()))?;
+        let names = z.names().map_err(|e| fmt_err(&npz, e.to_string()))?;
+        let names: BTreeSet<String> = names.into_iter().collect();
+
+        // the sidecar's list of arrays against the archive's
+        let mut listed = BTreeSet::new();
+        for m in &side.experiments {
+            if !listed.insert(format!("{}.fs", m.name)) {
+                return Err(fmt_err(
+                    &json,
+                    format!("experiment `{}` is listed twice", m.name),
+                ));
+            }
+            let extra = m
+                .channels
+                .iter()
+                .cloned()
+                .chain(m.noise_channels.iter().map(|c| format!("noise_{c}")));
+            for c in NPZ_FIXED.iter().map(|c| c.to_string()).chain(extra) {
+                listed.insert(format!("{}.{c}", m.name));
+            }
+        }
+        if side.truth.is_some() {
+            listed.insert("truth".into());
+        }
+        if let Some(a) = listed.difference(&names).next() {
+            return Err(mismatch(format!(
+                "the sidecar implies an array `{a}` that the archive does not have"
+            )));
+        }
+        if let Some(a) = names.difference(&listed).next() {
+            let exp = a.split('.').next().unwrap_or(a);
+            let what = if side.experiments.iter().any(|m| m.name == exp) {
+                format!("the archive has an array `{a}` that the sidecar does not list")
+            } else {
+                format!(
+                    "the archive has an array `{a}` of an experiment `{exp}` that the sidecar does not list"
+                )
+            };
+            return Err(mismatch(what));
+        }
+
+        let mut get = |key: &str| -> Result<Vec<f64>, DataError> {
+            let a: Array1<f64> = z
+                .by_name(key)
+                .map_err(|e| fmt_err(&npz, format!("array `{key}`: {e}")))?;
+            Ok(a.to_vec())
+        };
         let mut experiments = Vec::new();
         for m in &side.experiments {
-            let mut get = |c: &str| -> Result<Vec<f64>, DataError> {
-                let key = format!("{}.{c}", m.name);
-                let a: Array1<f64> = z
-                    .by_name(&key)
-                    .map_err(|e| fmt_err(&npz, format!("array `{key}`: {e}")))?;
-                Ok(a.to_vec())
-            };
-            let mut v: Vec<Vec<f64>> = Vec::new();
-            for c in CHANNELS {
-                v.push(get(c)?);
+            let key = |c: &str| format!("{}.{c}", m.name);
+            let fs = get(&key("fs"))?;
+            if fs.len() != 1 || !(fs[0] == m.fs) {
+                return Err(mismatch(format!(
+                    "experiment `{}`: the sidecar says fs = {} Hz but `{}` holds {fs:?}",
+                    m.name,
+                    m.fs,
+                    key("fs")
+                )));
             }
-            let mut it = v.into_iter();
-            let mut next = || it.next().expect("six channels");
-            let e = ExperimentData {
-                name: m.name.clone(),
-                fs: m.fs,
-                o: [next(), next()],
-                i: [next(), next()],
-                noise: [next(), next()],
-            };
+            let mut e = ExperimentData::new(
+                &m.name,
+                m.fs,
+                [get(&key("o1"))?, get(&key("o12"))?],
+                [get(&key("i1"))?, get(&key("i12"))?],
+                [get(&key("noise_o1"))?, get(&key("noise_o12"))?],
+            );
+            for c in &m.channels {
+                e.extra.insert(c.clone(), get(&key(c))?);
+            }
+            for c in &m.noise_channels {
+                e.noise_extra
+                    .insert(c.clone(), get(&key(&format!("noise_{c}")))?);
+            }
+            for (c, stretch, v) in e.series() {
+                let (want, field) = match stretch {
+                    Stretch::Fit => (m.n_samples, "n_samples"),
+                    Stretch::Noise => (m.n_noise_samples, "n_noise_samples"),
+                };
+                // an empty fixed slot is an absent channel
+                let fixed = NPZ_FIXED.contains(&c.as_str());
+                if v.len() != want && !(fixed && v.is_empty()) {
+                    return Err(mismatch(format!(
+                        "experiment `{}`: the sidecar says {field} = {want} but `{}` has {} samples",
+                        m.name,
+                        key(&c),
+                        v.len()
+                    )));
+                }
+            }
             e.validate(&npz)?;
             experiments.push(e);
         }
-        if let Some(t) = side.truth
-            && let Some(n) = t.non_finite()
-        {
-            return Err(fmt_err(&json, format!("truth.{n} is not finite")));
+        if let Some(t) = side.truth {
+            if let Some(n) = t.non_finite() {
+                return Err(fmt_err(&json, format!("truth.{n} is not finite")));
+            }
+            let a = get("truth")?;
+            if a != t.to_array().to_vec() {
+                return Err(mismatch(
+                    "the sidecar's truth differs from the archive's `truth`".into(),
+                ));
+            }
         }
         Ok(Dataset {
             experiments,
@@ -330,6 +553,36 @@ impl Dataset {
             extra: side.extra,
         })
     }
+
+    /// Checks that the dataset holds exactly the experiments `expected` (the study's), in any
+    /// order; the message lists what is missing and what is left over.
+    pub fn check_names(&self, expected: &[String]) -> Result<(), DataError> {
+        let have: BTreeSet<&str> = self.experiments.iter().map(|e| e.name.as_str()).collect();
+        let want: BTreeSet<&str> = expected.iter().map(|s| s.as_str()).collect();
+        if have == want {
+            return Ok(());
+        }
+        let list = |s: Vec<&&str>| {
+            s.iter()
+                .map(|x| format!("`{x}`"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        let missing = list(want.difference(&have).collect());
+        let surplus = list(have.difference(&want).collect());
+        let mut msg = format!(
+            "the dataset's experiments ({}) are not the study's ({})",
+            list(have.iter().collect()),
+            list(want.iter().collect())
+        );
+        if !missing.is_empty() {
+            msg += &format!("; missing from the dataset: {missing}");
+        }
+        if !surplus.is_empty() {
+            msg += &format!("; not in the study: {surplus}");
+        }
+        Err(DataError::Names { msg })
+    }
 }
 
 /// A CSV file of named numeric columns.
@@ -337,6 +590,8 @@ impl Dataset {
 pub struct CsvTable {
     pub names: Vec<String>,
     pub columns: Vec<Vec<f64>>,
+    /// The 1-based line number of each data row in the file (the header and comments count).
+    pub lines: Vec<usize>,
 }
 
 impl CsvTable {
@@ -348,54 +603,63 @@ impl CsvTable {
             .map(|i| &self.columns[i])
     }
 
-    /// The sample rate from a time column `t`, checking that it is uniformly spaced (a gap or
-    /// a jitter above 1e−6 of the step is an error naming the row).
+    /// The sample rate from a time column `t`, checking that it is uniformly spaced (see
+    /// [`crate::data::uniform_rate`]); `None` without a column `t`.
     pub fn sample_rate(&self) -> Result<Option<f64>, String> {
         let Some(t) = self.column("t") else {
             return Ok(None);
         };
-        if t.len() < 2 {
-            return Err("time column `t` needs at least two rows".into());
-        }
-        let dt = (t[t.len() - 1] - t[0]) / (t.len() - 1) as f64;
-        if !(dt > 0.0) {
-            return Err("time column `t` must increase".into());
-        }
-        for k in 1..t.len() {
-            let step = t[k] - t[k - 1];
-            if (step - dt).abs() > 1e-6 * dt {
-                return Err(format!(
-                    "time column `t` is not uniformly sampled: step {step} s before data row {} (expected {dt} s); gaps must be filled or the series split",
-                    k + 1
-                ));
-            }
-        }
-        Ok(Some(1.0 / dt))
+        crate::data::uniform_rate(t, "t", |k| format!("line {}", self.lines[k])).map(Some)
     }
 }
 
 /// Reads a CSV file with a header row of column names and numeric rows. Lines starting with `#`
-/// are comments. Errors name the file, the line and the column.
+/// and blank lines are skipped; header names may be quoted. Errors name the file, the line
+/// (1-based, counting the header and comments) and the column.
 pub fn read_csv(path: &Path) -> Result<CsvTable, DataError> {
     let text = std::fs::read_to_string(path).map_err(io_err(path))?;
     let mut lines = text
         .lines()
         .enumerate()
         .filter(|(_, l)| !l.trim().is_empty() && !l.trim_start().starts_with('#'));
-    let (_, header) = lines
-        .next()
-        .ok_or_else(|| fmt_err(path, "empty file: expected a header row of column names"))?;
-    let names: Vec<String> = header.split(',').map(|s| s.trim().to_string()).collect();
-    if names
+    let (hl, header) = lines.next().ok_or_else(|| {
+        fmt_err(
+            path,
+            "empty file: expected a header row of column names, then one row per sample",
+        )
+    })?;
+    let names: Vec<String> = header
+        .split(',')
+        .map(|s| s.trim().trim_matches('"').trim().to_string())
+        .collect();
+    if let Some(j) = names
         .iter()
-        .any(|n| n.is_empty() || n.parse::<f64>().is_ok())
+        .position(|n| n.is_empty() || n.parse::<f64>().is_ok())
     {
         return Err(fmt_err(
             path,
-            format!("line 1 must name the columns (e.g. `t,o1,o12,i1,i12`), got `{header}`"),
+            format!(
+                "line {}, column {}: the first row must name the columns (e.g. `t,o1,o12,i1,i12`), got `{header}`",
+                hl + 1,
+                j + 1
+            ),
         ));
     }
+    for (j, n) in names.iter().enumerate() {
+        if let Some(k) = names[..j].iter().position(|m| m == n) {
+            return Err(fmt_err(
+                path,
+                format!(
+                    "line {}: column `{n}` appears twice (columns {} and {}); column names must be unique",
+                    hl + 1,
+                    k + 1,
+                    j + 1
+                ),
+            ));
+        }
+    }
     let mut columns = vec![Vec::new(); names.len()];
+    let mut rows = Vec::new();
     for (ln, line) in lines {
         let cells: Vec<&str> = line.split(',').collect();
         if cells.len() != names.len() {
@@ -433,11 +697,19 @@ pub fn read_csv(path: &Path) -> Result<CsvTable, DataError> {
             }
             columns[j].push(v);
         }
+        rows.push(ln + 1);
     }
-    if columns[0].is_empty() {
-        return Err(fmt_err(path, "no data rows after the header"));
+    if rows.is_empty() {
+        return Err(fmt_err(
+            path,
+            format!("no data rows after the header (line {})", hl + 1),
+        ));
     }
-    Ok(CsvTable { names, columns })
+    Ok(CsvTable {
+        names,
+        columns,
+        lines: rows,
+    })
 }
 
 #[cfg(test)]
@@ -454,6 +726,8 @@ mod tests {
                 o: [v(1.0), v(2.0)],
                 i: [v(3.0), v(4.0)],
                 noise: [v(5.0)[..32].to_vec(), v(6.0)[..32].to_vec()],
+                extra: BTreeMap::new(),
+                noise_extra: BTreeMap::new(),
             }],
             seed: Some(7),
             truth: Some(LtpParams::default()),
@@ -507,10 +781,192 @@ mod tests {
         assert!((e.fs - 10.0).abs() < 1e-9);
         assert_eq!(e.o[1][3], -3.0);
         // short noise series: different-length stretch is fine, but a missing column is not
-        std::fs::write(&n, "o1\n1\n").unwrap();
+        let s: String = (0..20).map(|k| format!("{k}\n")).collect();
+        std::fs::write(&n, format!("o1\n{s}")).unwrap();
         let err = ExperimentData::from_csv("x", &d, &n, None)
             .unwrap_err()
             .to_string();
         assert!(err.contains("o12"), "{err}");
+    }
+
+    fn with_extras() -> Dataset {
+        let mut d = sample();
+        let e = &mut d.experiments[0];
+        e.extra.insert("g1".into(), vec![0.5; 64]);
+        e.extra.insert("g2".into(), vec![-0.5; 64]);
+        e.noise_extra.insert("g1".into(), vec![0.25; 32]);
+        d
+    }
+
+    #[test]
+    fn extra_channels_round_trip() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = with_extras();
+        let (npz, json) = d.write(dir.path()).unwrap();
+        let side: Sidecar = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        assert_eq!(side.experiments[0].channels, vec!["g1", "g2"]);
+        assert_eq!(side.experiments[0].noise_channels, vec!["g1"]);
+        let mut z = NpzReader::new(std::fs::File::open(&npz).unwrap()).unwrap();
+        let names = z.names().unwrap();
+        assert!(names.contains(&"inv1.g2".to_string()), "{names:?}");
+        assert!(names.contains(&"inv1.noise_g1".to_string()), "{names:?}");
+        // read back from the directory, the json or the npz
+        for p in [dir.path().to_path_buf(), json, npz] {
+            let back = Dataset::read(&p).unwrap();
+            assert_eq!(back, d);
+            let e = &back.experiments[0];
+            assert_eq!(e.channel("g2").unwrap()[0], -0.5);
+            assert_eq!(e.noise_channel("g1").unwrap().len(), 32);
+            assert_eq!(e.noise_channel("g2"), None);
+            assert_eq!(e.noise_channel("i1"), None);
+        }
+    }
+
+    #[test]
+    fn old_sidecar_without_channels_loads() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = sample();
+        let (_, json) = d.write(dir.path()).unwrap();
+        let mut v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        let e = v["experiments"][0].as_object_mut().unwrap();
+        assert!(e.remove("channels").is_some() && e.remove("noise_channels").is_some());
+        std::fs::write(&json, serde_json::to_string_pretty(&v).unwrap()).unwrap();
+        assert_eq!(Dataset::read(dir.path()).unwrap(), d);
+    }
+
+    /// Writes `d`, applies `edit` to its sidecar, and returns the read error.
+    fn mismatch(d: &Dataset, edit: impl Fn(&mut serde_json::Value)) -> String {
+        let dir = tempfile::tempdir().unwrap();
+        let (_, json) = d.write(dir.path()).unwrap();
+        let mut v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        edit(&mut v);
+        std::fs::write(&json, serde_json::to_string_pretty(&v).unwrap()).unwrap();
+        let e = Dataset::read(dir.path()).unwrap_err().to_string();
+        assert!(
+            e.contains("dataset.json") && e.contains("dataset.npz") && e.contains("disagree"),
+            "{e}"
+        );
+        e
+    }
+
+    #[test]
+    fn sidecar_and_archive_must_agree() {
+        let d = with_extras();
+        let e = mismatch(&d, |v| v["experiments"][0]["n_samples"] = 60.into());
+        assert!(
+            e.contains("n_samples = 60") && e.contains("64 samples"),
+            "{e}"
+        );
+        let e = mismatch(&d, |v| v["experiments"][0]["n_noise_samples"] = 31.into());
+        assert!(e.contains("n_noise_samples = 31"), "{e}");
+        let e = mismatch(&d, |v| v["experiments"][0]["fs"] = 20.0.into());
+        assert!(e.contains("fs = 20 Hz") && e.contains("inv1.fs"), "{e}");
+        let e = mismatch(&d, |v| v["experiments"][0]["name"] = "inv2".into());
+        assert!(e.contains("inv2."), "{e}");
+        let e = mismatch(&d, |v| {
+            v["experiments"].as_array_mut().unwrap().clear();
+        });
+        assert!(e.contains("experiment `inv1`"), "{e}");
+        let e = mismatch(&d, |v| {
+            v["experiments"][0]["channels"] = serde_json::json!(["g1"])
+        });
+        assert!(e.contains("inv1.g2"), "{e}");
+        let e = mismatch(&d, |v| {
+            v["experiments"][0]["channels"] = serde_json::json!(["g1", "g2", "g3"])
+        });
+        assert!(e.contains("inv1.g3"), "{e}");
+        let e = mismatch(&d, |v| {
+            v["experiments"][0]["noise_channels"] = serde_json::json!([])
+        });
+        assert!(e.contains("inv1.noise_g1"), "{e}");
+        let e = mismatch(&d, |v| v["truth"]["d21"] = 2.5.into());
+        assert!(e.contains("truth"), "{e}");
+        let e = mismatch(&d, |v| v["truth"] = serde_json::Value::Null);
+        assert!(e.contains("`truth`"), "{e}");
+    }
+
+    #[test]
+    fn nonexistent_paths_are_errors() {
+        let dir = tempfile::tempdir().unwrap();
+        sample().write(dir.path()).unwrap();
+        // a typo below a dataset directory must not load the parent's dataset
+        for p in [
+            dir.path().join("typo"),
+            dir.path().join("typo/dataset.json"),
+            dir.path().join("datset.npz"),
+        ] {
+            let e = Dataset::read(&p).unwrap_err().to_string();
+            assert!(e.contains(&p.display().to_string()), "{e}");
+            assert!(e.contains("cannot open the dataset"), "{e}");
+        }
+        // an existing file that is not a dataset, a directory without one
+        let other = dir.path().join("notes.txt");
+        std::fs::write(&other, "x").unwrap();
+        let e = Dataset::read(&other).unwrap_err().to_string();
+        assert!(
+            e.contains("notes.txt") && e.contains("not a dataset"),
+            "{e}"
+        );
+        let empty = dir.path().join("empty");
+        std::fs::create_dir(&empty).unwrap();
+        let e = Dataset::read(&empty).unwrap_err().to_string();
+        assert!(
+            e.contains("empty/dataset.json") && e.contains("no such file"),
+            "{e}"
+        );
+        std::fs::remove_file(dir.path().join("dataset.npz")).unwrap();
+        let e = Dataset::read(dir.path()).unwrap_err().to_string();
+        assert!(
+            e.contains("dataset.npz") && e.contains("no such file"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn check_names_lists_missing_and_surplus() {
+        let d = sample();
+        d.check_names(&["inv1".to_string()]).unwrap();
+        let e = d
+            .check_names(&["inv1".to_string(), "inv2".to_string()])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("missing from the dataset: `inv2`"), "{e}");
+        let e = d.check_names(&["x".to_string()]).unwrap_err().to_string();
+        assert!(
+            e.contains("missing from the dataset: `x`") && e.contains("not in the study: `inv1`"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn validate_extra_channels() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = Path::new("x.npz");
+        let mut d = with_extras();
+        d.experiments[0].extra.insert("g3".into(), vec![0.0; 63]);
+        let e = d.write(dir.path()).unwrap_err().to_string();
+        assert!(e.contains("`g3` has 63 samples") && e.contains("64"), "{e}");
+        let mut e = with_extras().experiments.remove(0);
+        e.noise_extra.insert("g9".into(), vec![0.0; 32]);
+        let m = e.validate(p).unwrap_err().to_string();
+        assert!(m.contains("`g9`") && m.contains("no fit-stretch"), "{m}");
+        let mut e = with_extras().experiments.remove(0);
+        e.extra.insert("noise_x".into(), vec![0.0; 64]);
+        assert!(e.validate(p).unwrap_err().to_string().contains("reserved"));
+        let mut e = with_extras().experiments.remove(0);
+        e.extra.insert("o1".into(), vec![0.0; 64]);
+        assert!(e.validate(p).unwrap_err().to_string().contains("fixed"));
+        let mut e = with_extras().experiments.remove(0);
+        e.noise_extra.get_mut("g1").unwrap()[3] = f64::INFINITY;
+        let m = e.validate(p).unwrap_err().to_string();
+        assert!(m.contains("`noise_g1` sample 3"), "{m}");
+        // an absent fixed channel is fine, and not reported as present
+        let mut e = with_extras().experiments.remove(0);
+        e.i[1].clear();
+        e.validate(p).unwrap();
+        assert_eq!(e.channel("i12"), None);
+        assert_eq!(e.channel_names(), vec!["o1", "o12", "i1", "g1", "g2"]);
     }
 }

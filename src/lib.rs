@@ -9,6 +9,7 @@
 pub mod analysis;
 pub mod atomic;
 pub mod config;
+pub mod data;
 pub mod dataset;
 pub mod density;
 pub mod evidence;

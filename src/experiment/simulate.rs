@@ -247,6 +247,8 @@ pub fn simulate(study: &Study) -> Result<Simulation, SimError> {
             o,
             i: inj,
             noise,
+            extra: Default::default(),
+            noise_extra: Default::default(),
         });
     }
     let snr_total = snr.iter().map(|r| r * r).sum::<f64>().sqrt();
