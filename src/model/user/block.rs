@@ -24,7 +24,10 @@ pub enum Block {
     /// `s^n`.
     SPower(i32),
     /// `N(s)/D(s)`, coefficients in descending powers.
-    Rational { num: Vec<RealExpr>, den: Vec<RealExpr> },
+    Rational {
+        num: Vec<RealExpr>,
+        den: Vec<RealExpr>,
+    },
 }
 
 impl Block {
@@ -40,7 +43,11 @@ impl Block {
                 .iter()
                 .enumerate()
                 .map(|(i, v)| (format!("num[{i}]"), v))
-                .chain(den.iter().enumerate().map(|(i, v)| (format!("den[{i}]"), v)))
+                .chain(
+                    den.iter()
+                        .enumerate()
+                        .map(|(i, v)| (format!("den[{i}]"), v)),
+                )
                 .collect(),
         }
     }
@@ -86,8 +93,7 @@ impl Block {
                 if den.iter().all(|d| value(d) == Some(0.0)) {
                     Err((
                         "den".into(),
-                        "is identically zero; a denominator needs a non-zero coefficient"
-                            .into(),
+                        "is identically zero; a denominator needs a non-zero coefficient".into(),
                     ))
                 } else {
                     Ok(())

@@ -320,7 +320,9 @@ impl Parser<'_> {
         let lex = &self.text[start..self.i];
         match lex.parse::<f64>() {
             Ok(x) if x.is_finite() && n > 0 => Ok(Node::Num(x)),
-            _ => Err(format!("`{lex}` at character {start} is not a finite number")),
+            _ => Err(format!(
+                "`{lex}` at character {start} is not a finite number"
+            )),
         }
     }
 }
@@ -474,9 +476,15 @@ mod tests {
         assert!(close(eval("1 + 2*3 - 4/2", 0.0), Complex64::new(5.0, 0.0)));
         assert!(close(eval("-s^2", 2.0), Complex64::new(4.0, 0.0)));
         assert!(close(eval("(1 + s)^-1", 1.0), (1.0 + i).inv()));
-        assert!(close(eval("x^(-2)*y", 0.0), Complex64::new(0.5, -1.0) / 9.0));
+        assert!(close(
+            eval("x^(-2)*y", 0.0),
+            Complex64::new(0.5, -1.0) / 9.0
+        ));
         assert!(close(eval("2*pi*x", 0.0), Complex64::new(6.0 * PI, 0.0)));
-        assert!(close(eval("1.5e-3 * -x", 0.0), Complex64::new(-4.5e-3, 0.0)));
+        assert!(close(
+            eval("1.5e-3 * -x", 0.0),
+            Complex64::new(-4.5e-3, 0.0)
+        ));
         assert!(close(eval("--x - +x", 0.0), Complex64::new(0.0, 0.0)));
         assert!(close(eval("s^0", 3.0), Complex64::new(1.0, 0.0)));
         assert!(close(eval("y^3", 0.0), Complex64::new(0.5, -1.0).powi(3)));

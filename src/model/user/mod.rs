@@ -150,6 +150,15 @@ fn is_ident(s: &str) -> bool {
         && c.all(|x| x.is_ascii_alphanumeric() || x == '_')
 }
 
+/// An expression for a message: at most 80 characters.
+fn clip(t: &str) -> String {
+    if t.chars().count() <= 80 {
+        t.to_string()
+    } else {
+        format!("{}…", t.chars().take(79).collect::<String>())
+    }
+}
+
 fn list(v: &[&str]) -> String {
     if v.is_empty() {
         "none".into()
@@ -180,7 +189,7 @@ impl UserModel {
             if v.len() > max {
                 return Err(fail(
                     field,
-                    format!("{} names; at most {max} are supported", v.len()),
+                    format!("{} channels; at most {max} are supported", v.len()),
                 ));
             }
             for (i, a) in v.iter().enumerate() {
@@ -202,8 +211,14 @@ impl UserModel {
         kinds.insert("s", (Kind::S, "the Laplace variable `s`".into()));
         kinds.insert("pi", (Kind::Pi, "the number `pi`".into()));
         let groups: [(&str, Vec<&str>); 4] = [
-            ("parameters", def.parameters.iter().map(|s| s.as_str()).collect()),
-            ("constants", def.constants.keys().map(|s| s.as_str()).collect()),
+            (
+                "parameters",
+                def.parameters.iter().map(|s| s.as_str()).collect(),
+            ),
+            (
+                "constants",
+                def.constants.keys().map(|s| s.as_str()).collect(),
+            ),
             ("blocks", def.blocks.keys().map(|s| s.as_str()).collect()),
             ("define", def.define.keys().map(|s| s.as_str()).collect()),
         ];
@@ -238,7 +253,12 @@ impl UserModel {
                         ),
                     ));
                 }
-                let what = format!("{} `{n}`", &g.trim_end_matches('s'));
+                let what = match *g {
+                    "parameters" => format!("parameter `{n}`"),
+                    "constants" => format!("constant `{n}`"),
+                    "blocks" => format!("block `{n}`"),
+                    _ => format!("define `{n}`"),
+                };
                 kinds.insert(n, (kind, what));
             }
         }
@@ -258,13 +278,19 @@ impl UserModel {
             list(&groups[2].1),
             list(&groups[3].1)
         );
-        let allowed_real = format!(
-            "a real field may use numbers, the parameters ({}), the constants ({}), `pi` and \
-             exmex functions (sin, exp, sqrt, …); blocks, defines and `s` are complex and not \
-             allowed here",
-            list(&groups[0].1),
-            list(&groups[1].1)
-        );
+        let allowed_real = |n: &str| {
+            let what = match kinds.get(n) {
+                Some((_, what)) => format!("{what} is complex; "),
+                None => String::new(),
+            };
+            format!(
+                "{what}a real field may use numbers, the parameters ({}), the constants ({}), \
+                 `pi` and exmex functions (sin, exp, sqrt, …); blocks, defines and `s` are \
+                 complex and not allowed here",
+                list(&groups[0].1),
+                list(&groups[1].1)
+            )
+        };
 
         // --- blocks ------------------------------------------------------------------------
         let lookup = |n: &str| match kinds.get(n).map(|k| k.0) {
@@ -328,7 +354,8 @@ impl UserModel {
 
         // --- complex expressions -----------------------------------------------------------
         let compile = |entry: &str, text: &str| -> Result<Node, String> {
-            let n = expr::parse(text).map_err(|e| fail(entry, format!("{e} (in `{text}`)")))?;
+            let n =
+                expr::parse(text).map_err(|e| fail(entry, format!("{e} (in `{}`)", clip(text))))?;
             let mut ids = Vec::new();
             n.idents(&mut ids);
             for (id, pos) in ids {
@@ -336,7 +363,8 @@ impl UserModel {
                     return Err(fail(
                         entry,
                         format!(
-                            "unknown name `{id}` at character {pos} of `{text}`; {allowed_complex}"
+                            "unknown name `{id}` at character {pos} of `{}`; {allowed_complex}",
+                            clip(text)
                         ),
                     ));
                 }
@@ -491,14 +519,19 @@ impl UserModel {
             return Err(fail(
                 "parameters",
                 format!(
-                    "{} declared but not used by any coefficient (directly or through the \
-                     blocks and defines the coefficients use): {}; remove {} or use {}",
-                    if unused.len() == 1 { "is" } else { "are" },
+                    "{} {} {} declared but not used by any coefficient (directly or through the \
+                     blocks and defines the coefficients use); remove {} or use {}",
+                    if unused.len() == 1 {
+                        "parameter"
+                    } else {
+                        "parameters"
+                    },
                     unused
                         .iter()
                         .map(|p| format!("`{p}`"))
                         .collect::<Vec<_>>()
                         .join(", "),
+                    if unused.len() == 1 { "is" } else { "are" },
                     if unused.len() == 1 { "it" } else { "them" },
                     if unused.len() == 1 { "it" } else { "them" },
                 ),
@@ -526,9 +559,7 @@ impl UserModel {
         if n_consts > MAX_CONSTS {
             return Err(fail(
                 "blocks",
-                format!(
-                    "{n_consts} constant blocks are used; at most {MAX_CONSTS} are supported"
-                ),
+                format!("{n_consts} constant blocks are used; at most {MAX_CONSTS} are supported"),
             ));
         }
         let live_defines: Vec<usize> = order.into_iter().filter(|&d| used_define[d]).collect();
@@ -609,9 +640,10 @@ impl UserModel {
                 th[a] = Dual64::from(theta[a]).derivative();
                 self.coefficients_dual(&th, &bin, &mut out);
                 th[a] = Dual64::from(theta[a]);
-                seen[a] = out
-                    .iter()
-                    .any(|z| (z.re.eps != 0.0 && z.re.eps.is_finite()) || (z.im.eps != 0.0 && z.im.eps.is_finite()));
+                seen[a] = out.iter().any(|z| {
+                    (z.re.eps != 0.0 && z.re.eps.is_finite())
+                        || (z.im.eps != 0.0 && z.im.eps.is_finite())
+                });
             }
         }
         let dead: Vec<String> = self
@@ -637,7 +669,12 @@ impl UserModel {
         }
     }
 
-    fn fill<T: DualNum<Primitive = f64> + Copy>(&self, th: &[T], bin: &Bin, out: &mut [Complex<T>]) {
+    fn fill<T: DualNum<Primitive = f64> + Copy>(
+        &self,
+        th: &[T],
+        bin: &Bin,
+        out: &mut [Complex<T>],
+    ) {
         match self.n_slots {
             0..=16 => self.fill_n::<T, 16>(th, bin, out),
             17..=64 => self.fill_n::<T, 64>(th, bin, out),
@@ -714,13 +751,10 @@ impl Model for UserModel {
                 self.params.len()
             ));
         }
-        if let Some((p, x)) = self
-            .params
-            .iter()
-            .zip(theta)
-            .find(|(_, x)| !x.is_finite())
-        {
-            return Err(format!("user model `{m}`: parameter `{p}` is {x}, not finite"));
+        if let Some((p, x)) = self.params.iter().zip(theta).find(|(_, x)| !x.is_finite()) {
+            return Err(format!(
+                "user model `{m}`: parameter `{p}` is {x}, not finite"
+            ));
         }
         for (bn, b) in &self.blocks {
             b.check_values(&|v| Some(v.eval::<f64>(theta)))

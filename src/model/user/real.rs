@@ -37,11 +37,11 @@ pub struct ExmexExpr {
 
 impl RealExpr {
     /// Parses `text`; `lookup` resolves a name to a parameter or constant (or `None`, then the
-    /// message lists `allowed`).
+    /// message ends with `unknown(name)`, which says what the name is and what is allowed).
     pub fn parse(
         text: &str,
         lookup: &dyn Fn(&str) -> Option<VarSrc>,
-        allowed: &str,
+        unknown: &dyn Fn(&str) -> String,
     ) -> Result<RealExpr, String> {
         let t = text.trim();
         if t.is_empty() {
@@ -66,7 +66,7 @@ impl RealExpr {
             let v = match lookup(n) {
                 Some(v) => v,
                 None if n == "pi" => VarSrc::Const(PI),
-                None => return Err(format!("unknown name `{n}` in `{t}`; {allowed}")),
+                None => return Err(format!("unknown name `{n}` in `{t}`; {}", unknown(n))),
             };
             vars.push(v);
         }
@@ -74,7 +74,10 @@ impl RealExpr {
         for (k, v) in vars.iter().enumerate() {
             if let VarSrc::Param(i) = *v {
                 let d = ex.clone().partial(k).map_err(|e| {
-                    format!("cannot differentiate `{t}` with respect to `{}`: {e}", names[k])
+                    format!(
+                        "cannot differentiate `{t}` with respect to `{}`: {e}",
+                        names[k]
+                    )
                 })?;
                 partials.push((i, d));
             }
@@ -157,7 +160,7 @@ mod tests {
 
     #[test]
     fn values_and_exact_derivatives() {
-        let e = RealExpr::parse("b*exp(a) - c*sin(b) + pi", &lookup, "").unwrap();
+        let e = RealExpr::parse("b*exp(a) - c*sin(b) + pi", &lookup, &|_| String::new()).unwrap();
         assert_eq!(e.params(), vec![0, 1]);
         let (a, b) = (0.3, -1.7);
         let v = e.eval::<f64>(&[a, b]);
@@ -173,17 +176,31 @@ mod tests {
     #[test]
     fn simple_fields_and_constant_folding() {
         assert!(matches!(
-            RealExpr::parse(" a ", &lookup, "").unwrap(),
+            RealExpr::parse(" a ", &lookup, &|_| String::new()).unwrap(),
             RealExpr::Param(0)
         ));
-        assert_eq!(RealExpr::parse("c", &lookup, "").unwrap().constant(), Some(2.0));
         assert_eq!(
-            RealExpr::parse("c*c + 1", &lookup, "").unwrap().constant(),
+            RealExpr::parse("c", &lookup, &|_| String::new())
+                .unwrap()
+                .constant(),
+            Some(2.0)
+        );
+        assert_eq!(
+            RealExpr::parse("c*c + 1", &lookup, &|_| String::new())
+                .unwrap()
+                .constant(),
             Some(5.0)
         );
-        let e = RealExpr::parse("a + zz", &lookup, "allowed: a, b, c").unwrap_err();
-        assert!(e.contains("unknown name `zz`") && e.contains("allowed: a, b, c"), "{e}");
-        assert!(RealExpr::parse("1/0", &lookup, "").unwrap_err().contains("finite"));
-        assert!(RealExpr::parse("a +* (", &lookup, "").is_err());
+        let e = RealExpr::parse("a + zz", &lookup, &|_| "allowed: a, b, c".into()).unwrap_err();
+        assert!(
+            e.contains("unknown name `zz`") && e.contains("allowed: a, b, c"),
+            "{e}"
+        );
+        assert!(
+            RealExpr::parse("1/0", &lookup, &|_| String::new())
+                .unwrap_err()
+                .contains("finite")
+        );
+        assert!(RealExpr::parse("a +* (", &lookup, &|_| String::new()).is_err());
     }
 }

@@ -6,7 +6,10 @@ use crate::model::{BinBlock, LtpModel, coefficients_at, residual_power_generic};
 fn example_def() -> UserModelDef {
     let text = include_str!("../../../examples/user-model-closed-loop.toml");
     let v: toml::Table = toml::from_str(text).unwrap();
-    let mut t = v["model"].as_array().unwrap()[0].as_table().unwrap().clone();
+    let mut t = v["model"].as_array().unwrap()[0]
+        .as_table()
+        .unwrap()
+        .clone();
     assert_eq!(t.remove("kind").unwrap().as_str(), Some("user"));
     toml::Value::Table(t).try_into().unwrap()
 }
@@ -44,7 +47,9 @@ fn dual_coefs(m: &dyn Model, th: &[f64], a: usize, f: f64) -> Vec<Complex64> {
         consts: &consts,
     };
     m.coefficients_dual(&thd, &bin, &mut out);
-    out.iter().map(|z| Complex64::new(z.re.eps, z.im.eps)).collect()
+    out.iter()
+        .map(|z| Complex64::new(z.re.eps, z.im.eps))
+        .collect()
 }
 
 #[test]
@@ -60,7 +65,10 @@ fn example_closed_loop_equals_the_builtin_ltp_model() {
     u.check(&th).unwrap();
     let grid = log_grid(81);
     for &f in &grid {
-        let (cu, cl) = (coefficients_at(&u, &th, f, 10.0), coefficients_at(&l, &th, f, 10.0));
+        let (cu, cl) = (
+            coefficients_at(&u, &th, f, 10.0),
+            coefficients_at(&l, &th, f, 10.0),
+        );
         for (k, (a, b)) in cu.iter().zip(&cl).enumerate() {
             assert!(
                 (a - b).norm() <= 1e-12 * b.norm(),
@@ -157,13 +165,12 @@ fn every_block_kind_matches_its_closed_form_with_exact_derivatives() {
     let i = Complex64::new(0.0, 1.0);
     type Closed = fn(f64, f64) -> Complex64;
     let cases: [(&str, &str, f64, Closed); 8] = [
-        (r#"{ kind = "gain", value = "x" }"#, "b", 0.7, |x, _| x.into()),
-        (
-            r#"{ kind = "delay", tau = "x" }"#,
-            "b",
-            0.3,
-            |x, f| Complex64::from_polar(1.0, -2.0 * PI * f * x),
-        ),
+        (r#"{ kind = "gain", value = "x" }"#, "b", 0.7, |x, _| {
+            x.into()
+        }),
+        (r#"{ kind = "delay", tau = "x" }"#, "b", 0.3, |x, f| {
+            Complex64::from_polar(1.0, -2.0 * PI * f * x)
+        }),
         (r#"{ kind = "pole", f = "x" }"#, "b", 0.2, |x, f| {
             (Complex64::new(1.0, f / x)).inv()
         }),
@@ -201,7 +208,10 @@ fn every_block_kind_matches_its_closed_form_with_exact_derivatives() {
         for f in [1e-3, 0.05, 0.2, 1.0, 3.0] {
             let v = coefficients_at(&m, &[x], f, 10.0)[0];
             let want = closed(x, f);
-            assert!((v - want).norm() <= 1e-13 * want.norm(), "{block} at {f}: {v} vs {want}");
+            assert!(
+                (v - want).norm() <= 1e-13 * want.norm(),
+                "{block} at {f}: {v} vs {want}"
+            );
             let d = dual_coefs(&m, &[x], 0, f)[0];
             let h = 1e-6 * x.abs();
             let num = (closed(x + h, f) - closed(x - h, f)) / (2.0 * h);
@@ -291,15 +301,30 @@ fn bad_definitions_name_the_model_the_entry_and_what_is_allowed() {
         // unknown names
         (
             base("", "i1 = \"zz*h\""),
-            vec!["coefficients.o12.i1", "unknown name `zz`", "parameters (x, y)", "blocks (g, t)"],
+            vec![
+                "coefficients.o12.i1",
+                "unknown name `zz`",
+                "parameters (x, y)",
+                "blocks (g, t)",
+            ],
         ),
         (
             base("", "").replace("h = \"x*t*g/c\"", "h = \"x*t*g/c + nope\""),
-            vec!["define.h", "unknown name `nope` at character 10", "defines (h)", "`s` and `pi`"],
+            vec![
+                "define.h",
+                "unknown name `nope` at character 10",
+                "defines (h)",
+                "`s` and `pi`",
+            ],
         ),
         (
             base("", "").replace("tau = \"y\"", "tau = \"y*g\""),
-            vec!["blocks.t.tau", "unknown name `g`", "blocks, defines and `s` are complex"],
+            vec![
+                "blocks.t.tau",
+                "unknown name `g`",
+                "block `g` is complex",
+                "blocks, defines and `s` are complex",
+            ],
         ),
         (
             base("", "").replace("tau = \"y\"", "tau = \"y + s\""),
@@ -308,19 +333,30 @@ fn bad_definitions_name_the_model_the_entry_and_what_is_allowed() {
         // channels
         (
             base("", "[coefficients.o3]\ni1 = \"1\""),
-            vec!["coefficients.o3", "not a declared residual channel", "residual = [o1, o12]"],
+            vec![
+                "coefficients.o3",
+                "not a declared residual channel",
+                "residual = [o1, o12]",
+            ],
         ),
         (
             base("", "g9 = \"1\""),
-            vec!["coefficients.o12.g9", "not a declared data channel", "data = [o1, o12, i1]"],
+            vec![
+                "coefficients.o12.g9",
+                "not a declared data channel",
+                "data = [o1, o12, i1]",
+            ],
         ),
         (
             base("", "").replace("o12 = \"1\"\n", ""),
             vec!["coefficients.o12", "no coefficients"],
         ),
         (
-            base("", "").replace("residual = [\"o1\", \"o12\"]", "residual = [\"o1\", \"o12\", \"o3\"]"),
-            vec!["residual", "at most 2"],
+            base("", "").replace(
+                "residual = [\"o1\", \"o12\"]",
+                "residual = [\"o1\", \"o12\", \"o3\"]",
+            ),
+            vec!["residual", "3 channels; at most 2"],
         ),
         (
             base("", "").replace(
@@ -351,17 +387,26 @@ fn bad_definitions_name_the_model_the_entry_and_what_is_allowed() {
             vec!["parameters", "`2y` is not a valid name"],
         ),
         // numbers
-        (base("", "").replace("c = 2.0", "c = nan"), vec!["constants.c", "not a finite number"]),
+        (
+            base("", "").replace("c = 2.0", "c = nan"),
+            vec!["constants.c", "not a finite number"],
+        ),
         (
             base("", "").replace("value = 3", "value = \"1/0\""),
             vec!["blocks.g.value", "not a finite number"],
         ),
         (
-            base("", "").replace("{ kind = \"gain\", value = 3 }", "{ kind = \"pole\", f = \"-c\" }"),
+            base("", "").replace(
+                "{ kind = \"gain\", value = 3 }",
+                "{ kind = \"pole\", f = \"-c\" }",
+            ),
             vec!["blocks.g.f", "is -2", "> 0 Hz"],
         ),
         (
-            base("", "").replace("{ kind = \"gain\", value = 3 }", "{ kind = \"zero\", f = 0 }"),
+            base("", "").replace(
+                "{ kind = \"gain\", value = 3 }",
+                "{ kind = \"zero\", f = 0 }",
+            ),
             vec!["blocks.g.f", "non-zero"],
         ),
         (
@@ -397,19 +442,24 @@ fn bad_definitions_name_the_model_the_entry_and_what_is_allowed() {
             vec!["blocks.g.num[0]", "not a finite number"],
         ),
         (
-            base("", "").replace("{ kind = \"gain\", value = 3 }", "{ kind = \"s_power\", n = 40 }"),
+            base("", "").replace(
+                "{ kind = \"gain\", value = 3 }",
+                "{ kind = \"s_power\", n = 40 }",
+            ),
             vec!["blocks.g.n", "|n| ≤ 16"],
         ),
         // parameters that do nothing
         (
             base("", "").replace("[\"x\", \"y\"]", "[\"x\", \"y\", \"w\"]"),
-            vec!["parameters", "not used by any coefficient", "`w`"],
+            vec![
+                "parameters",
+                "parameter `w` is declared but not used by any coefficient",
+            ],
         ),
         (
-            base("", "").replace("[\"x\", \"y\"]", "[\"x\", \"y\", \"w\"]").replace(
-                "h = \"x*t*g/c\"",
-                "h = \"x*t*g/c\"\nunused = \"w\"",
-            ),
+            base("", "")
+                .replace("[\"x\", \"y\"]", "[\"x\", \"y\", \"w\"]")
+                .replace("h = \"x*t*g/c\"", "h = \"x*t*g/c\"\nunused = \"w\""),
             vec!["parameters", "`w`"],
         ),
         // defines
@@ -420,6 +470,13 @@ fn bad_definitions_name_the_model_the_entry_and_what_is_allowed() {
         (
             base("", "").replace("h = \"x*t*g/c\"", "h = \"x*t*g/c\"\nk = \"k\""),
             vec!["define.k", "circular definition k → k"],
+        ),
+        (
+            base("", "").replace(
+                "h = \"x*t*g/c\"",
+                "h = \"x*t*g/c\"\nk = \"k2\"\nk2 = \"s*k3\"\nk3 = \"k\"",
+            ),
+            vec!["define.k", "circular definition k → k2 → k3 → k"],
         ),
         // syntax and size
         (
@@ -435,7 +492,10 @@ fn bad_definitions_name_the_model_the_entry_and_what_is_allowed() {
             vec!["coefficients.o12.i1", "too long", "512"],
         ),
         (
-            base("", &format!("i1 = \"{}x{}\"", "(1+".repeat(70), ")".repeat(70))),
+            base(
+                "",
+                &format!("i1 = \"{}x{}\"", "(1+".repeat(70), ")".repeat(70)),
+            ),
             vec!["coefficients.o12.i1", "nests too deeply"],
         ),
     ];
@@ -467,13 +527,25 @@ fn check_and_identifiability() {
     assert!(m.check(&[f64::NAN, 1.5]).unwrap_err().contains("`x`"));
     assert!(m.check(&[1.0]).is_err());
     // y enters only as 0·y: used on paper, no effect on the coefficients
-    let m = from_toml(&base("", "").replace("tau = \"y\"", "tau = 0.1").replace("o12 = \"1\"", "o12 = \"1 + 0*y\"")).unwrap();
-    let e = m.check_identifiable(&[1.0, 0.5], &[0.01, 0.1], 10.0).unwrap_err();
-    assert!(e.contains("user model `bad`") && e.contains("`y`") && !e.contains("`x`"), "{e}");
+    let m = from_toml(
+        &base("", "")
+            .replace("tau = \"y\"", "tau = 0.1")
+            .replace("o12 = \"1\"", "o12 = \"1 + 0*y\""),
+    )
+    .unwrap();
+    let e = m
+        .check_identifiable(&[1.0, 0.5], &[0.01, 0.1], 10.0)
+        .unwrap_err();
+    assert!(
+        e.contains("user model `bad`") && e.contains("`y`") && !e.contains("`x`"),
+        "{e}"
+    );
     let m = from_toml(&base("", "")).unwrap();
     m.check_identifiable(&[1.0, 0.5], &[0.1], 10.0).unwrap();
     // at x = 0 the delay parameter y drops out of x·t
-    let e = m.check_identifiable(&[0.0, 0.5], &[0.1, 1.0], 10.0).unwrap_err();
+    let e = m
+        .check_identifiable(&[0.0, 0.5], &[0.1, 1.0], 10.0)
+        .unwrap_err();
     assert!(e.contains("`y`") && !e.contains("`x`"), "{e}");
 }
 
