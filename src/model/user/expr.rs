@@ -367,7 +367,7 @@ pub fn powi<T: DualNum<Primitive = f64> + Copy>(z: Complex<T>, n: i32) -> Comple
     let mut acc = Complex::new(T::one(), T::zero());
     while e > 0 {
         if e & 1 == 1 {
-            acc = acc * base;
+            acc *= base;
         }
         e >>= 1;
         if e > 0 {
@@ -415,19 +415,19 @@ pub fn run<T: DualNum<Primitive = f64> + Copy>(
             }
             Op::Add => {
                 sp -= 1;
-                st[sp - 1] = st[sp - 1] + st[sp];
+                st[sp - 1] += st[sp];
             }
             Op::Sub => {
                 sp -= 1;
-                st[sp - 1] = st[sp - 1] - st[sp];
+                st[sp - 1] -= st[sp];
             }
             Op::Mul => {
                 sp -= 1;
-                st[sp - 1] = st[sp - 1] * st[sp];
+                st[sp - 1] *= st[sp];
             }
             Op::Div => {
                 sp -= 1;
-                st[sp - 1] = st[sp - 1] / st[sp];
+                st[sp - 1] /= st[sp];
             }
             Op::Neg => st[sp - 1] = -st[sp - 1],
             Op::Pow(n) => st[sp - 1] = powi(st[sp - 1], n),

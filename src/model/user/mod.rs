@@ -238,6 +238,19 @@ impl UserModel {
                         ),
                     ));
                 }
+                if matches!(*g, "parameters" | "constants")
+                    && <real::Ex as exmex::Express<f64>>::parse(n)
+                        .map(|e| exmex::Express::var_names(&e) != [n.to_string()])
+                        .unwrap_or(true)
+                {
+                    return Err(fail(
+                        &entry,
+                        format!(
+                            "`{n}` is a function or constant of the real-expression parser \
+                             (exmex: sin, exp, PI, E, …); choose another name"
+                        ),
+                    ));
+                }
                 let kind = match *g {
                     "parameters" => Kind::Param(i),
                     "constants" => Kind::Const(def.constants[n]),

@@ -2,6 +2,7 @@
 //! parameters and constants with exact symbolic partial derivatives.
 
 use exmex::prelude::*;
+use exmex::{FloatOpsFactory, MatchLiteral};
 use num_dual::DualNum;
 use std::f64::consts::PI;
 
@@ -14,6 +15,46 @@ pub enum VarSrc {
     Param(usize),
     Const(f64),
 }
+
+/// Numeric literals of real expressions, with an optional decimal exponent (`1.5e-3`), which
+/// `exmex`'s default matcher does not accept.
+#[derive(Debug, Clone, PartialEq, Eq, PartialOrd, Ord, Default)]
+pub struct SciNumber;
+
+impl MatchLiteral for SciNumber {
+    fn is_literal(text: &str) -> Option<&str> {
+        let b = text.as_bytes();
+        let digits = |mut i: usize| {
+            while i < b.len() && b[i].is_ascii_digit() {
+                i += 1;
+            }
+            i
+        };
+        let mut i = digits(0);
+        let mut n = i;
+        if b.get(i) == Some(&b'.') {
+            let j = digits(i + 1);
+            n += j - i - 1;
+            i = j;
+        }
+        if n == 0 {
+            return None;
+        }
+        if matches!(b.get(i), Some(b'e' | b'E')) {
+            let mut j = i + 1;
+            if matches!(b.get(j), Some(b'+' | b'-')) {
+                j += 1;
+            }
+            let k = digits(j);
+            if k > j {
+                i = k;
+            }
+        }
+        Some(&text[..i])
+    }
+}
+
+pub type Ex = FlatEx<f64, FloatOpsFactory<f64>, SciNumber>;
 
 /// A parsed real field.
 #[derive(Debug, Clone)]
@@ -30,9 +71,9 @@ pub enum RealExpr {
 /// partial derivatives with respect to each parameter it reads.
 #[derive(Debug, Clone)]
 pub struct ExmexExpr {
-    ex: FlatEx<f64>,
+    ex: Ex,
     vars: Vec<VarSrc>,
-    partials: Vec<(usize, FlatEx<f64>)>,
+    partials: Vec<(usize, Ex)>,
 }
 
 impl RealExpr {
@@ -53,7 +94,7 @@ impl RealExpr {
                 VarSrc::Const(x) => RealExpr::Num(x),
             });
         }
-        let ex = exmex::parse::<f64>(t).map_err(|e| format!("cannot parse `{t}`: {e}"))?;
+        let ex = Ex::parse(t).map_err(|e| format!("cannot parse `{t}`: {e}"))?;
         let names = ex.var_names().to_vec();
         if names.len() > MAX_VARS {
             return Err(format!(
@@ -154,6 +195,8 @@ mod tests {
             "a" => Some(VarSrc::Param(0)),
             "b" => Some(VarSrc::Param(1)),
             "c" => Some(VarSrc::Const(2.0)),
+            "a_df" => Some(VarSrc::Param(2)),
+            "e1" => Some(VarSrc::Const(0.25)),
             _ => None,
         }
     }
@@ -171,6 +214,13 @@ mod tests {
         assert!((da.re - want).abs() < 1e-15);
         assert!((da.eps - b * a.exp()).abs() < 1e-14);
         assert!((db.eps - (a.exp() - 2.0 * b.cos())).abs() < 1e-14);
+    }
+
+    #[test]
+    fn names_with_digits_and_underscores() {
+        let e = RealExpr::parse("a_df*e1 + 1e-3*b", &lookup, &|_| String::new()).unwrap();
+        assert_eq!(e.params(), vec![2, 1]); // exmex orders names alphabetically
+        assert!((e.eval::<f64>(&[0.0, 2.0, 4.0]) - (1.0 + 2e-3)).abs() < 1e-15);
     }
 
     #[test]
@@ -202,5 +252,7 @@ mod tests {
                 .contains("finite")
         );
         assert!(RealExpr::parse("a +* (", &lookup, &|_| String::new()).is_err());
+        let e = RealExpr::parse("2.5E+2 + .5 + 1e1*c", &lookup, &|_| String::new()).unwrap();
+        assert_eq!(e.constant(), Some(270.5));
     }
 }

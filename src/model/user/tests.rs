@@ -162,7 +162,6 @@ d = "{coef}"
 
 #[test]
 fn every_block_kind_matches_its_closed_form_with_exact_derivatives() {
-    let i = Complex64::new(0.0, 1.0);
     type Closed = fn(f64, f64) -> Complex64;
     let cases: [(&str, &str, f64, Closed); 8] = [
         (r#"{ kind = "gain", value = "x" }"#, "b", 0.7, |x, _| {
@@ -202,7 +201,6 @@ fn every_block_kind_matches_its_closed_form_with_exact_derivatives() {
             },
         ),
     ];
-    let _ = i;
     for (block, coef, x, closed) in cases {
         let m = one_block(block, coef);
         for f in [1e-3, 0.05, 0.2, 1.0, 3.0] {
@@ -385,6 +383,17 @@ fn bad_definitions_name_the_model_the_entry_and_what_is_allowed() {
         (
             base("", "").replace("[\"x\", \"y\"]", "[\"x\", \"y\", \"2y\"]"),
             vec!["parameters", "`2y` is not a valid name"],
+        ),
+        (
+            base("", "").replace("c = 2.0", "c = 2.0\nE = 1.0"),
+            vec![
+                "constants.E",
+                "function or constant of the real-expression parser",
+            ],
+        ),
+        (
+            base("", "").replace("[\"x\", \"y\"]", "[\"x\", \"y\", \"sin\"]"),
+            vec!["parameters", "`sin` is a function"],
         ),
         // numbers
         (
