@@ -162,11 +162,7 @@ impl LtpModel {
     }
 
     /// `H_io(f; θ)` (rows `o1, o12`, columns `i1, i12`), generic over dual numbers.
-    fn h_io<T: DualNum<Primitive = f64> + Copy>(
-        &self,
-        th: &[T],
-        c: &BinConsts,
-    ) -> [[Complex<T>; 2]; 2] {
+    fn h_io<T: DualNum<Primitive = f64> + Copy>(&self, th: &[T], c: &BinConsts) -> [[Complex<T>; 2]; 2] {
         let r_df = match self.opts.thruster.param() {
             Some(_) => self.opts.thruster.factor(th[N_PARAMS], c.f),
             None => Complex::new(T::one(), T::zero()),
@@ -175,12 +171,7 @@ impl LtpModel {
         crate::ltp::h_io_matrix(t7, c, &self.opts.masses, r_df)
     }
 
-    fn fill<T: DualNum<Primitive = f64> + Copy>(
-        &self,
-        th: &[T],
-        bin: &Bin,
-        out: &mut [Complex<T>],
-    ) {
+    fn fill<T: DualNum<Primitive = f64> + Copy>(&self, th: &[T], bin: &Bin, out: &mut [Complex<T>]) {
         let c = self.bin_consts_struct(bin);
         let h = self.h_io(th, &c);
         let one = Complex::new(T::one(), T::zero());
@@ -328,10 +319,7 @@ mod tests {
         };
         let fast = m.residual_power(&th, &b);
         let slow = residual_power_generic(&m, &th, &b);
-        assert!(
-            (fast - slow).abs() <= 1e-12 * slow.abs(),
-            "{fast} vs {slow}"
-        );
+        assert!((fast - slow).abs() <= 1e-12 * slow.abs(), "{fast} vs {slow}");
     }
 
     #[test]
