@@ -22,6 +22,7 @@
 //! path never recomputes them and never allocates.
 
 pub mod ltp;
+pub mod user;
 
 pub use ltp::{LoopResponse, LtpModel, LtpModelOptions, ThrusterResponse};
 

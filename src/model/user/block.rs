@@ -1,0 +1,152 @@
+//! Transfer-function blocks of user-defined models, evaluated at `s = i2πf`.
+
+use super::real::RealExpr;
+use num_complex::Complex;
+use num_dual::DualNum;
+use std::f64::consts::PI;
+
+/// Largest `|n|` of an `s_power` block.
+pub const MAX_S_POWER: i32 = 16;
+
+/// A compiled block.
+#[derive(Debug, Clone)]
+pub enum Block {
+    /// A real gain.
+    Gain(RealExpr),
+    /// `e^{−sτ}`.
+    Delay(RealExpr),
+    /// `1/(1 + s/(2π f))`.
+    Pole(RealExpr),
+    /// `1 + s/(2π f)`.
+    Zero(RealExpr),
+    /// `ω0²/(s² + s ω0/q + ω0²)`, `ω0 = 2π f`.
+    ComplexPole { f: RealExpr, q: RealExpr },
+    /// `s^n`.
+    SPower(i32),
+    /// `N(s)/D(s)`, coefficients in descending powers.
+    Rational {
+        num: Vec<RealExpr>,
+        den: Vec<RealExpr>,
+    },
+}
+
+impl Block {
+    /// The real fields with their names (for messages), in declaration order.
+    pub fn fields(&self) -> Vec<(String, &RealExpr)> {
+        match self {
+            Block::Gain(v) => vec![("value".into(), v)],
+            Block::Delay(v) => vec![("tau".into(), v)],
+            Block::Pole(v) | Block::Zero(v) => vec![("f".into(), v)],
+            Block::ComplexPole { f, q } => vec![("f".into(), f), ("q".into(), q)],
+            Block::SPower(_) => vec![],
+            Block::Rational { num, den } => num
+                .iter()
+                .enumerate()
+                .map(|(i, v)| (format!("num[{i}]"), v))
+                .chain(
+                    den.iter()
+                        .enumerate()
+                        .map(|(i, v)| (format!("den[{i}]"), v)),
+                )
+                .collect(),
+        }
+    }
+
+    /// Whether no field depends on θ (then the block is a per-bin constant).
+    pub fn is_const(&self) -> bool {
+        self.fields().iter().all(|(_, v)| v.constant().is_some())
+    }
+
+    /// Indices of the parameters the block reads.
+    pub fn params(&self) -> Vec<usize> {
+        self.fields().iter().flat_map(|(_, v)| v.params()).collect()
+    }
+
+    /// Checks the field values that are known (`value(field)` is `None` for a field not known
+    /// yet, e.g. a θ-dependent one at construction): what is impossible. Returns the offending
+    /// field and why.
+    pub fn check_values(
+        &self,
+        value: &dyn Fn(&RealExpr) -> Option<f64>,
+    ) -> Result<(), (String, String)> {
+        for (name, v) in self.fields() {
+            if let Some(x) = value(v)
+                && !x.is_finite()
+            {
+                return Err((name, format!("is {x}, not a finite number")));
+            }
+        }
+        let need = |name: &str, v: &RealExpr, ok: fn(f64) -> bool, what: &str| match value(v) {
+            Some(x) if !ok(x) => Err((name.to_string(), format!("is {x}; {what}"))),
+            _ => Ok(()),
+        };
+        match self {
+            Block::Gain(_) | Block::SPower(_) => Ok(()),
+            Block::Delay(t) => need("tau", t, |x| x >= 0.0, "a delay must be ≥ 0 s"),
+            Block::Pole(f) => need("f", f, |x| x > 0.0, "a pole frequency must be > 0 Hz"),
+            Block::Zero(f) => need("f", f, |x| x != 0.0, "a zero frequency must be non-zero"),
+            Block::ComplexPole { f, q } => {
+                need("f", f, |x| x > 0.0, "a pole frequency must be > 0 Hz")?;
+                need("q", q, |x| x > 0.0, "a quality factor must be > 0")
+            }
+            Block::Rational { den, .. } => {
+                if den.iter().all(|d| value(d) == Some(0.0)) {
+                    Err((
+                        "den".into(),
+                        "is identically zero; a denominator needs a non-zero coefficient".into(),
+                    ))
+                } else {
+                    Ok(())
+                }
+            }
+        }
+    }
+
+    /// The response at frequency `f` (Hz), generic over dual numbers.
+    #[inline]
+    pub fn eval<T: DualNum<Primitive = f64> + Copy>(&self, th: &[T], f: f64) -> Complex<T> {
+        let w = 2.0 * PI * f;
+        let re = |x: T| Complex::new(x, T::zero());
+        match self {
+            Block::Gain(v) => re(v.eval(th)),
+            Block::Delay(t) => {
+                let (s, c) = (t.eval(th) * w).sin_cos();
+                Complex::new(c, -s)
+            }
+            Block::Pole(f0) => {
+                // 1/(1 + i u) = (1 − i u)/(1 + u²), u = f/f0
+                let u = f0.eval(th).recip() * f;
+                let d = (u * u + 1.0).recip();
+                Complex::new(d, -u * d)
+            }
+            Block::Zero(f0) => Complex::new(T::one(), f0.eval(th).recip() * f),
+            Block::ComplexPole { f: f0, q } => {
+                let w0 = f0.eval(th) * (2.0 * PI);
+                let w02 = w0 * w0;
+                let den = Complex::new(w02 - w * w, w0 * w / q.eval(th));
+                den.inv() * w02
+            }
+            Block::SPower(n) => {
+                let m = w.powi(*n);
+                let v = match n.rem_euclid(4) {
+                    0 => (m, 0.0),
+                    1 => (0.0, m),
+                    2 => (-m, 0.0),
+                    _ => (0.0, -m),
+                };
+                Complex::new(T::from(v.0), T::from(v.1))
+            }
+            Block::Rational { num, den } => {
+                let horner = |c: &[RealExpr]| {
+                    let mut acc = Complex::new(T::zero(), T::zero());
+                    for a in c {
+                        // acc·(iω) + a
+                        acc = Complex::new(-acc.im * w + a.eval(th), acc.re * w);
+                    }
+                    acc
+                };
+                horner(num) / horner(den)
+            }
+        }
+    }
+}

@@ -1,0 +1,499 @@
+//! Validation and compilation of a [`UserModelDef`] into a [`UserModel`].
+
+use super::block::{Block, MAX_S_POWER};
+use super::expr::{self, MAX_STACK, Node, Op, Operand};
+use super::real::{self, RealExpr, VarSrc};
+use super::{BlockDef, MAX_SLOTS, RealValue, UserModel, UserModelDef};
+use crate::model::{MAX_CHANNELS, MAX_CONSTS, MAX_RESIDUALS};
+use std::collections::HashMap;
+use std::f64::consts::PI;
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Kind {
+    Param(usize),
+    Const(f64),
+    Block(usize),
+    Define(usize),
+    S,
+    Pi,
+}
+
+fn is_ident(s: &str) -> bool {
+    let mut c = s.chars();
+    matches!(c.next(), Some(x) if x.is_ascii_alphabetic() || x == '_')
+        && c.all(|x| x.is_ascii_alphanumeric() || x == '_')
+}
+
+/// An expression for a message: at most 80 characters.
+fn clip(t: &str) -> String {
+    if t.chars().count() <= 80 {
+        t.to_string()
+    } else {
+        format!("{}…", t.chars().take(79).collect::<String>())
+    }
+}
+
+fn list(v: &[&str]) -> String {
+    if v.is_empty() {
+        "none".into()
+    } else {
+        v.join(", ")
+    }
+}
+
+impl UserModel {
+    /// Validates and compiles a definition. Every error names the model, the entry (e.g.
+    /// `blocks.t1.tau`, `coefficients.o12.i1`, `define.p00`) and what is allowed.
+    pub fn new(def: &UserModelDef) -> Result<UserModel, String> {
+        let m = def.name.as_str();
+        if m.trim().is_empty() {
+            return Err("user model: `name` is empty".into());
+        }
+        let fail = |entry: &str, msg: String| format!("user model `{m}`: {entry}: {msg}");
+
+        // --- names -------------------------------------------------------------------------
+        for (field, v, max) in [
+            ("parameters", &def.parameters, usize::MAX),
+            ("data", &def.data, MAX_CHANNELS),
+            ("residual", &def.residual, MAX_RESIDUALS),
+        ] {
+            if v.is_empty() {
+                return Err(fail(field, "the list is empty".into()));
+            }
+            if v.len() > max {
+                return Err(fail(
+                    field,
+                    format!("{} channels; at most {max} are supported", v.len()),
+                ));
+            }
+            for (i, a) in v.iter().enumerate() {
+                if !is_ident(a) {
+                    return Err(fail(
+                        field,
+                        format!(
+                            "`{a}` is not a valid name (letters, digits and `_`, not starting \
+                             with a digit)"
+                        ),
+                    ));
+                }
+                if v[..i].contains(a) {
+                    return Err(fail(field, format!("`{a}` is listed twice")));
+                }
+            }
+        }
+        let mut kinds: HashMap<&str, (Kind, String)> = HashMap::new();
+        kinds.insert("s", (Kind::S, "the Laplace variable `s`".into()));
+        kinds.insert("pi", (Kind::Pi, "the number `pi`".into()));
+        let groups: [(&str, Vec<&str>); 4] = [
+            (
+                "parameters",
+                def.parameters.iter().map(|s| s.as_str()).collect(),
+            ),
+            (
+                "constants",
+                def.constants.keys().map(|s| s.as_str()).collect(),
+            ),
+            ("blocks", def.blocks.keys().map(|s| s.as_str()).collect()),
+            ("define", def.define.keys().map(|s| s.as_str()).collect()),
+        ];
+        for (g, names) in &groups {
+            for (i, &n) in names.iter().enumerate() {
+                let entry = if *g == "parameters" {
+                    "parameters".to_string()
+                } else {
+                    format!("{g}.{n}")
+                };
+                if !is_ident(n) {
+                    return Err(fail(
+                        &entry,
+                        format!(
+                            "`{n}` is not a valid name (letters, digits and `_`, not starting \
+                             with a digit)"
+                        ),
+                    ));
+                }
+                if matches!(*g, "parameters" | "constants")
+                    && <real::Ex as exmex::Express<f64>>::parse(n)
+                        .map(|e| exmex::Express::var_names(&e) != [n.to_string()])
+                        .unwrap_or(true)
+                {
+                    return Err(fail(
+                        &entry,
+                        format!(
+                            "`{n}` is a function or constant of the real-expression parser \
+                             (exmex: sin, exp, PI, E, …); choose another name"
+                        ),
+                    ));
+                }
+                let kind = match *g {
+                    "parameters" => Kind::Param(i),
+                    "constants" => Kind::Const(def.constants[n]),
+                    "blocks" => Kind::Block(i),
+                    _ => Kind::Define(i),
+                };
+                if let Some((_, what)) = kinds.get(n) {
+                    return Err(fail(
+                        &entry,
+                        format!(
+                            "the name `{n}` is already taken by {what}; parameters, constants, \
+                             blocks and defines share one namespace with `s` and `pi`"
+                        ),
+                    ));
+                }
+                let what = match *g {
+                    "parameters" => format!("parameter `{n}`"),
+                    "constants" => format!("constant `{n}`"),
+                    "blocks" => format!("block `{n}`"),
+                    _ => format!("define `{n}`"),
+                };
+                kinds.insert(n, (kind, what));
+            }
+        }
+        for (n, v) in &def.constants {
+            if !v.is_finite() {
+                return Err(fail(
+                    &format!("constants.{n}"),
+                    format!("is {v}, not a finite number"),
+                ));
+            }
+        }
+        let allowed_complex = format!(
+            "allowed names are the parameters ({}), constants ({}), blocks ({}), defines ({}), \
+             `s` and `pi`",
+            list(&groups[0].1),
+            list(&groups[1].1),
+            list(&groups[2].1),
+            list(&groups[3].1)
+        );
+        let allowed_real = |n: &str| {
+            let what = match kinds.get(n) {
+                Some((_, what)) => format!("{what} is complex; "),
+                None => String::new(),
+            };
+            format!(
+                "{what}a real field may use numbers, the parameters ({}), the constants ({}), \
+                 `pi` and exmex functions (sin, exp, sqrt, …); blocks, defines and `s` are \
+                 complex and not allowed here",
+                list(&groups[0].1),
+                list(&groups[1].1)
+            )
+        };
+
+        // --- blocks ------------------------------------------------------------------------
+        let lookup = |n: &str| match kinds.get(n).map(|k| k.0) {
+            Some(Kind::Param(i)) => Some(VarSrc::Param(i)),
+            Some(Kind::Const(x)) => Some(VarSrc::Const(x)),
+            Some(Kind::Pi) => Some(VarSrc::Const(PI)),
+            _ => None,
+        };
+        let mut blocks: Vec<(String, Block)> = Vec::new();
+        for (bn, b) in &def.blocks {
+            let at = |field: &str| format!("blocks.{bn}.{field}");
+            let real = |field: &str, v: &RealValue| -> Result<RealExpr, String> {
+                match v {
+                    RealValue::Number(x) => Ok(RealExpr::Num(*x)),
+                    RealValue::Expr(t) => {
+                        RealExpr::parse(t, &lookup, &allowed_real).map_err(|e| fail(&at(field), e))
+                    }
+                }
+            };
+            let poly = |field: &str, v: &[RealValue]| -> Result<Vec<RealExpr>, String> {
+                if v.is_empty() {
+                    return Err(fail(
+                        &at(field),
+                        "the polynomial is empty; give its coefficients in descending powers of s"
+                            .into(),
+                    ));
+                }
+                v.iter()
+                    .enumerate()
+                    .map(|(i, x)| real(&format!("{field}[{i}]"), x))
+                    .collect()
+            };
+            let block = match b {
+                BlockDef::Rational { num, den } => Block::Rational {
+                    num: poly("num", num)?,
+                    den: poly("den", den)?,
+                },
+                BlockDef::Gain { value } => Block::Gain(real("value", value)?),
+                BlockDef::Delay { tau } => Block::Delay(real("tau", tau)?),
+                BlockDef::Pole { f } => Block::Pole(real("f", f)?),
+                BlockDef::Zero { f } => Block::Zero(real("f", f)?),
+                BlockDef::ComplexPole { f, q } => Block::ComplexPole {
+                    f: real("f", f)?,
+                    q: real("q", q)?,
+                },
+                BlockDef::SPower { n } => {
+                    if n.unsigned_abs() > MAX_S_POWER as u32 {
+                        return Err(fail(
+                            &at("n"),
+                            format!("is {n}; |n| ≤ {MAX_S_POWER} is supported"),
+                        ));
+                    }
+                    Block::SPower(*n)
+                }
+            };
+            block
+                .check_values(&|v| v.constant())
+                .map_err(|(field, msg)| fail(&at(&field), msg))?;
+            blocks.push((bn.clone(), block));
+        }
+
+        // --- complex expressions -----------------------------------------------------------
+        let compile = |entry: &str, text: &str| -> Result<Node, String> {
+            let n =
+                expr::parse(text).map_err(|e| fail(entry, format!("{e} (in `{}`)", clip(text))))?;
+            let mut ids = Vec::new();
+            n.idents(&mut ids);
+            for (id, pos) in ids {
+                if !kinds.contains_key(id) {
+                    return Err(fail(
+                        entry,
+                        format!(
+                            "unknown name `{id}` at character {pos} of `{}`; {allowed_complex}",
+                            clip(text)
+                        ),
+                    ));
+                }
+            }
+            if n.depth() > MAX_STACK {
+                return Err(fail(
+                    entry,
+                    format!(
+                        "the expression nests too deeply (needs a stack of {}, at most \
+                         {MAX_STACK}); split it with defines",
+                        n.depth()
+                    ),
+                ));
+            }
+            Ok(n)
+        };
+        let defines: Vec<(&str, Node)> = def
+            .define
+            .iter()
+            .map(|(k, v)| Ok((k.as_str(), compile(&format!("define.{k}"), v)?)))
+            .collect::<Result<_, String>>()?;
+        let nc = def.data.len();
+        let mut coefs: Vec<(usize, Node)> = Vec::new();
+        for (r, row) in &def.coefficients {
+            let Some(ri) = def.residual.iter().position(|x| x == r) else {
+                return Err(fail(
+                    &format!("coefficients.{r}"),
+                    format!(
+                        "`{r}` is not a declared residual channel; residual = [{}]",
+                        def.residual.join(", ")
+                    ),
+                ));
+            };
+            for (c, text) in row {
+                let entry = format!("coefficients.{r}.{c}");
+                let Some(ci) = def.data.iter().position(|x| x == c) else {
+                    return Err(fail(
+                        &entry,
+                        format!(
+                            "`{c}` is not a declared data channel; data = [{}]",
+                            def.data.join(", ")
+                        ),
+                    ));
+                };
+                coefs.push((ri * nc + ci, compile(&entry, text)?));
+            }
+        }
+        for (ri, r) in def.residual.iter().enumerate() {
+            if !coefs.iter().any(|(k, _)| k / nc == ri) {
+                return Err(fail(
+                    &format!("coefficients.{r}"),
+                    "the residual channel has no coefficients (every entry would be 0); give \
+                     at least one `coefficients.<residual>.<data> = \"…\"`"
+                        .into(),
+                ));
+            }
+        }
+
+        // --- dependency order of the defines -----------------------------------------------
+        let deps = |n: &Node| -> Vec<Kind> {
+            let mut ids = Vec::new();
+            n.idents(&mut ids);
+            ids.iter().map(|(id, _)| kinds[id].0).collect()
+        };
+        let dep_defines: Vec<Vec<usize>> = defines
+            .iter()
+            .map(|(_, n)| {
+                deps(n)
+                    .into_iter()
+                    .filter_map(|k| match k {
+                        Kind::Define(j) => Some(j),
+                        _ => None,
+                    })
+                    .collect()
+            })
+            .collect();
+        // depth-first post-order; state 1 = on the current path, 2 = done
+        let mut state = vec![0u8; defines.len()];
+        let mut order = Vec::with_capacity(defines.len());
+        fn visit(
+            i: usize,
+            deps: &[Vec<usize>],
+            state: &mut [u8],
+            path: &mut Vec<usize>,
+            order: &mut Vec<usize>,
+        ) -> Result<(), Vec<usize>> {
+            match state[i] {
+                2 => return Ok(()),
+                1 => {
+                    let start = path.iter().position(|&p| p == i).unwrap_or(0);
+                    let mut cyc = path[start..].to_vec();
+                    cyc.push(i);
+                    return Err(cyc);
+                }
+                _ => {}
+            }
+            state[i] = 1;
+            path.push(i);
+            for &j in &deps[i] {
+                visit(j, deps, state, path, order)?;
+            }
+            path.pop();
+            state[i] = 2;
+            order.push(i);
+            Ok(())
+        }
+        for i in 0..defines.len() {
+            visit(i, &dep_defines, &mut state, &mut Vec::new(), &mut order).map_err(|cyc| {
+                let names: Vec<&str> = cyc.iter().map(|&j| defines[j].0).collect();
+                fail(
+                    &format!("define.{}", names[0]),
+                    format!(
+                        "circular definition {}; a define may use only defines that do not \
+                         depend on it",
+                        names.join(" → ")
+                    ),
+                )
+            })?;
+        }
+
+        // --- what the coefficients reach ---------------------------------------------------
+        let mut used_define = vec![false; defines.len()];
+        let mut used_block = vec![false; blocks.len()];
+        let mut used_param = vec![false; def.parameters.len()];
+        let mut stack: Vec<&Node> = coefs.iter().map(|(_, n)| n).collect();
+        while let Some(n) = stack.pop() {
+            for k in deps(n) {
+                match k {
+                    Kind::Param(i) => used_param[i] = true,
+                    Kind::Block(b) if !used_block[b] => {
+                        used_block[b] = true;
+                        for i in blocks[b].1.params() {
+                            used_param[i] = true;
+                        }
+                    }
+                    Kind::Define(d) if !used_define[d] => {
+                        used_define[d] = true;
+                        stack.push(&defines[d].1);
+                    }
+                    _ => {}
+                }
+            }
+        }
+        let unused: Vec<&str> = def
+            .parameters
+            .iter()
+            .zip(&used_param)
+            .filter(|(_, u)| !**u)
+            .map(|(p, _)| p.as_str())
+            .collect();
+        if !unused.is_empty() {
+            return Err(fail(
+                "parameters",
+                format!(
+                    "{} {} {} declared but not used by any coefficient (directly or through the \
+                     blocks and defines the coefficients use); remove {} or use {}",
+                    if unused.len() == 1 {
+                        "parameter"
+                    } else {
+                        "parameters"
+                    },
+                    unused
+                        .iter()
+                        .map(|p| format!("`{p}`"))
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                    if unused.len() == 1 { "is" } else { "are" },
+                    if unused.len() == 1 { "it" } else { "them" },
+                    if unused.len() == 1 { "it" } else { "them" },
+                ),
+            ));
+        }
+
+        // --- slots, per-bin constants, program ---------------------------------------------
+        let mut block_slot = vec![u16::MAX; blocks.len()];
+        let mut kept_blocks = Vec::new();
+        let mut const_of = Vec::new();
+        let mut n_consts = 0;
+        for (b, (bn, blk)) in blocks.into_iter().enumerate() {
+            if !used_block[b] {
+                continue;
+            }
+            block_slot[b] = kept_blocks.len() as u16;
+            if blk.is_const() {
+                const_of.push(Some(n_consts));
+                n_consts += 1;
+            } else {
+                const_of.push(None);
+            }
+            kept_blocks.push((bn, blk));
+        }
+        if n_consts > MAX_CONSTS {
+            return Err(fail(
+                "blocks",
+                format!("{n_consts} constant blocks are used; at most {MAX_CONSTS} are supported"),
+            ));
+        }
+        let live_defines: Vec<usize> = order.into_iter().filter(|&d| used_define[d]).collect();
+        let n_slots = kept_blocks.len() + live_defines.len();
+        if n_slots > MAX_SLOTS {
+            return Err(fail(
+                "define",
+                format!(
+                    "the coefficients use {n_slots} blocks and defines; at most {MAX_SLOTS} are \
+                     supported"
+                ),
+            ));
+        }
+        let mut define_slot = vec![u16::MAX; defines.len()];
+        for (k, &d) in live_defines.iter().enumerate() {
+            define_slot[d] = (kept_blocks.len() + k) as u16;
+        }
+        let resolve = |n: &str| match kinds[n].0 {
+            Kind::Param(i) => Operand::Param(i as u16),
+            Kind::Const(x) => Operand::Const(x),
+            Kind::Block(b) => Operand::Slot(block_slot[b]),
+            Kind::Define(d) => Operand::Slot(define_slot[d]),
+            Kind::S => Operand::S,
+            Kind::Pi => Operand::Const(PI),
+        };
+        let mut ops = Vec::new();
+        for &d in &live_defines {
+            expr::emit(&defines[d].1, &resolve, &mut ops);
+            ops.push(Op::Store(define_slot[d]));
+        }
+        for (k, n) in &coefs {
+            expr::emit(n, &resolve, &mut ops);
+            ops.push(Op::Out(*k as u16));
+        }
+
+        let model = UserModel {
+            name: def.name.clone(),
+            params: def.parameters.clone(),
+            data: def.data.clone(),
+            res: def.residual.clone(),
+            blocks: kept_blocks,
+            const_of,
+            n_consts,
+            ops,
+            n_slots,
+        };
+        crate::model::validate_shape(&model)?;
+        Ok(model)
+    }
+}
