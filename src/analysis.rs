@@ -34,15 +34,80 @@ pub struct Prepared {
     pub likelihood: Likelihood,
 }
 
-/// The data of a study: its dataset, or a simulation of it; and where they came from.
+/// The data of a study and where they came from: the `[analysis] dataset` directory, or every
+/// `[[experiment]]` simulated or read from its `data` file, in the order of the study file.
 pub fn load_data(study: &Study) -> Result<(Dataset, String), AnalysisError> {
-    Ok(match &study.analysis.dataset {
-        Some(p) => (Dataset::read(p)?, p.display().to_string()),
-        None => (
-            simulate(study)?.dataset,
+    if let Some(p) = &study.analysis.dataset {
+        let d = Dataset::read(p)?;
+        d.check_names(&study.experiment_names).map_err(|e| {
+            AnalysisError::Likelihood(format!(
+                "{}: `analysis.dataset` = {}: {e}",
+                study.source,
+                p.display()
+            ))
+        })?;
+        return Ok((d, p.display().to_string()));
+    }
+    let mut sim = if study.experiments.is_empty() {
+        None
+    } else {
+        Some(simulate(study)?.dataset)
+    };
+    if study.data_sources.is_empty() {
+        let d = sim.expect("a study has at least one experiment");
+        return Ok((
+            d,
             format!("simulated from {} (seed {})", study.source, study.seed),
-        ),
-    })
+        ));
+    }
+    // every data channel any model reads
+    let mut channels: Vec<String> = Vec::new();
+    for m in &study.models.models {
+        for c in m.data_channels() {
+            if !channels.contains(c) {
+                channels.push(c.clone());
+            }
+        }
+    }
+    let mut experiments = Vec::new();
+    let mut files = Vec::new();
+    for name in &study.experiment_names {
+        if let Some((_, src)) = study.data_sources.iter().find(|(n, _)| n == name) {
+            experiments.push(src.load(name, &study.base_dir, &channels)?);
+            files.push(src.data.display().to_string());
+        } else {
+            let s = sim.as_mut().expect("simulated experiments exist");
+            let k = s
+                .experiments
+                .iter()
+                .position(|e| &e.name == name)
+                .expect("every design was simulated");
+            experiments.push(s.experiments.swap_remove(k));
+        }
+    }
+    let simulated = sim.is_some();
+    let origin = if simulated {
+        format!(
+            "read from {} and simulated from {} (seed {})",
+            files.join(", "),
+            study.source,
+            study.seed
+        )
+    } else {
+        format!("read from {}", files.join(", "))
+    };
+    let extra = sim
+        .map(|s| s.extra)
+        .unwrap_or_else(|| serde_json::json!({ "source": study.source }));
+    Ok((
+        Dataset {
+            experiments,
+            seed: None,
+            truth: None,
+            extra,
+        },
+        origin,
+    ))
 }
 
 /// Loads or simulates the data and builds the exact likelihood of the `[fit]` model.

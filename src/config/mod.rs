@@ -158,6 +158,16 @@ pub struct ExperimentEntry {
     /// Multiplies every amplitude of this experiment.
     #[serde(default)]
     pub amplitude_scale: Option<f64>,
+    /// Read the experiment's data from this `.csv` or `.npz` file (relative to the study
+    /// file) instead of simulating it; see [`crate::data::DataSource`].
+    #[serde(default)]
+    pub data: Option<PathBuf>,
+    /// Channel → column header / array name of `data` (default: the channel's own name).
+    #[serde(default)]
+    pub columns: std::collections::BTreeMap<String, String>,
+    /// A noise-only stretch for the Welch noise estimate (same column map).
+    #[serde(default)]
+    pub noise_data: Option<PathBuf>,
 }
 
 /// Which likelihood the samplers use.
@@ -368,6 +378,12 @@ pub struct Study {
     pub oms_delay: f64,
     pub simulation: SimulationOptions,
     pub experiments: Vec<ExperimentDesign>,
+    /// Experiments read from files (`[[experiment]] data = …`), by name.
+    pub data_sources: Vec<(String, crate::data::DataSource)>,
+    /// Every experiment name in the order of the study file.
+    pub experiment_names: Vec<String>,
+    /// The directory of the study file (relative data paths start there).
+    pub base_dir: PathBuf,
     pub analysis: AnalysisOptions,
     /// Every model with its validated prior.
     pub models: ModelSet,
@@ -497,6 +513,8 @@ impl StudyFile {
             ));
         }
         let mut experiments = Vec::new();
+        let mut data_sources: Vec<(String, crate::data::DataSource)> = Vec::new();
+        let mut experiment_names: Vec<String> = Vec::new();
         for (k, e) in self.experiment.iter().enumerate() {
             let at = |f: &str| format!("experiment[{k}].{f}");
             if e.name.is_empty()
@@ -513,11 +531,63 @@ impl StudyFile {
                     ),
                 ));
             }
-            if experiments
-                .iter()
-                .any(|d: &ExperimentDesign| d.name == e.name)
-            {
+            if experiment_names.contains(&e.name) {
                 return Err(bad(at("name"), format!("`{}` is used twice", e.name)));
+            }
+            experiment_names.push(e.name.clone());
+            if let Some(path) = &e.data {
+                // read, not simulated: no injection design applies
+                for (f, given) in [
+                    ("design", e.design.is_some()),
+                    ("x1", e.x1.is_some()),
+                    ("x12", e.x12.is_some()),
+                    ("pre_pad", e.pre_pad.is_some()),
+                    ("post_pad", e.post_pad.is_some()),
+                    ("noise_duration", e.noise_duration.is_some()),
+                    ("amplitude_scale", e.amplitude_scale.is_some()),
+                ] {
+                    if given {
+                        return Err(bad(
+                            at(f),
+                            format!(
+                                "experiment `{}` reads its data from {}; `{f}` describes a simulation and does not apply: remove it",
+                                e.name,
+                                path.display()
+                            ),
+                        ));
+                    }
+                }
+                if let Some(fs) = e.fs
+                    && !finite_pos(fs)
+                {
+                    return Err(bad(at("fs"), format!("must be > 0 Hz (got {fs})")));
+                }
+                for ch in e.columns.keys() {
+                    if ch != "t" {
+                        crate::dataset::check_channel_name(ch)
+                            .map_err(|m| bad(at(&format!("columns.{ch}")), m))?;
+                    }
+                }
+                data_sources.push((
+                    e.name.clone(),
+                    crate::data::DataSource {
+                        data: path.clone(),
+                        columns: e.columns.clone(),
+                        fs: e.fs,
+                        noise_data: e.noise_data.clone(),
+                    },
+                ));
+                continue;
+            }
+            if !e.columns.is_empty() || e.noise_data.is_some() {
+                return Err(bad(
+                    at(if e.noise_data.is_some() {
+                        "noise_data"
+                    } else {
+                        "columns"
+                    }),
+                    "only an experiment that reads its data (`data = \"file.csv\"`) takes `columns` and `noise_data`".into(),
+                ));
             }
             let mut d = match &e.design {
                 Some(n) => ExperimentDesign::builtin(n).ok_or_else(|| {
@@ -589,14 +659,32 @@ impl StudyFile {
             oms_delay: self.oms_delay,
             ..Default::default()
         };
-        let models = ModelSet::resolve(&self.model, &self.prior, &ltp_defaults, file)?;
+        validate_analysis(&self.analysis, file)?;
+        // a log grid over the fit band, where user-defined models must act
+        let [blo, bhi] = self.analysis.band;
+        let check_fs = self.experiment.iter().find_map(|e| e.fs).unwrap_or(10.0);
+        let bhi = if bhi.min(0.49 * check_fs) > blo {
+            bhi.min(0.49 * check_fs)
+        } else {
+            10.0 * blo
+        };
+        let check_freqs: Vec<f64> = (0..40)
+            .map(|i| blo * (bhi / blo).powf(i as f64 / 39.0))
+            .collect();
+        let models = ModelSet::resolve(
+            &self.model,
+            &self.prior,
+            &ltp_defaults,
+            &check_freqs,
+            check_fs,
+            file,
+        )?;
         let fit_model = ModelEntry {
             model: self.fit.model.clone(),
             free: self.fit.free.clone(),
             fixed: self.fit.fixed.clone(),
         }
         .resolve(&models, file, "fit.")?;
-        validate_analysis(&self.analysis, file)?;
         validate_fit(&self.fit, &models, file)?;
         let select_models = validate_select(&self.select, &models, file)?;
         Ok(Study {
@@ -614,6 +702,9 @@ impl StudyFile {
             oms_delay: self.oms_delay,
             simulation: self.simulation,
             experiments,
+            data_sources,
+            experiment_names,
+            base_dir: base.to_path_buf(),
             source: file.into(),
         })
     }

@@ -16,6 +16,7 @@
 //! OMS delay, no thruster response).
 
 use super::ConfigError;
+use crate::model::user::{UserModel, UserModelDef};
 use crate::model::{LoopResponse, LtpModel, LtpModelOptions, Model, ThrusterResponse};
 use crate::prior::{Prior, PriorKind};
 use serde::{Deserialize, Serialize};
@@ -50,6 +51,8 @@ pub enum ModelDef {
         name: String,
         options: LtpModelOptions,
     },
+    /// A model defined in the study file (see [`crate::model::user`]).
+    User(UserModelDef),
 }
 
 impl ModelDef {
@@ -57,17 +60,20 @@ impl ModelDef {
     pub fn name(&self) -> &str {
         match self {
             ModelDef::Ltp { name, .. } => name,
+            ModelDef::User(d) => &d.name,
         }
     }
 
-    fn build(&self) -> (Arc<dyn Model>, Vec<(String, PriorKind)>) {
-        match self {
+    /// The model and its default priors (none for user-defined models).
+    fn build(&self) -> Result<(Arc<dyn Model>, Vec<(String, PriorKind)>), String> {
+        Ok(match self {
             ModelDef::Ltp { name, options } => {
                 let m = LtpModel::new(name, options.clone());
                 let d = m.default_priors();
                 (Arc::new(m), d)
             }
-        }
+            ModelDef::User(def) => (Arc::new(UserModel::new(def)?), Vec::new()),
+        })
     }
 }
 
@@ -116,6 +122,8 @@ impl ModelSet {
         tables: &[toml::Table],
         prior: &BTreeMap<String, PriorKind>,
         ltp_defaults: &LtpModelOptions,
+        check_freqs: &[f64],
+        check_fs: f64,
         file: &str,
     ) -> Result<ModelSet, ConfigError> {
         let bad = |field: String, msg: String| ConfigError::Invalid {
@@ -155,6 +163,7 @@ impl ModelSet {
                         },
                     }
                 }
+                "user" => ModelDef::User(t.try_into().map_err(parse_err)?),
                 other => {
                     return Err(bad(
                         format!("{at}.kind"),
@@ -182,7 +191,14 @@ impl ModelSet {
         let mut models = Vec::new();
         let mut priors = Vec::new();
         for d in &defs {
-            let (m, defaults) = d.build();
+            let at = match tables
+                .iter()
+                .position(|t| t.get("name").and_then(|v| v.as_str()) == Some(d.name()))
+            {
+                Some(i) => format!("model[{i}]"),
+                None => format!("model.{}", d.name()),
+            };
+            let (m, defaults) = d.build().map_err(|e| bad(at.clone(), e))?;
             crate::model::validate_shape(m.as_ref())
                 .map_err(|e| bad(format!("model.{}", d.name()), e))?;
             let mut kinds = Vec::new();
@@ -217,6 +233,28 @@ impl ModelSet {
             models,
             priors,
         };
+        // every parameter of a user-defined model must act on some coefficient
+        for (k, d) in set.defs.iter().enumerate() {
+            if let ModelDef::User(def) = d {
+                let um = UserModel::new(def).expect("built above");
+                let centre: Vec<f64> = set.priors[k]
+                    .kinds()
+                    .iter()
+                    .map(crate::analysis::prior_centre)
+                    .collect();
+                um.check_identifiable(&centre, check_freqs, check_fs)
+                    .map_err(|e| {
+                        bad(
+                            format!("model.{}", def.name),
+                            format!(
+                                "{e} (checked at the prior centre over {:.1e}–{:.1e} Hz)",
+                                check_freqs[0],
+                                check_freqs[check_freqs.len() - 1]
+                            ),
+                        )
+                    })?;
+            }
+        }
         for n in prior.keys() {
             if !set.models.iter().any(|m| m.param_names().contains(n)) {
                 return Err(bad(

@@ -186,6 +186,12 @@ pub fn stream(seed: u64, index: u64) -> Xoshiro256PlusPlus {
 /// noise-only stretch. Experiment `j` draws its fit noise from stream `2j` and its noise-only
 /// stretch from stream `2j + 1` of the study seed.
 pub fn simulate(study: &Study) -> Result<Simulation, SimError> {
+    if study.experiments.is_empty() {
+        return Err(SimError::Other(
+            "study".into(),
+            "every [[experiment]] reads its data from a file (`data = …`): there is nothing to simulate".into(),
+        ));
+    }
     let sys = System::of(study);
     let opts = &study.simulation;
     let mut designs = study.experiments.clone();
