@@ -1,0 +1,329 @@
+//! The model and the data as inputs: a user-defined model against the built-in one it copies,
+//! the user's own data files through `occam fit`, and the errors on bad models and data.
+
+mod common;
+use common::occam;
+use occam::analysis::{likelihood_of, prepare};
+use occam::config::Study;
+use occam::likelihood::fisher_exact;
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// The 7-parameter closed loop written as a user-defined model reproduces the built-in model's
+/// ln L to 1e−10 relative and its Fisher matrix to 1e−8 on the Table I study.
+#[test]
+fn user_defined_closed_loop_reproduces_the_builtin_model() {
+    let s = Study::load(Path::new("examples/user-model-closed-loop.toml")).unwrap();
+    let prep = prepare(&s).unwrap();
+    let user = &prep.likelihood;
+    assert_eq!(user.model().name(), "cl_user");
+    let ltp = s.models.index("ltp").unwrap();
+    let builtin = likelihood_of(&s, ltp, &prep.dataset).unwrap();
+    let truth = s.truth.to_array();
+    let mut points = vec![truth.to_vec()];
+    for (k, scale) in [1e-3, 1e-2, 3e-2].iter().enumerate() {
+        let mut p = truth.to_vec();
+        for (i, x) in p.iter_mut().enumerate() {
+            let sign = if (i + k) % 2 == 0 { 1.0 } else { -1.0 };
+            *x += sign * scale * x.abs().max(0.05);
+        }
+        points.push(p);
+    }
+    for p in &points {
+        let a = user.ln_likelihood_full(p);
+        let b = builtin.ln_likelihood_full(p);
+        assert!(((a - b) / b).abs() < 1e-10, "ln L {a} vs {b} at {p:?}");
+    }
+    let free: Vec<usize> = (0..7).collect();
+    let fu = fisher_exact(user, &truth, &free);
+    let fb = fisher_exact(&builtin, &truth, &free);
+    for i in 0..7 {
+        for j in 0..7 {
+            let scale = (fb[(i, i)] * fb[(j, j)]).sqrt();
+            let e = (fu[(i, j)] - fb[(i, j)]).abs() / scale;
+            assert!(
+                e < 1e-8,
+                "F[{i}][{j}]: {} vs {} ({e:.1e})",
+                fu[(i, j)],
+                fb[(i, j)]
+            );
+        }
+    }
+}
+
+fn write_csv(path: &Path, header: &[&str], cols: &[&[f64]], fs: f64) {
+    let mut s = header.join(",") + "\n";
+    for k in 0..cols[0].len() {
+        write!(s, "{:.17e}", k as f64 / fs).unwrap();
+        for c in cols {
+            write!(s, ",{:.17e}", c[k]).unwrap();
+        }
+        s.push('\n');
+    }
+    std::fs::write(path, s).unwrap();
+}
+
+const FIT: &str = r#"
+[analysis]
+band = [1e-3, 0.4]
+[fit]
+free = ["a_df", "a_sus", "d21", "dt1"]
+fixed = { w1sq = -1.3e-6, w2sq = -1.9e-6, dt2 = 0.2 }
+chains = 2
+iterations = 3000
+burn_in = 1000
+"#;
+
+const DESIGNS: &str = r#"
+[[experiment]]
+name = "a"
+fs = 1.0
+pre_pad = 200.0
+post_pad = 1500.0
+noise_duration = 8000.0
+x1 = { kind = "sine_train", gap = 20.0, segments = [
+  { freq = 0.002, amplitude = 1e-6, duration = 500.0 },
+  { freq = 0.05, amplitude = 1e-7, duration = 200.0 } ] }
+[[experiment]]
+name = "b"
+fs = 1.0
+pre_pad = 200.0
+post_pad = 1500.0
+noise_duration = 8000.0
+x12 = { kind = "sine", freq = 0.002, amplitude = 1e-6, duration = 500.0 }
+"#;
+
+/// simulate → CSV files with renamed columns → `occam fit` from the CSVs gives exactly the
+/// table of fitting the simulated dataset.
+#[test]
+fn fit_from_csv_files_equals_fit_from_the_simulated_dataset() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let sim = format!("seed = 8\noutput = \"sim\"\n{FIT}{DESIGNS}");
+    std::fs::write(d.join("sim.toml"), &sim).unwrap();
+    let (ok, _, err) = occam(&["simulate", "sim.toml"], d);
+    assert!(ok, "{err}");
+    let from_ds = format!(
+        "seed = 8\noutput = \"fit_ds\"\n[analysis]\ndataset = \"sim\"\n{}{DESIGNS}",
+        FIT.replace("[analysis]\n", "")
+    );
+    std::fs::write(d.join("ds.toml"), &from_ds).unwrap();
+    let (ok, _, err) = occam(&["fit", "ds.toml", "-q"], d);
+    assert!(ok, "{err}");
+    // the user's files: their own column names, data and noise in separate files
+    let ds = occam::dataset::Dataset::read(&d.join("sim")).unwrap();
+    std::fs::create_dir(d.join("data")).unwrap();
+    let mut exps = String::new();
+    for e in &ds.experiments {
+        write_csv(
+            &d.join(format!("data/{}.csv", e.name)),
+            &["time_s", "x1_out", "x12_out", "x1_guid", "x12_guid"],
+            &[&e.o[0], &e.o[1], &e.i[0], &e.i[1]],
+            e.fs,
+        );
+        write_csv(
+            &d.join(format!("data/{}_quiet.csv", e.name)),
+            &["time_s", "x1_out", "x12_out"],
+            &[&e.noise[0], &e.noise[1]],
+            e.fs,
+        );
+        write!(
+            exps,
+            "[[experiment]]\nname = \"{n}\"\ndata = \"data/{n}.csv\"\nnoise_data = \"data/{n}_quiet.csv\"\n\
+             columns = {{ t = \"time_s\", o1 = \"x1_out\", o12 = \"x12_out\", i1 = \"x1_guid\", i12 = \"x12_guid\" }}\n",
+            n = e.name
+        )
+        .unwrap();
+    }
+    let from_csv = format!("seed = 8\noutput = \"fit_csv\"\n[truth]\ndt1 = 0.2\n{FIT}{exps}");
+    std::fs::write(d.join("csv.toml"), &from_csv).unwrap();
+    let (ok, _, err) = occam(&["fit", "csv.toml", "-q"], d);
+    assert!(ok, "{err}");
+    let table = |p: &str| std::fs::read_to_string(d.join(p).join("fit/table.txt")).unwrap();
+    // the CSV carries no truth, so compare every column but `truth`
+    let strip = |t: String| -> Vec<String> {
+        t.lines()
+            .skip(2)
+            .map(|l| {
+                let w: Vec<&str> = l.split_whitespace().collect();
+                let mut w = w.clone();
+                w.remove(1);
+                w.join(" ")
+            })
+            .collect()
+    };
+    let a = table("fit_ds");
+    let b = table("fit_csv");
+    assert_eq!(strip(a.clone()), strip(b.clone()), "\n{a}\n{b}");
+    assert!(b.contains("dt1"));
+}
+
+fn study_error(text: &str, files: &[(&str, &str)]) -> String {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("s.toml"), text).unwrap();
+    for (n, c) in files {
+        std::fs::write(dir.path().join(n), c).unwrap();
+    }
+    let (ok, _, err) = occam(&["fit", "s.toml", "-q"], dir.path());
+    assert!(!ok, "expected an error");
+    err
+}
+
+const USER_MODEL: &str = r#"
+[[model]]
+kind = "user"
+name = "g"
+parameters = ["a"]
+data = ["o1", "i1"]
+residual = ["o1"]
+[model.coefficients.o1]
+o1 = "1"
+i1 = "-a"
+"#;
+
+/// Bad models: each error names the file, the model and the entry.
+#[test]
+fn bad_models_are_reported_with_file_model_and_entry() {
+    let base = format!("seed = 1\noutput = \"o\"\n[fit]\nmodel = \"g\"\n{DESIGNS}");
+    // an unknown parameter in a coefficient
+    let e = study_error(
+        &format!(
+            "{base}[prior]\na = {{ kind = \"uniform\", lo = 0.0, hi = 2.0 }}\n{}",
+            USER_MODEL.replace("\"-a\"", "\"-b\"")
+        ),
+        &[],
+    );
+    assert!(
+        e.contains("s.toml") && e.contains("`g`") && e.contains("coefficients.o1.i1"),
+        "{e}"
+    );
+    // a parameter without a prior
+    let e = study_error(&format!("{base}{USER_MODEL}"), &[]);
+    assert!(e.contains("s.toml") && e.contains("prior.a"), "{e}");
+    // a parameter with no effect on the residual
+    let e = study_error(
+        &format!(
+            "{base}[prior]\na = {{ kind = \"uniform\", lo = 0.0, hi = 2.0 }}\n{}",
+            USER_MODEL.replace("\"-a\"", "\"-0*a\"")
+        ),
+        &[],
+    );
+    assert!(e.contains("s.toml") && e.contains("`a`"), "{e}");
+    // a channel no experiment has
+    let e = study_error(
+        &format!(
+            "{base}[prior]\na = {{ kind = \"uniform\", lo = 0.0, hi = 2.0 }}\n{}",
+            USER_MODEL
+                .replace("[\"o1\", \"i1\"]", "[\"o1\", \"g1\"]")
+                .replace("i1 = \"-a\"", "g1 = \"-a\"")
+        ),
+        &[],
+    );
+    assert!(e.contains("g1"), "{e}");
+    // an unknown model kind
+    let e = study_error(
+        &format!("{base}[[model]]\nkind = \"magic\"\nname = \"g\"\n"),
+        &[],
+    );
+    assert!(e.contains("model[0].kind") && e.contains("\"user\""), "{e}");
+    // a block with an impossible value
+    let e = study_error(
+        &format!(
+            "{base}[prior]\na = {{ kind = \"uniform\", lo = 0.0, hi = 2.0 }}\n{}[model.blocks]\np = {{ kind = \"pole\", f = -1.0 }}\n",
+            USER_MODEL.replace("\"-a\"", "\"-a*p\"")
+        ),
+        &[],
+    );
+    assert!(e.contains("blocks.p") && e.contains("`g`"), "{e}");
+}
+
+/// Bad data files: each error names the file, the line and the column.
+#[test]
+fn bad_data_files_are_reported_with_file_line_and_column() {
+    let study = |extra: &str| {
+        format!(
+            "seed = 1\noutput = \"o\"\n[analysis]\nnoise = \"welch\"\n[fit]\nfree = [\"a_df\"]\nfixed = {{ w1sq = -1.3e-6, w2sq = -1.9e-6, dt1 = 0.2, dt2 = 0.2, a_sus = 1.08, d21 = 4e-4 }}\n\
+             [[experiment]]\nname = \"a\"\ndata = \"a.csv\"\nnoise_data = \"n.csv\"\n{extra}"
+        )
+    };
+    let mut good = String::from("t,o1,o12,i1,i12\n");
+    for k in 0..200 {
+        writeln!(good, "{k},1e-9,2e-9,0,0").unwrap();
+    }
+    let mut noise = String::from("t,o1,o12\n");
+    for k in 0..2000 {
+        writeln!(
+            noise,
+            "{k},{:e},{:e}",
+            (k as f64).sin() * 1e-9,
+            (k as f64).cos() * 1e-9
+        )
+        .unwrap();
+    }
+    // NaN on line 5
+    let bad = good.replacen("3,1e-9", "3,NaN", 1);
+    let e = study_error(&study(""), &[("a.csv", &bad), ("n.csv", &noise)]);
+    assert!(
+        e.contains("a.csv") && e.contains("line 5") && e.contains("`o1`"),
+        "{e}"
+    );
+    // a ragged row
+    let bad = good.replacen("7,1e-9,2e-9,0,0", "7,1e-9,2e-9,0", 1);
+    let e = study_error(&study(""), &[("a.csv", &bad), ("n.csv", &noise)]);
+    assert!(e.contains("a.csv") && e.contains("line 9"), "{e}");
+    // a missing column, with the map that was asked for
+    let e = study_error(
+        &study("columns = { o12 = \"x12\" }\n"),
+        &[("a.csv", &good), ("n.csv", &noise)],
+    );
+    assert!(e.contains("a.csv") && e.contains("`x12`"), "{e}");
+    // non-uniform time
+    let bad = good.replacen("\n10,", "\n10.5,", 1);
+    let e = study_error(&study(""), &[("a.csv", &bad), ("n.csv", &noise)]);
+    assert!(
+        e.contains("a.csv") && e.contains("line 12") && e.contains("`t`"),
+        "{e}"
+    );
+    // a file that does not exist
+    let e = study_error(&study(""), &[("n.csv", &noise)]);
+    assert!(e.contains("a.csv"), "{e}");
+    // a simulation field on a data experiment
+    let e = study_error(
+        &study("design = \"tn3045_x1\"\n"),
+        &[("a.csv", &good), ("n.csv", &noise)],
+    );
+    assert!(e.contains("experiment[0].design"), "{e}");
+}
+
+/// A dataset directory that does not exist is an error naming it (it used to load the parent
+/// directory's dataset), and a dataset whose experiments are not the study's is refused.
+#[test]
+fn dataset_paths_and_names_are_checked() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(
+        d.join("sim.toml"),
+        format!("seed = 8\noutput = \"sim\"\n{DESIGNS}"),
+    )
+    .unwrap();
+    let (ok, _, err) = occam(&["simulate", "sim.toml"], d);
+    assert!(ok, "{err}");
+    let fit = |ds: &str, designs: &str| {
+        std::fs::write(
+            d.join("f.toml"),
+            format!(
+                "seed = 8\noutput = \"f\"\n[analysis]\ndataset = \"{ds}\"\n{}{designs}",
+                FIT.replace("[analysis]\n", "")
+            ),
+        )
+        .unwrap();
+        occam(&["fit", "f.toml", "-q"], d)
+    };
+    let (ok, _, err) = fit("sim/typo", DESIGNS);
+    assert!(!ok && err.contains("sim/typo"), "{err}");
+    let (ok, _, err) = fit("sim", &DESIGNS.replace("name = \"b\"", "name = \"c\""));
+    assert!(
+        !ok && (err.contains("`c`") || err.contains("\"c\"")),
+        "{err}"
+    );
+}
