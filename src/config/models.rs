@@ -42,6 +42,9 @@ pub struct LtpModelEntry {
     pub response: LoopResponse,
 }
 
+/// A model's default prior per parameter name.
+type DefaultPriors = Vec<(String, PriorKind)>;
+
 /// A validated model definition (serialisable, so the resolved study can be written out).
 #[derive(Debug, Clone, PartialEq, Serialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]
@@ -65,7 +68,7 @@ impl ModelDef {
     }
 
     /// The model and its default priors (none for user-defined models).
-    fn build(&self) -> Result<(Arc<dyn Model>, Vec<(String, PriorKind)>), String> {
+    fn build(&self) -> Result<(Arc<dyn Model>, DefaultPriors), String> {
         Ok(match self {
             ModelDef::Ltp { name, options } => {
                 let m = LtpModel::new(name, options.clone());
