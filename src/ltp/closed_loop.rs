@@ -119,11 +119,82 @@ impl LoopKernel {
 }
 
 #[inline(always)]
-fn lift<T: DualNum<Primitive = f64> + Copy>(z: Complex64) -> Complex<T> {
+pub(crate) fn lift<T: DualNum<Primitive = f64> + Copy>(z: Complex64) -> Complex<T> {
     Complex::new(T::from(z.re), T::from(z.im))
 }
 
-/// `P = D + E M A K S` and the actuator terms `k1 = A_df C_df`, `k2 = A_sus C_sus`.
+/// `P = D + E M A K S` and the actuator terms `k1 = A_df r_df C_df`, `k2 = A_sus C_sus`, for any
+/// plant matrix `D` (continuous `s² I + W`, or the inverse of the held plant of the discrete
+/// loop) and controller responses `(C_df, C_sus)`.
+#[inline(always)]
+#[allow(clippy::type_complexity)]
+pub(crate) fn close_loop<T: DualNum<Primitive = f64> + Copy>(
+    th: &[T; N_PARAMS],
+    d: [[Complex<T>; 2]; 2],
+    e: Complex<T>,
+    ctrl: (Complex64, Complex64),
+    m: &Masses,
+    r_df: Complex<T>,
+) -> ([[Complex<T>; 2]; 2], Complex<T>, Complex<T>) {
+    let (adf, asus, d21) = (th[4], th[5], th[6]);
+    let e2 = m.m2 / m.msc;
+    let k1 = lift::<T>(ctrl.0) * r_df * adf;
+    let k2 = lift::<T>(ctrl.1) * asus;
+    let p00 = d[0][0] + e * (k1 + k2 * (d21 * e2));
+    let p01 = d[0][1] + e * k2 * T::from(e2);
+    let p10 = d[1][0] + e * k2 * d21;
+    let p11 = d[1][1] + e * k2;
+    ([[p00, p01], [p10, p11]], k1, k2)
+}
+
+/// `H_io = E S P⁻¹ M A K T` from the closed-loop matrix `P` and actuator terms of
+/// [`close_loop`], with the guidance delays `T = diag(e^{−iωΔt1}, e^{−iωΔt2})`.
+#[inline(always)]
+pub(crate) fn h_io_of_loop<T: DualNum<Primitive = f64> + Copy>(
+    th: &[T; N_PARAMS],
+    (p, k1, k2): ([[Complex<T>; 2]; 2], Complex<T>, Complex<T>),
+    e: Complex<T>,
+    omega: f64,
+    m: &Masses,
+) -> [[Complex<T>; 2]; 2] {
+    let [[p00, p01], [p10, p11]] = p;
+    let d21 = th[6];
+    let e2 = T::from(m.m2 / m.msc);
+    let inv = (p00 * p11 - p01 * p10).inv();
+    let (s1, c1) = (th[2] * omega).sin_cos();
+    let (s2, c2) = (th[3] * omega).sin_cos();
+    let a = k1 * Complex::new(c1, -s1) * inv;
+    let b = k2 * Complex::new(c2, -s2) * inv;
+    // X = P⁻¹ M A K T, M A K T = [[k1 t1, e2 k2 t2], [0, k2 t2]]
+    let x00 = p11 * a;
+    let x10 = -p10 * a;
+    let x01 = (p11 * e2 - p01) * b;
+    let x11 = (p00 - p10 * e2) * b;
+    [
+        [e * x00, e * x01],
+        [e * (x00 * d21 + x10), e * (x01 * d21 + x11)],
+    ]
+}
+
+/// The continuous plant matrix `D(s) = s² I + W` (ltp-model.md §2.1, full `D`).
+#[inline(always)]
+fn plant<T: DualNum<Primitive = f64> + Copy>(
+    th: &[T; N_PARAMS],
+    omega: f64,
+    m: &Masses,
+) -> [[Complex<T>; 2]; 2] {
+    let (w1, w2) = (th[0], th[1]);
+    let e1 = m.m1 / m.msc;
+    let e2 = m.m2 / m.msc;
+    let s2 = T::from(-omega * omega);
+    let re = |x: T| Complex::new(x, T::from(0.0));
+    [
+        [re(s2 + w1 * (1.0 + e1) + w2 * e2), re(w2 * e2)],
+        [re(w2 - w1), re(s2 + w2)],
+    ]
+}
+
+/// `P = D + E M A K S` of the continuous loop and its actuator terms.
 #[inline(always)]
 #[allow(clippy::type_complexity)]
 fn loop_matrix<T: DualNum<Primitive = f64> + Copy>(
@@ -132,19 +203,14 @@ fn loop_matrix<T: DualNum<Primitive = f64> + Copy>(
     m: &Masses,
     r_df: Complex<T>,
 ) -> ([[Complex<T>; 2]; 2], Complex<T>, Complex<T>) {
-    let (w1, w2, adf, asus, d21) = (th[0], th[1], th[4], th[5], th[6]);
-    let e1 = m.m1 / m.msc;
-    let e2 = m.m2 / m.msc;
-    let s2 = T::from(-c.omega * c.omega);
-    let e: Complex<T> = lift(c.e_oms);
-    let k1 = lift::<T>(c.cdf) * r_df * adf;
-    let k2 = lift::<T>(c.csus) * asus;
-    let re = |x: T| Complex::new(x, T::from(0.0));
-    let p00 = re(s2 + w1 * (1.0 + e1) + w2 * e2) + e * (k1 + k2 * (d21 * e2));
-    let p01 = re(w2 * e2) + e * k2 * T::from(e2);
-    let p10 = re(w2 - w1) + e * k2 * d21;
-    let p11 = re(s2 + w2) + e * k2;
-    ([[p00, p01], [p10, p11]], k1, k2)
+    close_loop(
+        th,
+        plant(th, c.omega, m),
+        lift(c.e_oms),
+        (c.cdf, c.csus),
+        m,
+        r_df,
+    )
 }
 
 /// The output response `h = H_io(f; θ) · I` to the injection DFT `inj = (I1, I2)` at one bin.
@@ -199,34 +265,7 @@ pub fn h_io_matrix<T: DualNum<Primitive = f64> + Copy>(
     m: &Masses,
     r_df: Complex<T>,
 ) -> [[Complex<T>; 2]; 2] {
-    let (w1, w2, asus, d21) = (th[0], th[1], th[5], th[6]);
-    let e1 = m.m1 / m.msc;
-    let e2 = m.m2 / m.msc;
-    let s2 = T::from(-c.omega * c.omega);
-    let e: Complex<T> = lift(c.e_oms);
-    let k1 = lift::<T>(c.cdf) * r_df * th[4];
-    let k2 = lift::<T>(c.csus) * asus;
-    let re = |x: T| Complex::new(x, T::from(0.0));
-    let p00 = re(s2 + w1 * (1.0 + e1) + w2 * e2) + e * (k1 + k2 * (d21 * e2));
-    let p01 = re(w2 * e2) + e * k2 * T::from(e2);
-    let p10 = re(w2 - w1) + e * k2 * d21;
-    let p11 = re(s2 + w2) + e * k2;
-    let inv = (p00 * p11 - p01 * p10).inv();
-    let (s1, c1) = (th[2] * c.omega).sin_cos();
-    let (s2d, c2) = (th[3] * c.omega).sin_cos();
-    let t1 = Complex::new(c1, -s1);
-    let t2 = Complex::new(c2, -s2d);
-    let a = k1 * t1 * inv;
-    let b = k2 * t2 * inv;
-    // X = P⁻¹ M A K T
-    let x00 = p11 * a;
-    let x10 = -p10 * a;
-    let x01 = (p11 * T::from(e2) - p01) * b;
-    let x11 = (p00 - p10 * T::from(e2)) * b;
-    [
-        [e * x00, e * x01],
-        [e * (x00 * d21 + x10), e * (x01 * d21 + x11)],
-    ]
+    h_io_of_loop(th, loop_matrix(th, c, m, r_df), lift(c.e_oms), c.omega, m)
 }
 
 /// The three closed-loop transfer matrices at one frequency (rows = outputs `(o1, o12)`).

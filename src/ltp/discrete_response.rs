@@ -46,6 +46,7 @@
 
 use crate::lti::LtiError;
 use crate::lti::discrete::DiscreteTf;
+use crate::ltp::closed_loop::{close_loop, h_io_of_loop, lift};
 use crate::ltp::{Controllers, Masses, N_PARAMS};
 use num_complex::{Complex, Complex64};
 use num_dual::DualNum;
@@ -152,11 +153,6 @@ impl DiscreteBinConsts {
 
 type Real2<T> = [[T; 2]; 2];
 
-#[inline(always)]
-fn lift<T: DualNum<Primitive = f64> + Copy>(z: Complex64) -> Complex<T> {
-    Complex::new(T::from(z.re), T::from(z.im))
-}
-
 /// The stiffness matrix `W` of `D(s) = s² I + W` (ltp-model.md §2.1, m/m_sc terms kept).
 #[inline(always)]
 fn stiffness<T: DualNum<Primitive = f64> + Copy>(th: &[T; N_PARAMS], m: &Masses) -> Real2<T> {
@@ -255,32 +251,9 @@ pub fn h_io_discrete<T: DualNum<Primitive = f64> + Copy>(
     m: &Masses,
     r_df: Complex<T>,
 ) -> [[Complex<T>; 2]; 2] {
-    let (asus, d21) = (th[5], th[6]);
-    let e2 = m.m2 / m.msc;
-    let [[d00, d01], [d10, d11]] = zoh_plant_inverse(th, c, m);
     let e: Complex<T> = lift(c.e_oms);
-    let k1 = lift::<T>(c.kdf) * r_df * th[4];
-    let k2 = lift::<T>(c.ksus) * asus;
-    let p00 = d00 + e * (k1 + k2 * (d21 * e2));
-    let p01 = d01 + e * k2 * T::from(e2);
-    let p10 = d10 + e * k2 * d21;
-    let p11 = d11 + e * k2;
-    let inv = (p00 * p11 - p01 * p10).inv();
-    let (s1, c1) = (th[2] * c.omega).sin_cos();
-    let (s2, c2) = (th[3] * c.omega).sin_cos();
-    let t1 = Complex::new(c1, -s1);
-    let t2 = Complex::new(c2, -s2);
-    let a = k1 * t1 * inv;
-    let b = k2 * t2 * inv;
-    // X = P⁻¹ M A K T
-    let x00 = p11 * a;
-    let x10 = -p10 * a;
-    let x01 = (p11 * T::from(e2) - p01) * b;
-    let x11 = (p00 - p10 * T::from(e2)) * b;
-    [
-        [e * x00, e * x01],
-        [e * (x00 * d21 + x10), e * (x01 * d21 + x11)],
-    ]
+    let p = close_loop(th, zoh_plant_inverse(th, c, m), e, (c.kdf, c.ksus), m, r_df);
+    h_io_of_loop(th, p, e, c.omega, m)
 }
 
 /// The θ-dependent part of the discrete loop for one θ and one sample rate, for the
