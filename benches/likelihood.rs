@@ -318,6 +318,7 @@ fn main() {
          a numpy MH iteration costs at least one such ln L)"
     );
     rj_rate();
+    user_model_rate();
     if let Err(why) = &peer
         && why.starts_with("FAILED")
     {
@@ -347,4 +348,56 @@ fn rj_rate() {
         s.rj.visits,
         1e8 / rate / 3600.0
     );
+}
+
+/// The 7-parameter closed loop written as a user-defined model
+/// (`examples/user-model-closed-loop.toml`) against the built-in model with its fast kernel, on
+/// the same data: ln L evaluations per second, exact and relative-binned.
+fn user_model_rate() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let study = Study::load(&root.join("examples/user-model-closed-loop.toml"))
+        .expect("examples/user-model-closed-loop.toml");
+    let prep = occam::analysis::prepare(&study).expect("prepare");
+    let user = &prep.likelihood;
+    let ltp = study.models.index("ltp").expect("the built-in model");
+    let builtin = occam::analysis::likelihood_of(&study, ltp, &prep.dataset).expect("likelihood");
+    let th = study.truth.to_array();
+    let rb_user = RelBinLikelihood::new(user, &th, &Default::default()).unwrap();
+    let rb_builtin = RelBinLikelihood::new(&builtin, &th, &Default::default()).unwrap();
+    let timed = |f: &dyn Fn(&[f64]) -> f64| {
+        let mut x = th;
+        let mut k = 0usize;
+        rate(
+            || {
+                k += 1;
+                x[4] = th[4] + 1e-9 * (k % 7) as f64;
+                f(&x)
+            },
+            MIN_SECS,
+        )
+        .0
+    };
+    let rows = [
+        (
+            "exact",
+            timed(&|t| builtin.ln_likelihood_full(t)),
+            timed(&|t| user.ln_likelihood_full(t)),
+        ),
+        (
+            "relative-binned",
+            timed(&|t| rb_builtin.ln_likelihood_full(t)),
+            timed(&|t| rb_user.ln_likelihood_full(t)),
+        ),
+    ];
+    println!();
+    println!(
+        "user-defined closed loop (examples/user-model-closed-loop.toml) against the built-in model:"
+    );
+    println!(
+        "{:<18} {:>16} {:>16} {:>10}",
+        "ln L", "built-in evals/s", "user evals/s", "ratio"
+    );
+    for (name, b, u) in rows {
+        println!("{name:<18} {b:>16.1} {u:>16.1} {:>10.2}", u / b);
+    }
 }
