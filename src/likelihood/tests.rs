@@ -316,3 +316,100 @@ fn fisher_scoring_finds_the_maximum_from_far_away() {
         assert!((r.theta[i] - truth[i]).abs() < 5.0 * sig[i]);
     }
 }
+
+/// The first row of the closed loop as a one-residual model: `r = o1 − (H_io i)_1`.
+#[derive(Debug)]
+struct FirstRow {
+    inner: crate::model::LtpModel,
+    data: Vec<String>,
+    res: Vec<String>,
+}
+
+impl crate::model::Model for FirstRow {
+    fn name(&self) -> &str {
+        "first_row"
+    }
+    fn param_names(&self) -> &[String] {
+        self.inner.param_names()
+    }
+    fn data_channels(&self) -> &[String] {
+        &self.data
+    }
+    fn residual_channels(&self) -> &[String] {
+        &self.res
+    }
+    fn n_consts(&self) -> usize {
+        self.inner.n_consts()
+    }
+    fn bin_consts(&self, f: f64, fs: f64, out: &mut [Complex64]) {
+        self.inner.bin_consts(f, fs, out)
+    }
+    fn coefficients(&self, th: &[f64], bin: &crate::model::Bin, out: &mut [Complex64]) {
+        let mut full = [Complex64::new(0.0, 0.0); 8];
+        self.inner.coefficients(th, bin, &mut full);
+        out.copy_from_slice(&full[..4]);
+    }
+    fn coefficients_dual(
+        &self,
+        th: &[num_dual::Dual64],
+        bin: &crate::model::Bin,
+        out: &mut [num_complex::Complex<num_dual::Dual64>],
+    ) {
+        let z = num_complex::Complex::new(num_dual::Dual64::from(0.0), num_dual::Dual64::from(0.0));
+        let mut full = [z; 8];
+        self.inner.coefficients_dual(th, bin, &mut full);
+        out.copy_from_slice(&full[..4]);
+    }
+}
+
+/// A one-residual model: its ln L is the marginal Gaussian of the o1 residual, `−Σ |R1|²/C11 −
+/// Σ ln(π C11)`, built from the two-channel likelihood's own residuals and CSDs, with the
+/// model noise and with the one-channel Welch estimate.
+#[test]
+fn one_residual_model_is_the_marginal_of_the_first_channel() {
+    let study = small_study(5, 1e-7, "circular");
+    let m = std::sync::Arc::new(FirstRow {
+        inner: crate::model::LtpModel::new("ltp", Default::default()),
+        data: ["o1", "o12", "i1", "i12"].map(String::from).to_vec(),
+        res: vec!["o1".into()],
+    });
+    let th = LtpParams {
+        a_df: 0.85,
+        dt1: 0.3,
+        ..Default::default()
+    }
+    .to_array();
+    for noise in [NoiseSource::Model, NoiseSource::Welch] {
+        let opts = SpectraOptions {
+            noise,
+            band: [1e-3, 0.3],
+            ..Default::default()
+        };
+        let two = likelihood_of(&study, &opts);
+        let sim = simulate(&study).unwrap();
+        let sys = System::of(&study);
+        let csd = |f: f64| -> Mat2 { sys.noise_csd(f) };
+        let truth = study.truth.to_array();
+        let spectra = sim
+            .dataset
+            .experiments
+            .iter()
+            .map(|e| ExperimentSpectra::new(e, &opts, m.as_ref(), &truth, Some(&csd)).unwrap())
+            .collect();
+        let one = Likelihood::new(m.clone(), spectra, wide_prior()).unwrap();
+        let mut want = 0.0;
+        for e in two.spectra() {
+            let scale = e.fs / 2.0 * e.n as f64;
+            two.visit_residuals(e, &th, |k, r, _| {
+                let c11 = e.csd[k][0][0].re * scale;
+                want -= r[0].norm_sqr() / c11 + (std::f64::consts::PI * c11).ln();
+            });
+        }
+        let got = one.ln_likelihood_full(&th);
+        assert!(
+            ((got - want) / want).abs() < 1e-12,
+            "{noise:?}: {got} vs {want}"
+        );
+        assert_eq!(one.n_real_data(), two.n_real_data() / 2);
+    }
+}
