@@ -127,8 +127,13 @@ impl ExperimentSpectra {
         for c in &channels {
             series.push(e.channel(c).ok_or_else(|| {
                 inv(format!(
-                    "model `{}` reads data channel `{c}`, which this experiment does not have",
-                    model.name()
+                    "model `{}` reads data channel `{c}`, which this experiment does not have; it has {}",
+                    model.name(),
+                    e.channel_names()
+                        .iter()
+                        .map(|n| format!("`{n}`"))
+                        .collect::<Vec<_>>()
+                        .join(", ")
                 ))
             })?);
         }
