@@ -270,6 +270,16 @@ impl Model for LtpModel {
         }
         s
     }
+
+    /// The prepared kernel of `super::ltp_kernel` (plain loop only; `None` with a thruster
+    /// response).
+    fn prepare_kernel(&self, b: &BinBlock) -> Option<std::sync::Arc<dyn super::BlockKernel>> {
+        if self.opts.thruster != ThrusterResponse::None {
+            return None;
+        }
+        super::ltp_kernel::LtpKernel::new(&self.opts.masses, std::slice::from_ref(b))
+            .map(|k| k.arc())
+    }
 }
 
 #[cfg(test)]

@@ -22,6 +22,7 @@
 //! path never recomputes them and never allocates.
 
 pub mod ltp;
+mod ltp_kernel;
 
 pub use ltp::{LtpModel, LtpModelOptions, ThrusterResponse};
 
