@@ -624,6 +624,209 @@ fn lanes_sum(len: usize, term: impl Fn(usize) -> f64) -> f64 {
     acc.iter().sum::<f64>() + tail
 }
 
+/// Edges per chunk of [`coefficients_batch`] (stack buffers).
+const CHUNK: usize = 64;
+/// Largest `|ω Δt|` the polynomial `sin_cos` takes (the Cody–Waite reduction is exact for
+/// quadrant numbers below 2^20); beyond it the caller falls back to the generic path.
+const PHASE_LIMIT: f64 = 1e5;
+
+/// The LTP closed loop's [`super::Model::coefficients_batch`]: only the requested components of
+/// `[I | −H_io]`, computed in chunks of [`CHUNK`] edges by vectorisable loops (Cramer's rule as
+/// in the module docs, one real division per edge, delay phasors from a branch-free polynomial
+/// `sin_cos`). Returns `false` (nothing written) when it does not apply (shape, or phases
+/// beyond [`PHASE_LIMIT`]); the caller then uses the generic path.
+pub(crate) fn coefficients_batch(
+    masses: &Masses,
+    theta: &[f64],
+    freqs: &[f64],
+    consts: &[Complex64],
+    comps: &[usize],
+    out: &mut [Complex64],
+) -> bool {
+    let Ok(th) = <&[f64; 7]>::try_from(theta) else {
+        return false;
+    };
+    let n = freqs.len();
+    if consts.len() != N_CONSTS * n || out.len() != n * comps.len() || comps.iter().any(|&c| c >= 8)
+    {
+        return false;
+    }
+    let wmax = freqs.iter().fold(0.0f64, |m, f| m.max(f.abs())) * 2.0 * PI;
+    if !(th[2].abs().max(th[3].abs()) * wmax <= PHASE_LIMIT) {
+        return false;
+    }
+    let e1 = masses.m1 / masses.msc;
+    let e2 = masses.m2 / masses.msc;
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+        {
+            // SAFETY: the CPU has the features the function is compiled for.
+            unsafe { batch_avx2(th, e1, e2, freqs, consts, comps, out) };
+            return true;
+        }
+    }
+    batch_impl(th, e1, e2, freqs, consts, comps, out);
+    true
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn batch_avx2(
+    th: &[f64; 7],
+    e1: f64,
+    e2: f64,
+    freqs: &[f64],
+    consts: &[Complex64],
+    comps: &[usize],
+    out: &mut [Complex64],
+) {
+    batch_impl(th, e1, e2, freqs, consts, comps, out)
+}
+
+#[inline(always)]
+fn batch_impl(
+    th: &[f64; 7],
+    e1: f64,
+    e2: f64,
+    freqs: &[f64],
+    consts: &[Complex64],
+    comps: &[usize],
+    out: &mut [Complex64],
+) {
+    let k = Coefs::new(th, e1, e2);
+    let n = freqs.len();
+    let nc = comps.len();
+    // H_io entries: [h00, h10, h01, h11] × (re, im)
+    let mut h = [[0.0; CHUNK]; 8];
+    let mut gath = [[0.0; CHUNK]; 5];
+    let mut c0 = 0;
+    while c0 < n {
+        let len = CHUNK.min(n - c0);
+        for i in 0..len {
+            let c = &consts[N_CONSTS * (c0 + i)..N_CONSTS * (c0 + i + 1)];
+            gath[0][i] = freqs[c0 + i];
+            gath[1][i] = c[3].re;
+            gath[2][i] = c[3].im;
+            gath[3][i] = c[4].re;
+            gath[4][i] = c[4].im;
+        }
+        let [f, ure, uim, vre, vim] = &gath;
+        let (f, ure, uim, vre, vim) = (
+            &f[..len],
+            &ure[..len],
+            &uim[..len],
+            &vre[..len],
+            &vim[..len],
+        );
+        let [h00r, h00i, h10r, h10i, h01r, h01i, h11r, h11i] = &mut h;
+        let (h00r, h00i, h10r, h10i) = (
+            &mut h00r[..len],
+            &mut h00i[..len],
+            &mut h10r[..len],
+            &mut h10i[..len],
+        );
+        let (h01r, h01i, h11r, h11i) = (
+            &mut h01r[..len],
+            &mut h01i[..len],
+            &mut h11r[..len],
+            &mut h11i[..len],
+        );
+        for i in 0..len {
+            let w = 2.0 * PI * f[i];
+            let s = -w * w;
+            let qr = k.ab * vre[i] + k.alpha * (s + k.w2);
+            let qi = k.ab * vim[i];
+            let rr = k.brho * s + k.bw1mu;
+            let poly = (s + k.c1) * s + k.c0;
+            let dr = ure[i] * qr - uim[i] * qi + rr * vre[i] + poly;
+            let di = ure[i] * qi + uim[i] * qr + rr * vim[i];
+            let inv = 1.0 / (dr * dr + di * di);
+            // 1/det = conj(det)/|det|²
+            let (ir, ii) = (dr * inv, -di * inv);
+            // channel 1: F0 = α t1 u / det, H00 = F0 (βv + σ + w2), H10 = F0 (κ + δσ)
+            let (s1, c1) = sin_cos_poly(th[2] * w);
+            let (ar, ai) = (ure[i] * ir - uim[i] * ii, ure[i] * ii + uim[i] * ir);
+            let (fr, fi) = (k.alpha * (ar * c1 + ai * s1), k.alpha * (ai * c1 - ar * s1));
+            let (pr, pi) = (k.beta * vre[i] + s + k.w2, k.beta * vim[i]);
+            h00r[i] = fr * pr - fi * pi;
+            h00i[i] = fr * pi + fi * pr;
+            let hh = k.kappa + k.delta * s;
+            h10r[i] = fr * hh;
+            h10i[i] = fi * hh;
+            // channel 2: F1 = β t2 v / det, H01 = F1 e2 σ, H11 = F1 (αu + λ + ρσ)
+            let (s2, c2) = sin_cos_poly(th[3] * w);
+            let (br, bi) = (vre[i] * ir - vim[i] * ii, vre[i] * ii + vim[i] * ir);
+            let (gr, gi) = (k.beta * (br * c2 + bi * s2), k.beta * (bi * c2 - br * s2));
+            let es = k.e2 * s;
+            h01r[i] = gr * es;
+            h01i[i] = gi * es;
+            let (xr, xi) = (k.alpha * ure[i] + k.lambda + k.rho * s, k.alpha * uim[i]);
+            h11r[i] = gr * xr - gi * xi;
+            h11i[i] = gr * xi + gi * xr;
+        }
+        for (j, &c) in comps.iter().enumerate() {
+            let dst = out[c0 * nc..(c0 + len) * nc].iter_mut().skip(j).step_by(nc);
+            let val =
+                |re: &[f64; CHUNK], im: &[f64; CHUNK], i: usize| Complex64::new(-re[i], -im[i]);
+            match c {
+                2 | 6 | 3 | 7 => {
+                    let e = match c {
+                        2 => 0,
+                        6 => 1,
+                        3 => 2,
+                        _ => 3,
+                    };
+                    for (i, o) in dst.enumerate() {
+                        *o = val(&h[2 * e], &h[2 * e + 1], i);
+                    }
+                }
+                _ => {
+                    let one = if c == 0 || c == 5 { 1.0 } else { 0.0 };
+                    for o in dst {
+                        *o = Complex64::new(one, 0.0);
+                    }
+                }
+            }
+        }
+        c0 += len;
+    }
+}
+
+/// `(sin x, cos x)` for `|x| ≤` [`PHASE_LIMIT`], branch-free (vectorisable): Cody–Waite
+/// reduction by π/2 and Taylor polynomials on `[−π/4, π/4]` (truncation below 5e−17), a few
+/// units in the last place from `f64::sin_cos`.
+#[inline(always)]
+fn sin_cos_poly(x: f64) -> (f64, f64) {
+    const MAGIC: f64 = 6755399441055744.0; // 1.5·2^52: adding it rounds to an integer
+    const PIO2_1: f64 = 1.570_796_326_734_125_6; // first 33 bits of π/2
+    const PIO2_1T: f64 = 6.077_100_506_506_192e-11; // π/2 − PIO2_1
+    let t = x * std::f64::consts::FRAC_2_PI + MAGIC;
+    let q = t.to_bits() & 3;
+    let nq = t - MAGIC;
+    let r = (x - nq * PIO2_1) - nq * PIO2_1T;
+    let z = r * r;
+    // 1/(2k+1)! and 1/(2k)!
+    let sp = -1.0 / 6.0
+        + z * (1.0 / 120.0
+            + z * (-1.0 / 5040.0
+                + z * (1.0 / 362_880.0
+                    + z * (-1.0 / 39_916_800.0
+                        + z * (1.0 / 6_227_020_800.0 + z * (-1.0 / 1_307_674_368_000.0))))));
+    let sn = r + r * z * sp;
+    let cp = 1.0 / 24.0
+        + z * (-1.0 / 720.0
+            + z * (1.0 / 40_320.0
+                + z * (-1.0 / 3_628_800.0
+                    + z * (1.0 / 479_001_600.0
+                        + z * (-1.0 / 87_178_291_200.0 + z * (1.0 / 20_922_789_888_000.0))))));
+    let cs = 1.0 - 0.5 * z + z * z * cp;
+    let (a, b) = if q & 1 == 1 { (cs, sn) } else { (sn, cs) };
+    let sa = f64::from_bits(a.to_bits() ^ ((q & 2) << 62));
+    let sb = f64::from_bits(b.to_bits() ^ (((q + 1) & 2) << 62));
+    (sa, sb)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -768,5 +971,68 @@ mod tests {
             consts: &consts,
         };
         assert!(mt.prepare_kernel(&b).is_none());
+    }
+}
+
+#[cfg(test)]
+mod batch_tests {
+    use super::*;
+    use crate::model::{LtpModel, Model, coefficients_batch_generic};
+
+    #[test]
+    fn batch_equals_coefficients_and_sin_cos_is_accurate() {
+        let m = LtpModel::new(
+            "ltp",
+            crate::model::LtpModelOptions {
+                oms_delay: 0.2,
+                ..Default::default()
+            },
+        );
+        let freqs: Vec<f64> = (0..150).map(|i| 1e-4 * 1.06f64.powi(i)).collect();
+        let mut consts = vec![Complex64::new(0.0, 0.0); freqs.len() * N_CONSTS];
+        for (k, &f) in freqs.iter().enumerate() {
+            m.bin_consts(f, 10.0, &mut consts[k * N_CONSTS..(k + 1) * N_CONSTS]);
+        }
+        let comps = [2, 6, 3, 7, 0, 1, 4, 5];
+        let mut worst: f64 = 0.0;
+        let th0 = crate::ltp::LtpParams::default().to_array();
+        for th in [
+            th0,
+            [3e-6, -4.9e-6, 0.9, 0.05, 1.45, 0.55, -9e-4],
+            [-5e-6, 5e-6, 1.0, 0.0, 0.5, 1.5, 1e-3],
+        ] {
+            let mut a = vec![Complex64::new(0.0, 0.0); freqs.len() * comps.len()];
+            let mut b = a.clone();
+            assert!(coefficients_batch(
+                &Masses::default(),
+                &th,
+                &freqs,
+                &consts,
+                &comps,
+                &mut a
+            ));
+            coefficients_batch_generic(&m, &th, &freqs, 10.0, &consts, &comps, &mut b);
+            for (x, y) in a.iter().zip(&b) {
+                let d = (x - y).norm() / y.norm().max(1e-300);
+                worst = worst.max(if y.norm() == 0.0 { x.norm() } else { d });
+            }
+        }
+        eprintln!("LTP coefficient batch vs coefficients: worst relative difference {worst:.2e}");
+        assert!(worst <= 1e-13);
+        let mut w: f64 = 0.0;
+        for i in 0..200_000 {
+            let x = -PHASE_LIMIT + 2.0 * PHASE_LIMIT * i as f64 / 200_000.0 + 0.123;
+            let (s, c) = sin_cos_poly(x);
+            let (s0, c0) = x.sin_cos();
+            w = w.max((s - s0).abs()).max((c - c0).abs());
+        }
+        for i in 0..20_000 {
+            let x = -40.0 + 80.0 * i as f64 / 20_000.0;
+            let (s, c) = sin_cos_poly(x);
+            let (s0, c0) = x.sin_cos();
+            w = w.max((s - s0).abs()).max((c - c0).abs());
+        }
+        eprintln!("polynomial sin_cos: worst absolute difference {w:.2e}");
+        assert!(w <= 1e-15);
     }
 }
