@@ -664,7 +664,7 @@ mod tests {
         let mut pts = vec![truth];
         for (i, dt) in [(2, 1.0), (3, 0.0), (4, 1e-3), (0, 2e-7), (6, 1e-4)] {
             let mut t = truth;
-            t[i] += if i >= 2 && i <= 3 { dt - t[i] } else { dt };
+            t[i] += if (2..=3).contains(&i) { dt - t[i] } else { dt };
             pts.push(t);
         }
         pts.push([3e-6, -4.9e-6, 0.9, 0.05, 1.45, 0.55, -9e-4]);

@@ -605,23 +605,23 @@ fn exp_block_both(g: &Grid, e: &Exp, k: &Coefs, b: &Blk, t1: &Fine, t21: &Fine, 
     lanes_sum(len, term)
 }
 
-/// `Σ_{i < len} term(i)` with [`LANES`] independent accumulators, so the loop vectorises.
+/// `Σ_{i < len} term(i)`: the terms into a buffer by a plain elementwise loop (which the
+/// compiler vectorises), then summed with [`LANES`] independent accumulators.
 #[inline(always)]
 fn lanes_sum(len: usize, term: impl Fn(usize) -> f64) -> f64 {
+    let mut buf = [0.0; BLOCK];
+    let b = &mut buf[..len];
+    for (i, o) in b.iter_mut().enumerate() {
+        *o = term(i);
+    }
     let mut acc = [0.0; LANES];
-    let full = len / LANES * LANES;
-    let mut i = 0;
-    while i < full {
-        for (l, a) in acc.iter_mut().enumerate() {
-            *a += term(i + l);
+    let mut it = b.chunks_exact(LANES);
+    for c in &mut it {
+        for (a, x) in acc.iter_mut().zip(c) {
+            *a += x;
         }
-        i += LANES;
     }
-    let mut tail = 0.0;
-    for j in full..len {
-        tail += term(j);
-    }
-    acc.iter().sum::<f64>() + tail
+    acc.iter().sum::<f64>() + it.remainder().iter().sum::<f64>()
 }
 
 /// Edges per chunk of [`coefficients_batch`] (stack buffers).
