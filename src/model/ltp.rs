@@ -271,6 +271,17 @@ impl Model for LtpModel {
         s
     }
 
+    /// The experiments of one grid in one kernel of `super::ltp_kernel` (shared `det P`).
+    fn prepare_joint_kernel(
+        &self,
+        b: &[BinBlock],
+    ) -> Option<std::sync::Arc<dyn super::BlockKernel>> {
+        if self.opts.thruster != ThrusterResponse::None || b.len() < 2 {
+            return None;
+        }
+        super::ltp_kernel::LtpKernel::new(&self.opts.masses, b).map(|k| k.arc())
+    }
+
     /// Only the requested components, by the batch of `super::ltp_kernel` (plain loop only).
     fn coefficients_batch(
         &self,

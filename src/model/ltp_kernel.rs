@@ -666,8 +666,28 @@ pub(crate) fn coefficients_batch(
             return true;
         }
     }
-    batch_impl(th, e1, e2, freqs, consts, comps, out);
+    batch_dispatch(th, e1, e2, freqs, consts, comps, out);
     true
+}
+
+/// [`batch_impl`] for the injection channels the components need.
+#[inline(always)]
+fn batch_dispatch(
+    th: &[f64; 7],
+    e1: f64,
+    e2: f64,
+    freqs: &[f64],
+    consts: &[Complex64],
+    comps: &[usize],
+    out: &mut [Complex64],
+) {
+    let c0 = comps.iter().any(|&c| c == 2 || c == 6);
+    let c1 = comps.iter().any(|&c| c == 3 || c == 7);
+    match (c0, c1) {
+        (true, false) => batch_impl::<true, false>(th, e1, e2, freqs, consts, comps, out),
+        (false, true) => batch_impl::<false, true>(th, e1, e2, freqs, consts, comps, out),
+        _ => batch_impl::<true, true>(th, e1, e2, freqs, consts, comps, out),
+    }
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -681,11 +701,12 @@ fn batch_avx2(
     comps: &[usize],
     out: &mut [Complex64],
 ) {
-    batch_impl(th, e1, e2, freqs, consts, comps, out)
+    batch_dispatch(th, e1, e2, freqs, consts, comps, out)
 }
 
+/// The batch; `C0`, `C1`: whether the components of injection channel 1 / 2 are needed.
 #[inline(always)]
-fn batch_impl(
+fn batch_impl<const C0: bool, const C1: bool>(
     th: &[f64; 7],
     e1: f64,
     e2: f64,
@@ -745,25 +766,29 @@ fn batch_impl(
             // 1/det = conj(det)/|det|²
             let (ir, ii) = (dr * inv, -di * inv);
             // channel 1: F0 = α t1 u / det, H00 = F0 (βv + σ + w2), H10 = F0 (κ + δσ)
-            let (s1, c1) = sin_cos_poly(th[2] * w);
-            let (ar, ai) = (ure[i] * ir - uim[i] * ii, ure[i] * ii + uim[i] * ir);
-            let (fr, fi) = (k.alpha * (ar * c1 + ai * s1), k.alpha * (ai * c1 - ar * s1));
-            let (pr, pi) = (k.beta * vre[i] + s + k.w2, k.beta * vim[i]);
-            h00r[i] = fr * pr - fi * pi;
-            h00i[i] = fr * pi + fi * pr;
-            let hh = k.kappa + k.delta * s;
-            h10r[i] = fr * hh;
-            h10i[i] = fi * hh;
+            if C0 {
+                let (s1, c1) = sin_cos_poly(th[2] * w);
+                let (ar, ai) = (ure[i] * ir - uim[i] * ii, ure[i] * ii + uim[i] * ir);
+                let (fr, fi) = (k.alpha * (ar * c1 + ai * s1), k.alpha * (ai * c1 - ar * s1));
+                let (pr, pi) = (k.beta * vre[i] + s + k.w2, k.beta * vim[i]);
+                h00r[i] = fr * pr - fi * pi;
+                h00i[i] = fr * pi + fi * pr;
+                let hh = k.kappa + k.delta * s;
+                h10r[i] = fr * hh;
+                h10i[i] = fi * hh;
+            }
             // channel 2: F1 = β t2 v / det, H01 = F1 e2 σ, H11 = F1 (αu + λ + ρσ)
-            let (s2, c2) = sin_cos_poly(th[3] * w);
-            let (br, bi) = (vre[i] * ir - vim[i] * ii, vre[i] * ii + vim[i] * ir);
-            let (gr, gi) = (k.beta * (br * c2 + bi * s2), k.beta * (bi * c2 - br * s2));
-            let es = k.e2 * s;
-            h01r[i] = gr * es;
-            h01i[i] = gi * es;
-            let (xr, xi) = (k.alpha * ure[i] + k.lambda + k.rho * s, k.alpha * uim[i]);
-            h11r[i] = gr * xr - gi * xi;
-            h11i[i] = gr * xi + gi * xr;
+            if C1 {
+                let (s2, c2) = sin_cos_poly(th[3] * w);
+                let (br, bi) = (vre[i] * ir - vim[i] * ii, vre[i] * ii + vim[i] * ir);
+                let (gr, gi) = (k.beta * (br * c2 + bi * s2), k.beta * (bi * c2 - br * s2));
+                let es = k.e2 * s;
+                h01r[i] = gr * es;
+                h01i[i] = gi * es;
+                let (xr, xi) = (k.alpha * ure[i] + k.lambda + k.rho * s, k.alpha * uim[i]);
+                h11r[i] = gr * xr - gi * xi;
+                h11i[i] = gr * xi + gi * xr;
+            }
         }
         for (j, &c) in comps.iter().enumerate() {
             let dst = out[c0 * nc..(c0 + len) * nc].iter_mut().skip(j).step_by(nc);

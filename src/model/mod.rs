@@ -190,6 +190,17 @@ pub trait Model: Send + Sync + std::fmt::Debug {
     fn prepare_kernel(&self, _block: &BinBlock) -> Option<std::sync::Arc<dyn BlockKernel>> {
         None
     }
+
+    /// One kernel for several blocks at once (the experiments of a likelihood), which may
+    /// share work between them (the LTP closed loop computes `det P` once for experiments on
+    /// one grid). `None` (the default) means per-block kernels ([`Model::prepare_kernel`]).
+    /// Its value is the sum over the blocks.
+    fn prepare_joint_kernel(
+        &self,
+        _blocks: &[BinBlock],
+    ) -> Option<std::sync::Arc<dyn BlockKernel>> {
+        None
+    }
 }
 
 /// A prepared per-block evaluation of `Σ_k r_kᴴ C_k⁻¹ r_k` (see [`Model::prepare_kernel`]).
