@@ -491,7 +491,8 @@ fn exp_block<const J: usize>(g: &Grid, e: &Exp, k: &Coefs, b: &Blk, tab: &Fine, 
         &c.p3re[r.clone()],
         &c.p3im[r],
     );
-    let term = |i: usize| -> f64 {
+    let mut buf = [0.0; BLOCK];
+    for (i, o) in buf[..len].iter_mut().enumerate() {
         // p = det · e^{iωτ}
         let tr = cr * fre[i] - ci * fim[i];
         let ti = cr * fim[i] + ci * fre[i];
@@ -525,9 +526,9 @@ fn exp_block<const J: usize>(g: &Grid, e: &Exp, k: &Coefs, b: &Blk, tab: &Fine, 
         let z0i = y0r[i] * pi + y0i[i] * pr - n0i;
         let z1r = y1r[i] * pr - y1i[i] * pi - n1r;
         let z1i = y1r[i] * pi + y1i[i] * pr - n1i;
-        (z0r * z0r + z0i * z0i + z1r * z1r + z1i * z1i) * inv[i]
-    };
-    lanes_sum(len, term)
+        *o = (z0r * z0r + z0i * z0i + z1r * z1r + z1i * z1i) * inv[i];
+    }
+    sum_lanes(&buf[..len])
 }
 
 /// As [`exp_block`] with both injection channels active: `Z_r t1* = Ỹ_r det t1* − Ñ_r¹ −
@@ -569,7 +570,8 @@ fn exp_block_both(g: &Grid, e: &Exp, k: &Coefs, b: &Blk, t1: &Fine, t21: &Fine, 
         &bb.p3re[r.clone()],
         &bb.p3im[r],
     );
-    let term = |i: usize| -> f64 {
+    let mut buf = [0.0; BLOCK];
+    for (i, o) in buf[..len].iter_mut().enumerate() {
         let tr = cr * fre[i] - ci * fim[i];
         let ti = cr * fim[i] + ci * fre[i];
         let pr = dre[i] * tr - dim[i] * ti;
@@ -600,22 +602,16 @@ fn exp_block_both(g: &Grid, e: &Exp, k: &Coefs, b: &Blk, t1: &Fine, t21: &Fine, 
         let z0i = y0r[i] * pi + y0i[i] * pr - a0i - (wr * b0i + wi * b0r);
         let z1r = y1r[i] * pr - y1i[i] * pi - a1r - (wr * b1r - wi * b1i);
         let z1i = y1r[i] * pi + y1i[i] * pr - a1i - (wr * b1i + wi * b1r);
-        (z0r * z0r + z0i * z0i + z1r * z1r + z1i * z1i) * inv[i]
-    };
-    lanes_sum(len, term)
+        *o = (z0r * z0r + z0i * z0i + z1r * z1r + z1i * z1i) * inv[i];
+    }
+    sum_lanes(&buf[..len])
 }
 
-/// `Σ_{i < len} term(i)`: the terms into a buffer by a plain elementwise loop (which the
-/// compiler vectorises), then summed with [`LANES`] independent accumulators.
+/// `Σ x` with [`LANES`] independent accumulators (so that it vectorises).
 #[inline(always)]
-fn lanes_sum(len: usize, term: impl Fn(usize) -> f64) -> f64 {
-    let mut buf = [0.0; BLOCK];
-    let b = &mut buf[..len];
-    for (i, o) in b.iter_mut().enumerate() {
-        *o = term(i);
-    }
+fn sum_lanes(x: &[f64]) -> f64 {
     let mut acc = [0.0; LANES];
-    let mut it = b.chunks_exact(LANES);
+    let mut it = x.chunks_exact(LANES);
     for c in &mut it {
         for (a, x) in acc.iter_mut().zip(c) {
             *a += x;
