@@ -93,9 +93,15 @@ struct Summary {
     /// `Σ_e δ_eᴴ h_e δ_e + 2 Re Σ_b δ_bᴴ x_b δ_{b+1}` (`h` per (edge, component, component)
     /// gathers `Σ (1−x)² g*C⁻¹g` and `Σ x² g*C⁻¹g`; `x` per (coarse bin, component,
     /// component) is `Σ (1−x) x g*C⁻¹g`).
-    w: Vec<Complex64>,
-    h: Vec<Complex64>,
-    x: Vec<Complex64>,
+    /// Structure of arrays: `w` at `[c·edges + e]`, `h` at `[(c·nc + c')·edges + e]`, `x` at
+    /// `[(c·nc + c')·bins + b]`, real and imaginary parts apart (so the contraction vectorises
+    /// over edges).
+    w_re: Vec<f64>,
+    w_im: Vec<f64>,
+    h_re: Vec<f64>,
+    h_im: Vec<f64>,
+    x_re: Vec<f64>,
+    x_im: Vec<f64>,
     fs: f64,
 }
 
@@ -174,19 +180,54 @@ impl RelBinLikelihood {
         if th.len() != self.fiducial.len() {
             return f64::NAN;
         }
+        // stack buffers sized for the widest experiment (zeroing them is not free)
+        let small = self.exps.iter().all(|s| s.comps.len() <= 4);
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx2")
+                && std::arch::is_x86_feature_detected!("fma")
+            {
+                // SAFETY: the CPU has the features the functions are compiled for.
+                return unsafe {
+                    if small {
+                        self.eval_avx2::<4>(th)
+                    } else {
+                        self.eval_avx2::<MAX_COMPS>(th)
+                    }
+                };
+            }
+        }
+        if small {
+            self.eval::<4>(th)
+        } else {
+            self.eval::<MAX_COMPS>(th)
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    fn eval_avx2<const NB: usize>(&self, th: &[f64]) -> f64 {
+        self.eval::<NB>(th)
+    }
+
+    /// The batched evaluation with buffers for at most `NB` components.
+    #[inline(always)]
+    fn eval<const NB: usize>(&self, th: &[f64]) -> f64 {
         let m = self.model.as_ref();
         let ncst = m.n_consts();
-        let mut buf = [ZERO; EDGE_CHUNK * MAX_COMPS];
+        let mut buf = [[ZERO; EDGE_CHUNK]; NB];
+        // δ per component, structure of arrays; index 0 is the edge before the chunk
+        let mut dre = [[0.0; EDGE_CHUNK + 1]; NB];
+        let mut dim = [[0.0; EDGE_CHUNK + 1]; NB];
         let mut lin = 0.0;
         let mut quad = 0.0;
         for s in &self.exps {
             let nc = s.comps.len();
             let ne = s.edge_f.len();
-            let mut prev = [ZERO; MAX_COMPS];
             let mut e0 = 0;
             while e0 < ne {
                 let len = EDGE_CHUNK.min(ne - e0);
-                let d = &mut buf[..len * nc];
+                let d = &mut buf.as_flattened_mut()[..len * nc];
                 m.coefficients_batch(
                     th,
                     &s.edge_f[e0..e0 + len],
@@ -196,17 +237,20 @@ impl RelBinLikelihood {
                     d,
                 );
                 let r = e0 * nc..(e0 + len) * nc;
-                for ((z, is), off) in d.iter_mut().zip(&s.inv_s[r.clone()]).zip(&s.off[r]) {
-                    *z = *z * is - off;
+                for (j, ((z, is), off)) in
+                    d.iter().zip(&s.inv_s[r.clone()]).zip(&s.off[r]).enumerate()
+                {
+                    let v = z * is - off;
+                    dre[j % nc][1 + j / nc] = v.re;
+                    dim[j % nc][1 + j / nc] = v.im;
                 }
-                let (l, q) = match nc {
-                    1 => contract(1, s, e0, d, &mut prev),
-                    2 => contract(2, s, e0, d, &mut prev),
-                    4 => contract(4, s, e0, d, &mut prev),
-                    _ => contract(nc, s, e0, d, &mut prev),
-                };
+                let (l, q) = contract(nc, s, e0, len, &dre, &dim);
                 lin += l;
                 quad += q;
+                for c in 0..nc {
+                    dre[c][0] = dre[c][len];
+                    dim[c][0] = dim[c][len];
+                }
                 e0 += len;
             }
         }
@@ -274,49 +318,84 @@ impl RelBinLikelihood {
     }
 }
 
-/// `Re(a* b)`.
-#[inline(always)]
-fn re_conj_mul(a: Complex64, b: Complex64) -> f64 {
-    a.re * b.re + a.im * b.im
+/// Re-lays `v` (`n × m`, row-major) out as `m × n`, one part of each complex value.
+fn soa(v: &[Complex64], n: usize, m: usize, part: impl Fn(&Complex64) -> f64) -> Vec<f64> {
+    (0..m)
+        .flat_map(|j| (0..n).map(move |i| (i, j)))
+        .map(|(i, j)| part(&v[i * m + j]))
+        .collect()
 }
 
-/// The linear and quadratic terms of the edges `e0..e0 + d.len()/nc` of one experiment, `d`
-/// their `δ`; `prev` carries `δ` of the edge before (unused for edge 0) and is left at the last
-/// edge.
+/// The linear and quadratic terms of the `len` edges `e0..e0 + len` of one experiment; `δ` of
+/// component `c` at edge `e0 + i` is `(dre, dim)[c][1 + i]`, at the edge before the chunk
+/// `[c][0]`. Loops run over edges, so they vectorise.
 #[inline(always)]
-fn contract(
+fn contract<const NB: usize>(
     nc: usize,
     s: &Summary,
     e0: usize,
-    d: &[Complex64],
-    prev: &mut [Complex64; MAX_COMPS],
+    len: usize,
+    dre: &[[f64; EDGE_CHUNK + 1]; NB],
+    dim: &[[f64; EDGE_CHUNK + 1]; NB],
 ) -> (f64, f64) {
-    let mut lin = 0.0;
-    let mut quad = 0.0;
-    for (i, de) in d.chunks_exact(nc).enumerate() {
-        let e = e0 + i;
-        let w = &s.w[e * nc..(e + 1) * nc];
-        let h = &s.h[e * nc * nc..(e + 1) * nc * nc];
-        for c in 0..nc {
-            lin += re_conj_mul(de[c], w[c]);
-            quad += de[c].norm_sqr() * h[c * nc + c].re;
-            for c2 in c + 1..nc {
-                quad += 2.0 * re_conj_mul(de[c], h[c * nc + c2] * de[c2]);
+    let ne = s.edge_f.len();
+    let nb = ne - 1;
+    let mut lb = [0.0; EDGE_CHUNK];
+    let mut qb = [0.0; EDGE_CHUNK];
+    let (lb, qb) = (&mut lb[..len], &mut qb[..len]);
+    for c in 0..nc {
+        let (dr, di) = (&dre[c][1..=len], &dim[c][1..=len]);
+        let (wr, wi) = (
+            &s.w_re[c * ne + e0..c * ne + e0 + len],
+            &s.w_im[c * ne + e0..c * ne + e0 + len],
+        );
+        let hr = &s.h_re[(c * nc + c) * ne + e0..(c * nc + c) * ne + e0 + len];
+        for i in 0..len {
+            lb[i] += dr[i] * wr[i] + di[i] * wi[i];
+            qb[i] += (dr[i] * dr[i] + di[i] * di[i]) * hr[i];
+        }
+        for c2 in c + 1..nc {
+            let o = (c * nc + c2) * ne + e0;
+            let (hr, hi) = (&s.h_re[o..o + len], &s.h_im[o..o + len]);
+            let (d2r, d2i) = (&dre[c2][1..=len], &dim[c2][1..=len]);
+            for i in 0..len {
+                let yr = hr[i] * d2r[i] - hi[i] * d2i[i];
+                let yi = hr[i] * d2i[i] + hi[i] * d2r[i];
+                qb[i] += 2.0 * (dr[i] * yr + di[i] * yi);
             }
         }
-        if e > 0 {
-            let x = &s.x[(e - 1) * nc * nc..e * nc * nc];
-            for c in 0..nc {
-                let mut y = ZERO;
-                for c2 in 0..nc {
-                    y += x[c * nc + c2] * de[c2];
-                }
-                quad += 2.0 * re_conj_mul(prev[c], y);
-            }
-        }
-        prev[..nc].copy_from_slice(de);
     }
-    (lin, quad)
+    // coarse bins (e − 1, e) for the edges e of the chunk (none left of edge 0)
+    let i0 = usize::from(e0 == 0);
+    let n = len - i0;
+    for c in 0..nc {
+        let (pr, pi) = (&dre[c][i0..i0 + n], &dim[c][i0..i0 + n]);
+        for c2 in 0..nc {
+            let o = (c * nc + c2) * nb + e0 + i0 - 1;
+            let (xr, xi) = (&s.x_re[o..o + n], &s.x_im[o..o + n]);
+            let (d2r, d2i) = (&dre[c2][i0 + 1..i0 + 1 + n], &dim[c2][i0 + 1..i0 + 1 + n]);
+            let q = &mut qb[i0..];
+            for i in 0..n {
+                let yr = xr[i] * d2r[i] - xi[i] * d2i[i];
+                let yi = xr[i] * d2i[i] + xi[i] * d2r[i];
+                q[i] += 2.0 * (pr[i] * yr + pi[i] * yi);
+            }
+        }
+    }
+    (sum_lanes(lb), sum_lanes(qb))
+}
+
+/// `Σ x` with 8 independent accumulators (so that it vectorises).
+#[inline(always)]
+fn sum_lanes(x: &[f64]) -> f64 {
+    let mut acc = [0.0; 8];
+    let mut it = x.chunks_exact(8);
+    for c in &mut it {
+        for (a, x) in acc.iter_mut().zip(c) {
+            *a += x;
+        }
+    }
+    acc.iter().sum::<f64>() + it.remainder().iter().sum::<f64>()
 }
 
 /// Test points: the fiducial moved by `n_sigma` along ± each principal axis of the Fisher
@@ -582,9 +661,12 @@ fn summarise(
             off,
             a,
             b,
-            w,
-            h: hm,
-            x: xm,
+            w_re: soa(&w, nb + 1, nc, |z| z.re),
+            w_im: soa(&w, nb + 1, nc, |z| z.im),
+            h_re: soa(&hm, nb + 1, nc * nc, |z| z.re),
+            h_im: soa(&hm, nb + 1, nc * nc, |z| z.im),
+            x_re: soa(&xm, nb, nc * nc, |z| z.re),
+            x_im: soa(&xm, nb, nc * nc, |z| z.im),
             fs: e.fs,
         },
         r0sum,
