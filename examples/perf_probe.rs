@@ -49,6 +49,15 @@ fn main() {
     }
     let lik = Likelihood::new(model, spectra, study.models.priors[0].clone()).unwrap();
     let rb = RelBinLikelihood::new(&lik, &th, &Default::default()).unwrap();
+    if std::env::var("ONLY_RB").is_ok() {
+        let mut x = th;
+        let c = rate(|k| {
+            x[4] = th[4] + 1e-9 * (k % 7) as f64;
+            rb.ln_likelihood_full(&x)
+        });
+        println!("relbin batched {c:.0}/s");
+        return;
+    }
     for _ in 0..3 {
         let mut x = th;
         let a = rate(|k| {

@@ -213,8 +213,6 @@ impl RelBinLikelihood {
     /// The batched evaluation with buffers for at most `NB` components.
     #[inline(always)]
     fn eval<const NB: usize>(&self, th: &[f64]) -> f64 {
-        let m = self.model.as_ref();
-        let ncst = m.n_consts();
         let mut buf = [[ZERO; EDGE_CHUNK]; NB];
         // δ per component, structure of arrays; index 0 is the edge before the chunk
         let mut dre = [[0.0; EDGE_CHUNK + 1]; NB];
@@ -222,39 +220,66 @@ impl RelBinLikelihood {
         let mut lin = 0.0;
         let mut quad = 0.0;
         for s in &self.exps {
-            let nc = s.comps.len();
-            let ne = s.edge_f.len();
-            let mut e0 = 0;
-            while e0 < ne {
-                let len = EDGE_CHUNK.min(ne - e0);
-                let d = &mut buf.as_flattened_mut()[..len * nc];
-                m.coefficients_batch(
-                    th,
-                    &s.edge_f[e0..e0 + len],
-                    s.fs,
-                    &s.edge_consts[e0 * ncst..(e0 + len) * ncst],
-                    &s.comps,
-                    d,
-                );
-                let r = e0 * nc..(e0 + len) * nc;
-                for (j, ((z, is), off)) in
-                    d.iter().zip(&s.inv_s[r.clone()]).zip(&s.off[r]).enumerate()
-                {
-                    let v = z * is - off;
-                    dre[j % nc][1 + j / nc] = v.re;
-                    dim[j % nc][1 + j / nc] = v.im;
-                }
-                let (l, q) = contract(nc, s, e0, len, &dre, &dim);
-                lin += l;
-                quad += q;
-                for c in 0..nc {
-                    dre[c][0] = dre[c][len];
-                    dim[c][0] = dim[c][len];
-                }
-                e0 += len;
-            }
+            // constant component counts let the compiler specialise the loops
+            let (l, q) = match s.comps.len() {
+                1 => self.eval_exp(s, th, 1, &mut buf, &mut dre, &mut dim),
+                2 => self.eval_exp(s, th, 2, &mut buf, &mut dre, &mut dim),
+                n => self.eval_exp(s, th, n, &mut buf, &mut dre, &mut dim),
+            };
+            lin += l;
+            quad += q;
         }
         self.base - 2.0 * lin - quad
+    }
+
+    /// The linear and quadratic terms of one experiment (`nc` components).
+    #[inline(always)]
+    fn eval_exp<const NB: usize>(
+        &self,
+        s: &Summary,
+        th: &[f64],
+        nc: usize,
+        buf: &mut [[Complex64; EDGE_CHUNK]; NB],
+        dre: &mut [[f64; EDGE_CHUNK + 1]; NB],
+        dim: &mut [[f64; EDGE_CHUNK + 1]; NB],
+    ) -> (f64, f64) {
+        let m = self.model.as_ref();
+        let ncst = m.n_consts();
+        let ne = s.edge_f.len();
+        let (mut lin, mut quad) = (0.0, 0.0);
+        let mut e0 = 0;
+        while e0 < ne {
+            let len = EDGE_CHUNK.min(ne - e0);
+            let d = &mut buf.as_flattened_mut()[..len * nc];
+            m.coefficients_batch(
+                th,
+                &s.edge_f[e0..e0 + len],
+                s.fs,
+                &s.edge_consts[e0 * ncst..(e0 + len) * ncst],
+                &s.comps,
+                d,
+            );
+            let is = &s.inv_s[e0 * nc..(e0 + len) * nc];
+            let off = &s.off[e0 * nc..(e0 + len) * nc];
+            for c in 0..nc {
+                let (dr, di) = (&mut dre[c][1..=len], &mut dim[c][1..=len]);
+                for i in 0..len {
+                    let j = i * nc + c;
+                    let v = d[j] * is[j] - off[j];
+                    dr[i] = v.re;
+                    di[i] = v.im;
+                }
+            }
+            let (l, q) = contract(nc, s, e0, len, dre, dim);
+            lin += l;
+            quad += q;
+            for c in 0..nc {
+                dre[c][0] = dre[c][len];
+                dim[c][0] = dim[c][len];
+            }
+            e0 += len;
+        }
+        (lin, quad)
     }
 
     /// `ln L̃` by the first, unbatched evaluation ([`Model::coefficients`] edge by edge,
