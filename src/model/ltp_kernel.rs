@@ -662,13 +662,13 @@ pub(crate) fn coefficients_batch(
             return true;
         }
     }
-    batch_dispatch(th, e1, e2, freqs, consts, comps, out);
+    batch_dispatch::<false>(th, e1, e2, freqs, consts, comps, out);
     true
 }
 
 /// [`batch_impl`] for the injection channels the components need.
 #[inline(always)]
-fn batch_dispatch(
+fn batch_dispatch<const F: bool>(
     th: &[f64; 7],
     e1: f64,
     e2: f64,
@@ -680,9 +680,9 @@ fn batch_dispatch(
     let c0 = comps.iter().any(|&c| c == 2 || c == 6);
     let c1 = comps.iter().any(|&c| c == 3 || c == 7);
     match (c0, c1) {
-        (true, false) => batch_impl::<true, false>(th, e1, e2, freqs, consts, comps, out),
-        (false, true) => batch_impl::<false, true>(th, e1, e2, freqs, consts, comps, out),
-        _ => batch_impl::<true, true>(th, e1, e2, freqs, consts, comps, out),
+        (true, false) => batch_impl::<true, false, F>(th, e1, e2, freqs, consts, comps, out),
+        (false, true) => batch_impl::<false, true, F>(th, e1, e2, freqs, consts, comps, out),
+        _ => batch_impl::<true, true, F>(th, e1, e2, freqs, consts, comps, out),
     }
 }
 
@@ -697,12 +697,12 @@ fn batch_avx2(
     comps: &[usize],
     out: &mut [Complex64],
 ) {
-    batch_dispatch(th, e1, e2, freqs, consts, comps, out)
+    batch_dispatch::<true>(th, e1, e2, freqs, consts, comps, out)
 }
 
 /// The batch; `C0`, `C1`: whether the components of injection channel 1 / 2 are needed.
 #[inline(always)]
-fn batch_impl<const C0: bool, const C1: bool>(
+fn batch_impl<const C0: bool, const C1: bool, const F: bool>(
     th: &[f64; 7],
     e1: f64,
     e2: f64,
@@ -763,7 +763,7 @@ fn batch_impl<const C0: bool, const C1: bool>(
             let (ir, ii) = (dr * inv, -di * inv);
             // channel 1: F0 = α t1 u / det, H00 = F0 (βv + σ + w2), H10 = F0 (κ + δσ)
             if C0 {
-                let (s1, c1) = sin_cos_poly(th[2] * w);
+                let (s1, c1) = sin_cos_poly_f::<F>(th[2] * w);
                 let (ar, ai) = (ure[i] * ir - uim[i] * ii, ure[i] * ii + uim[i] * ir);
                 let (fr, fi) = (k.alpha * (ar * c1 + ai * s1), k.alpha * (ai * c1 - ar * s1));
                 let (pr, pi) = (k.beta * vre[i] + s + k.w2, k.beta * vim[i]);
@@ -775,7 +775,7 @@ fn batch_impl<const C0: bool, const C1: bool>(
             }
             // channel 2: F1 = β t2 v / det, H01 = F1 e2 σ, H11 = F1 (αu + λ + ρσ)
             if C1 {
-                let (s2, c2) = sin_cos_poly(th[3] * w);
+                let (s2, c2) = sin_cos_poly_f::<F>(th[3] * w);
                 let (br, bi) = (vre[i] * ir - vim[i] * ii, vre[i] * ii + vim[i] * ir);
                 let (gr, gi) = (k.beta * (br * c2 + bi * s2), k.beta * (bi * c2 - br * s2));
                 let es = k.e2 * s;
@@ -819,29 +819,53 @@ fn batch_impl<const C0: bool, const C1: bool>(
 /// units in the last place from `f64::sin_cos`.
 #[inline(always)]
 fn sin_cos_poly(x: f64) -> (f64, f64) {
+    sin_cos_poly_f::<false>(x)
+}
+
+/// `a·b + c`, fused when `F` (only where the CPU has FMA: otherwise `mul_add` is a libm call).
+#[inline(always)]
+fn fma<const F: bool>(a: f64, b: f64, c: f64) -> f64 {
+    if F { a.mul_add(b, c) } else { a * b + c }
+}
+
+/// [`sin_cos_poly`], with fused multiply–adds when `F`.
+#[inline(always)]
+fn sin_cos_poly_f<const F: bool>(x: f64) -> (f64, f64) {
     const MAGIC: f64 = 6755399441055744.0; // 1.5·2^52: adding it rounds to an integer
     const PIO2_1: f64 = 1.570_796_326_734_125_6; // first 33 bits of π/2
     const PIO2_1T: f64 = 6.077_100_506_506_192e-11; // π/2 − PIO2_1
+    // 1/(2k+1)! and 1/(2k)!, highest order first
+    const S: [f64; 7] = [
+        -1.0 / 1_307_674_368_000.0,
+        1.0 / 6_227_020_800.0,
+        -1.0 / 39_916_800.0,
+        1.0 / 362_880.0,
+        -1.0 / 5040.0,
+        1.0 / 120.0,
+        -1.0 / 6.0,
+    ];
+    const C: [f64; 7] = [
+        1.0 / 20_922_789_888_000.0,
+        -1.0 / 87_178_291_200.0,
+        1.0 / 479_001_600.0,
+        -1.0 / 3_628_800.0,
+        1.0 / 40_320.0,
+        -1.0 / 720.0,
+        1.0 / 24.0,
+    ];
     let t = x * std::f64::consts::FRAC_2_PI + MAGIC;
     let q = t.to_bits() & 3;
     let nq = t - MAGIC;
     let r = (x - nq * PIO2_1) - nq * PIO2_1T;
     let z = r * r;
-    // 1/(2k+1)! and 1/(2k)!
-    let sp = -1.0 / 6.0
-        + z * (1.0 / 120.0
-            + z * (-1.0 / 5040.0
-                + z * (1.0 / 362_880.0
-                    + z * (-1.0 / 39_916_800.0
-                        + z * (1.0 / 6_227_020_800.0 + z * (-1.0 / 1_307_674_368_000.0))))));
-    let sn = r + r * z * sp;
-    let cp = 1.0 / 24.0
-        + z * (-1.0 / 720.0
-            + z * (1.0 / 40_320.0
-                + z * (-1.0 / 3_628_800.0
-                    + z * (1.0 / 479_001_600.0
-                        + z * (-1.0 / 87_178_291_200.0 + z * (1.0 / 20_922_789_888_000.0))))));
-    let cs = 1.0 - 0.5 * z + z * z * cp;
+    let mut sp = S[0];
+    let mut cp = C[0];
+    for i in 1..7 {
+        sp = fma::<F>(sp, z, S[i]);
+        cp = fma::<F>(cp, z, C[i]);
+    }
+    let sn = fma::<F>(r * z, sp, r);
+    let cs = fma::<F>(z * z, cp, 1.0 - 0.5 * z);
     let (a, b) = if q & 1 == 1 { (cs, sn) } else { (sn, cs) };
     let sa = f64::from_bits(a.to_bits() ^ ((q & 2) << 62));
     let sb = f64::from_bits(b.to_bits() ^ (((q + 1) & 2) << 62));
@@ -1045,6 +1069,8 @@ mod batch_tests {
             let x = -PHASE_LIMIT + 2.0 * PHASE_LIMIT * i as f64 / 200_000.0 + 0.123;
             let (s, c) = sin_cos_poly(x);
             let (s0, c0) = x.sin_cos();
+            w = w.max((s - s0).abs()).max((c - c0).abs());
+            let (s, c) = sin_cos_poly_f::<true>(x);
             w = w.max((s - s0).abs()).max((c - c0).abs());
         }
         for i in 0..20_000 {
