@@ -814,21 +814,15 @@ fn batch_impl<const C0: bool, const C1: bool, const F: bool>(
     }
 }
 
-/// `(sin x, cos x)` for `|x| ≤` [`PHASE_LIMIT`], branch-free (vectorisable): Cody–Waite
-/// reduction by π/2 and Taylor polynomials on `[−π/4, π/4]` (truncation below 5e−17), a few
-/// units in the last place from `f64::sin_cos`.
-#[inline(always)]
-fn sin_cos_poly(x: f64) -> (f64, f64) {
-    sin_cos_poly_f::<false>(x)
-}
-
 /// `a·b + c`, fused when `F` (only where the CPU has FMA: otherwise `mul_add` is a libm call).
 #[inline(always)]
 fn fma<const F: bool>(a: f64, b: f64, c: f64) -> f64 {
     if F { a.mul_add(b, c) } else { a * b + c }
 }
 
-/// [`sin_cos_poly`], with fused multiply–adds when `F`.
+/// `(sin x, cos x)` for `|x| ≤` [`PHASE_LIMIT`], branch-free (vectorisable), with fused
+/// multiply–adds when `F`: Cody–Waite reduction by π/2 and Taylor polynomials on `[−π/4, π/4]`
+/// (truncation below 5e−17), within 2.2e−16 of `f64::sin_cos` (tested).
 #[inline(always)]
 fn sin_cos_poly_f<const F: bool>(x: f64) -> (f64, f64) {
     const MAGIC: f64 = 6755399441055744.0; // 1.5·2^52: adding it rounds to an integer
@@ -1067,7 +1061,7 @@ mod batch_tests {
         let mut w: f64 = 0.0;
         for i in 0..200_000 {
             let x = -PHASE_LIMIT + 2.0 * PHASE_LIMIT * i as f64 / 200_000.0 + 0.123;
-            let (s, c) = sin_cos_poly(x);
+            let (s, c) = sin_cos_poly_f::<false>(x);
             let (s0, c0) = x.sin_cos();
             w = w.max((s - s0).abs()).max((c - c0).abs());
             let (s, c) = sin_cos_poly_f::<true>(x);
@@ -1075,7 +1069,7 @@ mod batch_tests {
         }
         for i in 0..20_000 {
             let x = -40.0 + 80.0 * i as f64 / 20_000.0;
-            let (s, c) = sin_cos_poly(x);
+            let (s, c) = sin_cos_poly_f::<false>(x);
             let (s0, c0) = x.sin_cos();
             w = w.max((s - s0).abs()).max((c - c0).abs());
         }
