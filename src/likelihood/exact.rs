@@ -22,6 +22,8 @@ pub struct Likelihood {
     spectra: Vec<ExperimentSpectra>,
     /// The model's prepared kernel per experiment, if it has one.
     kernels: Vec<Option<Arc<dyn BlockKernel>>>,
+    /// The model's kernel for all experiments at once, if it has one (used instead).
+    joint: Option<Arc<dyn BlockKernel>>,
     prior: Prior,
     ln_norm: f64,
 }
@@ -87,14 +89,17 @@ impl Likelihood {
                 ln_norm -= nr as f64 * std::f64::consts::PI.ln() - det_inv.ln();
             }
         }
-        let kernels = spectra
-            .iter()
-            .map(|e| model.prepare_kernel(&e.block()))
-            .collect();
+        let blocks: Vec<_> = spectra.iter().map(|e| e.block()).collect();
+        let joint = model.prepare_joint_kernel(&blocks);
+        let kernels = match joint {
+            Some(_) => vec![None; spectra.len()],
+            None => blocks.iter().map(|b| model.prepare_kernel(b)).collect(),
+        };
         Ok(Self {
             model,
             spectra,
             kernels,
+            joint,
             prior,
             ln_norm,
         })
@@ -127,8 +132,12 @@ impl Likelihood {
     }
 
     /// `Σ r_kᴴ C_k⁻¹ r_k` (the "χ²/2" of the residual; `ln L = −this + ln_norm`), through the
-    /// model's prepared kernel ([`Model::prepare_kernel`]) or [`Model::residual_power`].
+    /// model's prepared kernels ([`Model::prepare_joint_kernel`], else
+    /// [`Model::prepare_kernel`]) or [`Model::residual_power`].
     pub fn residual_power(&self, th: &[f64]) -> f64 {
+        if let Some(k) = &self.joint {
+            return k.residual_power(th);
+        }
         self.spectra
             .iter()
             .zip(&self.kernels)

@@ -367,6 +367,51 @@ impl Model for LtpModel {
         }
         s
     }
+
+    /// The experiments of one grid in one kernel of `super::ltp_kernel` (shared `det P`).
+    fn prepare_joint_kernel(
+        &self,
+        b: &[BinBlock],
+    ) -> Option<std::sync::Arc<dyn super::BlockKernel>> {
+        if self.opts.thruster != ThrusterResponse::None || b.len() < 2 {
+            return None;
+        }
+        super::ltp_kernel::LtpKernel::new(&self.opts.masses, b).map(|k| k.arc())
+    }
+
+    /// Only the requested components, by the batch of `super::ltp_kernel` (plain loop only).
+    fn coefficients_batch(
+        &self,
+        th: &[f64],
+        freqs: &[f64],
+        fs: f64,
+        consts: &[Complex64],
+        comps: &[usize],
+        out: &mut [Complex64],
+    ) {
+        if self.opts.thruster != ThrusterResponse::None
+            || !super::ltp_kernel::coefficients_batch(
+                &self.opts.masses,
+                th,
+                freqs,
+                consts,
+                comps,
+                out,
+            )
+        {
+            super::coefficients_batch_generic(self, th, freqs, fs, consts, comps, out)
+        }
+    }
+
+    /// The prepared kernel of `super::ltp_kernel` (plain loop only; `None` with a thruster
+    /// response).
+    fn prepare_kernel(&self, b: &BinBlock) -> Option<std::sync::Arc<dyn super::BlockKernel>> {
+        if self.opts.thruster != ThrusterResponse::None {
+            return None;
+        }
+        super::ltp_kernel::LtpKernel::new(&self.opts.masses, std::slice::from_ref(b))
+            .map(|k| k.arc())
+    }
 }
 
 #[cfg(test)]

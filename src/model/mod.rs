@@ -22,6 +22,7 @@
 //! path never recomputes them and never allocates.
 
 pub mod ltp;
+mod ltp_kernel;
 pub mod user;
 
 pub use ltp::{LoopResponse, LtpModel, LtpModelOptions, ThrusterResponse};
@@ -148,6 +149,26 @@ pub trait Model: Send + Sync + std::fmt::Debug {
     /// As [`Model::coefficients`] with dual-number parameters (exact derivatives).
     fn coefficients_dual(&self, theta: &[Dual64], bin: &Bin, out: &mut [Complex<Dual64>]);
 
+    /// Selected components `comps` (indices `r·C + c` of [`Model::coefficients`]) of
+    /// `M(f_e; θ)` at many frequencies `freqs` (constants `consts`, `freqs.len() ×
+    /// n_consts`, bin-major) into `out[e·comps.len() + i]`: what relative binning needs per θ
+    /// at its coarse-bin edges.
+    ///
+    /// The default loops over [`Model::coefficients`]; a model may override it with a batch
+    /// that computes only the requested components (the LTP closed loop does), and must then
+    /// give the same values to rounding.
+    fn coefficients_batch(
+        &self,
+        theta: &[f64],
+        freqs: &[f64],
+        fs: f64,
+        consts: &[Complex64],
+        comps: &[usize],
+        out: &mut [Complex64],
+    ) {
+        coefficients_batch_generic(self, theta, freqs, fs, consts, comps, out)
+    }
+
     /// Whether the model is physically valid at θ (e.g. a stable loop); the message says why
     /// not. The likelihood does not call it per evaluation; jobs check the truth, fixed values
     /// and reference points with it.
@@ -168,6 +189,17 @@ pub trait Model: Send + Sync + std::fmt::Debug {
     /// (the default) means [`Model::residual_power`] is used. A prepared kernel must give the
     /// same value as [`residual_power_generic`] to rounding; its tests say how close.
     fn prepare_kernel(&self, _block: &BinBlock) -> Option<std::sync::Arc<dyn BlockKernel>> {
+        None
+    }
+
+    /// One kernel for several blocks at once (the experiments of a likelihood), which may
+    /// share work between them (the LTP closed loop computes `det P` once for experiments on
+    /// one grid). `None` (the default) means per-block kernels ([`Model::prepare_kernel`]).
+    /// Its value is the sum over the blocks.
+    fn prepare_joint_kernel(
+        &self,
+        _blocks: &[BinBlock],
+    ) -> Option<std::sync::Arc<dyn BlockKernel>> {
         None
     }
 }
@@ -193,6 +225,33 @@ pub fn residual_power_generic<M: Model + ?Sized>(m: &M, theta: &[f64], b: &BinBl
         s += quad(&b.cinv[k], r);
     }
     s
+}
+
+/// The default [`Model::coefficients_batch`]: [`Model::coefficients`] frequency by frequency.
+pub fn coefficients_batch_generic<M: Model + ?Sized>(
+    m: &M,
+    theta: &[f64],
+    freqs: &[f64],
+    fs: f64,
+    consts: &[Complex64],
+    comps: &[usize],
+    out: &mut [Complex64],
+) {
+    let ncoef = m.data_channels().len() * m.residual_channels().len();
+    let ncst = m.n_consts();
+    let nc = comps.len();
+    let mut coef = [Complex64::new(0.0, 0.0); MAX_CHANNELS * MAX_RESIDUALS];
+    for (e, &f) in freqs.iter().enumerate() {
+        let bin = Bin {
+            f,
+            fs,
+            consts: &consts[e * ncst..(e + 1) * ncst],
+        };
+        m.coefficients(theta, &bin, &mut coef[..ncoef]);
+        for (o, &c) in out[e * nc..(e + 1) * nc].iter_mut().zip(comps) {
+            *o = coef[c];
+        }
+    }
 }
 
 /// `r = M d` for `nr` rows (the second component is zero for a one-residual model).
