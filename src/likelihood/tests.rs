@@ -413,3 +413,76 @@ fn one_residual_model_is_the_marginal_of_the_first_channel() {
         assert_eq!(one.n_real_data(), two.n_real_data() / 2);
     }
 }
+
+/// Every variant of the built-in loop: the likelihood through prepared kernels equals the
+/// generic path, and batched relative binning equals the unbatched evaluation (a fast path
+/// that ignored an option would be caught here).
+#[test]
+fn prepared_and_batched_paths_agree_for_every_ltp_variant() {
+    use crate::model::{LoopResponse, LtpModel, LtpModelOptions, ThrusterResponse};
+    let study = small_study(9, 1e-7, "circular");
+    let opts = model_opts();
+    let sim = simulate(&study).unwrap();
+    let sys = System::of(&study);
+    let csd = |f: f64| -> Mat2 { sys.noise_csd(f) };
+    for (thruster, extra) in [
+        (ThrusterResponse::None, None),
+        (ThrusterResponse::Delay, Some(0.3)),
+        (ThrusterResponse::Pole, Some(0.5)),
+    ] {
+        for response in [LoopResponse::Continuous, LoopResponse::Discrete] {
+            let m = LtpModel::new(
+                "v",
+                LtpModelOptions {
+                    thruster,
+                    response,
+                    ..Default::default()
+                },
+            );
+            let (names, kinds): (Vec<String>, Vec<_>) = m.default_priors().into_iter().unzip();
+            let prior = Prior::new(names, kinds).unwrap();
+            let m: std::sync::Arc<dyn crate::model::Model> = std::sync::Arc::new(m);
+            let mut th = LtpParams {
+                dt1: 0.35,
+                a_df: 0.9,
+                ..Default::default()
+            }
+            .to_array()
+            .to_vec();
+            th.extend(extra);
+            let spectra = sim
+                .dataset
+                .experiments
+                .iter()
+                .map(|e| ExperimentSpectra::new(e, &opts, m.as_ref(), &th, Some(&csd)).unwrap())
+                .collect();
+            let lik = Likelihood::new(m.clone(), spectra, prior).unwrap();
+            let a = lik.residual_power(&th);
+            let b = lik.residual_power_unprepared(&th);
+            let c: f64 = lik
+                .spectra()
+                .iter()
+                .map(|e| crate::model::residual_power_generic(m.as_ref(), &th, &e.block()))
+                .sum();
+            let tag = format!("{thruster:?}/{response:?}");
+            assert!(
+                ((a - c) / c).abs() < 1e-11,
+                "{tag}: prepared {a} vs generic {c}"
+            );
+            assert!(
+                ((b - c) / c).abs() < 1e-11,
+                "{tag}: kernel {b} vs generic {c}"
+            );
+            let rb = RelBinLikelihood::new(&lik, &th, &Default::default()).unwrap();
+            let mut p = th.clone();
+            p[4] += 1e-3;
+            p[2] += 0.01;
+            let x = rb.ln_likelihood_full(&p);
+            let y = rb.ln_likelihood_unbatched(&p);
+            assert!(
+                ((x - y) / y).abs() < 1e-12,
+                "{tag}: batched {x} vs unbatched {y}"
+            );
+        }
+    }
+}

@@ -167,6 +167,13 @@ impl LtpModel {
         &self.opts
     }
 
+    /// Whether this is the plain continuous loop (no thruster response), the one the prepared
+    /// kernels of `ltp_kernel` implement; every other variant takes the generic paths.
+    fn is_plain_continuous(&self) -> bool {
+        self.opts.thruster == ThrusterResponse::None
+            && self.opts.response == LoopResponse::Continuous
+    }
+
     /// The default prior of every parameter: uniform boxes `w1sq, w2sq ∈ [−5e−6, 5e−6] s⁻²`,
     /// `dt1, dt2 ∈ [0, 1] s`, `a_df, a_sus ∈ [0.5, 1.5]`, `d21 ∈ [−1e−3, 1e−3]`, `tau_df ∈
     /// [0, 1] s`, `f_df ∈ [0.01, 10] Hz`.
@@ -373,7 +380,7 @@ impl Model for LtpModel {
         &self,
         b: &[BinBlock],
     ) -> Option<std::sync::Arc<dyn super::BlockKernel>> {
-        if self.opts.thruster != ThrusterResponse::None || b.len() < 2 {
+        if !self.is_plain_continuous() || b.len() < 2 {
             return None;
         }
         super::ltp_kernel::LtpKernel::new(&self.opts.masses, b).map(|k| k.arc())
@@ -389,7 +396,7 @@ impl Model for LtpModel {
         comps: &[usize],
         out: &mut [Complex64],
     ) {
-        if self.opts.thruster != ThrusterResponse::None
+        if !self.is_plain_continuous()
             || !super::ltp_kernel::coefficients_batch(
                 &self.opts.masses,
                 th,
@@ -406,7 +413,7 @@ impl Model for LtpModel {
     /// The prepared kernel of `super::ltp_kernel` (plain loop only; `None` with a thruster
     /// response).
     fn prepare_kernel(&self, b: &BinBlock) -> Option<std::sync::Arc<dyn super::BlockKernel>> {
-        if self.opts.thruster != ThrusterResponse::None {
+        if !self.is_plain_continuous() {
             return None;
         }
         super::ltp_kernel::LtpKernel::new(&self.opts.masses, std::slice::from_ref(b))
