@@ -236,11 +236,24 @@ pub fn truth_of(study: &Study, mi: usize, dataset: &Dataset) -> Option<Vec<Optio
     )
 }
 
-/// Warnings about fitting model `mi` to `dataset`: a continuous-time closed loop fitted to
-/// data from the discretised loop (`[simulation] method = "time"`) is biased by the
-/// zero-order hold's half-sample lag (tens of σ on the Table I study).
+/// Warnings about fitting model `mi` to `dataset`: a start point (fixed and start values) the
+/// model rejects ([`crate::model::Model::check`]), and a continuous-time closed loop fitted to
+/// data from the discretised loop (`[simulation] method = "time"`), which the zero-order
+/// hold's half-sample lag biases (tens of σ on the Table I study).
 pub fn model_warnings(study: &Study, mi: usize, dataset: &Dataset) -> Vec<String> {
     let mut w = Vec::new();
+    let specs = std::iter::once(&study.fit_model)
+        .chain(study.select_models.iter().map(|m| &m.spec))
+        .filter(|s| s.model == mi);
+    for spec in specs {
+        if let Err(why) = study.models.models[mi].check(&default_start(study, spec)) {
+            w.push(format!(
+                "the start of the MAP search of model `{}` fails the model's check: {why}",
+                study.models.defs[mi].name()
+            ));
+            break;
+        }
+    }
     let time_domain = dataset.extra.get("method").and_then(|v| v.as_str()) == Some("time");
     if let crate::config::ModelDef::Ltp { name, options } = &study.models.defs[mi]
         && time_domain

@@ -93,3 +93,30 @@ fn the_thruster_pole_beats_the_thruster_delay() {
     let i = y.params.iter().position(|n| n == "f_df").unwrap();
     assert!((y.map[i] - 0.3).abs() < 0.01, "f_df MAP {}", y.map[i]);
 }
+
+/// Fixed values that make the loop unstable are warned about, naming the model and the pole.
+#[test]
+fn an_unstable_start_point_is_warned_about() {
+    let text = r#"seed = 1
+output = "unused"
+[fit]
+free = ["a_df"]
+fixed = { w1sq = -10.0, w2sq = -1.9e-6, dt1 = 0.2, dt2 = 0.2, a_sus = 1.08, d21 = 4e-4 }
+[[experiment]]
+name = "inv1"
+design = "tn3045_x1"
+"#;
+    let s = Study::from_toml(text, "u.toml", Path::new(".")).unwrap();
+    let empty = occam::dataset::Dataset {
+        experiments: Vec::new(),
+        seed: None,
+        truth: None,
+        extra: serde_json::Value::Null,
+    };
+    let w = occam::analysis::model_warnings(&s, s.fit_model.model, &empty);
+    assert!(
+        w.iter()
+            .any(|w| w.contains("`ltp`") && w.contains("unstable")),
+        "{w:?}"
+    );
+}

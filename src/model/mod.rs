@@ -170,8 +170,8 @@ pub trait Model: Send + Sync + std::fmt::Debug {
     }
 
     /// Whether the model is physically valid at θ (e.g. a stable loop); the message says why
-    /// not. The likelihood does not call it per evaluation; jobs check the truth, fixed values
-    /// and reference points with it.
+    /// not. The likelihood does not call it per evaluation; `fit` and `select` warn when the
+    /// start of a model's MAP search (its fixed values and start values) fails it.
     fn check(&self, _theta: &[f64]) -> Result<(), String> {
         Ok(())
     }
