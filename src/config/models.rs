@@ -239,23 +239,27 @@ impl ModelSet {
         // every parameter of a user-defined model must act on some coefficient
         for (k, d) in set.defs.iter().enumerate() {
             if let ModelDef::User(def) = d {
-                let um = UserModel::new(def).expect("built above");
                 let centre: Vec<f64> = set.priors[k]
                     .kinds()
                     .iter()
                     .map(crate::analysis::prior_centre)
                     .collect();
-                um.check_identifiable(&centre, check_freqs, check_fs)
-                    .map_err(|e| {
-                        bad(
-                            format!("model.{}", def.name),
-                            format!(
-                                "{e} (checked at the prior centre over {:.1e}–{:.1e} Hz)",
-                                check_freqs[0],
-                                check_freqs[check_freqs.len() - 1]
-                            ),
-                        )
-                    })?;
+                crate::model::check_identifiable(
+                    set.models[k].as_ref(),
+                    &centre,
+                    check_freqs,
+                    check_fs,
+                )
+                .map_err(|e| {
+                    bad(
+                        format!("model.{}", def.name),
+                        format!(
+                            "{e} (checked at the prior centre over {:.1e}–{:.1e} Hz)",
+                            check_freqs[0],
+                            check_freqs[check_freqs.len() - 1]
+                        ),
+                    )
+                })?;
             }
         }
         for n in prior.keys() {

@@ -307,6 +307,70 @@ pub fn validate_shape(m: &dyn Model) -> Result<(), String> {
     Ok(())
 }
 
+/// Errors if some parameter has no effect on any coefficient at `theta` over `freqs` (the
+/// dual derivative of every coefficient with respect to it is zero at every frequency).
+pub fn check_identifiable(
+    m: &dyn Model,
+    theta: &[f64],
+    freqs: &[f64],
+    fs: f64,
+) -> Result<(), String> {
+    let np = m.param_names().len();
+    if theta.len() != np {
+        return Err(format!(
+            "model `{}`: θ has {} values for {np} parameters",
+            m.name(),
+            theta.len()
+        ));
+    }
+    let ncoef = m.data_channels().len() * m.residual_channels().len();
+    let mut consts = vec![Complex64::new(0.0, 0.0); m.n_consts()];
+    let mut out = vec![Complex::new(Dual64::from(0.0), Dual64::from(0.0)); ncoef];
+    let mut seen = vec![false; np];
+    let mut th: Vec<Dual64> = theta.iter().map(|&x| Dual64::from(x)).collect();
+    for &f in freqs {
+        m.bin_consts(f, fs, &mut consts);
+        let bin = Bin {
+            f,
+            fs,
+            consts: &consts,
+        };
+        for a in 0..np {
+            if seen[a] {
+                continue;
+            }
+            th[a] = Dual64::from(theta[a]).derivative();
+            m.coefficients_dual(&th, &bin, &mut out);
+            th[a] = Dual64::from(theta[a]);
+            seen[a] = out.iter().any(|z| {
+                (z.re.eps != 0.0 && z.re.eps.is_finite())
+                    || (z.im.eps != 0.0 && z.im.eps.is_finite())
+            });
+        }
+    }
+    let dead: Vec<String> = m
+        .param_names()
+        .iter()
+        .zip(&seen)
+        .filter(|(_, s)| !**s)
+        .map(|(p, _)| format!("`{p}`"))
+        .collect();
+    if dead.is_empty() {
+        Ok(())
+    } else {
+        Err(format!(
+            "model `{}`: parameter{} {} ha{} no effect on any coefficient at this θ \
+             over the {} frequencies checked, so the data cannot determine {}",
+            m.name(),
+            if dead.len() == 1 { "" } else { "s" },
+            dead.join(", "),
+            if dead.len() == 1 { "s" } else { "ve" },
+            freqs.len(),
+            if dead.len() == 1 { "it" } else { "them" },
+        ))
+    }
+}
+
 /// The `f64` coefficients of `m` at θ and frequency `f` (constants computed on the spot): a
 /// convenience for tests, plots and the simulator, not for hot paths.
 pub fn coefficients_at(m: &dyn Model, theta: &[f64], f: f64, fs: f64) -> Vec<Complex64> {
