@@ -58,18 +58,27 @@ x12 = {{ kind = "sine_train", gap = 20.0, segments = [
     Study::from_toml(&text, "small.toml", Path::new(".")).unwrap()
 }
 
-pub(crate) fn likelihood_of(study: &Study, opts: &SpectraOptions) -> Likelihood {
+/// The spectra of `study`'s simulated experiments for `model`, residual noise at `reference`.
+pub(crate) fn spectra_for(
+    study: &Study,
+    opts: &SpectraOptions,
+    model: &dyn crate::model::Model,
+    reference: &[f64],
+) -> Vec<ExperimentSpectra> {
     let sim = simulate(study).unwrap();
     let sys = System::of(study);
     let csd = |f: f64| -> Mat2 { sys.noise_csd(f) };
-    let truth = study.truth.to_array();
-    let spectra = sim
-        .dataset
+    sim.dataset
         .experiments
         .iter()
-        .map(|e| ExperimentSpectra::new(e, opts, ltp_model().as_ref(), &truth, Some(&csd)).unwrap())
-        .collect();
-    Likelihood::new(ltp_model(), spectra, wide_prior()).unwrap()
+        .map(|e| ExperimentSpectra::new(e, opts, model, reference, Some(&csd)).unwrap())
+        .collect()
+}
+
+pub(crate) fn likelihood_of(study: &Study, opts: &SpectraOptions) -> Likelihood {
+    let m = ltp_model();
+    let spectra = spectra_for(study, opts, m.as_ref(), &study.truth.to_array());
+    Likelihood::new(m, spectra, wide_prior()).unwrap()
 }
 
 fn model_opts() -> SpectraOptions {
@@ -386,16 +395,7 @@ fn one_residual_model_is_the_marginal_of_the_first_channel() {
             ..Default::default()
         };
         let two = likelihood_of(&study, &opts);
-        let sim = simulate(&study).unwrap();
-        let sys = System::of(&study);
-        let csd = |f: f64| -> Mat2 { sys.noise_csd(f) };
-        let truth = study.truth.to_array();
-        let spectra = sim
-            .dataset
-            .experiments
-            .iter()
-            .map(|e| ExperimentSpectra::new(e, &opts, m.as_ref(), &truth, Some(&csd)).unwrap())
-            .collect();
+        let spectra = spectra_for(&study, &opts, m.as_ref(), &study.truth.to_array());
         let one = Likelihood::new(m.clone(), spectra, wide_prior()).unwrap();
         let mut want = 0.0;
         for e in two.spectra() {
@@ -422,9 +422,6 @@ fn prepared_and_batched_paths_agree_for_every_ltp_variant() {
     use crate::model::{LoopResponse, LtpModel, LtpModelOptions, ThrusterResponse};
     let study = small_study(9, 1e-7, "circular");
     let opts = model_opts();
-    let sim = simulate(&study).unwrap();
-    let sys = System::of(&study);
-    let csd = |f: f64| -> Mat2 { sys.noise_csd(f) };
     for (thruster, extra) in [
         (ThrusterResponse::None, None),
         (ThrusterResponse::Delay, Some(0.3)),
@@ -450,12 +447,7 @@ fn prepared_and_batched_paths_agree_for_every_ltp_variant() {
             .to_array()
             .to_vec();
             th.extend(extra);
-            let spectra = sim
-                .dataset
-                .experiments
-                .iter()
-                .map(|e| ExperimentSpectra::new(e, &opts, m.as_ref(), &th, Some(&csd)).unwrap())
-                .collect();
+            let spectra = spectra_for(&study, &opts, m.as_ref(), &th);
             let lik = Likelihood::new(m.clone(), spectra, prior).unwrap();
             let a = lik.residual_power(&th);
             let b = lik.residual_power_unprepared(&th);
