@@ -20,6 +20,7 @@ use crate::report::{Table, kass_raftery};
 use crate::sampler::{MetropolisHastings, MhSettings, RunOutcome, Start};
 use nalgebra::DMatrix;
 use serde::Serialize;
+use std::borrow::Cow;
 use std::path::Path;
 use std::time::Instant;
 
@@ -174,19 +175,22 @@ pub fn run(
     let mut parents: Vec<usize> = study.select_models.iter().map(|m| m.spec.model).collect();
     parents.sort_unstable();
     parents.dedup();
-    let mut exacts: Vec<(usize, Likelihood)> = Vec::new();
+    let mut exacts: Vec<(usize, Cow<Likelihood>)> = Vec::new();
     for &mi in &parents {
         let lik = if mi == study.fit_model.model {
-            prep.likelihood.clone()
+            Cow::Borrowed(&prep.likelihood)
         } else {
-            likelihood_of(study, mi, &prep.dataset).map_err(|e| SelectError::Model {
-                model: study.models.defs[mi].name().to_string(),
-                msg: e.to_string(),
-            })?
+            Cow::Owned(
+                likelihood_of(study, mi, &prep.dataset).map_err(|e| SelectError::Model {
+                    model: study.models.defs[mi].name().to_string(),
+                    msg: e.to_string(),
+                })?,
+            )
         };
         exacts.push((mi, lik));
     }
-    let exact_of = |mi: usize| &exacts.iter().find(|(i, _)| *i == mi).expect("built").1;
+    let exact_of =
+        |mi: usize| -> &Likelihood { &exacts.iter().find(|(i, _)| *i == mi).expect("built").1 };
     let first = exact_of(study.select_models[0].spec.model);
     let seed = sel.seed.unwrap_or(study.seed.wrapping_add(2));
     let n_sbic = sel.schwarz_n.unwrap_or(first.n_real_data() as f64);
