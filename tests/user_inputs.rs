@@ -29,14 +29,17 @@ fn user_defined_closed_loop_reproduces_the_builtin_model() {
         }
         points.push(p);
     }
+    let mut worst_l: f64 = 0.0;
     for p in &points {
         let a = user.ln_likelihood_full(p);
         let b = builtin.ln_likelihood_full(p);
         assert!(((a - b) / b).abs() < 1e-10, "ln L {a} vs {b} at {p:?}");
+        worst_l = worst_l.max(((a - b) / b).abs());
     }
     let free: Vec<usize> = (0..7).collect();
     let fu = fisher_exact(user, &truth, &free);
     let fb = fisher_exact(&builtin, &truth, &free);
+    let mut worst_f: f64 = 0.0;
     for i in 0..7 {
         for j in 0..7 {
             let scale = (fb[(i, i)] * fb[(j, j)]).sqrt();
@@ -47,8 +50,16 @@ fn user_defined_closed_loop_reproduces_the_builtin_model() {
                 fu[(i, j)],
                 fb[(i, j)]
             );
+            worst_f = worst_f.max(e);
         }
     }
+    eprintln!(
+        "user vs built-in: ln L {worst_l:.1e} relative, Fisher {worst_f:.1e} (F00 {:e} vs {:e}, F26 {:e} vs {:e})",
+        fu[(0, 0)],
+        fb[(0, 0)],
+        fu[(2, 6)],
+        fb[(2, 6)]
+    );
 }
 
 fn write_csv(path: &Path, header: &[&str], cols: &[&[f64]], fs: f64) {
@@ -369,5 +380,6 @@ fn relative_binning_handles_a_coefficient_that_vanishes_at_the_fiducial_point() 
             .collect();
         worst = worst.max((rb.ln_likelihood_full(&p) - lik.ln_likelihood_full(&p)).abs());
     }
+    eprintln!("vanishing coefficient: worst |Δ ln L| = {worst:.2e}");
     assert!(worst < 0.01, "worst |Δ ln L| = {worst}");
 }
