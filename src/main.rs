@@ -239,16 +239,27 @@ fn run_select(study: &Study, out: &std::path::Path, quiet: bool) -> Result<()> {
     }
     occam::select::write_outputs(&s, out)?;
     println!("{}", occam::select::table(&s));
+    let yes_no = |b: bool| if b { "yes" } else { "no" };
     for p in &s.pairs {
         println!(
-            "{}/{}: reference {}; preferred model {} ({}); all estimators agree: {}",
+            "{}/{}: reference {}; preferred model {} ({}); statistical estimators agree within errors: {}; Laplace estimates within 1 nat: {}",
             p.x,
             p.y,
             p.reference,
             p.preferred,
             p.kass_raftery,
-            if p.all_agree { "yes" } else { "no" }
+            yes_no(p.all_agree),
+            p.systematic_agree.map_or("–", yes_no)
         );
+    }
+    if let Some(pp) = &s.posterior_model_probabilities {
+        let parts: Vec<String> = s
+            .models
+            .iter()
+            .zip(pp)
+            .map(|(m, p)| format!("{} {p:.4}", m.name))
+            .collect();
+        println!("posterior model probabilities: {}", parts.join(", "));
     }
     println!(
         "rho_opt = {} (simulation noise model), {:.4e} (analysis noise estimate); RJ visits {:?} over {} iterations ({:.0} iterations/s)",

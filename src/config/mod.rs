@@ -285,6 +285,17 @@ pub struct SelectModelEntry {
     pub prior_probability: Option<f64>,
 }
 
+/// Location and covariance of a model's reversible-jump proposal.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum JumpProposal {
+    /// The mean and covariance of the model's in-model chains (default): right also where
+    /// the posterior fills its prior box and the Fisher Gaussian overhangs it.
+    Chain,
+    /// The MAP and the inverse Fisher matrix there (K14's choice).
+    Fisher,
+}
+
 /// `[select]`: Bayes factors between two or more nested models with every estimator.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -293,8 +304,10 @@ pub struct SelectOptions {
     /// Reversible-jump iterations (each: an in-model step and a jump attempt).
     pub rj_iterations: usize,
     pub rj_burn_in: usize,
-    /// `c` of the jump proposals `N(θ̂_k, c² F_k⁻¹)`.
+    /// `c` of the jump proposals `N(μ_k, c² Σ_k)`.
     pub jump_scale: f64,
+    /// Where `μ_k, Σ_k` of the jump proposals come from.
+    pub jump_proposal: JumpProposal,
     /// Degrees of freedom of a Student-t jump proposal; 0 for Gaussian.
     pub student_t: f64,
     /// Metropolis–Hastings per model for Laplace–Metropolis: chains, iterations, burn-in.
@@ -315,6 +328,7 @@ impl Default for SelectOptions {
             rj_iterations: 100_000,
             rj_burn_in: 2_000,
             jump_scale: 1.2,
+            jump_proposal: JumpProposal::Chain,
             student_t: 0.0,
             chains: 2,
             iterations: 12_000,

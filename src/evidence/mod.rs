@@ -119,7 +119,7 @@ pub enum EvidenceError {
     },
     /// The expansion point is on or outside the prior support and no box correction was asked.
     #[error(
-        "θ̂ of `{param}` = {value} is on or outside its prior bounds [{lo}, {hi}]: the plain Laplace formula does not apply; enable the box-mass correction (LaplaceOptions::box_correction) and pass the unconstrained maximum"
+        "θ̂ of `{param}` = {value} is on or outside its prior bounds [{lo}, {hi}]: the plain Laplace formula does not apply at a bound; the box-corrected form (expanded at the unconstrained maximum, times the Gaussian's mass inside the box) does"
     )]
     OnBoundary {
         param: String,

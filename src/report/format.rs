@@ -185,6 +185,26 @@ pub fn kass_raftery(ln_b: f64) -> &'static str {
     }
 }
 
+/// The Kass & Raftery (1995) grade of `ln B_XY` naming the models, e.g. `"strong evidence for
+/// Y over X"` with `x = "X"`, `y = "Y"` (the grades of [`kass_raftery`]).
+///
+/// ```
+/// use occam::report::kass_raftery_named;
+/// assert_eq!(kass_raftery_named(-4.0, "delay", "pole"), "strong evidence for pole over delay");
+/// assert_eq!(kass_raftery_named(0.3, "delay", "pole"), "not worth more than a bare mention");
+/// ```
+pub fn kass_raftery_named(ln_b: f64, x: &str, y: &str) -> String {
+    let grade = kass_raftery(ln_b);
+    let (win, lose) = if ln_b > 0.0 { (x, y) } else { (y, x) };
+    match grade
+        .strip_suffix(" for X")
+        .or_else(|| grade.strip_suffix(" for Y"))
+    {
+        Some(g) => format!("{g} for {win} over {lose}"),
+        None => grade.to_string(),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -34,7 +34,7 @@ use std::path::PathBuf;
 
 pub use bars::model_histogram;
 pub use corner::corner_plot;
-pub use format::{fmt_pm, fmt_sig, kass_raftery};
+pub use format::{fmt_pm, fmt_sig, kass_raftery, kass_raftery_named};
 pub use lines::{LinePlot, bayes_factor_evolution, line_plot};
 pub use table::Table;
 pub use trace::trace_plot;

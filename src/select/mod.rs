@@ -1,0 +1,268 @@
+//! `occam select`: Bayes factors between nested models with every estimator side by side
+//! (reversible jump, Laplace–Fisher raw and box-corrected, Laplace–Metropolis with MVE and
+//! MCD, Schwarz), the paper's Table II layout, the evolution of B (Fig. 2) and the model-visit
+//! histogram (Fig. 4).
+//!
+//! No estimator's failure ends a run: each per-model stage ([`model`]) and each row of a pair
+//! ([`pair`]) that cannot apply carries a note saying why, and every other estimator still
+//! reports.
+
+mod model;
+mod output;
+mod pair;
+
+pub use output::{table, write_outputs};
+pub use pair::{EstimateKind, JumpStats, PairEstimate, PairResult};
+
+use crate::analysis::{Prepared, likelihood_of, model_warnings, truth_of};
+use crate::config::Study;
+use crate::density::LogDensity;
+use crate::evidence::{LaplaceEstimate, ProposalShape, RjModel, RjOptions, RjResult, run_rjmcmc};
+use crate::likelihood::Likelihood;
+use crate::nested::SubModel;
+use model::Sampled;
+use serde::Serialize;
+use std::borrow::Cow;
+use std::time::Instant;
+
+/// Errors of a model-selection run.
+#[derive(Debug, thiserror::Error)]
+pub enum SelectError {
+    #[error("{0}")]
+    Config(String),
+    #[error("model `{model}`: {msg}")]
+    Model { model: String, msg: String },
+    #[error(transparent)]
+    Report(#[from] crate::report::ReportError),
+    #[error("{0}")]
+    Io(String),
+}
+
+/// A per-model `ln Z` estimate, or why the estimator does not apply.
+#[derive(Debug, Clone, Serialize)]
+pub struct Evidence {
+    pub ln_z: Option<f64>,
+    /// Monte-Carlo standard error (statistical estimators only).
+    pub std_err: Option<f64>,
+    /// Quadrature error of a systematic estimator's box mass (not a statistical error).
+    pub integration_err: Option<f64>,
+    /// What a systematic estimator assumes.
+    pub assumes: Option<String>,
+    /// Why there is no number (the estimator's own error), or a caveat.
+    pub note: Option<String>,
+}
+
+impl Evidence {
+    /// A Laplace-type estimate: its error is the failure of `assumes`, not a ± value.
+    fn systematic(r: Result<LaplaceEstimate, String>, assumes: String) -> Self {
+        match r {
+            Ok(e) => Self {
+                ln_z: Some(e.ln_z),
+                std_err: None,
+                integration_err: e.std_err,
+                assumes: Some(assumes),
+                note: None,
+            },
+            Err(m) => Self {
+                ln_z: None,
+                std_err: None,
+                integration_err: None,
+                assumes: None,
+                note: Some(m),
+            },
+        }
+    }
+}
+
+/// Per-model results.
+#[derive(Debug, Clone, Serialize)]
+pub struct ModelOutcome {
+    pub name: String,
+    /// The model this is a sub-model of.
+    pub model: String,
+    /// That model's parameters (the order of `map` and `unbounded_max`).
+    pub params: Vec<String>,
+    pub free: Vec<String>,
+    pub prior_probability: f64,
+    /// MAP (full parameter vector of the model), inside the prior box; the search's start
+    /// point when `map_found` is false.
+    pub map: Vec<f64>,
+    pub map_found: bool,
+    pub ln_l_map: f64,
+    /// Unconstrained maximum of `ln L` (the box-corrected Laplace expansion point), when found.
+    pub unbounded_max: Option<Vec<f64>>,
+    /// Smallest distance of the MAP from a prior bound, in Fisher σ.
+    pub min_margin_sigma: f64,
+    pub laplace_fisher_raw: Evidence,
+    pub laplace_fisher_box: Evidence,
+    pub laplace_metropolis_mve: Evidence,
+    pub laplace_metropolis_mcd: Evidence,
+    pub schwarz_ln_z: f64,
+    /// In-model MCMC: acceptance per chain and worst R-hat (absent when the chains failed).
+    pub mcmc_acceptance: Vec<f64>,
+    pub mcmc_max_rhat: Option<f64>,
+    /// Where the reversible-jump proposal of this model comes from.
+    pub jump_proposal: String,
+    /// Stages that did not apply, and why.
+    pub notes: Vec<String>,
+}
+
+/// Everything `occam select` reports.
+#[derive(Debug, Clone, Serialize)]
+pub struct SelectSummary {
+    pub origin: String,
+    /// ρ_opt of the injections under the simulation's exact noise model (when simulated).
+    pub rho_opt_simulated: Option<f64>,
+    /// ρ_opt = √⟨h|h⟩ at the truth (or the first model's MAP) under the analysis's noise
+    /// estimate (Welch by default), which differs from the model noise at low frequencies.
+    pub rho_opt: f64,
+    pub n_bins: usize,
+    pub schwarz_n: f64,
+    pub models: Vec<ModelOutcome>,
+    pub pairs: Vec<PairResult>,
+    /// `P(k|y)` from the reference `ln B` of every pair with the first model and the prior
+    /// model probabilities (`None` when a pair has no reference number).
+    pub posterior_model_probabilities: Option<Vec<f64>>,
+    pub rj: RjResult,
+    pub rj_iterations_per_second: f64,
+    pub seconds: f64,
+    /// Warnings about the models, the data and the estimators.
+    pub warnings: Vec<String>,
+}
+
+/// Runs every estimator on the study's `[[select.model]]` list. Each competing model is a
+/// sub-model of one of the study's models; each of those gets its own exact likelihood on the
+/// data (the `[fit]` model's is `prep.likelihood`).
+pub fn run(
+    study: &Study,
+    prep: &Prepared,
+    progress: Option<&mut dyn FnMut(&crate::evidence::RjProgress<'_>)>,
+) -> Result<SelectSummary, SelectError> {
+    let t0 = Instant::now();
+    let sel = &study.select;
+    if study.select_models.len() < 2 {
+        return Err(SelectError::Config(format!(
+            "{}: `select.model`: model selection needs at least two [[select.model]] tables",
+            study.source
+        )));
+    }
+    // one exact likelihood per parent model in use
+    let mut parents: Vec<usize> = study.select_models.iter().map(|m| m.spec.model).collect();
+    parents.sort_unstable();
+    parents.dedup();
+    let mut exacts: Vec<(usize, Cow<Likelihood>)> = Vec::new();
+    for &mi in &parents {
+        let lik = if mi == study.fit_model.model {
+            Cow::Borrowed(&prep.likelihood)
+        } else {
+            Cow::Owned(
+                likelihood_of(study, mi, &prep.dataset).map_err(|e| SelectError::Model {
+                    model: study.models.defs[mi].name().to_string(),
+                    msg: e.to_string(),
+                })?,
+            )
+        };
+        exacts.push((mi, lik));
+    }
+    let exact_of =
+        |mi: usize| -> &Likelihood { &exacts.iter().find(|(i, _)| *i == mi).expect("built").1 };
+    let first = exact_of(study.select_models[0].spec.model);
+    let seed = sel.seed.unwrap_or(study.seed.wrapping_add(2));
+    let n_sbic = sel.schwarz_n.unwrap_or(first.n_real_data() as f64);
+    let mut runs = Vec::new();
+    for (k, m) in study.select_models.iter().enumerate() {
+        let r = model::run_model(
+            study,
+            exact_of(m.spec.model),
+            m,
+            seed.wrapping_add(k as u64),
+            n_sbic,
+        )
+        .map_err(|msg| SelectError::Model {
+            model: m.name.clone(),
+            msg,
+        })?;
+        runs.push(r);
+    }
+    // reversible jump over all models, each on its own sampled likelihood
+    let targets: Vec<&dyn LogDensity> = runs
+        .iter()
+        .map(|r| match &r.sampled {
+            Sampled::RelBin(rb) => rb.as_ref() as &dyn LogDensity,
+            Sampled::Exact(mi) => exact_of(*mi) as &dyn LogDensity,
+        })
+        .collect();
+    let subs: Vec<SubModel<&dyn LogDensity>> = runs
+        .iter()
+        .zip(&targets)
+        .map(|(r, t)| SubModel::new(*t, r.spec.free.clone(), r.base.clone()))
+        .collect::<Result<_, _>>()
+        .map_err(|e| SelectError::Config(e.to_string()))?;
+    let rj_models: Vec<RjModel<'_>> = runs
+        .iter()
+        .zip(&subs)
+        .zip(&study.select_models)
+        .map(|((r, s), m)| RjModel {
+            name: m.name.clone(),
+            target: s as &dyn LogDensity,
+            center: r.jump_center.clone(),
+            cov: r.jump_cov.clone(),
+        })
+        .collect();
+    let opts = RjOptions {
+        n_iter: sel.rj_iterations,
+        burn_in: sel.rj_burn_in,
+        seed,
+        prior_model_probs: Some(
+            study
+                .select_models
+                .iter()
+                .map(|m| m.prior_probability)
+                .collect(),
+        ),
+        proposal: if sel.student_t > 0.0 {
+            ProposalShape::StudentT { nu: sel.student_t }
+        } else {
+            ProposalShape::Gaussian
+        },
+        jump_scale: sel.jump_scale,
+        ..Default::default()
+    };
+    let t_rj = Instant::now();
+    let rj = run_rjmcmc(&rj_models, &opts, progress)
+        .map_err(|e| SelectError::Config(format!("reversible jump: {e}")))?;
+    let rj_rate = sel.rj_iterations as f64 / t_rj.elapsed().as_secs_f64();
+    let models: Vec<ModelOutcome> = runs.into_iter().map(|r| r.outcome).collect();
+    let mut pairs = Vec::new();
+    for x in 0..models.len() {
+        for y in x + 1..models.len() {
+            pairs.push(pair::pair(&models, &rj, x, y));
+        }
+    }
+    let mut warnings: Vec<String> = parents
+        .iter()
+        .flat_map(|&mi| model_warnings(study, mi, &prep.dataset))
+        .collect();
+    for m in &models {
+        warnings.extend(m.notes.iter().map(|n| format!("model `{}`: {n}", m.name)));
+    }
+    // ρ_opt at the truth where the first model has every true value, else at its MAP
+    let m0 = study.select_models[0].spec.model;
+    let truth_snr = truth_of(study, m0, &prep.dataset)
+        .and_then(|t| t.into_iter().collect::<Option<Vec<f64>>>())
+        .map(|t| first.snr(&t));
+    Ok(SelectSummary {
+        origin: prep.origin.clone(),
+        rho_opt_simulated: prep.dataset.extra.get("snr_total").and_then(|v| v.as_f64()),
+        rho_opt: truth_snr.unwrap_or_else(|| first.snr(&models[0].map)),
+        n_bins: first.n_bins(),
+        schwarz_n: n_sbic,
+        posterior_model_probabilities: pair::posterior_probabilities(&models, &pairs),
+        models,
+        pairs,
+        rj,
+        rj_iterations_per_second: rj_rate,
+        seconds: t0.elapsed().as_secs_f64(),
+        warnings,
+    })
+}

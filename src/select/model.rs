@@ -1,0 +1,438 @@
+//! One competing model's share of `occam select`: its MAP, Fisher matrix, sampled likelihood,
+//! in-model chains, jump proposal and every per-model evidence estimate.
+//!
+//! Each step that can fail leaves a note and lets the others run: a MAP search that does not
+//! converge, a singular Fisher matrix, a diverging unconstrained search, chains with too few
+//! distinct samples. Only a model with no point inside its prior where `ln L` is finite stops
+//! the run (nothing can be computed for it).
+
+use super::{Evidence, ModelOutcome};
+use crate::analysis::{default_start, relbin_of};
+use crate::config::{JumpProposal, LikelihoodKind, ModelSpec, SelectModel, Study};
+use crate::density::LogDensity;
+use crate::evidence::{
+    LaplaceOptions, McdOptions, MveOptions, RobustMethod, laplace_fisher, laplace_metropolis,
+    schwarz_ln_z,
+};
+use crate::likelihood::{
+    Likelihood, RelBinLikelihood, fisher_exact, fisher_scoring, fisher_scoring_unbounded,
+};
+use crate::nested::SubModel;
+use crate::prior::{Prior, PriorKind};
+use crate::sampler::{Chains, MetropolisHastings, MhSettings, RunOutcome, Start};
+use nalgebra::DMatrix;
+use rand::SeedableRng;
+use rand_distr::{Distribution, StandardNormal};
+use rand_xoshiro::Xoshiro256PlusPlus;
+
+/// The likelihood the samplers of one model run on.
+pub(super) enum Sampled {
+    /// Relative-binned around the model's MAP.
+    RelBin(Box<RelBinLikelihood>),
+    /// The exact likelihood of the parent model (index into the study's models).
+    Exact(usize),
+}
+
+/// What the reversible-jump stage needs from one model.
+pub(super) struct ModelRun {
+    pub outcome: ModelOutcome,
+    pub spec: ModelSpec,
+    pub sampled: Sampled,
+    /// Full parameter vector the sub-model embeds into (MAP, or the best sample).
+    pub base: Vec<f64>,
+    /// Location and covariance of the jump proposal (free parameters).
+    pub jump_center: Vec<f64>,
+    pub jump_cov: DMatrix<f64>,
+}
+
+fn free_vec(th: &[f64], free: &[usize]) -> Vec<f64> {
+    free.iter().map(|&i| th[i]).collect()
+}
+
+/// Standard deviation of one prior marginal: the spread a proposal never needs to exceed.
+fn prior_sd(k: &PriorKind) -> f64 {
+    match *k {
+        PriorKind::Uniform { lo, hi } | PriorKind::LogUniform { lo, hi } => {
+            (hi - lo) / 12f64.sqrt()
+        }
+        PriorKind::Gaussian { sigma, .. } => sigma,
+    }
+}
+
+/// The inverse of a symmetric positive-definite matrix whose diagonal spans many decades (a
+/// Fisher matrix in SI units: ω² and delays differ by 10¹⁸ in scale), computed after Jacobi
+/// scaling so that the Cholesky factorisation sees a matrix of unit diagonal. `None` when the
+/// matrix is not positive definite (a parameter the data do not constrain).
+pub(super) fn spd_inverse(f: &DMatrix<f64>) -> Option<DMatrix<f64>> {
+    let n = f.nrows();
+    let mut s = vec![0.0; n];
+    for i in 0..n {
+        let d = f[(i, i)];
+        if !(d.is_finite() && d > 0.0) {
+            return None;
+        }
+        s[i] = 1.0 / d.sqrt();
+    }
+    let g = DMatrix::from_fn(n, n, |i, j| f[(i, j)] * s[i] * s[j]);
+    let inv = g.cholesky()?.inverse();
+    let out = DMatrix::from_fn(n, n, |i, j| inv[(i, j)] * s[i] * s[j]);
+    out.iter().all(|v| v.is_finite()).then_some(out)
+}
+
+/// `cov` with every marginal standard deviation capped at the prior's (correlations kept):
+/// where the Fisher Gaussian is wider than the prior, the prior is the better description of
+/// the posterior, and a random walk or a start draw from the wider Gaussian almost never lands
+/// inside the box.
+pub(super) fn cap_to_prior(cov: &DMatrix<f64>, prior: &Prior) -> DMatrix<f64> {
+    let n = cov.nrows();
+    let f: Vec<f64> = (0..n)
+        .map(|i| {
+            let sd = cov[(i, i)].sqrt();
+            let cap = prior_sd(&prior.kinds()[i]);
+            if sd > cap { cap / sd } else { 1.0 }
+        })
+        .collect();
+    DMatrix::from_fn(n, n, |i, j| cov[(i, j)] * f[i] * f[j])
+}
+
+/// The prior's own covariance (diagonal): the proposal of last resort.
+fn prior_cov(prior: &Prior) -> DMatrix<f64> {
+    DMatrix::from_diagonal(&nalgebra::DVector::from_iterator(
+        prior.dim(),
+        prior.kinds().iter().map(|k| prior_sd(k).powi(2)),
+    ))
+}
+
+/// Chain starts inside the prior with a finite `ln L`: draws from `N(centre, cov)` truncated to
+/// the prior support (by rejection), and prior draws where the Gaussian misses the support
+/// (MAP on a corner of a box the Gaussian overhangs). Chain `c` draws from its own stream
+/// `seed + 1000 + c`, so the starts do not depend on the number of threads.
+pub(super) fn chain_starts<D: LogDensity + ?Sized>(
+    target: &D,
+    centre: &[f64],
+    cov: &DMatrix<f64>,
+    n_chains: usize,
+    seed: u64,
+) -> Result<Vec<Vec<f64>>, String> {
+    let d = centre.len();
+    let l = cov.clone().cholesky().map(|c| c.l());
+    let ok = |th: &[f64]| target.ln_posterior(th).is_finite();
+    let mut starts = Vec::with_capacity(n_chains);
+    for c in 0..n_chains {
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed.wrapping_add(1000 + c as u64));
+        let mut found = None;
+        if let Some(l) = &l {
+            for _ in 0..1000 {
+                let z: Vec<f64> = (0..d).map(|_| StandardNormal.sample(&mut rng)).collect();
+                let th: Vec<f64> = (0..d)
+                    .map(|i| centre[i] + (0..=i).map(|j| l[(i, j)] * z[j]).sum::<f64>())
+                    .collect();
+                if ok(&th) {
+                    found = Some(th);
+                    break;
+                }
+            }
+        }
+        if found.is_none() {
+            for _ in 0..1000 {
+                let th = target.prior().sample(&mut rng);
+                if ok(&th) {
+                    found = Some(th);
+                    break;
+                }
+            }
+        }
+        match found {
+            Some(th) => starts.push(th),
+            None => {
+                return Err(
+                    "no start point inside the prior with a finite ln L in 2000 draws (around the MAP and from the prior): the likelihood is not finite over the prior box; narrow the prior"
+                        .into(),
+                );
+            }
+        }
+    }
+    Ok(starts)
+}
+
+/// The in-model chains' samples as a matrix (rows = samples).
+fn sample_matrix(chains: &Chains) -> DMatrix<f64> {
+    let d = chains.dim();
+    let n = chains.n_kept() * chains.chains().len();
+    let mut m = DMatrix::<f64>::zeros(n, d);
+    let mut r = 0;
+    for c in chains.chains() {
+        for s in c.samples.chunks(d) {
+            for j in 0..d {
+                m[(r, j)] = s[j];
+            }
+            r += 1;
+        }
+    }
+    m
+}
+
+/// Runs every per-model stage for competing model `m` on its parent's exact likelihood.
+pub(super) fn run_model(
+    study: &Study,
+    exact: &Likelihood,
+    m: &SelectModel,
+    seed: u64,
+    n_sbic: f64,
+) -> Result<ModelRun, String> {
+    let spec = &m.spec;
+    let free = &spec.free;
+    let d = free.len();
+    let names = exact.model().param_names().to_vec();
+    let free_names: Vec<String> = free.iter().map(|&i| names[i].clone()).collect();
+    let sel = &study.select;
+    let mut notes = Vec::new();
+    let start = default_start(study, spec);
+
+    // MAP (bounded) and the Fisher matrix there
+    let map = fisher_scoring(exact, &start, free, 1e-3, 200);
+    let (map_theta, map_err) = match &map {
+        Ok(r) => (Some(r.theta.clone()), None),
+        Err(e) => (None, Some(format!("MAP search: {e}"))),
+    };
+    if let Some(e) = &map_err {
+        notes.push(e.clone());
+    }
+    let base = map_theta.clone().unwrap_or_else(|| start.clone());
+    let sub_exact = SubModel::new(exact, free.clone(), base.clone()).map_err(|e| e.to_string())?;
+    let prior = sub_exact.prior().clone();
+    let f_map = fisher_exact(exact, &base, free);
+    let fisher_cov = spd_inverse(&f_map);
+    if fisher_cov.is_none() {
+        notes.push(format!(
+            "the Fisher matrix at the {} is singular: the data do not constrain some of {:?}",
+            if map_theta.is_some() {
+                "MAP"
+            } else {
+                "start point"
+            },
+            free_names
+        ));
+    }
+    let walk_cov = fisher_cov
+        .as_ref()
+        .map(|c| cap_to_prior(c, &prior))
+        .unwrap_or_else(|| prior_cov(&prior));
+
+    // the sampled likelihood
+    let sampled = match study.analysis.likelihood {
+        LikelihoodKind::Relbin => match relbin_of(study, exact, &base) {
+            Ok(rb) => Sampled::RelBin(Box::new(rb)),
+            Err(e) => {
+                notes.push(format!(
+                    "relative binning not used ({e}); the samplers run on the exact likelihood"
+                ));
+                Sampled::Exact(spec.model)
+            }
+        },
+        LikelihoodKind::Exact => Sampled::Exact(spec.model),
+    };
+    let target: &dyn LogDensity = match &sampled {
+        Sampled::RelBin(rb) => rb.as_ref(),
+        Sampled::Exact(_) => exact,
+    };
+    let sub_s = SubModel::new(target, free.clone(), base.clone()).map_err(|e| e.to_string())?;
+
+    // in-model chains from starts inside the prior
+    let centre = free_vec(&base, free);
+    let starts = chain_starts(&sub_s, &centre, &walk_cov, sel.chains, seed)?;
+    let settings = MhSettings {
+        n_iter: sel.iterations,
+        burn_in: sel.burn_in,
+        thin: 1,
+        n_chains: sel.chains,
+        seed,
+        anneal: None,
+        adapt: Some(crate::sampler::Adapt {
+            start: sel.burn_in / 5,
+            ..Default::default()
+        }),
+        checkpoint_every: sel.iterations,
+        progress_every: sel.iterations,
+    };
+    let prop = &walk_cov * (2.38f64.powi(2) / d.max(1) as f64);
+    let chains = MetropolisHastings::new(&sub_s, &prop, settings)
+        .and_then(|mh| mh.run(&Start::PerChain(starts)))
+        .map_err(|e| e.to_string())
+        .and_then(|o| match o {
+            RunOutcome::Finished(c) => Ok(c),
+            RunOutcome::Stopped { .. } => Err("the in-model chains stopped early".to_string()),
+        });
+    let chains = match chains {
+        Ok(c) => Some(c),
+        Err(e) => {
+            notes.push(format!("in-model chains: {e}"));
+            None
+        }
+    };
+    let diag = chains.as_ref().and_then(|c| c.diagnostics().ok());
+
+    // jump proposal: the chains' mean and covariance, or the Fisher Gaussian
+    let chain_moments = chains.as_ref().and_then(|c| {
+        let cov = DMatrix::from_row_slice(d, d, &c.covariance());
+        spd_inverse(&cov).map(|_| (c.mean(), cov))
+    });
+    let (jump_center, jump_cov, jump_source) = match (sel.jump_proposal, chain_moments) {
+        (JumpProposal::Chain, Some((mu, cov))) => (mu, cov, "in-model chains"),
+        (JumpProposal::Chain, None) | (JumpProposal::Fisher, _) => match &fisher_cov {
+            Some(c) => (centre.clone(), c.clone(), "Fisher matrix at the MAP"),
+            None => (centre.clone(), prior_cov(&prior), "prior covariance"),
+        },
+    };
+    if sel.jump_proposal == JumpProposal::Chain && jump_source != "in-model chains" {
+        notes.push(format!(
+            "the jump proposal uses the {jump_source}: the in-model chains gave no covariance"
+        ));
+    }
+
+    // Laplace–Fisher: raw at the MAP, box-corrected at the unconstrained maximum
+    let lf_raw = match (&map_theta, &fisher_cov) {
+        (Some(th), Some(_)) => laplace_fisher(
+            &sub_exact,
+            &free_vec(th, free),
+            &f_map,
+            &LaplaceOptions {
+                box_correction: false,
+                ..Default::default()
+            },
+        )
+        .map_err(|e| e.to_string()),
+        (None, _) => Err(format!(
+            "needs the MAP ({})",
+            map_err.clone().unwrap_or_default()
+        )),
+        (_, None) => Err("needs a non-singular Fisher matrix at the MAP".into()),
+    };
+    let min_margin_sigma = lf_raw.as_ref().map_or(0.0, |e| e.min_margin_sigma);
+    let unb = fisher_scoring_unbounded(exact, &base, free, 1e-3, 200).map_err(|e| {
+        format!("the unconstrained maximum of ln L was not found ({e}); the box-corrected expansion needs it")
+    });
+    let lf_box = unb.as_ref().map_err(|e| e.clone()).and_then(|u| {
+        let f = fisher_exact(exact, &u.theta, free);
+        laplace_fisher(
+            &sub_exact,
+            &free_vec(&u.theta, free),
+            &f,
+            &LaplaceOptions::default(),
+        )
+        .map_err(|e| e.to_string())
+    });
+
+    // Laplace–Metropolis at the best sample, ln L exact there
+    let (lm_mve, lm_mcd, best) = match &chains {
+        Some(c) => {
+            let samples = sample_matrix(c);
+            let best = c.max_posterior().theta.to_vec();
+            let lm = |method: RobustMethod| {
+                laplace_metropolis(&sub_exact, &best, &samples, &method).map_err(|e| e.to_string())
+            };
+            (
+                lm(RobustMethod::Mve(MveOptions::default())),
+                lm(RobustMethod::Mcd(McdOptions::default())),
+                Some(best),
+            )
+        }
+        None => {
+            let why = Err::<crate::evidence::LaplaceEstimate, String>(
+                "needs the in-model chains, which did not run".into(),
+            );
+            (why.clone(), why, None)
+        }
+    };
+    // Schwarz at the MAP, or at the best sample when there is no MAP
+    let ln_l_map = match (&map_theta, &best) {
+        (Some(th), _) => exact.ln_likelihood_full(th),
+        (None, Some(b)) => sub_exact.ln_likelihood(b),
+        (None, None) => exact.ln_likelihood_full(&base),
+    };
+    let schwarz = schwarz_ln_z(ln_l_map, d, n_sbic).map_err(|e| e.to_string())?;
+
+    let raw_assumes = format!(
+        "a Gaussian posterior around the MAP, the prior box ignored (MAP {min_margin_sigma:.1} σ inside the nearest bound)"
+    );
+    let box_assumes =
+        "a Gaussian likelihood around its unconstrained maximum, cut by the prior box".to_string();
+    let lm_assumes = "a Gaussian posterior with the chains' robust covariance, centred on the best sample, the prior box ignored".to_string();
+    let outcome = ModelOutcome {
+        name: m.name.clone(),
+        model: exact.model().name().to_string(),
+        params: names.clone(),
+        free: free_names,
+        prior_probability: m.prior_probability,
+        map: base.clone(),
+        map_found: map_theta.is_some(),
+        ln_l_map,
+        unbounded_max: unb.map(|u| u.theta).ok(),
+        min_margin_sigma,
+        laplace_fisher_raw: Evidence::systematic(lf_raw, raw_assumes),
+        laplace_fisher_box: Evidence::systematic(lf_box, box_assumes),
+        laplace_metropolis_mve: Evidence::systematic(lm_mve, lm_assumes.clone()),
+        laplace_metropolis_mcd: Evidence::systematic(lm_mcd, lm_assumes),
+        schwarz_ln_z: schwarz,
+        mcmc_acceptance: diag.as_ref().map_or(Vec::new(), |g| g.acceptance.clone()),
+        mcmc_max_rhat: diag
+            .as_ref()
+            .map(|g| g.rhat.iter().cloned().fold(0.0, f64::max)),
+        jump_proposal: jump_source.to_string(),
+        notes,
+    };
+    Ok(ModelRun {
+        outcome,
+        spec: spec.clone(),
+        sampled,
+        base,
+        jump_center,
+        jump_cov,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn spd_inverse_handles_decades_of_scale_and_rejects_singular() {
+        // a Fisher matrix with ω²-like and delay-like scales (10³⁶ apart on the diagonal)
+        let s = [1e18, 1.0, 1e-2];
+        let c = [[1.0, 0.3, -0.2], [0.3, 1.0, 0.5], [-0.2, 0.5, 1.0]];
+        let f = DMatrix::from_fn(3, 3, |i, j| c[i][j] * s[i] * s[j]);
+        let inv = spd_inverse(&f).expect("positive definite");
+        let id = &f * &inv;
+        for i in 0..3 {
+            for j in 0..3 {
+                let want = if i == j { 1.0 } else { 0.0 };
+                assert!((id[(i, j)] - want).abs() < 1e-9, "{i},{j}: {}", id[(i, j)]);
+            }
+        }
+        // a plain Cholesky of the unscaled matrix is at the edge of f64; the scaled one is not
+        let sing = DMatrix::from_row_slice(2, 2, &[1.0, 1.0, 1.0, 1.0]);
+        assert!(spd_inverse(&sing).is_none());
+        let zero = DMatrix::from_row_slice(2, 2, &[1.0, 0.0, 0.0, 0.0]);
+        assert!(spd_inverse(&zero).is_none());
+    }
+
+    #[test]
+    fn caps_each_marginal_at_the_prior_and_keeps_correlations() {
+        let prior = Prior::new(
+            vec!["a".into(), "b".into()],
+            vec![
+                PriorKind::Uniform { lo: 0.0, hi: 1.0 },
+                PriorKind::Uniform { lo: 0.0, hi: 1.0 },
+            ],
+        )
+        .unwrap();
+        // a: σ = 10 (10 box widths), b: σ = 0.01; correlation 0.5
+        let cov = DMatrix::from_row_slice(2, 2, &[100.0, 0.05, 0.05, 1e-4]);
+        let c = cap_to_prior(&cov, &prior);
+        let sd_box = 1.0 / 12f64.sqrt();
+        assert!((c[(0, 0)].sqrt() - sd_box).abs() < 1e-15);
+        assert!((c[(1, 1)] - 1e-4).abs() < 1e-18);
+        let rho = c[(0, 1)] / (c[(0, 0)] * c[(1, 1)]).sqrt();
+        assert!((rho - 0.5).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,356 @@
+//! `ln B_XY` of one pair by every estimator, the reference estimate and the verdict.
+//!
+//! # Three kinds of row
+//! * **statistical** (reversible-jump visits, Rao-Blackwell and bridge; thermodynamic
+//!   integration and stepping-stone): a Monte-Carlo estimate with a standard error. Two such
+//!   rows agree when they differ by at most 2 combined standard errors.
+//! * **systematic** (Laplace–Fisher raw and box-corrected, Laplace–Metropolis MVE and MCD):
+//!   deterministic given their inputs; their error is the failure of a Gaussian assumption,
+//!   which no error bar states. The row says what it assumes instead of a ± value, and they are
+//!   judged separately: consistent with the reference when within 1 nat plus 2 of the
+//!   reference's standard errors (1 nat is the Kass–Raftery "not worth more than a bare
+//!   mention" half-width, |2 ln B| ≤ 2: a difference below it cannot change a decision).
+//! * **criterion** (Schwarz): an asymptotic order-of-magnitude rule, reported and never judged.
+//!
+//! # The reference
+//! The first row with a number in the order: RJ bridge, stepping-stone, thermodynamic
+//! integration, RJ Rao-Blackwell, RJ visit ratio, Laplace–Fisher box, Laplace–Fisher raw. The
+//! bridge comes first because it is the minimum-variance member of the acceptance-ratio family
+//! and stays finite when a model is never visited; the tempering estimators need no jump at
+//! all, so they take over when the jump chain is not informative.
+
+use super::{Evidence, ModelOutcome};
+use crate::evidence::{LnB, RjResult};
+use crate::report::kass_raftery_named;
+use serde::Serialize;
+
+/// What kind of error an estimator's row carries (see the module docs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum EstimateKind {
+    /// Monte-Carlo estimate with a standard error.
+    Statistical,
+    /// Deterministic approximation; its error is a bias the number cannot tell.
+    Systematic,
+    /// An information criterion, never part of the verdict.
+    Criterion,
+}
+
+/// One estimator's `ln B_XY` for a pair.
+#[derive(Debug, Clone, Serialize)]
+pub struct PairEstimate {
+    pub method: String,
+    pub kind: EstimateKind,
+    pub ln_b: Option<f64>,
+    /// One-sigma Monte-Carlo error (statistical rows only).
+    pub std_err: Option<f64>,
+    /// Agreement with the reference (see the module docs); `None` for the reference itself,
+    /// Schwarz and rows without a number.
+    pub agrees: Option<bool>,
+    /// What a systematic row assumes.
+    pub assumes: Option<String>,
+    /// Why there is no number, or a caveat.
+    pub note: Option<String>,
+}
+
+/// Jump statistics between the two models of a pair.
+#[derive(Debug, Clone, Serialize)]
+pub struct JumpStats {
+    /// Post- and pre-burn-in jump proposals X → Y and accepted ones.
+    pub proposed_x_to_y: u64,
+    pub accepted_x_to_y: u64,
+    pub proposed_y_to_x: u64,
+    pub accepted_y_to_x: u64,
+}
+
+/// `ln B_XY` of one pair by every estimator.
+#[derive(Debug, Clone, Serialize)]
+pub struct PairResult {
+    pub x: String,
+    pub y: String,
+    pub estimates: Vec<PairEstimate>,
+    /// The estimator the others are compared with (the first with a number in the order of
+    /// the module docs).
+    pub reference: String,
+    pub preferred: String,
+    /// The Kass–Raftery grade of the reference `ln B`, naming the models.
+    pub kass_raftery: String,
+    /// Whether every statistical estimate with a number agrees with the reference within 2
+    /// combined standard errors.
+    pub all_agree: bool,
+    /// Whether every systematic (Laplace) estimate is within 1 nat + 2σ of the reference;
+    /// `None` when none has a number.
+    pub systematic_agree: Option<bool>,
+    pub jumps: JumpStats,
+}
+
+/// The order in which rows are tried as the reference.
+const REFERENCE_ORDER: [&str; 7] = [
+    "RJMCMC bridge",
+    "Stepping-stone",
+    "Thermodynamic integration",
+    "RJMCMC Rao-Blackwell",
+    "RJMCMC visits",
+    "Laplace-Fisher box",
+    "Laplace-Fisher raw",
+];
+
+fn from_lnb(name: &str, b: Option<LnB>, why: &str) -> PairEstimate {
+    PairEstimate {
+        method: name.into(),
+        kind: EstimateKind::Statistical,
+        ln_b: b.map(|b| b.ln_b),
+        std_err: b.and_then(|b| b.std_err),
+        agrees: None,
+        assumes: None,
+        note: b.is_none().then(|| why.to_string()),
+    }
+}
+
+/// `ln Z_X − ln Z_Y` of two per-model evidences of one method.
+fn difference(name: &str, kind: EstimateKind, a: &Evidence, b: &Evidence) -> PairEstimate {
+    let (ln_b, std_err, note) = match (a.ln_z, b.ln_z) {
+        (Some(x), Some(y)) => {
+            let err = match (a.std_err, b.std_err) {
+                (Some(p), Some(q)) => Some(p.hypot(q)),
+                _ => None,
+            };
+            (Some(x - y), err, None)
+        }
+        _ => (None, None, a.note.clone().or_else(|| b.note.clone())),
+    };
+    let assumes = match (&a.assumes, &b.assumes) {
+        (Some(p), Some(q)) if p != q => Some(format!("X: {p}; Y: {q}")),
+        (Some(p), _) => Some(p.clone()),
+        _ => None,
+    };
+    PairEstimate {
+        method: name.into(),
+        kind,
+        ln_b,
+        std_err: if kind == EstimateKind::Statistical {
+            std_err
+        } else {
+            None
+        },
+        agrees: None,
+        assumes: ln_b.and(assumes),
+        note,
+    }
+}
+
+/// Every estimator's row for models `x`, `y`, the reference and the verdict.
+pub(super) fn pair(models: &[ModelOutcome], rj: &RjResult, x: usize, y: usize) -> PairResult {
+    let (mx, my) = (&models[x], &models[y]);
+    let mut est = Vec::new();
+    let rjp = rj.pair(x, y);
+    est.push(from_lnb(
+        "RJMCMC visits",
+        rjp.as_ref().and_then(|p| p.visits),
+        "a model was never visited: the visit ratio is undefined (see Rao-Blackwell / bridge)",
+    ));
+    let mut rb = from_lnb(
+        "RJMCMC Rao-Blackwell",
+        rjp.as_ref().and_then(|p| p.rao_blackwell),
+        "no jump proposals in either direction",
+    );
+    if rb.ln_b.is_some() && rjp.as_ref().is_some_and(|p| p.visits.is_none()) {
+        rb.note = Some(
+            "one-sided: the unvisited model's mean acceptance set to its bound 1 (exact when jumps out of it are always accepted)"
+                .into(),
+        );
+    }
+    est.push(rb);
+    est.push(from_lnb(
+        "RJMCMC bridge",
+        rjp.as_ref().and_then(|p| p.bridge),
+        "no in-box proposals between the two models",
+    ));
+    let sys = EstimateKind::Systematic;
+    est.push(difference(
+        "Laplace-Fisher raw",
+        sys,
+        &mx.laplace_fisher_raw,
+        &my.laplace_fisher_raw,
+    ));
+    est.push(difference(
+        "Laplace-Fisher box",
+        sys,
+        &mx.laplace_fisher_box,
+        &my.laplace_fisher_box,
+    ));
+    est.push(difference(
+        "Laplace-Metropolis MVE",
+        sys,
+        &mx.laplace_metropolis_mve,
+        &my.laplace_metropolis_mve,
+    ));
+    est.push(difference(
+        "Laplace-Metropolis MCD",
+        sys,
+        &mx.laplace_metropolis_mcd,
+        &my.laplace_metropolis_mcd,
+    ));
+    est.push(PairEstimate {
+        method: "Schwarz (SBIC)".into(),
+        kind: EstimateKind::Criterion,
+        ln_b: Some(mx.schwarz_ln_z - my.schwarz_ln_z),
+        std_err: None,
+        agrees: None,
+        assumes: Some(
+            "n → ∞ with every parameter measured; off by O(1) nats by construction".into(),
+        ),
+        note: None,
+    });
+    let (reference, all_agree, systematic_agree) = judge(&mut est);
+    let lb = est
+        .iter()
+        .find(|e| e.method == reference)
+        .and_then(|e| e.ln_b)
+        .unwrap_or(0.0);
+    let count = |a: usize, b: usize| {
+        (
+            rj.jumps_proposed
+                .get(a)
+                .and_then(|r| r.get(b))
+                .copied()
+                .unwrap_or(0),
+            rj.jumps_accepted
+                .get(a)
+                .and_then(|r| r.get(b))
+                .copied()
+                .unwrap_or(0),
+        )
+    };
+    let (pxy, axy) = count(x, y);
+    let (pyx, ayx) = count(y, x);
+    PairResult {
+        x: mx.name.clone(),
+        y: my.name.clone(),
+        estimates: est,
+        reference,
+        preferred: if lb >= 0.0 {
+            mx.name.clone()
+        } else {
+            my.name.clone()
+        },
+        kass_raftery: kass_raftery_named(lb, &mx.name, &my.name),
+        all_agree,
+        systematic_agree,
+        jumps: JumpStats {
+            proposed_x_to_y: pxy,
+            accepted_x_to_y: axy,
+            proposed_y_to_x: pyx,
+            accepted_y_to_x: ayx,
+        },
+    }
+}
+
+/// Picks the reference and marks agreement (module docs); returns the reference's name, the
+/// statistical verdict and the systematic one.
+fn judge(est: &mut [PairEstimate]) -> (String, bool, Option<bool>) {
+    let r = REFERENCE_ORDER
+        .iter()
+        .find_map(|m| est.iter().position(|e| e.method == *m && e.ln_b.is_some()));
+    let Some(r) = r else {
+        return ("none".into(), false, None);
+    };
+    let (rv, re) = (est[r].ln_b.unwrap_or(0.0), est[r].std_err.unwrap_or(0.0));
+    let mut all_agree = true;
+    let mut sys: Option<bool> = None;
+    for (i, e) in est.iter_mut().enumerate() {
+        let Some(v) = e.ln_b else { continue };
+        if i == r {
+            continue;
+        }
+        match e.kind {
+            EstimateKind::Statistical => {
+                let ok = (v - rv).abs() <= 2.0 * e.std_err.unwrap_or(0.0).hypot(re);
+                e.agrees = Some(ok);
+                all_agree &= ok;
+            }
+            EstimateKind::Systematic => {
+                let ok = (v - rv).abs() <= 1.0 + 2.0 * re;
+                e.agrees = Some(ok);
+                sys = Some(sys.unwrap_or(true) && ok);
+            }
+            EstimateKind::Criterion => {}
+        }
+    }
+    (est[r].method.clone(), all_agree, sys)
+}
+
+/// Posterior model probabilities `P(k|y) ∝ P(k) Z_k` from the reference `ln B` of every pair
+/// (0, k); `None` when a pair has no reference number.
+pub(super) fn posterior_probabilities(
+    models: &[ModelOutcome],
+    pairs: &[PairResult],
+) -> Option<Vec<f64>> {
+    let mut ln_w = vec![models[0].prior_probability.ln()];
+    for (k, m) in models.iter().enumerate().skip(1) {
+        let p = pairs
+            .iter()
+            .find(|p| p.x == models[0].name && p.y == m.name)?;
+        let lb = p
+            .estimates
+            .iter()
+            .find(|e| e.method == p.reference)
+            .and_then(|e| e.ln_b)?;
+        debug_assert_eq!(m.name, models[k].name);
+        ln_w.push(m.prior_probability.ln() - lb);
+    }
+    let mx = ln_w.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+    let s: f64 = ln_w.iter().map(|w| (w - mx).exp()).sum();
+    Some(ln_w.iter().map(|w| (w - mx).exp() / s).collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(method: &str, kind: EstimateKind, v: Option<f64>, e: Option<f64>) -> PairEstimate {
+        PairEstimate {
+            method: method.into(),
+            kind,
+            ln_b: v,
+            std_err: e,
+            agrees: None,
+            assumes: None,
+            note: None,
+        }
+    }
+
+    #[test]
+    fn reference_falls_through_the_documented_order() {
+        use EstimateKind::*;
+        let mut est = vec![
+            row("RJMCMC visits", Statistical, None, None),
+            row("RJMCMC bridge", Statistical, None, None),
+            row("Stepping-stone", Statistical, Some(-2.0), Some(0.05)),
+            row(
+                "Thermodynamic integration",
+                Statistical,
+                Some(-2.08),
+                Some(0.05),
+            ),
+            row("Laplace-Fisher box", Systematic, Some(-2.9), None),
+            row("Schwarz (SBIC)", Criterion, Some(-9.0), None),
+        ];
+        let (r, all, sys) = judge(&mut est);
+        assert_eq!(r, "Stepping-stone");
+        // 0.08 < 2·hypot(0.05, 0.05) = 0.141: agrees
+        assert!(all);
+        assert_eq!(est[3].agrees, Some(true));
+        // 0.9 ≤ 1 + 2·0.05: the systematic row is consistent; Schwarz is never judged
+        assert_eq!(sys, Some(true));
+        assert_eq!(est[5].agrees, None);
+        // a statistical row 0.2 nat away with tiny errors disagrees
+        est[3].ln_b = Some(-2.2);
+        est[3].std_err = Some(0.01);
+        let (_, all, _) = judge(&mut est);
+        assert!(!all);
+        // nothing with a number: no reference, no verdict
+        let mut none = vec![row("RJMCMC bridge", Statistical, None, None)];
+        assert_eq!(judge(&mut none).0, "none");
+    }
+}
