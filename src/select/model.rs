@@ -402,14 +402,18 @@ mod tests {
         let c = [[1.0, 0.3, -0.2], [0.3, 1.0, 0.5], [-0.2, 0.5, 1.0]];
         let f = DMatrix::from_fn(3, 3, |i, j| c[i][j] * s[i] * s[j]);
         let inv = spd_inverse(&f).expect("positive definite");
-        let id = &f * &inv;
+        // F⁻¹ = S⁻¹ C⁻¹ S⁻¹ with C the correlation matrix and S the scales
+        let cinv = DMatrix::from_fn(3, 3, |i, j| c[i][j]).try_inverse().unwrap();
         for i in 0..3 {
             for j in 0..3 {
-                let want = if i == j { 1.0 } else { 0.0 };
-                assert!((id[(i, j)] - want).abs() < 1e-9, "{i},{j}: {}", id[(i, j)]);
+                let want = cinv[(i, j)] / (s[i] * s[j]);
+                assert!(
+                    (inv[(i, j)] - want).abs() <= 1e-12 * want.abs(),
+                    "{i},{j}: {} vs {want}",
+                    inv[(i, j)]
+                );
             }
         }
-        // a plain Cholesky of the unscaled matrix is at the edge of f64; the scaled one is not
         let sing = DMatrix::from_row_slice(2, 2, &[1.0, 1.0, 1.0, 1.0]);
         assert!(spd_inverse(&sing).is_none());
         let zero = DMatrix::from_row_slice(2, 2, &[1.0, 0.0, 0.0, 0.0]);
@@ -434,5 +438,59 @@ mod tests {
         assert!((c[(1, 1)] - 1e-4).abs() < 1e-18);
         let rho = c[(0, 1)] / (c[(0, 0)] * c[(1, 1)]).sqrt();
         assert!((rho - 0.5).abs() < 1e-12);
+    }
+
+    /// Isotropic Gaussian likelihood of width `sd` centred on a corner of the unit box.
+    struct CornerTarget {
+        sd: f64,
+        prior: Prior,
+    }
+
+    impl LogDensity for CornerTarget {
+        fn ln_likelihood(&self, th: &[f64]) -> f64 {
+            -0.5 * th.iter().map(|x| ((x - 1.0) / self.sd).powi(2)).sum::<f64>()
+        }
+        fn prior(&self) -> &Prior {
+            &self.prior
+        }
+    }
+
+    #[test]
+    fn starts_are_inside_the_box_when_the_map_is_on_a_corner_and_the_gaussian_overhangs() {
+        let d = 4;
+        let prior = Prior::new(
+            (0..d).map(|k| format!("p{k}")).collect(),
+            vec![PriorKind::Uniform { lo: 0.0, hi: 1.0 }; d],
+        )
+        .unwrap();
+        // the Fisher σ is 5 box widths: 1 in 10⁴ of the uncapped Gaussian's draws from the
+        // corner land inside (each coordinate has P ≈ 0.08 of falling in [0, 1])
+        let t = CornerTarget { sd: 5.0, prior };
+        let corner = vec![1.0; d];
+        let fisher_cov = DMatrix::from_diagonal_element(d, d, 25.0);
+        for cov in [fisher_cov.clone(), cap_to_prior(&fisher_cov, t.prior())] {
+            let starts = chain_starts(&t, &corner, &cov, 8, 3).unwrap();
+            assert_eq!(starts.len(), 8);
+            for s in &starts {
+                assert!(t.prior().contains(s), "{s:?}");
+            }
+            // dispersed, not all at the corner
+            let spread: f64 = starts.iter().map(|s| (s[0] - starts[0][0]).abs()).sum();
+            assert!(spread > 0.1, "{starts:?}");
+            // reproducible from the seed
+            assert_eq!(starts, chain_starts(&t, &corner, &cov, 8, 3).unwrap());
+        }
+        // a likelihood that is nowhere finite inside the box is a clear error, not a hang
+        struct Nowhere(Prior);
+        impl LogDensity for Nowhere {
+            fn ln_likelihood(&self, _: &[f64]) -> f64 {
+                f64::NAN
+            }
+            fn prior(&self) -> &Prior {
+                &self.0
+            }
+        }
+        let e = chain_starts(&Nowhere(t.prior().clone()), &corner, &fisher_cov, 2, 1).unwrap_err();
+        assert!(e.contains("finite ln L"), "{e}");
     }
 }
