@@ -252,6 +252,27 @@ fn run_select(study: &Study, out: &std::path::Path, quiet: bool) -> Result<()> {
             p.systematic_agree.map_or("–", yes_no)
         );
     }
+    for p in &s.pairs {
+        let j = &p.jumps;
+        let rate = |a: u64, n: u64| {
+            if n == 0 {
+                "–".to_string()
+            } else {
+                format!("{:.3}", a as f64 / n as f64)
+            }
+        };
+        println!(
+            "jumps {x}→{y}: {} of {} accepted ({}); {y}→{x}: {} of {} ({})",
+            j.accepted_x_to_y,
+            j.proposed_x_to_y,
+            rate(j.accepted_x_to_y, j.proposed_x_to_y),
+            j.accepted_y_to_x,
+            j.proposed_y_to_x,
+            rate(j.accepted_y_to_x, j.proposed_y_to_x),
+            x = p.x,
+            y = p.y,
+        );
+    }
     if let Some(pp) = &s.posterior_model_probabilities {
         let parts: Vec<String> = s
             .models
