@@ -103,7 +103,10 @@ fn low_snr_regime_every_estimator_reports_or_explains() {
     let bridge = ln_b(p, "RJMCMC bridge").unwrap();
     let visits = ln_b(p, "RJMCMC visits").unwrap();
     assert!(bridge.abs() < 1.0, "bridge ln B = {bridge}");
-    assert!((bridge - visits).abs() < 0.1, "bridge {bridge} vs visits {visits}");
+    assert!(
+        (bridge - visits).abs() < 0.1,
+        "bridge {bridge} vs visits {visits}"
+    );
     // the MAP of X is on a bound: the plain Laplace expansion does not apply and says so
     let raw = p
         .estimates

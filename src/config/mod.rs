@@ -1085,4 +1085,23 @@ design = "tn3045_x1"
         let e = err(&format!("{OK}[simulation]\ntarget_snr = inf\n"));
         assert!(e.contains("simulation.target_snr"), "{e}");
     }
+
+    #[test]
+    fn jump_proposal_source_is_chosen_by_name() {
+        let with = |v: &str| {
+            let t = OK.replacen(
+                "[[experiment]]",
+                &format!("[select]\njump_proposal = {v}\n[[experiment]]"),
+                1,
+            );
+            load(&t)
+        };
+        assert_eq!(load(OK).unwrap().select.jump_proposal, JumpProposal::Chain);
+        assert_eq!(
+            with("\"fisher\"").unwrap().select.jump_proposal,
+            JumpProposal::Fisher
+        );
+        let e = with("\"prior\"").unwrap_err().to_string();
+        assert!(e.contains("jump_proposal") && e.contains("chain"), "{e}");
+    }
 }

@@ -403,7 +403,9 @@ mod tests {
         let f = DMatrix::from_fn(3, 3, |i, j| c[i][j] * s[i] * s[j]);
         let inv = spd_inverse(&f).expect("positive definite");
         // F⁻¹ = S⁻¹ C⁻¹ S⁻¹ with C the correlation matrix and S the scales
-        let cinv = DMatrix::from_fn(3, 3, |i, j| c[i][j]).try_inverse().unwrap();
+        let cinv = DMatrix::from_fn(3, 3, |i, j| c[i][j])
+            .try_inverse()
+            .unwrap();
         for i in 0..3 {
             for j in 0..3 {
                 let want = cinv[(i, j)] / (s[i] * s[j]);
@@ -448,7 +450,10 @@ mod tests {
 
     impl LogDensity for CornerTarget {
         fn ln_likelihood(&self, th: &[f64]) -> f64 {
-            -0.5 * th.iter().map(|x| ((x - 1.0) / self.sd).powi(2)).sum::<f64>()
+            -0.5 * th
+                .iter()
+                .map(|x| ((x - 1.0) / self.sd).powi(2))
+                .sum::<f64>()
         }
         fn prior(&self) -> &Prior {
             &self.prior
