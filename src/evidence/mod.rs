@@ -12,6 +12,7 @@
 //! | Laplace–Metropolis | [`laplace::laplace_metropolis`] | best sample, posterior samples (MVE / MCD covariance) |
 //! | Schwarz (SBIC) | [`schwarz::schwarz_ln_b`] | maximum ln L of each model, n |
 //! | RJMCMC (visits, Rao-Blackwell, bridge) | [`rjmcmc::run_rjmcmc`] | θ̂ and covariance per model |
+//! | Thermodynamic integration, stepping stone | [`tempering::run_tempering`] | a start point and covariance per model |
 //!
 //! Corrections relative to K14 and LTPDA (see `ltp-model.md` §9.2–9.4): the Laplace formulas use
 //! `|H|^{−1/2}`, include `ln π(θ̂)`, and can add the Gaussian's mass inside the prior box; the
@@ -26,6 +27,7 @@ mod normal;
 pub mod rjmcmc;
 pub mod robust;
 pub mod schwarz;
+pub mod tempering;
 
 use serde::Serialize;
 
@@ -40,6 +42,9 @@ pub use rjmcmc::{
 };
 pub use robust::{McdOptions, MveOptions, RobustCovariance, RobustMethod, mcd, mve};
 pub use schwarz::{schwarz_ln_b, schwarz_ln_z};
+pub use tempering::{
+    SteppingStoneEstimate, TemperingOptions, TemperingResult, ThermodynamicEstimate, run_tempering,
+};
 
 /// Which estimator produced a number.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
