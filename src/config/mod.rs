@@ -314,6 +314,11 @@ pub struct SelectOptions {
     pub chains: usize,
     pub iterations: usize,
     pub burn_in: usize,
+    /// Parallel tempering per model (thermodynamic integration and stepping-stone): rungs
+    /// including β = 0 and 1 (0 turns it off), sweeps and burn-in sweeps.
+    pub pt_temperatures: usize,
+    pub pt_iterations: usize,
+    pub pt_burn_in: usize,
     /// Seed of the samplers (default: the study seed + 2).
     pub seed: Option<u64>,
     /// `n` of the Schwarz criterion (default: the number of real data values in the
@@ -333,6 +338,9 @@ impl Default for SelectOptions {
             chains: 2,
             iterations: 12_000,
             burn_in: 4_000,
+            pt_temperatures: 20,
+            pt_iterations: 30_000,
+            pt_burn_in: 6_000,
             seed: None,
             schwarz_n: None,
         }
@@ -833,6 +841,17 @@ fn validate_select(
             format!(
                 "need chains ≥ 1 and burn_in < iterations (got chains = {}, burn_in = {}, iterations = {})",
                 s.chains, s.burn_in, s.iterations
+            ),
+        ));
+    }
+    if s.pt_temperatures != 0
+        && (s.pt_temperatures < 3 || s.pt_burn_in >= s.pt_iterations || s.pt_temperatures > 200)
+    {
+        return Err(bad(
+            "select.pt_temperatures".into(),
+            format!(
+                "parallel tempering needs 3 to 200 rungs (0 turns it off) and pt_burn_in < pt_iterations (got {} rungs, pt_burn_in = {}, pt_iterations = {})",
+                s.pt_temperatures, s.pt_burn_in, s.pt_iterations
             ),
         ));
     }

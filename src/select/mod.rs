@@ -53,6 +53,30 @@ pub struct Evidence {
 }
 
 impl Evidence {
+    /// A Monte-Carlo estimate with its standard error.
+    fn statistical(r: Result<(f64, f64, Option<f64>), String>) -> Self {
+        match r {
+            Ok((ln_z, se, integration_err)) => Self {
+                ln_z: Some(ln_z),
+                std_err: Some(se),
+                integration_err,
+                assumes: None,
+                note: None,
+            },
+            Err(m) => Self::not_applicable(m),
+        }
+    }
+
+    fn not_applicable(note: String) -> Self {
+        Self {
+            ln_z: None,
+            std_err: None,
+            integration_err: None,
+            assumes: None,
+            note: Some(note),
+        }
+    }
+
     /// A Laplace-type estimate: its error is the failure of `assumes`, not a ± value.
     fn systematic(r: Result<LaplaceEstimate, String>, assumes: String) -> Self {
         match r {
@@ -63,13 +87,7 @@ impl Evidence {
                 assumes: Some(assumes),
                 note: None,
             },
-            Err(m) => Self {
-                ln_z: None,
-                std_err: None,
-                integration_err: None,
-                assumes: None,
-                note: Some(m),
-            },
+            Err(m) => Self::not_applicable(m),
         }
     }
 }
@@ -97,6 +115,12 @@ pub struct ModelOutcome {
     pub laplace_fisher_box: Evidence,
     pub laplace_metropolis_mve: Evidence,
     pub laplace_metropolis_mcd: Evidence,
+    /// Thermodynamic integration; `std_err` combines the Monte-Carlo error and the
+    /// discretisation error (`integration_err`).
+    pub thermodynamic: Evidence,
+    pub stepping_stone: Evidence,
+    /// The tempering run: final ladder, swap rate per adjacent pair, acceptance per rung.
+    pub tempering: Option<TemperingDiagnostics>,
     pub schwarz_ln_z: f64,
     /// In-model MCMC: acceptance per chain and worst R-hat (absent when the chains failed).
     pub mcmc_acceptance: Vec<f64>,
@@ -105,6 +129,19 @@ pub struct ModelOutcome {
     pub jump_proposal: String,
     /// Stages that did not apply, and why.
     pub notes: Vec<String>,
+}
+
+/// What a parallel-tempering run of one model looked like.
+#[derive(Debug, Clone, Serialize)]
+pub struct TemperingDiagnostics {
+    pub betas: Vec<f64>,
+    /// Swap acceptance of each adjacent pair of rungs.
+    pub swap_acceptance: Vec<f64>,
+    pub in_rung_acceptance: Vec<f64>,
+    pub sweeps: usize,
+    pub burn_in: usize,
+    pub ln_l_evals: u64,
+    pub seconds: f64,
 }
 
 /// Everything `occam select` reports.

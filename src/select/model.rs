@@ -6,13 +6,13 @@
 //! distinct samples. Only a model with no point inside its prior where `ln L` is finite stops
 //! the run (nothing can be computed for it).
 
-use super::{Evidence, ModelOutcome};
+use super::{Evidence, ModelOutcome, TemperingDiagnostics};
 use crate::analysis::{default_start, relbin_of};
 use crate::config::{JumpProposal, LikelihoodKind, ModelSpec, SelectModel, Study};
 use crate::density::LogDensity;
 use crate::evidence::{
-    LaplaceOptions, McdOptions, MveOptions, RobustMethod, laplace_fisher, laplace_metropolis,
-    schwarz_ln_z,
+    LaplaceOptions, McdOptions, MveOptions, RobustMethod, TemperingOptions, laplace_fisher,
+    laplace_metropolis, run_tempering, schwarz_ln_z,
 };
 use crate::likelihood::{
     Likelihood, RelBinLikelihood, fisher_exact, fisher_scoring, fisher_scoring_unbounded,
@@ -344,6 +344,15 @@ pub(super) fn run_model(
             (why.clone(), why, None)
         }
     };
+    // parallel tempering from the best sample with the chains' covariance
+    let (thermodynamic, stepping_stone, tempering) = tempering(
+        study,
+        &sub_s,
+        best.as_deref().unwrap_or(&centre),
+        &jump_cov,
+        seed,
+    );
+
     // Schwarz at the MAP, or at the best sample when there is no MAP
     let ln_l_map = match (&map_theta, &best) {
         (Some(th), _) => exact.ln_likelihood_full(th),
@@ -373,6 +382,9 @@ pub(super) fn run_model(
         laplace_fisher_box: Evidence::systematic(lf_box, box_assumes),
         laplace_metropolis_mve: Evidence::systematic(lm_mve, lm_assumes.clone()),
         laplace_metropolis_mcd: Evidence::systematic(lm_mcd, lm_assumes),
+        thermodynamic,
+        stepping_stone,
+        tempering,
         schwarz_ln_z: schwarz,
         mcmc_acceptance: diag.as_ref().map_or(Vec::new(), |g| g.acceptance.clone()),
         mcmc_max_rhat: diag
@@ -389,6 +401,66 @@ pub(super) fn run_model(
         jump_center,
         jump_cov,
     })
+}
+
+/// Thermodynamic integration and stepping-stone from one parallel-tempering run on the
+/// sampled likelihood (its own seed stream, `seed + 7919`).
+fn tempering(
+    study: &Study,
+    target: &dyn LogDensity,
+    start: &[f64],
+    cov: &DMatrix<f64>,
+    seed: u64,
+) -> (Evidence, Evidence, Option<TemperingDiagnostics>) {
+    let sel = &study.select;
+    if sel.pt_temperatures == 0 {
+        let off = || {
+            Evidence::not_applicable(
+                "parallel tempering is off ([select] pt_temperatures = 0)".into(),
+            )
+        };
+        return (off(), off(), None);
+    }
+    let opts = TemperingOptions {
+        n_temps: sel.pt_temperatures,
+        n_iter: sel.pt_iterations,
+        burn_in: sel.pt_burn_in,
+        seed: seed.wrapping_add(7919),
+        ..Default::default()
+    };
+    let t0 = std::time::Instant::now();
+    match run_tempering(target, start, cov, &opts) {
+        Ok(r) => {
+            let ti = r
+                .thermodynamic
+                .as_ref()
+                .map(|t| (t.ln_z, t.total_err(), Some(t.discretisation_err)))
+                .map_err(|e| e.clone());
+            let ss = r
+                .stepping_stone
+                .as_ref()
+                .map(|t| (t.ln_z, t.std_err, None))
+                .map_err(|e| e.clone());
+            let diag = TemperingDiagnostics {
+                betas: r.betas,
+                swap_acceptance: r.swap_acceptance,
+                in_rung_acceptance: r.in_rung_acceptance,
+                sweeps: r.n_iter,
+                burn_in: r.burn_in,
+                ln_l_evals: r.ln_l_evals,
+                seconds: t0.elapsed().as_secs_f64(),
+            };
+            (
+                Evidence::statistical(ti),
+                Evidence::statistical(ss),
+                Some(diag),
+            )
+        }
+        Err(e) => {
+            let why = || Evidence::not_applicable(format!("parallel tempering: {e}"));
+            (why(), why(), None)
+        }
+    }
 }
 
 #[cfg(test)]

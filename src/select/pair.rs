@@ -166,6 +166,19 @@ pub(super) fn pair(models: &[ModelOutcome], rj: &RjResult, x: usize, y: usize) -
         rjp.as_ref().and_then(|p| p.bridge),
         "no in-box proposals between the two models",
     ));
+    let stat = EstimateKind::Statistical;
+    est.push(difference(
+        "Thermodynamic integration",
+        stat,
+        &mx.thermodynamic,
+        &my.thermodynamic,
+    ));
+    est.push(difference(
+        "Stepping-stone",
+        stat,
+        &mx.stepping_stone,
+        &my.stepping_stone,
+    ));
     let sys = EstimateKind::Systematic;
     est.push(difference(
         "Laplace-Fisher raw",
