@@ -615,4 +615,77 @@ mod tests {
         let r = problem(&bounds, true).solve(&[2.5, -2.0], &post, &gf).unwrap();
         assert!(r.x[0].abs() < 0.2, "{:?}", r.x);
     }
+
+    /// The LTP likelihood of the small study with the boxes of `w1sq` and `w2sq` moved to
+    /// `[truth + 3σ, truth + 8σ]`: the unconstrained maximum lies below both boxes.
+    fn ltp_shifted_box() -> (Likelihood, Vec<usize>, Vec<f64>) {
+        use crate::likelihood::tests::{likelihood_of, small_study};
+        use crate::likelihood::{NoiseSource, SpectraOptions, cramer_rao, fisher_exact};
+        use crate::prior::Prior;
+        let opts = SpectraOptions {
+            noise: NoiseSource::Model,
+            band: [1e-3, 0.3],
+            ..Default::default()
+        };
+        let study = small_study(21, 1e-6, "circular");
+        let lik = likelihood_of(&study, &opts);
+        let truth = study.truth.to_array().to_vec();
+        let free = vec![0, 1];
+        let sig = cramer_rao(&fisher_exact(&lik, &truth, &free)).unwrap();
+        let mut kinds = lik.prior().kinds().to_vec();
+        for (i, &a) in free.iter().enumerate() {
+            kinds[a] = PriorKind::Uniform {
+                lo: truth[a] + 3.0 * sig[i],
+                hi: truth[a] + 8.0 * sig[i],
+            };
+        }
+        let prior = Prior::new(lik.prior().names().to_vec(), kinds).unwrap();
+        let lik =
+            Likelihood::new(lik.model().clone(), lik.spectra().to_vec(), prior).unwrap();
+        (lik, free, truth)
+    }
+
+    #[test]
+    fn ltp_maximum_below_the_box_is_the_grid_maximum() {
+        let (lik, free, truth) = ltp_shifted_box();
+        let b: Vec<(f64, f64)> = free.iter().map(|&a| lik.prior().bounds()[a]).collect();
+        let mut start = truth.clone();
+        for (i, &a) in free.iter().enumerate() {
+            start[a] = 0.5 * (b[i].0 + b[i].1);
+        }
+        let r = fisher_scoring(&lik, &start, &free, 1e-4, 100).unwrap();
+        assert!(r.converged, "{r:?}");
+        let post = |x: &[f64]| {
+            let mut th = truth.clone();
+            th[0] = x[0];
+            th[1] = x[1];
+            lik.ln_posterior(&th)
+        };
+        let n = 40;
+        let (gx, gl) = grid_max(&post, &b, n);
+        // the search is at least as high as every grid point, and in the grid maximum's cell
+        assert!(r.ln_posterior >= gl - 1e-9, "{} < grid {gl}", r.ln_posterior);
+        for i in 0..2 {
+            let cell = (b[i].1 - b[i].0) / n as f64;
+            assert!(
+                (r.theta[free[i]] - gx[i]).abs() <= cell,
+                "parameter {i}: {} vs grid {}",
+                r.theta[free[i]],
+                gx[i]
+            );
+        }
+        // the grid maximum is on the lower bound of at least one parameter; the search says so
+        let on_lo: Vec<bool> = (0..2).map(|i| gx[i] == b[i].0).collect();
+        assert!(on_lo.iter().any(|&x| x), "{gx:?}");
+        for i in 0..2 {
+            if on_lo[i] {
+                assert!(r.at_bound[i] && r.theta[free[i]] == b[i].0, "{r:?}");
+            }
+        }
+        eprintln!(
+            "LTP MAP below the box: {:?} at bound {:?}; grid {gx:?}",
+            &r.theta[..2],
+            r.at_bound
+        );
+    }
 }
