@@ -422,8 +422,7 @@ impl Data {
         let mut rows = Vec::new();
         let mut w: Vec<f64> = Vec::new();
         let mut raw = Vec::with_capacity(n);
-        let mut seen: std::collections::HashMap<Vec<u64>, usize> =
-            std::collections::HashMap::new();
+        let mut seen: std::collections::HashMap<Vec<u64>, usize> = std::collections::HashMap::new();
         let mut key = Vec::with_capacity(p);
         for i in 0..n {
             key.clear();
@@ -615,7 +614,8 @@ impl Data {
             for ((xj, r), m) in buf.x.iter_mut().zip(self.row(i)).zip(&fit.mean) {
                 *xj = r - m;
             }
-            buf.d2.push((forward_solve_norm2(&fit.l, p, &mut buf.x), pos));
+            buf.d2
+                .push((forward_solve_norm2(&fit.l, p, &mut buf.x), pos));
         }
         buf.d2.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
         buf.ids.clear();
@@ -914,7 +914,10 @@ mod tests {
                 }
             );
             let msg = err.to_string();
-            assert!(msg.contains("longer chains") && msg.contains("proposal"), "{msg}");
+            assert!(
+                msg.contains("longer chains") && msg.contains("proposal"),
+                "{msg}"
+            );
         }
     }
 
@@ -958,9 +961,15 @@ mod tests {
     fn weighted_median_counts_repeats() {
         let mut o = Vec::new();
         // values 1, 2, 3 with multiplicities 1, 1, 5: the plain median of 1,2,3,3,3,3,3 is 3
-        assert_eq!(weighted_median(&[2.0, 1.0, 3.0], &[1.0, 1.0, 5.0], &mut o), 3.0);
+        assert_eq!(
+            weighted_median(&[2.0, 1.0, 3.0], &[1.0, 1.0, 5.0], &mut o),
+            3.0
+        );
         // unit weights: rank ⌊(n − 1)/2⌋ of the sorted values
-        assert_eq!(weighted_median(&[4.0, 1.0, 3.0, 2.0], &[1.0; 4], &mut o), 2.0);
+        assert_eq!(
+            weighted_median(&[4.0, 1.0, 3.0, 2.0], &[1.0; 4], &mut o),
+            2.0
+        );
         assert_eq!(weighted_median(&[5.0, 1.0, 3.0], &[1.0; 3], &mut o), 3.0);
     }
 }

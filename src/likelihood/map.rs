@@ -551,7 +551,10 @@ mod tests {
             let t = x[0].tanh();
             let dt = 1.0 - t * t;
             let g = vec![2.0 * (y - t) * dt, -(x[1] - 0.5)];
-            (g, DMatrix::from_row_slice(2, 2, &[2.0 * dt * dt, 0.0, 0.0, 1.0]))
+            (
+                g,
+                DMatrix::from_row_slice(2, 2, &[2.0 * dt * dt, 0.0, 0.0, 1.0]),
+            )
         };
         (post, gf)
     }
@@ -568,7 +571,10 @@ mod tests {
             e => panic!("expected divergence, got {e:?}"),
         }
         let msg = err.to_string();
-        assert!(msg.contains("p0") && msg.contains("does not apply"), "{msg}");
+        assert!(
+            msg.contains("p0") && msg.contains("does not apply"),
+            "{msg}"
+        );
         // the bounded search stops on the face the likelihood rises towards
         let r = problem(&bounds, true)
             .solve(&[0.0, 0.2], &post, &gf)
@@ -612,7 +618,9 @@ mod tests {
             assert!(r.lp >= last, "iteration {n}: {} < {last}", r.lp);
             last = r.lp;
         }
-        let r = problem(&bounds, true).solve(&[2.5, -2.0], &post, &gf).unwrap();
+        let r = problem(&bounds, true)
+            .solve(&[2.5, -2.0], &post, &gf)
+            .unwrap();
         assert!(r.x[0].abs() < 0.2, "{:?}", r.x);
     }
 
@@ -640,8 +648,7 @@ mod tests {
             };
         }
         let prior = Prior::new(lik.prior().names().to_vec(), kinds).unwrap();
-        let lik =
-            Likelihood::new(lik.model().clone(), lik.spectra().to_vec(), prior).unwrap();
+        let lik = Likelihood::new(lik.model().clone(), lik.spectra().to_vec(), prior).unwrap();
         (lik, free, truth)
     }
 
@@ -664,7 +671,11 @@ mod tests {
         let n = 40;
         let (gx, gl) = grid_max(&post, &b, n);
         // the search is at least as high as every grid point, and in the grid maximum's cell
-        assert!(r.ln_posterior >= gl - 1e-9, "{} < grid {gl}", r.ln_posterior);
+        assert!(
+            r.ln_posterior >= gl - 1e-9,
+            "{} < grid {gl}",
+            r.ln_posterior
+        );
         for i in 0..2 {
             let cell = (b[i].1 - b[i].0) / n as f64;
             assert!(
