@@ -22,6 +22,11 @@ pub enum AnalysisError {
     Spectra(#[from] SpectraError),
     #[error("{0}")]
     Likelihood(String),
+    /// Relative binning could not be built or validated (match
+    /// [`crate::likelihood::RelBinError::ToleranceNotMet`] to fall back to the exact
+    /// likelihood).
+    #[error(transparent)]
+    RelBin(#[from] crate::likelihood::RelBinError),
 }
 
 /// Data and the likelihood of the `[fit]` model, ready for samplers.
@@ -190,18 +195,49 @@ pub fn likelihood_of(
         .map_err(|e| AnalysisError::Likelihood(e.to_string()))
 }
 
-/// The relative-binned likelihood around `fiducial` with the study's accuracy settings.
+/// The study's relative-binning settings.
+pub fn relbin_options(study: &Study) -> RelBinOptions {
+    RelBinOptions {
+        n_sigma: study.analysis.relbin_sigma,
+        tolerance: study.analysis.relbin_tolerance,
+        ..Default::default()
+    }
+}
+
+/// The relative-binned likelihood around `fiducial` with the study's accuracy settings,
+/// validated in the region of the Fisher covariance at `fiducial` over all parameters
+/// ([`RelBinLikelihood::validation`] holds the measured error). When the error cannot be
+/// brought below the limit the error is [`AnalysisError::RelBin`] with
+/// [`crate::likelihood::RelBinError::ToleranceNotMet`]: fall back to the exact likelihood.
 pub fn relbin_of(
     study: &Study,
     exact: &Likelihood,
     fiducial: &[f64],
 ) -> Result<RelBinLikelihood, AnalysisError> {
-    let opts = RelBinOptions {
-        n_sigma: study.analysis.relbin_sigma,
-        tolerance: study.analysis.relbin_tolerance,
-    };
-    RelBinLikelihood::new(exact, fiducial, &opts)
-        .map_err(|e| AnalysisError::Likelihood(e.to_string()))
+    Ok(RelBinLikelihood::new(
+        exact,
+        fiducial,
+        &relbin_options(study),
+    )?)
+}
+
+/// As [`relbin_of`], validated in the region of the covariance `cov` of the parameters
+/// `free` (the samplers' Gaussian: inverse Fisher matrix at the MAP, or a chain's
+/// covariance), clipped to the prior box.
+pub fn relbin_in_region(
+    study: &Study,
+    exact: &Likelihood,
+    fiducial: &[f64],
+    free: &[usize],
+    cov: &nalgebra::DMatrix<f64>,
+) -> Result<RelBinLikelihood, AnalysisError> {
+    Ok(RelBinLikelihood::with_covariance(
+        exact,
+        fiducial,
+        &relbin_options(study),
+        free,
+        cov,
+    )?)
 }
 
 /// The start of a MAP search for `model`: `[fit] start` values, else the prior centre (box

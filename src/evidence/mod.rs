@@ -147,6 +147,17 @@ pub enum EvidenceError {
         dim: usize,
         min: usize,
     },
+    /// Too few distinct samples (a chain that barely moves) for a robust covariance.
+    #[error(
+        "{what}: only {distinct} distinct samples among {n} for {dim} parameters (at least {min}, 10·(p+1), are needed): the chain barely moves; run longer chains or use a better proposal (a smaller scale, or the posterior covariance) so more proposals are accepted"
+    )]
+    TooFewDistinct {
+        what: String,
+        n: usize,
+        distinct: usize,
+        dim: usize,
+        min: usize,
+    },
     /// The samples do not span all dimensions.
     #[error(
         "{what}: the covariance is singular ({detail}); check for constant or collinear parameters"

@@ -27,6 +27,14 @@
 //!   random merged set of `subsample` (1500) rows, the best 10 per group get two C-steps on the
 //!   merged set, and the best 10 of those are iterated to convergence on all rows.
 //!
+//! Repeated rows are stored once with their multiplicity as a weight (means, covariances,
+//! medians and C-step cuts count the repeats), so the cost scales with the number of distinct
+//! samples, and a chain that barely moves (fewer than [`min_distinct`] distinct samples) is
+//! refused at once with [`EvidenceError::TooFewDistinct`], whose message says to run longer
+//! chains or improve the proposal. Subsets are drawn with probability proportional to the
+//! multiplicity, from distinct rows only, so a sticky chain cannot make a subset grow through
+//! copies of one sample.
+//!
 //! Both are deterministic given their seed.
 
 use super::EvidenceError;
@@ -119,6 +127,14 @@ pub fn min_samples(dim: usize) -> usize {
     5 * (dim + 1)
 }
 
+/// Smallest number of *distinct* samples accepted for p parameters: `10·(p+1)`. Both
+/// estimators fit about half of the distinct points; with fewer than `5·(p+1)` in that half
+/// the covariance (and `ln |Σ|`) is too noisy to be worth reporting, and a chain with so few
+/// accepted moves has not explored its posterior anyway.
+pub fn min_distinct(dim: usize) -> usize {
+    10 * (dim + 1)
+}
+
 /// MVE or MCD, as chosen.
 pub fn robust_covariance(
     samples: &DMatrix<f64>,
@@ -134,13 +150,17 @@ pub fn robust_covariance(
 pub fn sample_covariance(
     samples: &DMatrix<f64>,
 ) -> Result<(Vec<f64>, DMatrix<f64>), EvidenceError> {
-    let data = Data::new(samples, "sample covariance")?;
-    let all: Vec<usize> = (0..data.n).collect();
-    let (mean, cov) = data.mean_cov(&all);
+    let data = Data::new(samples, "sample covariance", false)?;
+    let all = data.all();
+    let (mean, cov) = data.mean_cov(&all.ids, &all.w);
     Ok((mean, to_matrix(&cov, data.p)))
 }
 
 /// Minimum-volume-ellipsoid covariance of the rows of `samples` (n × p).
+///
+/// Repeated rows (rejections of an MCMC chain) are stored once with their multiplicity, so
+/// the cost is `O(n_subsets · k · p²)` for `k` distinct rows, and a chain with fewer than
+/// [`min_distinct`] distinct rows is refused at once ([`EvidenceError::TooFewDistinct`]).
 ///
 /// ```
 /// use nalgebra::DMatrix;
@@ -162,16 +182,17 @@ pub fn mve(samples: &DMatrix<f64>, opts: &MveOptions) -> Result<RobustCovariance
             "draw at least one subset (default 500)",
         ));
     }
-    let data = Data::new(samples, "MVE")?;
+    let data = Data::new(samples, "MVE", true)?;
     let p = data.p;
+    let all = data.all();
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(opts.seed);
-    let mut d2 = vec![0.0; data.n];
-    let mut scratch = vec![0.0; data.n];
+    let mut d2 = vec![0.0; data.k];
+    let mut order = Vec::with_capacity(data.k);
     let mut best: Option<(f64, Fit, f64)> = None;
     for _ in 0..opts.n_subsets {
-        let fit = data.random_fit(&mut rng, None)?;
+        let fit = data.random_fit(&mut rng, &all)?;
         data.distances(&fit, &mut d2);
-        let med2 = median(&d2, &mut scratch);
+        let med2 = weighted_median(&d2, &all.w, &mut order);
         if med2.is_nan() || med2 <= 0.0 {
             continue;
         }
@@ -187,9 +208,10 @@ pub fn mve(samples: &DMatrix<f64>, opts: &MveOptions) -> Result<RobustCovariance
     data.finish(fit, med2, MVE_REWEIGHT_STEPS)
 }
 
-/// FAST-MCD covariance of the rows of `samples` (n × p).
+/// FAST-MCD covariance of the rows of `samples` (n × p). Repeated rows are handled as in
+/// [`mve`].
 pub fn mcd(samples: &DMatrix<f64>, opts: &McdOptions) -> Result<RobustCovariance, EvidenceError> {
-    let data = Data::new(samples, "MCD")?;
+    let data = Data::new(samples, "MCD", true)?;
     let (n, p) = (data.n, data.p);
     let h_min = (n + p).div_ceil(2);
     let h = opts.h.unwrap_or(h_min);
@@ -208,11 +230,11 @@ pub fn mcd(samples: &DMatrix<f64>, opts: &McdOptions) -> Result<RobustCovariance
         ));
     }
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(opts.seed);
-    let mut buf = CStepBuffers::new(n);
+    let mut buf = CStepBuffers::default();
     // h scaled to a pool of `m` rows.
     let h_for = |m: usize| (h * m).div_ceil(n).clamp(p + 1, m);
+    let all = data.all();
     let candidates = if n <= 2 * GROUP_SIZE {
-        let all: Vec<usize> = (0..n).collect();
         best_starts(
             &data,
             &all,
@@ -238,29 +260,30 @@ pub fn mcd(samples: &DMatrix<f64>, opts: &McdOptions) -> Result<RobustCovariance
         let starts_per_group = opts.n_starts.div_ceil(k);
         let mut pooled = Vec::new();
         for g in 0..k {
-            let group = &perm[g * m / k..(g + 1) * m / k];
+            let raw = &perm[g * m / k..(g + 1) * m / k];
+            let group = data.pool_of(raw);
             pooled.extend(best_starts(
                 &data,
-                group,
+                &group,
                 starts_per_group,
-                h_for(group.len()),
+                h_for(raw.len()),
                 opts.n_best,
                 &mut rng,
                 &mut buf,
             )?);
         }
         let hm = h_for(m);
+        let merged_pool = data.pool_of(&perm);
         let mut merged = Vec::with_capacity(pooled.len());
         for fit in pooled {
-            let mut f = data.c_step(&fit, &perm, hm, &mut buf)?;
-            f = data.c_step(&f, &perm, hm, &mut buf)?;
+            let mut f = data.c_step(&fit, &merged_pool, hm, &mut buf)?;
+            f = data.c_step(&f, &merged_pool, hm, &mut buf)?;
             merged.push(f);
         }
         merged.sort_by(|a, b| a.ln_det.total_cmp(&b.ln_det));
         merged.truncate(opts.n_best);
         merged
     };
-    let all: Vec<usize> = (0..n).collect();
     let mut best: Option<Fit> = None;
     for mut fit in candidates {
         for _ in 0..opts.max_c_steps {
@@ -276,9 +299,9 @@ pub fn mcd(samples: &DMatrix<f64>, opts: &McdOptions) -> Result<RobustCovariance
         }
     }
     let fit = best.expect("n_best ≥ 1 and n_starts ≥ 1 give at least one candidate");
-    let mut d2 = vec![0.0; n];
+    let mut d2 = vec![0.0; data.k];
     data.distances(&fit, &mut d2);
-    let med2 = median(&d2, &mut buf.scratch);
+    let med2 = weighted_median(&d2, &all.w, &mut buf.order);
     if med2.is_nan() || med2 <= 0.0 {
         return Err(EvidenceError::SingularCovariance {
             what: "MCD".into(),
@@ -295,7 +318,7 @@ const GROUP_SIZE: usize = 300;
 /// of lowest determinant.
 fn best_starts(
     data: &Data,
-    pool: &[usize],
+    pool: &Pool,
     n_starts: usize,
     h: usize,
     n_best: usize,
@@ -304,7 +327,7 @@ fn best_starts(
 ) -> Result<Vec<Fit>, EvidenceError> {
     let mut fits = Vec::with_capacity(n_starts);
     for _ in 0..n_starts {
-        let mut fit = data.random_fit(rng, Some(pool))?;
+        let mut fit = data.random_fit(rng, pool)?;
         for _ in 0..2 {
             fit = data.c_step(&fit, pool, h, buf)?;
         }
@@ -315,14 +338,43 @@ fn best_starts(
     Ok(fits)
 }
 
-/// Rows in row-major order plus the χ² constants.
+/// Distinct rows in row-major order, their multiplicities, plus the χ² constants.
 struct Data {
+    /// The `k` distinct rows, in order of first appearance.
     rows: Vec<f64>,
+    /// Multiplicity of each distinct row.
+    w: Vec<f64>,
+    /// Distinct-row index of every input row.
+    raw: Vec<usize>,
+    /// Input rows.
     n: usize,
+    /// Distinct rows.
+    k: usize,
     p: usize,
     q50: f64,
     q975: f64,
     what: &'static str,
+}
+
+/// A set of distinct rows with weights (multiplicities within the set).
+struct Pool {
+    ids: Vec<usize>,
+    w: Vec<f64>,
+    /// Cumulative weights, for weighted draws.
+    cum: Vec<f64>,
+}
+
+impl Pool {
+    fn new(ids: Vec<usize>, w: Vec<f64>) -> Self {
+        let cum = w
+            .iter()
+            .scan(0.0, |acc, &x| {
+                *acc += x;
+                Some(*acc)
+            })
+            .collect();
+        Self { ids, w, cum }
+    }
 }
 
 /// Mean, covariance, its Cholesky factor and `ln det`.
@@ -334,24 +386,23 @@ struct Fit {
     ln_det: f64,
 }
 
+#[derive(Default)]
 struct CStepBuffers {
     d2: Vec<(f64, usize)>,
-    scratch: Vec<f64>,
+    order: Vec<(f64, f64)>,
     x: Vec<f64>,
-}
-
-impl CStepBuffers {
-    fn new(n: usize) -> Self {
-        Self {
-            d2: Vec::with_capacity(n),
-            scratch: vec![0.0; n],
-            x: Vec::new(),
-        }
-    }
+    ids: Vec<usize>,
+    w: Vec<f64>,
 }
 
 impl Data {
-    fn new(samples: &DMatrix<f64>, what: &'static str) -> Result<Self, EvidenceError> {
+    /// The rows of `samples`, deduplicated; with `require_distinct`, fewer than
+    /// [`min_distinct`] distinct rows is an error.
+    fn new(
+        samples: &DMatrix<f64>,
+        what: &'static str,
+        require_distinct: bool,
+    ) -> Result<Self, EvidenceError> {
         let (n, p) = samples.shape();
         if p == 0 {
             return Err(EvidenceError::option(
@@ -368,8 +419,13 @@ impl Data {
                 min: min_samples(p),
             });
         }
-        let mut rows = vec![0.0; n * p];
+        let mut rows = Vec::new();
+        let mut w: Vec<f64> = Vec::new();
+        let mut raw = Vec::with_capacity(n);
+        let mut seen: std::collections::HashMap<Vec<u64>, usize> = std::collections::HashMap::new();
+        let mut key = Vec::with_capacity(p);
         for i in 0..n {
+            key.clear();
             for j in 0..p {
                 let v = samples[(i, j)];
                 if !v.is_finite() {
@@ -379,13 +435,44 @@ impl Data {
                         "drop non-finite samples before estimating a covariance",
                     ));
                 }
-                rows[i * p + j] = v;
+                // +0.0 and −0.0 are the same sample
+                key.push((v + 0.0).to_bits());
             }
+            let id = *seen.entry(key.clone()).or_insert_with(|| {
+                rows.extend((0..p).map(|j| samples[(i, j)]));
+                w.push(0.0);
+                w.len() - 1
+            });
+            w[id] += 1.0;
+            raw.push(id);
+        }
+        let k = w.len();
+        if require_distinct && k < min_distinct(p) {
+            return Err(EvidenceError::TooFewDistinct {
+                what: what.into(),
+                n,
+                distinct: k,
+                dim: p,
+                min: min_distinct(p),
+            });
+        }
+        let heaviest = w.iter().cloned().fold(0.0, f64::max);
+        if require_distinct && 2.0 * heaviest >= n as f64 {
+            // the half-sample core of both estimators is one point
+            return Err(EvidenceError::SingularCovariance {
+                what: what.into(),
+                detail: format!(
+                    "one sample is repeated {heaviest} times among {n}: the chain stalled there for half its length; run longer chains or use a better proposal so more proposals are accepted"
+                ),
+            });
         }
         let chi2 = ChiSquared::new(p as f64).expect("p ≥ 1");
         Ok(Self {
             rows,
+            w,
+            raw,
             n,
+            k,
             p,
             q50: chi2.inverse_cdf(0.5),
             q975: chi2.inverse_cdf(0.975),
@@ -397,21 +484,43 @@ impl Data {
         &self.rows[i * self.p..(i + 1) * self.p]
     }
 
-    fn mean_cov(&self, idx: &[usize]) -> (Vec<f64>, Vec<f64>) {
+    /// Every distinct row with its full multiplicity.
+    fn all(&self) -> Pool {
+        Pool::new((0..self.k).collect(), self.w.clone())
+    }
+
+    /// The distinct rows among the input rows `raw`, weighted by their count there.
+    fn pool_of(&self, raw: &[usize]) -> Pool {
+        let mut count = vec![0.0; self.k];
+        let mut ids = Vec::new();
+        for &r in raw {
+            let id = self.raw[r];
+            if count[id] == 0.0 {
+                ids.push(id);
+            }
+            count[id] += 1.0;
+        }
+        let w = ids.iter().map(|&i| count[i]).collect();
+        Pool::new(ids, w)
+    }
+
+    /// Weighted mean and covariance (divisor `Σw − 1`, the sample covariance of the rows
+    /// with their repeats).
+    fn mean_cov(&self, idx: &[usize], w: &[f64]) -> (Vec<f64>, Vec<f64>) {
         let p = self.p;
-        let m = idx.len() as f64;
+        let m: f64 = w.iter().sum();
         let mut mean = vec![0.0; p];
-        for &i in idx {
+        for (&i, &wi) in idx.iter().zip(w) {
             for (a, x) in mean.iter_mut().zip(self.row(i)) {
-                *a += x;
+                *a += wi * x;
             }
         }
         mean.iter_mut().for_each(|a| *a /= m);
         let mut cov = vec![0.0; p * p];
-        for &i in idx {
+        for (&i, &wi) in idx.iter().zip(w) {
             let r = self.row(i);
             for a in 0..p {
-                let da = r[a] - mean[a];
+                let da = wi * (r[a] - mean[a]);
                 for b in 0..=a {
                     cov[a * p + b] += da * (r[b] - mean[b]);
                 }
@@ -428,8 +537,8 @@ impl Data {
         (mean, cov)
     }
 
-    fn fit(&self, idx: &[usize]) -> Option<Fit> {
-        let (mean, cov) = self.mean_cov(idx);
+    fn fit(&self, idx: &[usize], w: &[f64]) -> Option<Fit> {
+        let (mean, cov) = self.mean_cov(idx, w);
         let (l, ln_det) = cholesky(&cov, self.p)?;
         Some(Fit {
             mean,
@@ -439,23 +548,31 @@ impl Data {
         })
     }
 
-    /// A random (p+1)-subset of `pool` (all rows if `None`), enlarged until nonsingular.
-    fn random_fit(
-        &self,
-        rng: &mut Xoshiro256PlusPlus,
-        pool: Option<&[usize]>,
-    ) -> Result<Fit, EvidenceError> {
-        let size = pool.map_or(self.n, <[usize]>::len);
-        let pick = |k: usize| pool.map_or(k, |p| p[k]);
+    /// A random subset of (p+1) distinct rows of `pool`, drawn with probability proportional
+    /// to their multiplicity (as a draw from the chain would be), enlarged until its
+    /// covariance is nonsingular. After `20·(p+1)` draws that hit rows already taken, the
+    /// remaining rows are drawn uniformly, so a chain that sits on one value does not stall.
+    fn random_fit(&self, rng: &mut Xoshiro256PlusPlus, pool: &Pool) -> Result<Fit, EvidenceError> {
+        let size = pool.ids.len();
+        let total = *pool.cum.last().expect("a pool is never empty");
+        let mut taken = vec![false; size];
         let mut idx: Vec<usize> = Vec::with_capacity(self.p + 1);
+        let mut misses = 0;
         while idx.len() < size {
-            let k = pick(rng.random_range(0..size));
-            if idx.contains(&k) {
+            let pos = if misses < 20 * (self.p + 1) {
+                let u = rng.random::<f64>() * total;
+                pool.cum.partition_point(|&c| c <= u).min(size - 1)
+            } else {
+                rng.random_range(0..size)
+            };
+            if taken[pos] {
+                misses += 1;
                 continue;
             }
-            idx.push(k);
+            taken[pos] = true;
+            idx.push(pool.ids[pos]);
             if idx.len() > self.p
-                && let Some(f) = self.fit(&idx)
+                && let Some(f) = self.fit(&idx, &vec![1.0; idx.len()])
             {
                 return Ok(f);
             }
@@ -463,12 +580,13 @@ impl Data {
         Err(EvidenceError::SingularCovariance {
             what: self.what.into(),
             detail: format!(
-                "all {size} samples lie in a hyperplane of the {}-dimensional space",
+                "all {size} distinct samples lie in a hyperplane of the {}-dimensional space",
                 self.p
             ),
         })
     }
 
+    /// Squared Mahalanobis distances of every distinct row.
     fn distances(&self, fit: &Fit, out: &mut [f64]) {
         let p = self.p;
         let mut x = vec![0.0; p];
@@ -480,27 +598,39 @@ impl Data {
         }
     }
 
-    /// One C-step on the rows `pool`: refit on the `h` of smallest distance.
+    /// One C-step on `pool`: refit on the `h` samples (counting repeats) of smallest
+    /// distance; a row straddling the cut enters with part of its weight.
     fn c_step(
         &self,
         fit: &Fit,
-        pool: &[usize],
+        pool: &Pool,
         h: usize,
         buf: &mut CStepBuffers,
     ) -> Result<Fit, EvidenceError> {
         let p = self.p;
         buf.x.resize(p, 0.0);
         buf.d2.clear();
-        for &i in pool {
+        for (pos, &i) in pool.ids.iter().enumerate() {
             for ((xj, r), m) in buf.x.iter_mut().zip(self.row(i)).zip(&fit.mean) {
                 *xj = r - m;
             }
-            buf.d2.push((forward_solve_norm2(&fit.l, p, &mut buf.x), i));
+            buf.d2
+                .push((forward_solve_norm2(&fit.l, p, &mut buf.x), pos));
         }
-        buf.d2
-            .select_nth_unstable_by(h - 1, |a, b| a.0.total_cmp(&b.0));
-        let idx: Vec<usize> = buf.d2[..h].iter().map(|e| e.1).collect();
-        self.fit(&idx)
+        buf.d2.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+        buf.ids.clear();
+        buf.w.clear();
+        let mut left = h as f64;
+        for &(_, pos) in buf.d2.iter() {
+            if left <= 0.0 {
+                break;
+            }
+            let wi = pool.w[pos].min(left);
+            buf.ids.push(pool.ids[pos]);
+            buf.w.push(wi);
+            left -= wi;
+        }
+        self.fit(&buf.ids, &buf.w)
             .ok_or_else(|| EvidenceError::SingularCovariance {
                 what: self.what.into(),
                 detail: format!("{h} of the samples lie in a hyperplane"),
@@ -532,21 +662,22 @@ impl Data {
             ln_det,
         };
         let factor = 0.975 / gamma_lr((p as f64 + 2.0) / 2.0, self.q975 / 2.0);
-        let mut d2 = vec![0.0; self.n];
+        let mut d2 = vec![0.0; self.k];
         let mut previous: Vec<usize> = Vec::new();
         for _ in 0..max_reweight.max(1) {
             self.distances(&current, &mut d2);
-            let inliers: Vec<usize> = (0..self.n).filter(|&i| d2[i] <= self.q975).collect();
+            let inliers: Vec<usize> = (0..self.k).filter(|&i| d2[i] <= self.q975).collect();
             if inliers.len() <= p {
                 return Err(singular(&format!(
-                    "only {} samples pass the reweighting",
+                    "only {} distinct samples pass the reweighting",
                     inliers.len()
                 )));
             }
             if inliers == previous {
                 break;
             }
-            let (mean, mut cov) = self.mean_cov(&inliers);
+            let w: Vec<f64> = inliers.iter().map(|&i| self.w[i]).collect();
+            let (mean, mut cov) = self.mean_cov(&inliers, &w);
             cov.iter_mut().for_each(|c| *c *= factor);
             let (l, ln_det) = cholesky(&cov, p)
                 .ok_or_else(|| singular("the reweighted samples lie in a hyperplane"))?;
@@ -558,12 +689,13 @@ impl Data {
             };
             previous = inliers;
         }
+        let n_inliers = previous.iter().map(|&i| self.w[i]).sum::<f64>() as usize;
         Ok(RobustCovariance {
             location: current.mean,
             cov: to_matrix(&current.cov, p),
             raw_location,
             raw_cov: raw_cov_m,
-            n_inliers: previous.len(),
+            n_inliers,
         })
     }
 }
@@ -594,11 +726,22 @@ fn cholesky(a: &[f64], p: usize) -> Option<(Vec<f64>, f64)> {
     Some((l, ln_det))
 }
 
-fn median(v: &[f64], scratch: &mut Vec<f64>) -> f64 {
-    scratch.clear();
-    scratch.extend_from_slice(v);
-    let mid = (scratch.len() - 1) / 2;
-    *scratch.select_nth_unstable_by(mid, f64::total_cmp).1
+/// The weighted median: the smallest value whose cumulative weight exceeds `(W − 1)/2` —
+/// with unit weights the element at rank `⌊(n − 1)/2⌋`, as a plain median of the repeats.
+fn weighted_median(v: &[f64], w: &[f64], order: &mut Vec<(f64, f64)>) -> f64 {
+    order.clear();
+    order.extend(v.iter().zip(w).map(|(&a, &b)| (a, b)));
+    order.sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+    let total: f64 = w.iter().sum();
+    let target = ((total - 1.0) / 2.0).floor();
+    let mut acc = 0.0;
+    for &(x, wi) in order.iter() {
+        acc += wi;
+        if acc > target {
+            return x;
+        }
+    }
+    order.last().map_or(f64::NAN, |e| e.0)
 }
 
 fn to_matrix(v: &[f64], p: usize) -> DMatrix<f64> {
@@ -745,5 +888,88 @@ mod tests {
             mcd(&nan, &McdOptions::default()),
             Err(EvidenceError::NonFinite { .. })
         ));
+    }
+
+    /// A 7-D chain that sits on 40 values (10 000 rows): refused at once with the note.
+    #[test]
+    fn sticky_chain_is_refused_with_a_note() {
+        let (x, _) = gaussian(40, 7);
+        let wide = DMatrix::from_fn(10_000, 7, |i, j| {
+            // a chain stuck for 250 steps at a time; columns 3.. reuse columns 0..3
+            let r = i / 250;
+            x[(r, j % 3)] * (1.0 + j as f64)
+        });
+        for err in [
+            mve(&wide, &MveOptions::default()).unwrap_err(),
+            mcd(&wide, &McdOptions::default()).unwrap_err(),
+        ] {
+            assert_eq!(
+                err,
+                EvidenceError::TooFewDistinct {
+                    what: err_what(&err),
+                    n: 10_000,
+                    distinct: 40,
+                    dim: 7,
+                    min: 80,
+                }
+            );
+            let msg = err.to_string();
+            assert!(
+                msg.contains("longer chains") && msg.contains("proposal"),
+                "{msg}"
+            );
+        }
+    }
+
+    fn err_what(e: &EvidenceError) -> String {
+        match e {
+            EvidenceError::TooFewDistinct { what, .. } => what.clone(),
+            e => panic!("expected TooFewDistinct, got {e:?}"),
+        }
+    }
+
+    /// A chain with 400 distinct values, each repeated 25 times (10 000 rows, acceptance
+    /// 4 %): the estimate is the covariance of the sequence with its repeats, from the 400
+    /// distinct rows. A chain stalled on one value for half its length is refused.
+    #[test]
+    fn heavily_repeated_chain_gives_the_weighted_covariance() {
+        let (x, _) = gaussian(400, 8);
+        let y = DMatrix::from_fn(10_000, 3, |i, j| x[(i / 25, j)]);
+        let (_, samp) = sample_covariance(&y).unwrap();
+        for (what, r) in [
+            ("MVE", mve(&y, &MveOptions::default()).unwrap()),
+            ("MCD", mcd(&y, &McdOptions::default()).unwrap()),
+        ] {
+            // effective size: the 400 distinct draws
+            assert_close(&r.cov, &samp, 400, what);
+            assert_eq!(r.n_inliers % 25, 0, "{what}: repeats enter together");
+        }
+        let mut stalled = y.clone();
+        for i in 0..5000 {
+            for j in 0..3 {
+                stalled[(i, j)] = x[(0, j)];
+            }
+        }
+        let err = mve(&stalled, &MveOptions::default()).unwrap_err();
+        assert!(
+            matches!(&err, EvidenceError::SingularCovariance { detail, .. } if detail.contains("stalled")),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn weighted_median_counts_repeats() {
+        let mut o = Vec::new();
+        // values 1, 2, 3 with multiplicities 1, 1, 5: the plain median of 1,2,3,3,3,3,3 is 3
+        assert_eq!(
+            weighted_median(&[2.0, 1.0, 3.0], &[1.0, 1.0, 5.0], &mut o),
+            3.0
+        );
+        // unit weights: rank ⌊(n − 1)/2⌋ of the sorted values
+        assert_eq!(
+            weighted_median(&[4.0, 1.0, 3.0, 2.0], &[1.0; 4], &mut o),
+            2.0
+        );
+        assert_eq!(weighted_median(&[5.0, 1.0, 3.0], &[1.0; 3], &mut o), 3.0);
     }
 }

@@ -29,27 +29,52 @@ use crate::model::{Bin, MAX_CHANNELS, MAX_RESIDUALS, Model};
 use crate::prior::Prior;
 use nalgebra::DMatrix;
 use num_complex::Complex64;
+use rand::{RngExt, SeedableRng};
+use rand_distr::{Distribution, StandardNormal};
+use rand_xoshiro::Xoshiro256PlusPlus;
 use serde::{Deserialize, Serialize};
 use std::sync::Arc;
 
-/// How the coarse bins are chosen.
+/// How the coarse bins are chosen and checked.
 ///
-/// Bins are built greedily from the low end: a bin grows while, for every test point θ_p (the
-/// fiducial moved by `n_sigma` along each principal axis of the Fisher covariance, clipped to
-/// the prior box), the interpolation error of the residual inside it stays below `tolerance`:
+/// Bins are built greedily from the low end: a bin grows while, for every build point θ_p,
+/// the interpolation error of the residual inside it stays below `tolerance`:
 /// `max_p Σ_{k ∈ bin} e_kᴴ C_k⁻¹ e_k ≤ tolerance`, `e_k = r̃_k(θ_p) − r_k(θ_p)`. The error of
 /// `ln L̃` is then bounded by `Σ_bins` of that plus a cross term `2 Re Σ eᴴC⁻¹r` of the
 /// order of its square root times the residual. Measured on the Table I study (200 random
 /// points of the 5σ ellipsoid, `tests/table1.rs`): tolerance 1e−9 → 363 coarse bins, worst
 /// `|Δ ln L|` 6.7e−4; 1e−8 (the default) → 267 bins, 3.2e−3; 3e−8 → 228 bins, 4.4e−3.
+///
+/// The *region* the approximation must hold in is a Gaussian around the fiducial point (the
+/// Fisher covariance there, or a covariance the caller passes, e.g. of a chain), out to
+/// `n_sigma`, clipped to the prior box; along a parameter whose Gaussian σ exceeds a quarter
+/// of its prior width (the posterior fills the box) the region is the whole box. Build
+/// points: the fiducial, `±n_sigma` along each principal axis (each coordinate clamped to
+/// the box, so a step is never shortened to nothing on a corner) and `n_build` random points
+/// of the region. After building, `|ln L̃ − ln L|` is measured at `n_validation` further
+/// random points of the region ([`RelBinValidation`]); while it exceeds `max_delta_ln_l`,
+/// `tolerance` is divided by 10 and the bins rebuilt (at most [`MAX_REFINEMENTS`] times, and
+/// not beyond `max_coarse` coarse bins). If that fails: [`RelBinError::ToleranceNotMet`].
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct RelBinOptions {
-    /// Radius (in standard deviations of the Fisher covariance) of the region the
+    /// Radius (in standard deviations of the region's Gaussian) of the region the
     /// approximation must hold in.
     pub n_sigma: f64,
-    /// Largest residual interpolation error `Σ eᴴC⁻¹e` allowed in one coarse bin.
+    /// Largest residual interpolation error `Σ eᴴC⁻¹e` allowed in one coarse bin (first
+    /// build; refinement divides it by 10).
     pub tolerance: f64,
+    /// Largest `|ln L̃ − ln L|` (nats) accepted at the validation points.
+    pub max_delta_ln_l: f64,
+    /// Random points of the region the bins are built on (besides the axis points).
+    pub n_build: usize,
+    /// Random points of the region (independent of the build points) the error is measured
+    /// at.
+    pub n_validation: usize,
+    /// Cap on the number of coarse bins refinement may reach; `None`: no cap.
+    pub max_coarse: Option<usize>,
+    /// Seed of the random build and validation points.
+    pub seed: u64,
 }
 
 impl Default for RelBinOptions {
@@ -57,15 +82,61 @@ impl Default for RelBinOptions {
         Self {
             n_sigma: 6.0,
             tolerance: 1e-8,
+            max_delta_ln_l: 0.05,
+            n_build: 16,
+            n_validation: 64,
+            max_coarse: None,
+            seed: 0x7265_6c62,
         }
     }
 }
+
+/// Refinements (tolerance ÷ 10 each) tried before giving up.
+pub const MAX_REFINEMENTS: usize = 4;
 
 /// Errors building the relative-binned likelihood.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum RelBinError {
     #[error("relative binning: {0}")]
     Invalid(String),
+    /// The measured error stays above the limit after refinement: use the exact likelihood.
+    #[error(
+        "relative binning: worst |Δ ln L| = {worst:.3e} over {n_points} validation points exceeds {limit:.3e} with {n_coarse} coarse bins after {refinements} refinements{}; use the exact likelihood instead (or raise max_delta_ln_l)",
+        max_coarse.map_or(String::new(), |c| format!(" (cap {c} coarse bins)"))
+    )]
+    ToleranceNotMet {
+        worst: f64,
+        limit: f64,
+        n_points: usize,
+        n_coarse: usize,
+        refinements: usize,
+        max_coarse: Option<usize>,
+    },
+}
+
+/// How well the relative-binned likelihood was measured to hold (for `summary.json`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RelBinValidation {
+    /// Validation points where `ln L` was compared (the fiducial and `n_validation` random
+    /// points of the region).
+    pub n_points: usize,
+    /// Worst `|ln L̃ − ln L|` over them (nats).
+    pub worst_abs_delta_ln_l: f64,
+    /// Where it occurred (full parameter vector).
+    pub worst_point: Vec<f64>,
+    /// The limit it was checked against (`max_delta_ln_l`).
+    pub limit: f64,
+    /// Residual tolerance per coarse bin of the final build.
+    pub tolerance: f64,
+    /// Refinements needed.
+    pub refinements: usize,
+    /// Coarse bins of the final build.
+    pub n_coarse: usize,
+    /// Per parameter: the fraction of its prior width the validation points span (1 for a
+    /// parameter drawn over the whole box, 0 for a fixed one; `NaN` for an unbounded prior).
+    pub coverage: Vec<f64>,
+    /// Names of the parameters whose region is the whole prior box (Gaussian wider than it).
+    pub box_params: Vec<String>,
 }
 
 const ZERO: Complex64 = Complex64::new(0.0, 0.0);
@@ -119,34 +190,126 @@ pub struct RelBinLikelihood {
     base: f64,
     fiducial: Vec<f64>,
     n_coarse: usize,
+    validation: RelBinValidation,
 }
 
 impl RelBinLikelihood {
     /// Summarises `exact`'s data around the fiducial point `fid` (usually the MAP), with
-    /// coarse bins chosen so the approximation holds within `opts.n_sigma` of `fid` (see
-    /// [`RelBinOptions`]).
+    /// coarse bins chosen and validated in the region of the Fisher covariance at `fid` over
+    /// all parameters (see [`RelBinOptions`]).
     pub fn new(exact: &Likelihood, fid: &[f64], opts: &RelBinOptions) -> Result<Self, RelBinError> {
-        if !(opts.n_sigma > 0.0 && opts.n_sigma.is_finite() && opts.tolerance > 0.0) {
-            return Err(RelBinError::Invalid(format!(
-                "n_sigma and tolerance must be > 0 (got {} and {})",
-                opts.n_sigma, opts.tolerance
-            )));
+        check_inputs(exact, fid, opts)?;
+        let region = Region::from_fisher(exact, fid);
+        Self::build(exact, fid, opts, &region)
+    }
+
+    /// As [`RelBinLikelihood::new`], with the region given by the covariance `cov` of the
+    /// parameters `free` (e.g. the inverse Fisher matrix at the MAP over a model's free
+    /// parameters, or a chain's covariance); the other parameters stay at `fid`.
+    pub fn with_covariance(
+        exact: &Likelihood,
+        fid: &[f64],
+        opts: &RelBinOptions,
+        free: &[usize],
+        cov: &DMatrix<f64>,
+    ) -> Result<Self, RelBinError> {
+        check_inputs(exact, fid, opts)?;
+        let region = Region::from_covariance(fid.len(), free, cov)?;
+        Self::build(exact, fid, opts, &region)
+    }
+
+    fn build(
+        exact: &Likelihood,
+        fid: &[f64],
+        opts: &RelBinOptions,
+        region: &Region,
+    ) -> Result<Self, RelBinError> {
+        let bounds = exact.prior().bounds();
+        let names = exact.model().param_names();
+        let box_params: Vec<usize> = (0..fid.len())
+            .filter(|&i| region.spans_box(i, &bounds))
+            .collect();
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(opts.seed);
+        let mut build = region.axis_points(fid, &bounds, opts.n_sigma);
+        build.extend(region.random_points(fid, &bounds, opts.n_sigma, opts.n_build, &mut rng));
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(opts.seed ^ 0x5eed_0f_7a11d);
+        let mut check = vec![fid.to_vec()];
+        check.extend(region.random_points(fid, &bounds, opts.n_sigma, opts.n_validation, &mut rng));
+        let exact_at: Vec<f64> = check.iter().map(|t| exact.ln_likelihood_full(t)).collect();
+        let coverage = (0..fid.len())
+            .map(|i| {
+                let (lo, hi) = bounds[i];
+                let (mn, mx) = check
+                    .iter()
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), t| {
+                        (a.min(t[i]), b.max(t[i]))
+                    });
+                (mx - mn) / (hi - lo)
+            })
+            .collect();
+        let n_fine: usize = exact.spectra().iter().map(|e| e.len() - 1).sum();
+        let mut tolerance = opts.tolerance;
+        let mut refinements = 0;
+        loop {
+            let mut rb = Self::summarise_all(exact, fid, &build, tolerance)?;
+            let mut worst = 0.0;
+            let mut worst_point = fid.to_vec();
+            let mut n_points = 0;
+            for (t, &l) in check.iter().zip(&exact_at) {
+                if !l.is_finite() {
+                    continue;
+                }
+                n_points += 1;
+                let d = (rb.ln_likelihood_full(t) - l).abs();
+                // NaN counts as the worst possible
+                if !(d <= worst) {
+                    worst = d;
+                    worst_point = t.clone();
+                }
+            }
+            if worst <= opts.max_delta_ln_l {
+                rb.validation = RelBinValidation {
+                    n_points,
+                    worst_abs_delta_ln_l: worst,
+                    worst_point,
+                    limit: opts.max_delta_ln_l,
+                    tolerance,
+                    refinements,
+                    n_coarse: rb.n_coarse,
+                    coverage,
+                    box_params: box_params.iter().map(|&i| names[i].clone()).collect(),
+                };
+                return Ok(rb);
+            }
+            let capped = opts.max_coarse.is_some_and(|c| rb.n_coarse >= c);
+            if capped || refinements == MAX_REFINEMENTS || rb.n_coarse >= n_fine {
+                return Err(RelBinError::ToleranceNotMet {
+                    worst,
+                    limit: opts.max_delta_ln_l,
+                    n_points,
+                    n_coarse: rb.n_coarse,
+                    refinements,
+                    max_coarse: opts.max_coarse,
+                });
+            }
+            tolerance /= 10.0;
+            refinements += 1;
         }
-        if fid.len() != exact.model().param_names().len() {
-            return Err(RelBinError::Invalid(format!(
-                "the fiducial point has {} entries; model `{}` has {} parameters",
-                fid.len(),
-                exact.model().name(),
-                exact.model().param_names().len()
-            )));
-        }
-        let tests = test_points(exact, fid, opts.n_sigma);
+    }
+
+    /// Summaries of every experiment with bins built on the points `tests`.
+    fn summarise_all(
+        exact: &Likelihood,
+        fid: &[f64],
+        tests: &[Vec<f64>],
+        tolerance: f64,
+    ) -> Result<Self, RelBinError> {
         let model = exact.model().clone();
         let mut base = exact.ln_norm();
         let mut exps = Vec::new();
         let mut n_coarse = 0;
         for e in exact.spectra() {
-            let (s, r0) = summarise(model.as_ref(), e, fid, &tests, opts.tolerance)?;
+            let (s, r0) = summarise(model.as_ref(), e, fid, tests, tolerance)?;
             base -= r0;
             n_coarse += s.edge_f.len() - 1;
             exps.push(s);
@@ -158,7 +321,23 @@ impl RelBinLikelihood {
             base,
             fiducial: fid.to_vec(),
             n_coarse,
+            validation: RelBinValidation {
+                n_points: 0,
+                worst_abs_delta_ln_l: f64::NAN,
+                worst_point: Vec::new(),
+                limit: f64::NAN,
+                tolerance,
+                refinements: 0,
+                n_coarse,
+                coverage: Vec::new(),
+                box_params: Vec::new(),
+            },
         })
+    }
+
+    /// How the approximation was validated: worst measured `|Δ ln L|`, points, coverage.
+    pub fn validation(&self) -> &RelBinValidation {
+        &self.validation
     }
 
     /// The fiducial point.
@@ -423,54 +602,201 @@ fn sum_lanes(x: &[f64]) -> f64 {
     acc.iter().sum::<f64>() + it.remainder().iter().sum::<f64>()
 }
 
-/// Test points: the fiducial moved by `n_sigma` along ± each principal axis of the Fisher
-/// covariance over all parameters, each step shortened if needed to stay in the prior
-/// box. Directions the data do not constrain (eigenvalues of F below 1e−12 of the largest)
-/// are skipped.
-fn test_points(exact: &Likelihood, fid: &[f64], n_sigma: f64) -> Vec<Vec<f64>> {
-    let np = fid.len();
-    let free: Vec<usize> = (0..np).collect();
-    let f = fisher_exact(exact, fid, &free);
-    // scale to unit diagonal so the eigen-decomposition is well conditioned
-    let d: Vec<f64> = (0..np).map(|i| f[(i, i)].sqrt()).collect();
-    let fs = DMatrix::from_fn(np, np, |i, j| {
-        if d[i] > 0.0 && d[j] > 0.0 {
-            f[(i, j)] / (d[i] * d[j])
-        } else {
-            0.0
-        }
-    });
-    let eig = fs.symmetric_eigen();
-    let lmax = eig.eigenvalues.iter().cloned().fold(0.0, f64::max);
-    let bounds = exact.prior().bounds();
-    let mut pts = vec![fid.to_vec()];
-    for (m, &lam) in eig.eigenvalues.iter().enumerate() {
-        if !(lam > 1e-12 * lmax) {
-            continue;
-        }
-        for sign in [-1.0, 1.0] {
-            let mut step = vec![0.0; np];
-            for i in 0..np {
-                if d[i] > 0.0 {
-                    step[i] = sign * n_sigma * eig.eigenvectors[(i, m)] / (lam.sqrt() * d[i]);
-                }
-            }
-            // shorten to stay inside the prior box
-            let mut t: f64 = 1.0;
-            for i in 0..np {
-                let (lo, hi) = bounds[i];
-                let x = fid[i] + step[i];
-                if x > hi && step[i] > 0.0 {
-                    t = t.min((hi - fid[i]) / step[i]);
-                } else if x < lo && step[i] < 0.0 {
-                    t = t.min((lo - fid[i]) / step[i]);
-                }
-            }
-            let t = t.max(0.0);
-            pts.push((0..np).map(|i| fid[i] + t * step[i]).collect());
-        }
+/// Checks shared by the constructors.
+fn check_inputs(exact: &Likelihood, fid: &[f64], opts: &RelBinOptions) -> Result<(), RelBinError> {
+    if !(opts.n_sigma > 0.0
+        && opts.n_sigma.is_finite()
+        && opts.tolerance > 0.0
+        && opts.max_delta_ln_l > 0.0)
+    {
+        return Err(RelBinError::Invalid(format!(
+            "n_sigma, tolerance and max_delta_ln_l must be > 0 (got {}, {} and {})",
+            opts.n_sigma, opts.tolerance, opts.max_delta_ln_l
+        )));
     }
-    pts
+    if fid.len() != exact.model().param_names().len() {
+        return Err(RelBinError::Invalid(format!(
+            "the fiducial point has {} entries; model `{}` has {} parameters",
+            fid.len(),
+            exact.model().name(),
+            exact.model().param_names().len()
+        )));
+    }
+    if !exact.prior().contains(fid) {
+        return Err(RelBinError::Invalid(format!(
+            "the fiducial point {fid:?} is outside the prior box; pass the (bounded) MAP"
+        )));
+    }
+    Ok(())
+}
+
+/// A Gaussian `fid + Σ_m z_m a_m` (full-length axes `a_m`), with per-parameter marginal σ
+/// (infinite along directions the data do not constrain).
+struct Region {
+    axes: Vec<Vec<f64>>,
+    sigma: Vec<f64>,
+}
+
+impl Region {
+    /// The Fisher covariance at `fid` over all parameters. Directions the data do not
+    /// constrain (eigenvalues of the unit-diagonal Fisher matrix below 1e−12 of the largest)
+    /// get no axis, and the parameters in them an infinite σ (their region is the box).
+    fn from_fisher(exact: &Likelihood, fid: &[f64]) -> Self {
+        let np = fid.len();
+        let free: Vec<usize> = (0..np).collect();
+        let f = fisher_exact(exact, fid, &free);
+        // scale to unit diagonal so the eigen-decomposition is well conditioned
+        let d: Vec<f64> = (0..np).map(|i| f[(i, i)].max(0.0).sqrt()).collect();
+        let fs = DMatrix::from_fn(np, np, |i, j| {
+            if d[i] > 0.0 && d[j] > 0.0 {
+                f[(i, j)] / (d[i] * d[j])
+            } else {
+                0.0
+            }
+        });
+        let eig = fs.symmetric_eigen();
+        let lmax = eig.eigenvalues.iter().cloned().fold(0.0, f64::max);
+        let mut axes = Vec::new();
+        let mut sigma = vec![0.0f64; np];
+        for (m, &lam) in eig.eigenvalues.iter().enumerate() {
+            let v = eig.eigenvectors.column(m);
+            if !(lam > 1e-12 * lmax) {
+                for i in 0..np {
+                    if v[i].abs() > 1e-6 {
+                        sigma[i] = f64::INFINITY;
+                    }
+                }
+                continue;
+            }
+            let a: Vec<f64> = (0..np)
+                .map(|i| {
+                    if d[i] > 0.0 {
+                        v[i] / (lam.sqrt() * d[i])
+                    } else {
+                        0.0
+                    }
+                })
+                .collect();
+            for i in 0..np {
+                sigma[i] += a[i] * a[i];
+            }
+            axes.push(a);
+        }
+        for i in 0..np {
+            sigma[i] = if d[i] > 0.0 {
+                sigma[i].sqrt()
+            } else {
+                f64::INFINITY
+            };
+        }
+        Self { axes, sigma }
+    }
+
+    fn from_covariance(np: usize, free: &[usize], cov: &DMatrix<f64>) -> Result<Self, RelBinError> {
+        let k = free.len();
+        if cov.shape() != (k, k) || free.iter().any(|&i| i >= np) {
+            return Err(RelBinError::Invalid(format!(
+                "the region covariance is {}×{} for {k} free parameters (indices {free:?} of {np})",
+                cov.nrows(),
+                cov.ncols()
+            )));
+        }
+        if cov.iter().any(|v| !v.is_finite()) {
+            return Err(RelBinError::Invalid(
+                "the region covariance has non-finite entries".into(),
+            ));
+        }
+        let sym = (cov + cov.transpose()) * 0.5;
+        let eig = sym.clone().symmetric_eigen();
+        let lmax = eig.eigenvalues.iter().cloned().fold(0.0, f64::max);
+        if eig.eigenvalues.iter().any(|&l| l < -1e-9 * lmax) || !(lmax > 0.0) {
+            return Err(RelBinError::Invalid(format!(
+                "the region covariance is not positive semi-definite (eigenvalues {:?})",
+                eig.eigenvalues.as_slice()
+            )));
+        }
+        let mut axes = Vec::new();
+        for (m, &lam) in eig.eigenvalues.iter().enumerate() {
+            if lam <= 0.0 {
+                continue;
+            }
+            let mut a = vec![0.0; np];
+            for (j, &i) in free.iter().enumerate() {
+                a[i] = lam.sqrt() * eig.eigenvectors[(j, m)];
+            }
+            axes.push(a);
+        }
+        let mut sigma = vec![0.0; np];
+        for (j, &i) in free.iter().enumerate() {
+            sigma[i] = sym[(j, j)].max(0.0).sqrt();
+        }
+        Ok(Self { axes, sigma })
+    }
+
+    /// Whether parameter `i`'s region is its whole prior box: its Gaussian σ exceeds a
+    /// quarter of the (finite) prior width, so ±2σ spans the box.
+    fn spans_box(&self, i: usize, bounds: &[(f64, f64)]) -> bool {
+        let (lo, hi) = bounds[i];
+        (hi - lo).is_finite() && self.sigma[i] > 0.0 && 4.0 * self.sigma[i] >= hi - lo
+    }
+
+    /// The fiducial and `fid ± n_sigma a_m`, each coordinate clamped to the box.
+    fn axis_points(&self, fid: &[f64], bounds: &[(f64, f64)], n_sigma: f64) -> Vec<Vec<f64>> {
+        let mut pts = vec![fid.to_vec()];
+        for a in &self.axes {
+            for sign in [-1.0, 1.0] {
+                pts.push(
+                    (0..fid.len())
+                        .map(|i| (fid[i] + sign * n_sigma * a[i]).clamp(bounds[i].0, bounds[i].1))
+                        .collect(),
+                );
+            }
+        }
+        pts
+    }
+
+    /// `n` points uniform in the `n_sigma` ellipsoid, with the parameters that span their box
+    /// drawn uniformly over it, every coordinate clamped to the box.
+    fn random_points(
+        &self,
+        fid: &[f64],
+        bounds: &[(f64, f64)],
+        n_sigma: f64,
+        n: usize,
+        rng: &mut Xoshiro256PlusPlus,
+    ) -> Vec<Vec<f64>> {
+        let m = self.axes.len();
+        let wide: Vec<bool> = (0..fid.len()).map(|i| self.spans_box(i, bounds)).collect();
+        (0..n)
+            .map(|_| {
+                let mut z: Vec<f64> = (0..m).map(|_| StandardNormal.sample(rng)).collect();
+                let norm = z.iter().map(|v| v * v).sum::<f64>().sqrt();
+                let u: f64 = rng.random();
+                let r = if m > 0 {
+                    n_sigma * u.powf(1.0 / m as f64)
+                } else {
+                    0.0
+                };
+                if norm > 0.0 {
+                    z.iter_mut().for_each(|v| *v *= r / norm);
+                }
+                let mut x = fid.to_vec();
+                for (a, zm) in self.axes.iter().zip(&z) {
+                    for i in 0..x.len() {
+                        x[i] += zm * a[i];
+                    }
+                }
+                for i in 0..x.len() {
+                    let (lo, hi) = bounds[i];
+                    if wide[i] {
+                        x[i] = lo + (hi - lo) * rng.random::<f64>();
+                    }
+                    x[i] = x[i].clamp(lo, hi);
+                }
+                x
+            })
+            .collect()
+    }
 }
 
 /// Summary data of one experiment; returns it and `Σ r0ᴴ C⁻¹ r0`.
@@ -791,5 +1117,127 @@ mod tests {
             }
         }
         eprintln!("batched relative binning vs unbatched: worst relative difference {worst:.2e}");
+    }
+
+    /// The small study at low SNR (ρ ≈ 5, `Likelihood::snr` at the truth):
+    /// the posterior of the delays and the gains fills their prior boxes.
+    fn low_snr() -> (Likelihood, Vec<f64>) {
+        let opts = SpectraOptions {
+            noise: NoiseSource::Model,
+            band: [1e-3, 0.3],
+            ..Default::default()
+        };
+        let study = small_study(31, 4e-11, "circular");
+        let lik = likelihood_of(&study, &opts);
+        let truth = study.truth.to_array().to_vec();
+        (lik, truth)
+    }
+
+    /// A corner of the box in the delays and gains (the rest at the truth).
+    fn corner(truth: &[f64], lik: &Likelihood) -> Vec<f64> {
+        let b = lik.prior().bounds();
+        let mut fid = truth.to_vec();
+        // dt1, dt2 on their lower bound; a_df on its upper, a_sus on its lower bound
+        fid[2] = b[2].0;
+        fid[3] = b[3].0;
+        fid[4] = b[4].1;
+        fid[5] = b[5].0;
+        fid
+    }
+
+    #[test]
+    fn validation_on_a_prior_corner_covers_the_box_and_reports_the_true_worst() {
+        let (lik, truth) = low_snr();
+        assert!(lik.snr(&truth) < 10.0, "{}", lik.snr(&truth));
+        let fid = corner(&truth, &lik);
+        let opts = RelBinOptions::default();
+        let rb = RelBinLikelihood::new(&lik, &fid, &opts).unwrap();
+        let v = rb.validation().clone();
+        // at ρ ≈ 5 every parameter's Gaussian spans its box: the validation points cover
+        // the boxes, not the few steps left inside them from the corner
+        for i in 0..lik.param_names().len() {
+            assert!(
+                v.box_params.contains(&lik.param_names()[i]),
+                "{:?}",
+                v.box_params
+            );
+            assert!(v.coverage[i] > 0.8, "parameter {i}: {:?}", v.coverage);
+        }
+        assert_eq!(v.n_points, opts.n_validation + 1);
+        assert!(v.worst_abs_delta_ln_l <= opts.max_delta_ln_l);
+        // an independent set of 200 uniform points of the box: the worst error there is
+        // within the limit and of the order of the reported worst
+        let b = lik.prior().bounds();
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(99);
+        let mut worst: f64 = 0.0;
+        for _ in 0..200 {
+            let t: Vec<f64> = b
+                .iter()
+                .map(|&(lo, hi)| lo + (hi - lo) * rng.random::<f64>())
+                .collect();
+            worst = worst.max((rb.ln_likelihood_full(&t) - lik.ln_likelihood_full(&t)).abs());
+        }
+        eprintln!(
+            "relbin on a corner at low SNR: {} coarse bins, reported worst {:.3e} over {} points, independent worst {worst:.3e} over 200",
+            rb.n_coarse(),
+            v.worst_abs_delta_ln_l,
+            v.n_points
+        );
+        assert!(worst <= opts.max_delta_ln_l, "{worst}");
+        assert!(
+            worst <= 3.0 * v.worst_abs_delta_ln_l + 1e-3,
+            "independent worst {worst} vs reported {}",
+            v.worst_abs_delta_ln_l
+        );
+    }
+
+    #[test]
+    fn impossible_tolerance_with_capped_bins_is_a_distinct_error() {
+        let (lik, truth) = low_snr();
+        let fid = corner(&truth, &lik);
+        let opts = RelBinOptions {
+            max_delta_ln_l: 1e-14,
+            max_coarse: Some(40),
+            ..Default::default()
+        };
+        let err = RelBinLikelihood::new(&lik, &fid, &opts).unwrap_err();
+        match &err {
+            RelBinError::ToleranceNotMet {
+                worst,
+                limit,
+                n_coarse,
+                ..
+            } => {
+                assert!(*worst > *limit && *n_coarse >= 1, "{err}");
+            }
+            e => panic!("expected ToleranceNotMet, got {e:?}"),
+        }
+        assert!(err.to_string().contains("exact likelihood"), "{err}");
+    }
+
+    #[test]
+    fn given_covariance_sets_the_region_and_is_checked() {
+        let (lik, truth) = low_snr();
+        let free = [0usize, 1, 6];
+        let f = crate::likelihood::fisher_exact(&lik, &truth, &free);
+        let cov = f.cholesky().unwrap().inverse();
+        let rb = RelBinLikelihood::with_covariance(&lik, &truth, &Default::default(), &free, &cov)
+            .unwrap();
+        let v = rb.validation();
+        // parameters outside `free` never move
+        for i in 2..6 {
+            assert_eq!(v.coverage[i], 0.0);
+        }
+        assert!(v.worst_abs_delta_ln_l <= 0.05);
+        let bad = DMatrix::from_row_slice(2, 2, &[1.0, 0.0, 0.0, 1.0]);
+        assert!(matches!(
+            RelBinLikelihood::with_covariance(&lik, &truth, &Default::default(), &free, &bad),
+            Err(RelBinError::Invalid(_))
+        ));
+        let neg = DMatrix::from_diagonal(&nalgebra::DVector::from_vec(vec![1e-14, -1e-12, 1e-8]));
+        assert!(matches!(
+            RelBinLikelihood::with_covariance(&lik, &truth, &Default::default(), &free, &neg),
+            Err(RelBinError::Invalid(_))
+        ));
     }
 }
