@@ -106,6 +106,11 @@ pub struct ModelOutcome {
     /// point when `map_found` is false.
     pub map: Vec<f64>,
     pub map_found: bool,
+    /// Free parameters whose MAP value is on a bound of the prior box.
+    pub map_at_bound: Vec<String>,
+    /// How well relative binning reproduces the exact `ln L` where the samplers go (absent
+    /// when the samplers ran on the exact likelihood).
+    pub relbin: Option<crate::likelihood::RelBinValidation>,
     pub ln_l_map: f64,
     /// Unconstrained maximum of `ln L` (the box-corrected Laplace expansion point), when found.
     pub unbounded_max: Option<Vec<f64>>,

@@ -7,7 +7,7 @@
 //! the run (nothing can be computed for it).
 
 use super::{Evidence, ModelOutcome, TemperingDiagnostics};
-use crate::analysis::{default_start, relbin_of};
+use crate::analysis::{default_start, relbin_in_region};
 use crate::config::{JumpProposal, LikelihoodKind, ModelSpec, SelectModel, Study};
 use crate::density::LogDensity;
 use crate::evidence::{
@@ -198,6 +198,15 @@ pub(super) fn run_model(
     if let Some(e) = &map_err {
         notes.push(e.clone());
     }
+    let map_at_bound = map
+        .as_ref()
+        .map(|r| r.bound_names(&names, free))
+        .unwrap_or_default();
+    if !map_at_bound.is_empty() {
+        notes.push(format!(
+            "the MAP is on the prior bound of {map_at_bound:?}: the posterior is cut by the prior there"
+        ));
+    }
     let base = map_theta.clone().unwrap_or_else(|| start.clone());
     let sub_exact = SubModel::new(exact, free.clone(), base.clone()).map_err(|e| e.to_string())?;
     let prior = sub_exact.prior().clone();
@@ -221,7 +230,7 @@ pub(super) fn run_model(
 
     // the sampled likelihood
     let sampled = match study.analysis.likelihood {
-        LikelihoodKind::Relbin => match relbin_of(study, exact, &base) {
+        LikelihoodKind::Relbin => match relbin_in_region(study, exact, &base, free, &walk_cov) {
             Ok(rb) => Sampled::RelBin(Box::new(rb)),
             Err(e) => {
                 notes.push(format!(
@@ -375,6 +384,11 @@ pub(super) fn run_model(
         prior_probability: m.prior_probability,
         map: base.clone(),
         map_found: map_theta.is_some(),
+        map_at_bound,
+        relbin: match &sampled {
+            Sampled::RelBin(rb) => Some(rb.validation().clone()),
+            Sampled::Exact(_) => None,
+        },
         ln_l_map,
         unbounded_max: unb.map(|u| u.theta).ok(),
         min_margin_sigma,
