@@ -107,6 +107,19 @@ fn low_snr_regime_every_estimator_reports_or_explains() {
         (bridge - visits).abs() < 0.1,
         "bridge {bridge} vs visits {visits}"
     );
+    // the tempering estimators need no jump and no Gaussian: they agree with the RJ bridge
+    assert!(p.all_agree, "{:#?}", p.estimates);
+    for m in ["Thermodynamic integration", "Stepping-stone"] {
+        let e = p.estimates.iter().find(|e| e.method == m).unwrap();
+        assert_eq!(e.agrees, Some(true), "{m}: {e:?}");
+        assert!(e.std_err.unwrap() > 0.0, "{m}: {e:?}");
+    }
+    // relative binning was validated over the box the posterior fills
+    for m in &out.models {
+        let v = m.relbin.as_ref().expect("relative binning in use");
+        assert!(v.worst_abs_delta_ln_l <= v.limit, "{}: {v:?}", m.name);
+        assert!(!v.box_params.is_empty(), "{}: {v:?}", m.name);
+    }
     // the MAP of X is on a bound: the plain Laplace expansion does not apply and says so
     let raw = p
         .estimates
@@ -116,4 +129,31 @@ fn low_snr_regime_every_estimator_reports_or_explains() {
     assert!(raw.ln_b.is_none() && raw.note.as_ref().unwrap().contains("bound"));
     let pp = out.posterior_model_probabilities.as_ref().unwrap();
     assert!((pp.iter().sum::<f64>() - 1.0).abs() < 1e-12);
+}
+
+/// ρ_opt = 60: the delays are barely measured, the MAP of X sits on the Δt1 = 1 s bound and
+/// the Fisher σ of the delays is wider than their box. The RJ estimators (with jump proposals
+/// from the in-model chains), thermodynamic integration and stepping-stone agree within their
+/// errors, and every row has a number or a reason.
+#[test]
+fn rho_60_rj_and_tempering_estimators_agree() {
+    let mut s = study("examples/guidance-delays.toml");
+    s.simulation.target_snr = Some(60.0);
+    let prep = prepare(&s).unwrap();
+    let out = run(&s, &prep, None).unwrap();
+    let p = &out.pairs[0];
+    assert!(p.all_agree, "{:#?}", p.estimates);
+    for e in &p.estimates {
+        assert!(e.ln_b.is_some() || e.note.is_some(), "{}", e.method);
+    }
+    for m in [
+        "RJMCMC visits",
+        "RJMCMC Rao-Blackwell",
+        "RJMCMC bridge",
+        "Thermodynamic integration",
+        "Stepping-stone",
+    ] {
+        let v = ln_b(p, m).unwrap_or_else(|| panic!("{m} gave no number"));
+        assert!(v.abs() < 0.5, "{m}: ln B = {v}");
+    }
 }
