@@ -99,14 +99,15 @@ def run_dynesty(p, seed):
         sample=DYNESTY_SAMPLE,
         rstate=np.random.default_rng(seed),
     )
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     sampler.run_nested(print_progress=False)
-    secs = time.perf_counter() - t0
+    secs, cpu = time.perf_counter() - t0, time.process_time() - c0
     r = sampler.results
     return dict(
         ln_z=float(r["logz"][-1]),
         err=float(r["logzerr"][-1]),
         seconds=secs,
+        cpu_seconds=cpu,
         settings=dict(
             nlive=DYNESTY_NLIVE,
             bound=DYNESTY_BOUND,
@@ -123,14 +124,15 @@ def run_nautilus(p, seed):
     from nautilus import Sampler
 
     sampler = Sampler(p.prior_transform, p.ln_like, n_dim=p.ndim, pool=None, seed=seed)
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     sampler.run(verbose=False)
-    secs = time.perf_counter() - t0
+    secs, cpu = time.perf_counter() - t0, time.process_time() - c0
     n_eff = float(sampler.n_eff)
     return dict(
         ln_z=float(sampler.log_z),
         err=1.0 / np.sqrt(n_eff),
         seconds=secs,
+        cpu_seconds=cpu,
         settings=dict(n_live=2000, n_eff_target=10000, f_live=0.01, n_networks=4, defaults=True),
         n_eff=n_eff,
     )
@@ -204,7 +206,7 @@ def main():
             r["lnl_share"] = p.calls / lnl_rate / r["seconds"]
             print(
                 f"{tool} {p.name} ({p.ndim} params): ln Z {r['ln_z']:.4f} ± {r['err']:.4f},"
-                f" {p.calls} calls, {r['seconds']:.1f} s (load {load0[0]:.2f} → {r['load_after'][0]:.2f})",
+                f" {p.calls} calls, {r['seconds']:.1f} s, CPU {r['cpu_seconds']:.1f} s (load {load0[0]:.2f} → {r['load_after'][0]:.2f})",
                 flush=True,
             )
             recs.append(r)
@@ -223,13 +225,14 @@ def main():
             ln_b=x["ln_z"] - y["ln_z"],
             err=float(np.hypot(x["err"], y["err"])),
             seconds=x["seconds"] + y["seconds"],
+            cpu_seconds=x["cpu_seconds"] + y["cpu_seconds"],
             calls=x["calls"] + y["calls"],
             nproc=os.cpu_count(),
             when=time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime()),
         )
         print(
             f"{tool}: ln B_{x['model']}{y['model']} = {out['ln_b']:.4f} ± {out['err']:.4f}"
-            f" in {out['seconds']:.1f} s ({out['calls']} calls)",
+            f" in {out['seconds']:.1f} s, CPU {out['cpu_seconds']:.1f} s ({out['calls']} calls)",
             flush=True,
         )
         path = a.out or f"{a.prefix}.{tool}.json"
