@@ -48,9 +48,11 @@ fn run(study_path: &Path, prefix: &Path) -> Result<(), Box<dyn std::error::Error
     }
     let mi = study.select_models[0].spec.model;
     if study.select_models.iter().any(|m| m.spec.model != mi) {
-        return Err("the [[select.model]] models must all be sub-models of one [[model]] \
+        return Err(
+            "the [[select.model]] models must all be sub-models of one [[model]] \
                     (the numpy peer implements one likelihood)"
-            .into());
+                .into(),
+        );
     }
     let masses = match &study.models.defs[mi] {
         ModelDef::Ltp { options, .. }
@@ -60,10 +62,12 @@ fn run(study_path: &Path, prefix: &Path) -> Result<(), Box<dyn std::error::Error
             options.masses
         }
         _ => {
-            return Err("the numpy peer implements the built-in continuous closed loop \
+            return Err(
+                "the numpy peer implements the built-in continuous closed loop \
                         without thruster response only (kind = \"ltp\", thruster = \"none\", \
                         response = \"continuous\")"
-                .into());
+                    .into(),
+            );
         }
     };
     let prior = &study.models.priors[mi];
