@@ -267,11 +267,7 @@ impl<'a> Pair<'a> {
     }
 
     /// [visits, Rao-Blackwell, bridge] with the given jump proposals `(center, cov)` per model.
-    fn rjmcmc_with<'b>(
-        &'b self,
-        seed: u64,
-        proposals: [(Vec<f64>, DMatrix<f64>); 2],
-    ) -> [Option<Err>; 3] {
+    fn rjmcmc_with(&self, seed: u64, proposals: [(Vec<f64>, DMatrix<f64>); 2]) -> [Option<Err>; 3] {
         let full: &dyn LogDensity = &self.full;
         let nested: &dyn LogDensity = &self.nested;
         let [(cf, vf), (cn, vn)] = proposals;
