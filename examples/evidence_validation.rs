@@ -10,18 +10,30 @@
 //! * **G**: Gaussian priors N(0, (3s)²), extra parameter absent in truth. LF must be exact.
 //! * **U**: uniform priors U[−5s, 5s] (≥ 15 posterior σ wide), extra parameter absent. LF with
 //!   and without the box term, LM with exact posterior draws (θ̂ = best draw, as in K14), RJMCMC
-//!   (visit ratio, Rao-Blackwellised, bridge) with 1σ coverage of its error bars.
+//!   (visit ratio, Rao-Blackwellised, bridge), and parallel tempering per model
+//!   ([`run_tempering`], 12 rungs, 12 000 sweeps of which 2 000 burn-in) giving thermodynamic
+//!   integration (TI; error bar = Monte-Carlo and discretisation errors in quadrature) and
+//!   stepping stone (SS), each with 1σ coverage of its error bars.
 //! * **N**: narrow uniform priors U[−1.5σ/√n, 1.5σ/√n] (prior-dominated; the unconstrained
 //!   maximum lies outside the box whenever the signal is strong): LF raw vs box-corrected.
 //! * **P**: uniform U[−5s, 5s], extra parameter *present* (|ln B| up to thousands): the visit
 //!   ratio fails (a model never visited), the bridge estimator stays finite.
+//! * **C**: prior-dominated corners. Boxes `[−h, h]^D` with `h = w·σ/√n`, `w ∈ {0.2, 0.5}`
+//!   (box width 0.4 and 1 likelihood widths), D ∈ {1, 2, 4, 8}; the truth is the corner
+//!   `(h, …, h)` (so the extra parameter is present but unresolvable) and the noise is redrawn
+//!   until the likelihood gradient at that corner points out of the box in every coordinate,
+//!   which puts the full model's MAP on the corner. The Fisher Gaussian misses such a box, so
+//!   each model's RJ jump proposal and PT covariance come from a short in-model random-walk
+//!   chain (sample mean and covariance). Reported: LF with box term (bias), RJ visits /
+//!   Rao-Blackwell / bridge, TI and SS, with bias and 1σ coverage per cell.
 //!
 //! Coverage: over n runs a calibrated 1σ interval covers the truth with Binomial(n, 0.683)
 //! frequency (for n = 50: sd 0.066, so [0.49, 0.88] is ±3 sd); cells outside ±3 sd for their
 //! own n are marked `!`. The QMC seeds of the box masses differ per problem, so the runs are
 //! independent.
 //!
-//! Run with `cargo run --release --example evidence_validation`.
+//! Run with `cargo run --release --example evidence_validation`; `-- --blocks UC` (any subset of
+//! `GUNPC`, default all) runs only the named blocks.
 
 use nalgebra::DMatrix;
 use occam::density::LogDensity;
@@ -33,8 +45,11 @@ use occam::evidence::mvn::MvnOptions;
 use occam::evidence::rjmcmc::{RjModel, RjOptions, run_rjmcmc};
 use occam::evidence::robust::{McdOptions, MveOptions, RobustMethod};
 use occam::evidence::schwarz::schwarz_ln_b;
+use occam::evidence::tempering::{TemperingOptions, run_tempering};
 use occam::nested::SubModel;
-use rand::SeedableRng;
+use occam::prior::{Prior, PriorKind};
+use rand::{RngExt, SeedableRng};
+use rand_distr::{Distribution, StandardNormal};
 use rand_xoshiro::Xoshiro256PlusPlus;
 use rayon::prelude::*;
 use std::time::Instant;
@@ -45,6 +60,11 @@ const SEEDS: u64 = 50;
 const SNRS: [f64; 4] = [3.0, 10.0, 30.0, 100.0];
 const RJ_ITER: usize = 50_000;
 const LM_DRAWS: usize = 1_000;
+/// Parallel tempering per model: rungs, sweeps, burn-in sweeps.
+const PT: (usize, usize, usize) = (12, 12_000, 2_000);
+/// Block C: dimensions and box half-widths in units of the likelihood width σ/√n.
+const C_DIMS: [usize; 4] = [1, 2, 4, 8];
+const C_WIDTHS: [f64; 2] = [0.2, 0.5];
 /// Nominal 1σ coverage of a calibrated error bar.
 const COVER: f64 = 0.683;
 
@@ -233,22 +253,37 @@ impl<'a> Pair<'a> {
         })
     }
 
-    /// [visits, Rao-Blackwell, bridge].
-    fn rjmcmc<'b>(&'b self, seed: u64) -> [Option<Err>; 3] {
-        let model = |name: &str, t: &'b dyn LogDensity, cols: &[usize]| -> RjModel<'b> {
+    /// The Gaussian posterior of each model (mean, covariance): the Fisher-type jump proposal.
+    fn fisher_proposals(&self) -> [(Vec<f64>, DMatrix<f64>); 2] {
+        [&self.full_cols, &self.nested_cols].map(|cols| {
             let post = self.lg.gaussian_posterior(cols).expect("posterior");
-            RjModel {
-                name: name.into(),
-                target: t,
-                center: post.mean.as_slice().to_vec(),
-                cov: post.cov,
-            }
-        };
+            (post.mean.as_slice().to_vec(), post.cov)
+        })
+    }
+
+    /// [visits, Rao-Blackwell, bridge] with the Fisher jump proposals.
+    fn rjmcmc(&self, seed: u64) -> [Option<Err>; 3] {
+        self.rjmcmc_with(seed, self.fisher_proposals())
+    }
+
+    /// [visits, Rao-Blackwell, bridge] with the given jump proposals `(center, cov)` per model.
+    fn rjmcmc_with(&self, seed: u64, proposals: [(Vec<f64>, DMatrix<f64>); 2]) -> [Option<Err>; 3] {
         let full: &dyn LogDensity = &self.full;
         let nested: &dyn LogDensity = &self.nested;
+        let [(cf, vf), (cn, vn)] = proposals;
         let models = [
-            model("full", full, &self.full_cols),
-            model("nested", nested, &self.nested_cols),
+            RjModel {
+                name: "full".into(),
+                target: full,
+                center: cf,
+                cov: vf,
+            },
+            RjModel {
+                name: "nested".into(),
+                target: nested,
+                center: cn,
+                cov: vn,
+            },
         ];
         let opts = RjOptions {
             n_iter: RJ_ITER,
@@ -266,6 +301,126 @@ impl<'a> Pair<'a> {
         let p = res.pair(0, 1).expect("pair");
         [p.visits, p.rao_blackwell, p.bridge].map(|e| e.map(|e| self.err(e.ln_b, e.std_err)))
     }
+
+    /// [TI, SS]: parallel tempering on each model from `(start, cov)`; the TI error bar is its
+    /// Monte-Carlo and discretisation errors in quadrature. A model without free parameters
+    /// has `ln Z = ln L` exactly.
+    fn tempering(&self, seed: u64, proposals: &[(Vec<f64>, DMatrix<f64>); 2]) -> [Option<Err>; 2] {
+        let (n_temps, n_iter, burn_in) = PT;
+        let opts = TemperingOptions {
+            n_temps,
+            n_iter,
+            burn_in,
+            seed,
+            parallel: false,
+            ..TemperingOptions::default()
+        };
+        let one = |t: &dyn LogDensity, (start, cov): &(Vec<f64>, DMatrix<f64>)| {
+            if t.dim() == 0 {
+                let l = t.ln_likelihood(&[]);
+                return Some([(l, 0.0), (l, 0.0)]);
+            }
+            let start: Vec<f64> = start
+                .iter()
+                .zip(t.prior().bounds())
+                .map(|(&m, (lo, hi))| m.clamp(lo, hi))
+                .collect();
+            let r = run_tempering(t, &start, cov, &opts).ok()?;
+            let ti = r.thermodynamic.ok()?;
+            let ss = r.stepping_stone.ok()?;
+            Some([(ti.ln_z, ti.total_err()), (ss.ln_z, ss.std_err)])
+        };
+        let (Some(f), Some(n)) = (
+            one(&self.full, &proposals[0]),
+            one(&self.nested, &proposals[1]),
+        ) else {
+            return [None, None];
+        };
+        [0, 1].map(|k| Some(self.err(f[k].0 - n[k].0, Some(f[k].1.hypot(n[k].1)))))
+    }
+}
+
+/// Mean and covariance of a short in-model random-walk Metropolis chain on `t` (2 000 pilot
+/// steps with `cov0`, then 6 000 with the pilot's covariance, the last 5 000 kept): the jump
+/// proposal when the Fisher Gaussian misses the prior box.
+fn in_model_chain(
+    t: &dyn LogDensity,
+    start: &[f64],
+    cov0: &DMatrix<f64>,
+    seed: u64,
+) -> (Vec<f64>, DMatrix<f64>) {
+    let d = t.dim();
+    if d == 0 {
+        return (vec![], DMatrix::zeros(0, 0));
+    }
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
+    let mut cur = start.to_vec();
+    let mut lp = t.ln_posterior(&cur);
+    let mut run = |cov: &DMatrix<f64>, n: usize, keep: usize, rng: &mut Xoshiro256PlusPlus| {
+        let l =
+            cov.clone().cholesky().expect("proposal covariance").l() * (2.38 / (d as f64).sqrt());
+        let mut kept: Vec<Vec<f64>> = Vec::with_capacity(keep);
+        for i in 0..n {
+            let z = nalgebra::DVector::from_fn(d, |_, _| StandardNormal.sample(&mut *rng));
+            let step = &l * z;
+            let prop: Vec<f64> = cur.iter().zip(step.iter()).map(|(a, b)| a + b).collect();
+            let lq = t.ln_posterior(&prop);
+            if rng.random::<f64>().ln() < lq - lp {
+                cur = prop;
+                lp = lq;
+            }
+            if i >= n - keep {
+                kept.push(cur.clone());
+            }
+        }
+        let k = kept.len() as f64;
+        let mean: Vec<f64> = (0..d)
+            .map(|j| kept.iter().map(|x| x[j]).sum::<f64>() / k)
+            .collect();
+        let cov = DMatrix::from_fn(d, d, |a, b| {
+            kept.iter()
+                .map(|x| (x[a] - mean[a]) * (x[b] - mean[b]))
+                .sum::<f64>()
+                / (k - 1.0)
+        });
+        (mean, cov)
+    };
+    let (_, pilot) = run(cov0, 2_000, 1_000, &mut rng);
+    // A pilot that barely moved has a singular covariance: keep the starting one then.
+    let pilot = if pilot.clone().cholesky().is_some() {
+        pilot
+    } else {
+        cov0.clone()
+    };
+    run(&pilot, 6_000, 5_000, &mut rng)
+}
+
+/// Block C problem: design N(0, 1), box `[−h, h]^D`, truth on the corner `(h, …, h)`, noise
+/// redrawn until the likelihood gradient at the corner points out of the box in every
+/// coordinate (the KKT condition of the concave ln L: the MAP of the full model is the corner).
+fn corner_problem(d: usize, h: f64, seed: u64) -> LinearGaussian {
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
+    let x: DMatrix<f64> = DMatrix::from_fn(N_DATA, d, |_, _| StandardNormal.sample(&mut rng));
+    let corner = nalgebra::DVector::from_element(d, h);
+    let signal = &x * &corner;
+    for _ in 0..1_000_000 {
+        let y = nalgebra::DVector::from_fn(N_DATA, |i, _| {
+            signal[i]
+                + SIGMA * {
+                    let e: f64 = StandardNormal.sample(&mut rng);
+                    e
+                }
+        });
+        let grad = x.transpose() * (&y - &signal);
+        if grad.iter().all(|&g| g > 0.0) {
+            let names = (0..d).map(|i| format!("p{i}")).collect();
+            let prior =
+                Prior::new(names, vec![PriorKind::Uniform { lo: -h, hi: h }; d]).expect("prior");
+            return LinearGaussian::new(x, y.iter().cloned().collect(), SIGMA, prior)
+                .expect("problem");
+        }
+    }
+    panic!("no noise draw put the MAP on the corner for D = {d}");
 }
 
 /// Mean and standard deviation of the errors that exist, and how many do not.
@@ -358,242 +513,396 @@ fn cells<T: Clone>(cs: &[Case], out: &[T]) -> Vec<((usize, usize), Vec<T>)> {
     res
 }
 
-fn main() {
-    let t0 = Instant::now();
-    let dims: Vec<usize> = (1..=10).collect();
-    let all = cases(&dims);
-
-    // Block G.
-    let t = Instant::now();
-    let g: Vec<_> = all
-        .par_iter()
-        .map(|c| {
-            let s = c.scale();
-            let lg = c.problem(
-                RandomPrior::Gaussian {
-                    mu: 0.0,
-                    sigma: 3.0 * s,
-                },
-                1,
-                1,
-            );
-            let p = Pair::new(&lg, c.d, c.problem_seed(31));
-            let lf = p.laplace_fisher(true, c.problem_seed(40));
-            (
-                p.truth,
-                p.laplace_err(&lf),
-                p.laplace_hessian(),
-                Some(p.schwarz()),
-            )
-        })
-        .collect();
-    println!("Block G: Gaussian priors N(0, (3s)^2), extra parameter absent; ln B = full − nested");
-    println!(
-        "{:>3} {:>5} | {:>8} | {:>10} | {:>10} | {:>15}",
-        "D", "SNR", "lnB mean", "LF max|e|", "LH max|e|", "SBIC bias±sd"
-    );
-    for ((d, si), rows) in cells(&all, &g) {
-        let lf: Vec<_> = rows.iter().map(|r| r.1).collect();
-        let lh: Vec<_> = rows.iter().map(|r| r.2).collect();
-        let sb: Vec<_> = rows.iter().map(|r| r.3).collect();
-        println!(
-            "{d:>3} {:>5} | {:8.3} | {:10.2e} | {:10.2e} | {}",
-            SNRS[si],
-            mean_truth(&rows, |r| r.0),
-            stats(&lf).2,
-            stats(&lh).2,
-            fmt_bias(&sb)
-        );
-    }
-    println!("(block G: {:.1} s)\n", t.elapsed().as_secs_f64());
-
-    // Block U.
-    let t = Instant::now();
-    let u: Vec<_> = all
-        .par_iter()
-        .map(|c| {
-            let s = c.scale();
-            let lg = c.problem(
-                RandomPrior::Uniform {
-                    lo: -5.0 * s,
-                    hi: 5.0 * s,
-                },
-                1,
-                2,
-            );
-            let p = Pair::new(&lg, c.d, c.problem_seed(32));
-            let boxed = p.laplace_fisher(true, c.problem_seed(40));
-            let lf = [p.laplace_raw_err(&boxed), p.laplace_err(&boxed)];
-            (
-                p.truth,
-                lf,
-                p.laplace_metropolis(c.problem_seed(12)),
-                p.rjmcmc(c.problem_seed(22)),
-            )
-        })
-        .collect();
-    println!("Block U: uniform priors U[-5s, 5s], extra parameter absent");
-    println!(
-        "{:>3} {:>5} | {:>8} | {:>9} {:>9} | {:>15} {:>15} | {:>15} {:>6} | {:>15} {:>6} | {:>15} {:>6} | {:>6} {:>6}",
-        "D",
-        "SNR",
-        "lnB mean",
-        "LFraw|e|",
-        "LFbox|e|",
-        "LM-MVE bias",
-        "LM-MCD bias",
-        "RJ visits bias",
-        "cov1σ",
-        "RJ RB bias",
-        "cov1σ",
-        "RJ bridge bias",
-        "cov1σ",
-        "se vis",
-        "se br"
-    );
-    let mut rj_all: [Vec<Option<Err>>; 3] = Default::default();
-    for ((d, si), rows) in cells(&all, &u) {
-        let lf0: Vec<_> = rows.iter().map(|r| r.1[0]).collect();
-        let lf1: Vec<_> = rows.iter().map(|r| r.1[1]).collect();
-        let mve: Vec<_> = rows.iter().map(|r| r.2[0]).collect();
-        let mcd: Vec<_> = rows.iter().map(|r| r.2[1]).collect();
-        let rj: Vec<Vec<_>> = (0..3)
-            .map(|k| rows.iter().map(|r| r.3[k]).collect())
-            .collect();
-        for (acc, v) in rj_all.iter_mut().zip(&rj) {
-            acc.extend(v.iter().cloned());
-        }
-        println!(
-            "{d:>3} {:>5} | {:8.3} | {:9.2e} {:9.2e} | {:>15} {:>15} | {:>15} {} | {:>15} {} | {:>15} {} | {:6.3} {:6.3}",
-            SNRS[si],
-            mean_truth(&rows, |r| r.0),
-            stats(&lf0).2,
-            stats(&lf1).2,
-            fmt_bias(&mve),
-            fmt_bias(&mcd),
-            fmt_bias(&rj[0]),
-            fmt_cov(coverage(&rj[0])),
-            fmt_bias(&rj[1]),
-            fmt_cov(coverage(&rj[1])),
-            fmt_bias(&rj[2]),
-            fmt_cov(coverage(&rj[2])),
-            mean_se(&rj[0]),
-            mean_se(&rj[2]),
-        );
-    }
-    for (name, v) in ["visits", "Rao-Blackwell", "bridge"].iter().zip(&rj_all) {
+/// Pooled 1σ coverage of [visits, Rao-Blackwell, bridge, TI, SS] over every run of a block.
+fn pooled(all: &[Vec<Option<Err>>; 5]) {
+    for (name, v) in ["RJ visits", "RJ Rao-Blackwell", "RJ bridge", "TI", "SS"]
+        .iter()
+        .zip(all)
+    {
         let (c, n) = coverage(v).unwrap_or((f64::NAN, 0));
         let n = n as f64;
         // Pooled binomial: sd = √(0.683·0.317/n).
         let z = (c - COVER) / (COVER * (1.0 - COVER) / n).sqrt();
         println!(
-            "  RJ {name:>13}: pooled 1σ coverage over {n} runs = {c:.3} ({z:+.1} binomial sd from 0.683)"
+            "  {name:>16}: pooled 1σ coverage over {n} runs = {c:.3} ({z:+.1} binomial sd from 0.683)"
         );
     }
-    println!("(block U: {:.1} s)\n", t.elapsed().as_secs_f64());
+}
 
-    // Block N.
+/// Block C: prior-dominated boxes with the truth and the MAP on a corner.
+fn block_c() {
     let t = Instant::now();
-    let nb: Vec<_> = all
+    let mut cs = Vec::new();
+    for &d in &C_DIMS {
+        for wi in 0..C_WIDTHS.len() {
+            for seed in 0..SEEDS {
+                cs.push(Case {
+                    d,
+                    snr_idx: wi,
+                    seed,
+                });
+            }
+        }
+    }
+    let rows: Vec<_> = cs
         .par_iter()
         .map(|c| {
-            let h = 1.5 * SIGMA / (N_DATA as f64).sqrt();
-            let lg = c.problem(RandomPrior::Uniform { lo: -h, hi: h }, 1, 3);
-            let p = Pair::new(&lg, c.d, c.problem_seed(33));
-            let boxed = p.laplace_fisher(true, c.problem_seed(40));
+            let h = C_WIDTHS[c.snr_idx] * SIGMA / (N_DATA as f64).sqrt();
+            let lg = corner_problem(c.d, h, c.problem_seed(5));
+            let p = Pair::new(&lg, c.d, c.problem_seed(35));
+            // In-model chains from the box-aware Gaussian: precision of the likelihood plus that
+            // of the box (variance h²/3 per parameter), started at the corner-clamped maximum.
+            let chains = [
+                (&p.full as &dyn LogDensity, &p.full_cols),
+                (&p.nested as &dyn LogDensity, &p.nested_cols),
+            ]
+            .map(|(t, cols)| {
+                let post = p.lg.gaussian_posterior(cols).expect("posterior");
+                let mut prec = post.precision.clone();
+                for i in 0..cols.len() {
+                    prec[(i, i)] += 3.0 / (h * h);
+                }
+                let cov0 = prec.try_inverse().unwrap_or_else(|| DMatrix::zeros(0, 0));
+                let start: Vec<f64> = post.mean.iter().map(|m| m.clamp(-h, h)).collect();
+                in_model_chain(t, &start, &cov0, c.problem_seed(36) + cols.len() as u64)
+            });
+            let lf = p.laplace_fisher(true, c.problem_seed(40));
             (
                 p.truth,
-                p.laplace_fisher(false, c.problem_seed(40)).is_none(),
-                p.laplace_raw_err(&boxed),
-                p.laplace_err(&boxed),
-                Some(p.schwarz()),
+                p.laplace_err(&lf),
+                p.rjmcmc_with(c.problem_seed(27), chains.clone()),
+                p.tempering(c.problem_seed(28), &chains),
             )
         })
         .collect();
     println!(
-        "Block N: narrow uniform priors U[-1.5σ/√n, 1.5σ/√n] (prior-dominated), extra parameter absent"
+        "Block C: prior-dominated boxes [-h, h]^D, h = w·σ/√n (narrower than the likelihood), truth and MAP on the corner (h, …, h); RJ jump proposals and PT covariances from in-model chains"
     );
     println!(
-        "{:>3} {:>5} | {:>9} | {:>5} | {:>15} | {:>15} {:>6} {:>9} | {:>15}",
+        "{:>3} {:>4} | {:>8} | {:>15} | {:>15} {:>6} | {:>15} {:>6} | {:>15} {:>6} | {:>15} {:>6} | {:>15} {:>6} | {:>6} {:>6} {:>6}",
         "D",
-        "SNR",
+        "w",
         "lnB mean",
-        "bound",
-        "LF raw bias",
         "LF box bias",
-        "cov1σ",
-        "mean se",
-        "SBIC bias"
-    );
-    for ((d, si), rows) in cells(&all, &nb) {
-        let raw: Vec<_> = rows.iter().map(|r| r.2).collect();
-        let bx: Vec<_> = rows.iter().map(|r| r.3).collect();
-        let sb: Vec<_> = rows.iter().map(|r| r.4).collect();
-        println!(
-            "{d:>3} {:>5} | {:9.3} | {:5} | {:>15} | {:>15} {} {:9.1e} | {:>15}",
-            SNRS[si],
-            mean_truth(&rows, |r| r.0),
-            rows.iter().filter(|r| r.1).count(),
-            fmt_bias(&raw),
-            fmt_bias(&bx),
-            fmt_cov(coverage(&bx)),
-            mean_se(&bx),
-            fmt_bias(&sb)
-        );
-    }
-    println!("(block N: {:.1} s)\n", t.elapsed().as_secs_f64());
-
-    // Block P.
-    let t = Instant::now();
-    let pc = cases(&[1, 3, 10]);
-    let pr: Vec<_> = pc
-        .par_iter()
-        .map(|c| {
-            let s = c.scale();
-            let lg = c.problem(
-                RandomPrior::Uniform {
-                    lo: -5.0 * s,
-                    hi: 5.0 * s,
-                },
-                0,
-                4,
-            );
-            let p = Pair::new(&lg, c.d, c.problem_seed(34));
-            (p.truth, p.rjmcmc(c.problem_seed(24)))
-        })
-        .collect();
-    println!("Block P: uniform priors U[-5s, 5s], extra parameter present (large ln B)");
-    println!(
-        "{:>3} {:>5} | {:>9} {:>9} | {:>15} {:>6} | {:>15} {:>6} | {:>15} {:>6}",
-        "D",
-        "SNR",
-        "lnB mean",
-        "lnB min",
         "RJ visits bias",
         "cov1σ",
         "RJ RB bias",
         "cov1σ",
         "RJ bridge bias",
-        "cov1σ"
+        "cov1σ",
+        "TI bias",
+        "cov1σ",
+        "SS bias",
+        "cov1σ",
+        "se br",
+        "se TI",
+        "se SS"
     );
-    for ((d, si), rows) in cells(&pc, &pr) {
-        let tmin = rows.iter().map(|r| r.0).fold(f64::INFINITY, f64::min);
-        let rj: Vec<Vec<_>> = (0..3)
-            .map(|k| rows.iter().map(|r| r.1[k]).collect())
+    let mut all: [Vec<Option<Err>>; 5] = Default::default();
+    for ((d, wi), rows) in cells(&cs, &rows) {
+        let lf: Vec<_> = rows.iter().map(|r| r.1).collect();
+        let est: Vec<Vec<_>> = (0..5)
+            .map(|k| {
+                rows.iter()
+                    .map(|r| if k < 3 { r.2[k] } else { r.3[k - 3] })
+                    .collect()
+            })
             .collect();
+        for (acc, v) in all.iter_mut().zip(&est) {
+            acc.extend(v.iter().cloned());
+        }
         println!(
-            "{d:>3} {:>5} | {:9.2} {tmin:9.2} | {:>15} {} | {:>15} {} | {:>15} {}",
-            SNRS[si],
+            "{d:>3} {:>4} | {:8.3} | {:>15} | {:>15} {} | {:>15} {} | {:>15} {} | {:>15} {} | {:>15} {} | {:6.3} {:6.3} {:6.3}",
+            C_WIDTHS[wi],
             mean_truth(&rows, |r| r.0),
-            fmt_bias(&rj[0]),
-            fmt_cov(coverage(&rj[0])),
-            fmt_bias(&rj[1]),
-            fmt_cov(coverage(&rj[1])),
-            fmt_bias(&rj[2]),
-            fmt_cov(coverage(&rj[2])),
+            fmt_bias(&lf),
+            fmt_bias(&est[0]),
+            fmt_cov(coverage(&est[0])),
+            fmt_bias(&est[1]),
+            fmt_cov(coverage(&est[1])),
+            fmt_bias(&est[2]),
+            fmt_cov(coverage(&est[2])),
+            fmt_bias(&est[3]),
+            fmt_cov(coverage(&est[3])),
+            fmt_bias(&est[4]),
+            fmt_cov(coverage(&est[4])),
+            mean_se(&est[2]),
+            mean_se(&est[3]),
+            mean_se(&est[4]),
         );
     }
-    println!("(block P: {:.1} s)\n", t.elapsed().as_secs_f64());
+    pooled(&all);
+    println!("(block C: {:.1} s)\n", t.elapsed().as_secs_f64());
+}
+
+fn main() {
+    let t0 = Instant::now();
+    let dims: Vec<usize> = (1..=10).collect();
+    let all = cases(&dims);
+    // `--blocks GUNPC` (any subset, default all) selects the blocks to run.
+    let args: Vec<String> = std::env::args().collect();
+    let blocks = args
+        .iter()
+        .position(|a| a == "--blocks")
+        .and_then(|i| args.get(i + 1))
+        .cloned()
+        .unwrap_or_else(|| "GUNPC".into());
+    let want = |b: char| blocks.contains(b);
+
+    if want('G') {
+        // Block G.
+        let t = Instant::now();
+        let g: Vec<_> = all
+            .par_iter()
+            .map(|c| {
+                let s = c.scale();
+                let lg = c.problem(
+                    RandomPrior::Gaussian {
+                        mu: 0.0,
+                        sigma: 3.0 * s,
+                    },
+                    1,
+                    1,
+                );
+                let p = Pair::new(&lg, c.d, c.problem_seed(31));
+                let lf = p.laplace_fisher(true, c.problem_seed(40));
+                (
+                    p.truth,
+                    p.laplace_err(&lf),
+                    p.laplace_hessian(),
+                    Some(p.schwarz()),
+                )
+            })
+            .collect();
+        println!(
+            "Block G: Gaussian priors N(0, (3s)^2), extra parameter absent; ln B = full − nested"
+        );
+        println!(
+            "{:>3} {:>5} | {:>8} | {:>10} | {:>10} | {:>15}",
+            "D", "SNR", "lnB mean", "LF max|e|", "LH max|e|", "SBIC bias±sd"
+        );
+        for ((d, si), rows) in cells(&all, &g) {
+            let lf: Vec<_> = rows.iter().map(|r| r.1).collect();
+            let lh: Vec<_> = rows.iter().map(|r| r.2).collect();
+            let sb: Vec<_> = rows.iter().map(|r| r.3).collect();
+            println!(
+                "{d:>3} {:>5} | {:8.3} | {:10.2e} | {:10.2e} | {}",
+                SNRS[si],
+                mean_truth(&rows, |r| r.0),
+                stats(&lf).2,
+                stats(&lh).2,
+                fmt_bias(&sb)
+            );
+        }
+        println!("(block G: {:.1} s)\n", t.elapsed().as_secs_f64());
+    }
+
+    if want('U') {
+        // Block U.
+        let t = Instant::now();
+        let u: Vec<_> = all
+            .par_iter()
+            .map(|c| {
+                let s = c.scale();
+                let lg = c.problem(
+                    RandomPrior::Uniform {
+                        lo: -5.0 * s,
+                        hi: 5.0 * s,
+                    },
+                    1,
+                    2,
+                );
+                let p = Pair::new(&lg, c.d, c.problem_seed(32));
+                let boxed = p.laplace_fisher(true, c.problem_seed(40));
+                let lf = [p.laplace_raw_err(&boxed), p.laplace_err(&boxed)];
+                (
+                    p.truth,
+                    lf,
+                    p.laplace_metropolis(c.problem_seed(12)),
+                    p.rjmcmc(c.problem_seed(22)),
+                    p.tempering(c.problem_seed(26), &p.fisher_proposals()),
+                )
+            })
+            .collect();
+        println!("Block U: uniform priors U[-5s, 5s], extra parameter absent");
+        println!(
+            "{:>3} {:>5} | {:>8} | {:>9} {:>9} | {:>15} {:>15} | {:>15} {:>6} | {:>15} {:>6} | {:>15} {:>6} | {:>15} {:>6} | {:>15} {:>6} | {:>6} {:>6} {:>6} {:>6}",
+            "D",
+            "SNR",
+            "lnB mean",
+            "LFraw|e|",
+            "LFbox|e|",
+            "LM-MVE bias",
+            "LM-MCD bias",
+            "RJ visits bias",
+            "cov1σ",
+            "RJ RB bias",
+            "cov1σ",
+            "RJ bridge bias",
+            "cov1σ",
+            "TI bias",
+            "cov1σ",
+            "SS bias",
+            "cov1σ",
+            "se vis",
+            "se br",
+            "se TI",
+            "se SS"
+        );
+        let mut rj_all: [Vec<Option<Err>>; 5] = Default::default();
+        for ((d, si), rows) in cells(&all, &u) {
+            let lf0: Vec<_> = rows.iter().map(|r| r.1[0]).collect();
+            let lf1: Vec<_> = rows.iter().map(|r| r.1[1]).collect();
+            let mve: Vec<_> = rows.iter().map(|r| r.2[0]).collect();
+            let mcd: Vec<_> = rows.iter().map(|r| r.2[1]).collect();
+            let rj: Vec<Vec<_>> = (0..5)
+                .map(|k| {
+                    rows.iter()
+                        .map(|r| if k < 3 { r.3[k] } else { r.4[k - 3] })
+                        .collect()
+                })
+                .collect();
+            for (acc, v) in rj_all.iter_mut().zip(&rj) {
+                acc.extend(v.iter().cloned());
+            }
+            println!(
+                "{d:>3} {:>5} | {:8.3} | {:9.2e} {:9.2e} | {:>15} {:>15} | {:>15} {} | {:>15} {} | {:>15} {} | {:>15} {} | {:>15} {} | {:6.3} {:6.3} {:6.3} {:6.3}",
+                SNRS[si],
+                mean_truth(&rows, |r| r.0),
+                stats(&lf0).2,
+                stats(&lf1).2,
+                fmt_bias(&mve),
+                fmt_bias(&mcd),
+                fmt_bias(&rj[0]),
+                fmt_cov(coverage(&rj[0])),
+                fmt_bias(&rj[1]),
+                fmt_cov(coverage(&rj[1])),
+                fmt_bias(&rj[2]),
+                fmt_cov(coverage(&rj[2])),
+                fmt_bias(&rj[3]),
+                fmt_cov(coverage(&rj[3])),
+                fmt_bias(&rj[4]),
+                fmt_cov(coverage(&rj[4])),
+                mean_se(&rj[0]),
+                mean_se(&rj[2]),
+                mean_se(&rj[3]),
+                mean_se(&rj[4]),
+            );
+        }
+        pooled(&rj_all);
+        println!("(block U: {:.1} s)\n", t.elapsed().as_secs_f64());
+    }
+
+    if want('N') {
+        // Block N.
+        let t = Instant::now();
+        let nb: Vec<_> = all
+            .par_iter()
+            .map(|c| {
+                let h = 1.5 * SIGMA / (N_DATA as f64).sqrt();
+                let lg = c.problem(RandomPrior::Uniform { lo: -h, hi: h }, 1, 3);
+                let p = Pair::new(&lg, c.d, c.problem_seed(33));
+                let boxed = p.laplace_fisher(true, c.problem_seed(40));
+                (
+                    p.truth,
+                    p.laplace_fisher(false, c.problem_seed(40)).is_none(),
+                    p.laplace_raw_err(&boxed),
+                    p.laplace_err(&boxed),
+                    Some(p.schwarz()),
+                )
+            })
+            .collect();
+        println!(
+            "Block N: narrow uniform priors U[-1.5σ/√n, 1.5σ/√n] (prior-dominated), extra parameter absent"
+        );
+        println!(
+            "{:>3} {:>5} | {:>9} | {:>5} | {:>15} | {:>15} {:>6} {:>9} | {:>15}",
+            "D",
+            "SNR",
+            "lnB mean",
+            "bound",
+            "LF raw bias",
+            "LF box bias",
+            "cov1σ",
+            "mean se",
+            "SBIC bias"
+        );
+        for ((d, si), rows) in cells(&all, &nb) {
+            let raw: Vec<_> = rows.iter().map(|r| r.2).collect();
+            let bx: Vec<_> = rows.iter().map(|r| r.3).collect();
+            let sb: Vec<_> = rows.iter().map(|r| r.4).collect();
+            println!(
+                "{d:>3} {:>5} | {:9.3} | {:5} | {:>15} | {:>15} {} {:9.1e} | {:>15}",
+                SNRS[si],
+                mean_truth(&rows, |r| r.0),
+                rows.iter().filter(|r| r.1).count(),
+                fmt_bias(&raw),
+                fmt_bias(&bx),
+                fmt_cov(coverage(&bx)),
+                mean_se(&bx),
+                fmt_bias(&sb)
+            );
+        }
+        println!("(block N: {:.1} s)\n", t.elapsed().as_secs_f64());
+    }
+
+    if want('P') {
+        // Block P.
+        let t = Instant::now();
+        let pc = cases(&[1, 3, 10]);
+        let pr: Vec<_> = pc
+            .par_iter()
+            .map(|c| {
+                let s = c.scale();
+                let lg = c.problem(
+                    RandomPrior::Uniform {
+                        lo: -5.0 * s,
+                        hi: 5.0 * s,
+                    },
+                    0,
+                    4,
+                );
+                let p = Pair::new(&lg, c.d, c.problem_seed(34));
+                (p.truth, p.rjmcmc(c.problem_seed(24)))
+            })
+            .collect();
+        println!("Block P: uniform priors U[-5s, 5s], extra parameter present (large ln B)");
+        println!(
+            "{:>3} {:>5} | {:>9} {:>9} | {:>15} {:>6} | {:>15} {:>6} | {:>15} {:>6}",
+            "D",
+            "SNR",
+            "lnB mean",
+            "lnB min",
+            "RJ visits bias",
+            "cov1σ",
+            "RJ RB bias",
+            "cov1σ",
+            "RJ bridge bias",
+            "cov1σ"
+        );
+        for ((d, si), rows) in cells(&pc, &pr) {
+            let tmin = rows.iter().map(|r| r.0).fold(f64::INFINITY, f64::min);
+            let rj: Vec<Vec<_>> = (0..3)
+                .map(|k| rows.iter().map(|r| r.1[k]).collect())
+                .collect();
+            println!(
+                "{d:>3} {:>5} | {:9.2} {tmin:9.2} | {:>15} {} | {:>15} {} | {:>15} {}",
+                SNRS[si],
+                mean_truth(&rows, |r| r.0),
+                fmt_bias(&rj[0]),
+                fmt_cov(coverage(&rj[0])),
+                fmt_bias(&rj[1]),
+                fmt_cov(coverage(&rj[1])),
+                fmt_bias(&rj[2]),
+                fmt_cov(coverage(&rj[2])),
+            );
+        }
+        println!("(block P: {:.1} s)\n", t.elapsed().as_secs_f64());
+    }
+
+    if want('C') {
+        block_c();
+    }
     println!(
         "total {:.1} s on {} threads",
         t0.elapsed().as_secs_f64(),
