@@ -338,9 +338,9 @@ impl Default for SelectOptions {
             chains: 2,
             iterations: 12_000,
             burn_in: 4_000,
-            pt_temperatures: 20,
-            pt_iterations: 30_000,
-            pt_burn_in: 6_000,
+            pt_temperatures: 32,
+            pt_iterations: 40_000,
+            pt_burn_in: 8_000,
             seed: None,
             schwarz_n: None,
         }
