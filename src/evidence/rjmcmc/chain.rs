@@ -137,6 +137,16 @@ impl Shared<'_> {
     }
 }
 
+/// One post-burn-in jump proposal, as the accumulators need it.
+struct Proposal {
+    from: usize,
+    to: usize,
+    inside: bool,
+    ln_rho: f64,
+    ln_alpha: f64,
+    ln_alpha_g: f64,
+}
+
 /// A bridge input kept during the pilot: the in-box proposal's `ln ρ` and where it belongs.
 #[derive(Clone, Copy)]
 struct PilotRecord {
@@ -175,6 +185,8 @@ pub(super) struct Chain {
     /// Post-burn-in sojourns per model (entries, plus the model the post-burn-in part starts in).
     pub sojourns: Vec<u64>,
     pub non_finite: u64,
+    /// `ln L` evaluations (proposals inside the prior support).
+    pub likelihood_calls: u64,
     last_visited: Option<usize>,
     seg: Sums,
     batch_start: usize,
@@ -236,6 +248,7 @@ impl Chain {
             accepted_post: vec![vec![0; k_models]; k_models],
             sojourns: vec![0; k_models],
             non_finite: 0,
+            likelihood_calls: 0,
             last_visited: None,
             seg: Sums::new(l),
             batch_start: n_post - n_batches * sh.batch,
@@ -285,6 +298,7 @@ impl Chain {
                 let lp_new = if lpi_new == f64::NEG_INFINITY {
                     f64::NEG_INFINITY
                 } else {
+                    self.likelihood_calls += 1;
                     lpi_new + m.target.ln_likelihood(&self.prop[..d])
                 };
                 self.rw_tried[k] += 1;
@@ -338,6 +352,7 @@ impl Chain {
             let lpi_new = m.target.prior().ln_pdf(&self.prop[..dn]);
             let inside = lpi_new > f64::NEG_INFINITY;
             let mut lp_new = if inside {
+                self.likelihood_calls += 1;
                 lpi_new + m.target.ln_likelihood(&self.prop[..dn])
             } else {
                 f64::NEG_INFINITY
@@ -365,7 +380,17 @@ impl Chain {
             let u_accept: f64 = rng.random();
             if post && kn != k {
                 let ln_alpha_g = (ln_rho_g + sh.ln_ratio[k][kn]).min(0.0);
-                self.record_proposal(sh, k, kn, inside, ln_rho, ln_r.min(0.0), ln_alpha_g);
+                self.record_proposal(
+                    sh,
+                    Proposal {
+                        from: k,
+                        to: kn,
+                        inside,
+                        ln_rho,
+                        ln_alpha: ln_r.min(0.0),
+                        ln_alpha_g,
+                    },
+                );
             }
             if u_accept.ln() < ln_r {
                 self.accepted[k][kn] += 1;
@@ -421,16 +446,15 @@ impl Chain {
     }
 
     /// Adds a post-burn-in jump proposal `from → to` to the current segment.
-    fn record_proposal(
-        &mut self,
-        sh: &Shared<'_>,
-        from: usize,
-        to: usize,
-        inside: bool,
-        ln_rho: f64,
-        ln_alpha: f64,
-        ln_alpha_g: f64,
-    ) {
+    fn record_proposal(&mut self, sh: &Shared<'_>, p: Proposal) {
+        let Proposal {
+            from,
+            to,
+            inside,
+            ln_rho,
+            ln_alpha,
+            ln_alpha_g,
+        } = p;
         let l = &sh.layout;
         let s = &mut self.seg;
         s.counts[l.prop(from, to)] += 1.0;

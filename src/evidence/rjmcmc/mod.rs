@@ -47,7 +47,12 @@
 //!   by its bound `ᾱ = 1`: the estimate stays finite and is a lower bound on the unvisited
 //!   model's evidence ratio, exact when jumps out of that model would always be accepted —
 //!   which is the case the chain is in when it never enters it (for independence proposals
-//!   with `B ≪ 1`, `ᾱ_{l→k} = E[min(1, r)] = E[r] = B_kl·P(k)j(l|k)/(P(l)j(k|l))`).
+//!   with `B ≪ 1`, `ᾱ_{l→k} = E[min(1, r)] = E[r] = B_kl·P(k)j(l|k)/(P(l)j(k|l))`). In this
+//!   one-sided case the visited direction's α are evaluated with the current state's density
+//!   taken as the Gaussian/t part `g_k` alone: with the defensive mixture, a fraction `w` of the
+//!   unvisited model's jumps back would be prior draws that are mostly rejected, so the bound
+//!   `ᾱ = 1` would be off by up to `−ln(1 − w)`; for `g` it holds as before (with `w = 0` the
+//!   two coincide).
 //! * **Bridge** (Meng & Wong 1996; BSM's "optimal" estimator): for independence proposals every
 //!   jump `k → l` is a draw from `f₁(θ, θ') = L_kπ_k(θ) q̃_l(θ')/Z_k` on the product space, and
 //!   every jump `l → k` a draw from `f₂ = q̃_k(θ) L_lπ_l(θ')/Z_l`, with `q̃ = q·1_box/P(box)` the
@@ -66,7 +71,11 @@
 //!   flat near the optimum). For runs no longer than the pilot this is exactly the optimal
 //!   bridge. With no proposals `l → k` (l never entered) it reduces to the importance-sampling
 //!   identity `Z_l/Z_k = E_{f₁}[ρ]`, which stays finite: the chain sitting in k still tells how
-//!   much posterior mass l would have. The normalisers are the mixtures' box masses
+//!   much posterior mass l would have. In that one-sided form the sitting model's factor is
+//!   `g̃_k(θ)/L_kπ_k(θ)` (any normalised density works there) rather than the mixture's
+//!   `q̃_k/L_kπ_k`: the mixture's prior part would turn it into the harmonic-mean estimator
+//!   (`E_post[1/L]`, infinite variance); the Gaussian part keeps the variance finite for
+//!   `c < √2`. The normalisers are the mixtures' box masses
 //!   `P_k = (1 − w)·P_g(box) + w` ([`mvn_rectangle`] for Gaussian `g`, 2¹⁶ Monte-Carlo draws
 //!   for Student-t), and their errors are included.
 //!
@@ -356,6 +365,8 @@ pub struct RjResult {
     pub regeneration_units: usize,
     /// Proposals with a non-finite likelihood inside the prior (counted as rejections).
     pub non_finite: u64,
+    /// `ln L` evaluations, all chains (proposals outside the prior support cost none).
+    pub likelihood_calls: u64,
     /// `ln P_k(box)` of each model's jump proposal: `ln[(1 − w)·P_gauss(box) + w]`.
     pub ln_box_mass: Vec<f64>,
     /// Standard errors of `ln_box_mass`.
@@ -698,6 +709,7 @@ pub fn run_rjmcmc(
         sojourns,
         regeneration_units: pool.cycles.len(),
         non_finite,
+        likelihood_calls: chains.iter().map(|c| c.likelihood_calls).sum(),
         ln_box_mass: ln_box,
         ln_box_mass_std_err: ln_box_se,
         pairs,
