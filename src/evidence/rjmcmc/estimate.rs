@@ -1,0 +1,378 @@
+//! Bayes-factor estimators from the chains' streaming sums, and their errors.
+
+use super::chain::{Chain, Layout, Sums};
+use super::{EvidenceError, LnB, Method};
+
+/// `ln(eᵃ + eᵇ)`, exact for `−∞` arguments.
+#[inline]
+pub(super) fn lae(a: f64, b: f64) -> f64 {
+    if a == f64::NEG_INFINITY {
+        return b;
+    }
+    if b == f64::NEG_INFINITY {
+        return a;
+    }
+    if a >= b {
+        a + (b - a).exp().ln_1p()
+    } else {
+        b + (a - b).exp().ln_1p()
+    }
+}
+
+fn log_sum_exp(it: impl Iterator<Item = f64>) -> f64 {
+    it.fold(f64::NEG_INFINITY, lae)
+}
+
+/// Offsets (nat) of the bridge grid around the pilot's fixed point; the first is the pilot
+/// value itself.
+pub(super) const GRID_OFFSETS: [f64; 11] =
+    [0.0, -0.5, 0.5, -1.0, 1.0, -2.0, 2.0, -4.0, 4.0, -8.0, 8.0];
+
+/// The bridge function `h = 1/(s₁ r₀ f̃₁ + s₂ f̃₂)` of one pair at every grid point.
+#[derive(Debug, Clone)]
+pub(super) struct PairGrid {
+    pub ln_r: Vec<f64>,
+    pub ln_s1: f64,
+    pub ln_s2: f64,
+}
+
+/// Bridge functions of every pair `a < b`.
+#[derive(Debug, Clone)]
+pub(super) struct Grid {
+    k: usize,
+    pairs: Vec<PairGrid>,
+}
+
+impl Grid {
+    pub fn pair(&self, a: usize, b: usize) -> &PairGrid {
+        &self.pairs[a * self.k + b]
+    }
+}
+
+/// The optimal bridge's fixed point on raw draws `x` (from `f₁`) and `y` (from `f₂`), both in
+/// the orientation `ρ = f₂/f₁` (shifted by the box masses); `None` when it does not converge.
+pub(super) fn fixed_point(x: &[f64], y: &[f64]) -> Option<f64> {
+    let (n1, n2) = (x.len() as f64, y.len() as f64);
+    if n2 == 0.0 {
+        return Some(log_sum_exp(x.iter().copied()) - n1.ln());
+    }
+    if n1 == 0.0 {
+        return Some(-(log_sum_exp(y.iter().map(|&v| -v)) - n2.ln()));
+    }
+    let (ls1, ls2) = ((n1 / (n1 + n2)).ln(), (n2 / (n1 + n2)).ln());
+    let mean_num = |lr: f64| log_sum_exp(x.iter().map(|&xi| num_term(lr, ls1, ls2, xi))) - n1.ln();
+    let mean_den = |lr: f64| log_sum_exp(y.iter().map(|&yj| den_term(lr, ls1, ls2, yj))) - n2.ln();
+    let mut lr = log_sum_exp(x.iter().copied()) - n1.ln();
+    if !lr.is_finite() {
+        lr = -(log_sum_exp(y.iter().map(|&v| -v)) - n2.ln());
+    }
+    if !lr.is_finite() {
+        lr = 0.0;
+    }
+    for _ in 0..10_000 {
+        let next = mean_num(lr) - mean_den(lr);
+        if !next.is_finite() {
+            return None;
+        }
+        let done = (next - lr).abs() < 1e-10;
+        lr = next;
+        if done {
+            return Some(lr);
+        }
+    }
+    None
+}
+
+#[inline]
+pub(super) fn num_term(lr: f64, ls1: f64, ls2: f64, x: f64) -> f64 {
+    if x == f64::NEG_INFINITY {
+        f64::NEG_INFINITY
+    } else {
+        x - lae(ls1 + lr, ls2 + x)
+    }
+}
+
+#[inline]
+pub(super) fn den_term(lr: f64, ls1: f64, ls2: f64, y: f64) -> f64 {
+    if y == f64::INFINITY {
+        f64::NEG_INFINITY
+    } else {
+        -lae(ls1 + lr, ls2 + y)
+    }
+}
+
+/// Fixes the bridge function of every pair from the pooled pilot draws: `s_i` are the pilot's
+/// draw fractions and the grid is centred on the pilot's optimal fixed point. When the pilot is
+/// the whole run the grid's first point *is* the optimal bridge of Meng & Wong.
+pub(super) fn pilot_grid(chains: &[Chain], k: usize, shift: &[Vec<f64>]) -> Grid {
+    let mut pairs = Vec::with_capacity(k * k);
+    for a in 0..k {
+        for b in 0..k {
+            if b <= a {
+                pairs.push(PairGrid {
+                    ln_r: vec![0.0; GRID_OFFSETS.len()],
+                    ln_s1: 0.0,
+                    ln_s2: 0.0,
+                });
+                continue;
+            }
+            let mut x = Vec::new();
+            let mut y = Vec::new();
+            for c in chains {
+                for (from, to, ln_rho) in c.pilot_inputs() {
+                    if from == a && to == b {
+                        x.push(ln_rho + shift[a][b]);
+                    } else if from == b && to == a {
+                        y.push(-ln_rho + shift[a][b]);
+                    }
+                }
+            }
+            let (n1, n2) = (x.len() as f64, y.len() as f64);
+            let (ln_s1, ln_s2) = if n1 + n2 == 0.0 {
+                (0.5f64.ln(), 0.5f64.ln())
+            } else {
+                ((n1 / (n1 + n2)).ln(), (n2 / (n1 + n2)).ln())
+            };
+            let centre = fixed_point(&x, &y).filter(|v| v.is_finite()).unwrap_or(0.0);
+            pairs.push(PairGrid {
+                ln_r: GRID_OFFSETS.iter().map(|o| centre + o).collect(),
+                ln_s1,
+                ln_s2,
+            });
+        }
+    }
+    Grid { k, pairs }
+}
+
+/// The pooled units of all chains.
+pub(super) struct Pool<'a> {
+    pub layout: Layout,
+    pub total: Sums,
+    pub n: f64,
+    pub batches: Vec<&'a Sums>,
+    pub cycles: Vec<&'a Sums>,
+    pub batch: usize,
+}
+
+impl<'a> Pool<'a> {
+    pub fn new(chains: &'a [Chain], layout: Layout, batch: usize) -> Self {
+        let mut total = Sums::new(&layout);
+        for c in chains {
+            for s in &c.cycles {
+                total.add(s);
+            }
+        }
+        let n = total.n(&layout);
+        Pool {
+            layout,
+            total,
+            n,
+            batches: chains.iter().flat_map(|c| c.batches.iter()).collect(),
+            cycles: chains
+                .iter()
+                .flat_map(|c| c.cycles.iter())
+                .filter(|s| s.n(&layout) > 0.0)
+                .collect(),
+            batch,
+        }
+    }
+
+    /// `Var(ū)` of the mean of a per-iteration series from batch means (batch size `b`,
+    /// batches of all chains pooled; Flegal & Jones 2010). `u` gives a unit's sum of the series.
+    pub fn batch_var(&self, u: &impl Fn(&Sums) -> f64) -> f64 {
+        let a = self.batches.len() as f64;
+        let b = self.batch as f64;
+        let means: Vec<f64> = self.batches.iter().map(|s| u(s) / b).collect();
+        let grand = means.iter().sum::<f64>() / a;
+        let s2 = b * means.iter().map(|m| (m - grand).powi(2)).sum::<f64>() / (a - 1.0);
+        s2 / self.n
+    }
+
+    /// `Var(ū)` from the regeneration units (entries into the reference model; the regenerative
+    /// estimator of Crane & Iglehart / Mykland, Tierney & Yu 1995): `A/(A−1)·Σ(U_c − ū n_c)²/N²`.
+    /// `None` with fewer than 2 units.
+    pub fn regen_var(&self, u: &impl Fn(&Sums) -> f64) -> Option<f64> {
+        let a = self.cycles.len();
+        if a < 2 {
+            return None;
+        }
+        let ubar = u(&self.total) / self.n;
+        let ss: f64 = self
+            .cycles
+            .iter()
+            .map(|s| (u(s) - ubar * s.n(&self.layout)).powi(2))
+            .sum();
+        Some(a as f64 / (a as f64 - 1.0) * ss / (self.n * self.n))
+    }
+
+    /// The larger of the two variance estimates (see the module docs, "Errors").
+    fn var(&self, u: impl Fn(&Sums) -> f64) -> f64 {
+        let bm = self.batch_var(&u);
+        self.regen_var(&u).map_or(bm, |r| r.max(bm))
+    }
+}
+
+/// What the visit estimator's error floor needs: sojourns and visits per model.
+pub(super) struct Sojourns<'a> {
+    pub sojourns: &'a [u64],
+    pub visits: &'a [u64],
+}
+
+pub(super) fn visit_estimate(
+    pool: &Pool<'_>,
+    k: usize,
+    l: usize,
+    prior_p: &[f64],
+    soj: &Sojourns<'_>,
+) -> Option<LnB> {
+    let lay = pool.layout;
+    let nk = pool.total.counts[lay.visits(k)];
+    let nl = pool.total.counts[lay.visits(l)];
+    if nk == 0.0 || nl == 0.0 {
+        return None;
+    }
+    let n = pool.n;
+    let u = |s: &Sums| s.counts[lay.visits(k)] * n / nk - s.counts[lay.visits(l)] * n / nl;
+    let var = pool.var(u).max(markov_floor(k, l, soj));
+    Some(LnB {
+        method: Method::RjVisits,
+        ln_b: nk.ln() - nl.ln() + prior_p[l].ln() - prior_p[k].ln(),
+        std_err: Some(var.sqrt()),
+    })
+}
+
+/// `Var(ln N_k/N_l)` of a chain that leaves k and l with constant per-iteration probabilities
+/// `a_k = m_k/N_k`, `a_l = m_l/N_l` (m: sojourns): `(1/m_k + 1/m_l)(1 − (a_k + a_l)/2)`, which
+/// for two models is the exact asymptotic variance `2(2 − a − β)/n_switches` of the two-state
+/// Markov chain. Sojourns whose leave probability varies (with θ) are mixtures of geometric
+/// lengths, whose coefficient of variation is larger, so this is a lower bound.
+pub(super) fn markov_floor(k: usize, l: usize, s: &Sojourns<'_>) -> f64 {
+    let (mk, ml) = (s.sojourns[k] as f64, s.sojourns[l] as f64);
+    if mk == 0.0 || ml == 0.0 {
+        return 0.0;
+    }
+    let ak = mk / s.visits[k] as f64;
+    let al = ml / s.visits[l] as f64;
+    (1.0 / mk + 1.0 / ml) * (1.0 - 0.5 * (ak + al)).max(0.0)
+}
+
+pub(super) fn acceptance_estimate(
+    pool: &Pool<'_>,
+    k: usize,
+    l: usize,
+    ln_r_kl: f64,
+) -> Option<LnB> {
+    let lay = pool.layout;
+    let t = &pool.total;
+    let (c1, c2) = (t.counts[lay.prop(k, l)], t.counts[lay.prop(l, k)]);
+    if c1 == 0.0 && c2 == 0.0 {
+        return None;
+    }
+    // one-sided (a model never proposed from): the visited direction's α are taken with the
+    // current state's Gaussian/t density, for which the bound ᾱ = 1 of the other direction
+    // holds (see the module docs); with both directions present the true α are used
+    let (ia, ib) = match (c1 > 0.0, c2 > 0.0) {
+        (true, true) => (lay.alpha(k, l), lay.alpha(l, k)),
+        _ => (lay.alpha_g(k, l), lay.alpha_g(l, k)),
+    };
+    let (sa, sb) = (t.logs[ia], t.logs[ib]);
+    // a direction without proposals (its model was never visited) gets its bound ᾱ = 1
+    let ln_a = if c1 == 0.0 { 0.0 } else { sa - c1.ln() };
+    let ln_b = if c2 == 0.0 { 0.0 } else { sb - c2.ln() };
+    if !(ln_a.is_finite() && ln_b.is_finite()) {
+        return None;
+    }
+    let n = pool.n;
+    let u = |s: &Sums| {
+        let mut v = 0.0;
+        if c1 > 0.0 {
+            v += n * (s.counts[lay.prop(k, l)] / c1 - (s.logs[ia] - sa).exp());
+        }
+        if c2 > 0.0 {
+            v += n * ((s.logs[ib] - sb).exp() - s.counts[lay.prop(l, k)] / c2);
+        }
+        v
+    };
+    Some(LnB {
+        method: Method::RjRaoBlackwell,
+        ln_b: ln_r_kl + ln_b - ln_a,
+        std_err: Some(pool.var(u).sqrt()),
+    })
+}
+
+/// The bridge for the pair `k < l`; see the module docs.
+pub(super) fn bridge_estimate(
+    pool: &Pool<'_>,
+    grid: &Grid,
+    k: usize,
+    l: usize,
+    [(ln_pk, se_k), (ln_pl, se_l)]: [(f64, f64); 2],
+    [se_gk, se_gl]: [f64; 2],
+) -> Option<LnB> {
+    if !(ln_pk.is_finite() && ln_pl.is_finite()) {
+        return None;
+    }
+    let lay = pool.layout;
+    let t = &pool.total;
+    let (n1, n2) = (t.counts[lay.inbox(k, l)], t.counts[lay.inbox(l, k)]);
+    let n = pool.n;
+    // the one-sided forms use P_g of the model sitting and P of the model proposed
+    let mut box_var = se_k * se_k + se_l * se_l;
+    let (ln_r, var) = if n1 + n2 == 0.0 {
+        return None;
+    } else if n2 == 0.0 {
+        // importance sampling: Z_l/Z_k = E_{f₁}[ρ]
+        let s = t.logs[lay.is(k, l)];
+        box_var = se_gk * se_gk + se_l * se_l;
+        let u = |x: &Sums| n * ((x.logs[lay.is(k, l)] - s).exp() - x.counts[lay.inbox(k, l)] / n1);
+        (s - n1.ln(), pool.var(u))
+    } else if n1 == 0.0 {
+        let s = t.logs[lay.is(l, k)];
+        box_var = se_k * se_k + se_gl * se_gl;
+        let u = |x: &Sums| n * (x.counts[lay.inbox(l, k)] / n2 - (x.logs[lay.is(l, k)] - s).exp());
+        (n2.ln() - s, pool.var(u))
+    } else {
+        let pg = grid.pair(k, l);
+        // the grid point closest to its own fixed point: the near-optimal fixed-h bridge
+        let mut best: Option<(f64, usize, f64)> = None;
+        for (g, &lr0) in pg.ln_r.iter().enumerate() {
+            let (sn, sd) = (t.logs[lay.bridge(k, l, g)], t.logs[lay.bridge(l, k, g)]);
+            let lr = (sn - n1.ln()) - (sd - n2.ln());
+            if !lr.is_finite() {
+                continue;
+            }
+            let gap = (lr - lr0).abs();
+            if best.is_none_or(|(bg, _, _)| gap < bg) {
+                best = Some((gap, g, lr));
+            }
+        }
+        let (_, g, lr) = best?;
+        let (sn, sd) = (t.logs[lay.bridge(k, l, g)], t.logs[lay.bridge(l, k, g)]);
+        let u = |x: &Sums| {
+            n * ((x.logs[lay.bridge(k, l, g)] - sn).exp() - x.counts[lay.inbox(k, l)] / n1
+                + x.counts[lay.inbox(l, k)] / n2
+                - (x.logs[lay.bridge(l, k, g)] - sd).exp())
+        };
+        (lr, pool.var(u))
+    };
+    if !ln_r.is_finite() {
+        return None;
+    }
+    Some(LnB {
+        method: Method::RjBridge,
+        ln_b: -ln_r,
+        std_err: Some((var + box_var).sqrt()),
+    })
+}
+
+/// Checks shared by the estimators' inputs.
+pub(super) fn check_chains(chains: &[Chain]) -> Result<(), EvidenceError> {
+    if chains.iter().any(|c| !c.pilot_done) {
+        return Err(EvidenceError::option(
+            "rjmcmc pilot",
+            "unfinished",
+            "internal: the bridge grid was not fixed before the end of the run",
+        ));
+    }
+    Ok(())
+}

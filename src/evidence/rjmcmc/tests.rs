@@ -1,0 +1,514 @@
+use super::*;
+use crate::evidence::linear_gaussian::{LinearGaussian, RandomPrior, RandomSpec};
+use crate::nested::SubModel;
+use rand::SeedableRng;
+
+fn exact(lg: &LinearGaussian, a: &[usize], b: &[usize]) -> f64 {
+    let o = MvnOptions::default();
+    lg.exact_ln_evidence(a, &o).unwrap().ln_z - lg.exact_ln_evidence(b, &o).unwrap().ln_z
+}
+
+fn rj_model<'a>(
+    lg: &LinearGaussian,
+    name: &str,
+    t: &'a dyn LogDensity,
+    cols: &[usize],
+) -> RjModel<'a> {
+    let post = lg.gaussian_posterior(cols).unwrap();
+    RjModel {
+        name: name.into(),
+        target: t,
+        center: post.mean.as_slice().to_vec(),
+        cov: post.cov,
+    }
+}
+
+fn problem(snr: f64, n_absent: usize, seed: u64, half: f64) -> LinearGaussian {
+    LinearGaussian::random(&RandomSpec {
+        n_data: 30,
+        dim: 2,
+        snr,
+        n_absent,
+        sigma: 1.0,
+        prior: RandomPrior::Uniform {
+            lo: -half,
+            hi: half,
+        },
+        seed,
+    })
+    .unwrap()
+    .model
+}
+
+/// Over 50 independent problems and seeds, the 1σ intervals of all three estimators cover
+/// the exact ln B at the nominal rate. Binomial(50, 0.683): sd 0.066; 3 sd band
+/// [0.49, 0.88].
+#[test]
+fn error_bars_cover_the_exact_bayes_factor() {
+    let n = 50;
+    let mut cover = [0usize; 3];
+    for seed in 0..n {
+        let lg = problem(5.0, 1, 100 + seed, 3.0);
+        let full = SubModel::new(&lg, vec![0, 1], vec![0.0; 2]).unwrap();
+        let small = SubModel::new(&lg, vec![0], vec![0.0; 2]).unwrap();
+        let models = [
+            rj_model(&lg, "full", &full, &[0, 1]),
+            rj_model(&lg, "small", &small, &[0]),
+        ];
+        let opts = RjOptions {
+            n_iter: 20_000,
+            burn_in: 500,
+            seed,
+            ..RjOptions::default()
+        };
+        let res = run_rjmcmc(&models, &opts, None).unwrap();
+        let truth = exact(&lg, &[0, 1], &[0]);
+        let p = res.pair(0, 1).unwrap();
+        for (i, e) in [p.visits, p.rao_blackwell, p.bridge].iter().enumerate() {
+            let e = e.expect("both models are visited");
+            if (e.ln_b - truth).abs() < e.std_err.unwrap() {
+                cover[i] += 1;
+            }
+        }
+    }
+    for (i, c) in cover.iter().enumerate() {
+        let f = *c as f64 / n as f64;
+        assert!((0.49..=0.88).contains(&f), "estimator {i}: coverage {f}");
+    }
+}
+
+/// Signal in the extra parameter at SNR 40: ln B ≈ +170, the small model is never visited,
+/// the visit ratio is undefined, yet the bridge stays finite and accurate.
+#[test]
+fn bridge_is_finite_when_a_model_is_never_visited() {
+    let lg = problem(40.0, 0, 7, 20.0);
+    let full = SubModel::new(&lg, vec![0, 1], vec![0.0; 2]).unwrap();
+    let small = SubModel::new(&lg, vec![0], vec![0.0; 2]).unwrap();
+    let models = [
+        rj_model(&lg, "full", &full, &[0, 1]),
+        rj_model(&lg, "small", &small, &[0]),
+    ];
+    let mut calls = 0;
+    let mut cb = |p: &RjProgress<'_>| {
+        calls += 1;
+        assert!(p.iteration <= p.n_iter);
+    };
+    let opts = RjOptions {
+        n_iter: 20_000,
+        ..RjOptions::default()
+    };
+    let res = run_rjmcmc(&models, &opts, Some(&mut cb)).unwrap();
+    assert_eq!(calls, 100);
+    let truth = exact(&lg, &[0, 1], &[0]);
+    assert!(truth > 50.0, "{truth}");
+    assert_eq!(res.visits[1], 0);
+    let p = res.pair(0, 1).unwrap();
+    assert!(p.visits.is_none());
+    // one-sided Rao-Blackwell: model 1 is never entered, its mean acceptance takes its
+    // bound 1, which is exact here (jumps 1 → 0 would always be accepted)
+    let rb = p.rao_blackwell.unwrap();
+    assert!(
+        (rb.ln_b - truth).abs() < 5.0 * rb.std_err.unwrap(),
+        "{rb:?} vs {truth}"
+    );
+    let b = p.bridge.unwrap();
+    // 5σ of its own error.
+    assert!(
+        (b.ln_b - truth).abs() < 5.0 * b.std_err.unwrap(),
+        "{b:?} vs {truth}"
+    );
+    assert!(b.std_err.unwrap() < 0.1);
+    // Orientation.
+    let q = res.pair(1, 0).unwrap();
+    assert_eq!(q.bridge.unwrap().ln_b, -b.ln_b);
+}
+
+#[test]
+fn deterministic_with_trace_and_three_models() {
+    let lg = LinearGaussian::random(&RandomSpec {
+        n_data: 30,
+        dim: 3,
+        snr: 4.0,
+        n_absent: 1,
+        sigma: 1.0,
+        prior: RandomPrior::Uniform { lo: -3.0, hi: 3.0 },
+        seed: 2,
+    })
+    .unwrap()
+    .model;
+    let m3 = SubModel::new(&lg, vec![0, 1, 2], vec![0.0; 3]).unwrap();
+    let m2 = SubModel::new(&lg, vec![0, 1], vec![0.0; 3]).unwrap();
+    let m1 = SubModel::new(&lg, vec![0], vec![0.0; 3]).unwrap();
+    let models = [
+        rj_model(&lg, "3", &m3, &[0, 1, 2]),
+        rj_model(&lg, "2", &m2, &[0, 1]),
+        rj_model(&lg, "1", &m1, &[0]),
+    ];
+    let opts = RjOptions {
+        n_iter: 5_000,
+        burn_in: 100,
+        seed: 9,
+        trace_every: 100,
+        proposal: ProposalShape::StudentT { nu: 4.0 },
+        prior_model_probs: Some(vec![1.0, 2.0, 1.0]),
+        ..RjOptions::default()
+    };
+    let a = run_rjmcmc(&models, &opts, None).unwrap();
+    let b = run_rjmcmc(&models, &opts, None).unwrap();
+    assert_eq!(a, b);
+    assert_eq!(a.pairs.len(), 3);
+    // two chains of 2 500 iterations, 2 400 after burn-in each
+    assert_eq!(a.trace.len(), 24);
+    assert_eq!(a.visits.iter().sum::<u64>(), 4_800);
+    assert_eq!(a.trace.last().unwrap().iteration, 5_000);
+    assert_eq!(a.prior_model_probs, vec![0.25, 0.5, 0.25]);
+    let tr = a.ln_b_trace(0, 1);
+    let last = tr.last().unwrap().1.unwrap();
+    assert!((last - a.pair(0, 1).unwrap().visits.unwrap().ln_b).abs() < 1e-12);
+}
+
+#[test]
+fn rejects_bad_options() {
+    let lg = problem(5.0, 1, 1, 3.0);
+    let full = SubModel::new(&lg, vec![0, 1], vec![0.0; 2]).unwrap();
+    let small = SubModel::new(&lg, vec![0], vec![0.0; 2]).unwrap();
+    let models = [
+        rj_model(&lg, "full", &full, &[0, 1]),
+        rj_model(&lg, "small", &small, &[0]),
+    ];
+    let base = RjOptions {
+        n_iter: 1000,
+        burn_in: 10,
+        ..RjOptions::default()
+    };
+    let bad = [
+        RjOptions {
+            n_iter: 50,
+            ..base.clone()
+        },
+        RjOptions {
+            jump_scale: 0.0,
+            ..base.clone()
+        },
+        RjOptions {
+            prior_model_probs: Some(vec![1.0, -1.0]),
+            ..base.clone()
+        },
+        RjOptions {
+            jump: JumpRule::Matrix(vec![vec![1.0, 0.0], vec![0.5, 0.5]]),
+            ..base.clone()
+        },
+        RjOptions {
+            proposal: ProposalShape::StudentT { nu: 0.0 },
+            ..base.clone()
+        },
+        RjOptions {
+            start_model: 2,
+            ..base.clone()
+        },
+        RjOptions {
+            batch_size: Some(10_000),
+            ..base.clone()
+        },
+        RjOptions {
+            defensive: 1.0,
+            ..base.clone()
+        },
+        RjOptions {
+            defensive: -0.1,
+            ..base.clone()
+        },
+        RjOptions {
+            n_chains: 0,
+            ..base.clone()
+        },
+        RjOptions {
+            n_chains: 10,
+            ..base.clone()
+        },
+    ];
+    for o in &bad {
+        assert!(run_rjmcmc(&models, o, None).is_err(), "{o:?}");
+    }
+    let mut wrong = rj_model(&lg, "x", &small, &[0]);
+    wrong.center = vec![0.0, 0.0];
+    assert!(matches!(
+        run_rjmcmc(&[wrong], &base, None),
+        Err(EvidenceError::Dimension { .. })
+    ));
+    let mut outside = rj_model(&lg, "x", &small, &[0]);
+    outside.center = vec![10.0];
+    assert!(matches!(
+        run_rjmcmc(&[outside], &base, None),
+        Err(EvidenceError::NonFinite { .. })
+    ));
+}
+
+fn two_models<'a>(
+    lg: &LinearGaussian,
+    full: &'a dyn LogDensity,
+    small: &'a dyn LogDensity,
+) -> [RjModel<'a>; 2] {
+    [
+        rj_model(lg, "full", full, &[0, 1]),
+        rj_model(lg, "small", small, &[0]),
+    ]
+}
+
+/// Jumps rarely accepted (jump proposals 14× narrower than the posterior, c = 0.07: about
+/// 36 accepted jumps per run on average, half the runs below the warning threshold). Measured
+/// over 400 problems (`RJ_RARE_N=400`), the 1σ intervals of visits / Rao-Blackwell / bridge
+/// cover 0.60 / 0.575 / 0.57 — better than plain batch means (0.34 / 0.42 / 0.43, the chain
+/// sitting in one model for whole batches) but still short of 0.683: in this regime the
+/// errors remain about 25 % small. The assertion (coverage in [0.50, 0.82] over these 100
+/// fixed seeds; measured 0.57 / 0.54 / 0.56) sits between the two measured levels: it guards
+/// the improvement over batch means, it does not
+/// claim nominal coverage.
+#[test]
+fn error_bars_cover_when_jumps_are_rare() {
+    let n = std::env::var("RJ_RARE_N")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(100u64);
+    let mut cover = [0usize; 3];
+    let mut jumps = 0;
+    let mut warned = 0;
+    for seed in 0..n {
+        let lg = problem(5.0, 1, 300 + seed, 3.0);
+        let full = SubModel::new(&lg, vec![0, 1], vec![0.0; 2]).unwrap();
+        let small = SubModel::new(&lg, vec![0], vec![0.0; 2]).unwrap();
+        let models = two_models(&lg, &full, &small);
+        let opts = RjOptions {
+            n_iter: 6_000,
+            burn_in: 500,
+            seed,
+            jump_scale: 0.07,
+            defensive: 0.0,
+            ..RjOptions::default()
+        };
+        let res = run_rjmcmc(&models, &opts, None).unwrap();
+        let truth = exact(&lg, &[0, 1], &[0]);
+        let p = res.pair(0, 1).unwrap();
+        jumps += p.effective_jumps;
+        warned += p.warning.is_some() as usize;
+        for (i, e) in [p.visits, p.rao_blackwell, p.bridge].iter().enumerate() {
+            if let Some(e) = e
+                && (e.ln_b - truth).abs() < e.std_err.unwrap()
+            {
+                cover[i] += 1;
+            }
+        }
+    }
+    let mean_jumps = jumps as f64 / n as f64;
+    println!("rare jumps: mean effective jumps {mean_jumps}, warned {warned}, cover {cover:?}");
+    assert!(mean_jumps < 40.0, "{mean_jumps}");
+    assert!(warned > n as usize / 4, "{warned}");
+    for (i, c) in cover.iter().enumerate() {
+        let f = *c as f64 / n as f64;
+        assert!((0.50..=0.82).contains(&f), "estimator {i}: coverage {f}");
+    }
+}
+
+/// With defensive weight 0 and one chain the run is the one before the defensive mixture and
+/// the parallel chains existed: same random stream, same counts, same point estimates (numbers
+/// printed by the previous implementation, commit 925d7e6). The pilot covers the whole run, so
+/// the bridge is the full optimal bridge. Errors can only have grown (max with the
+/// regenerative estimate and the sojourn floor); the batch-means part is the old formula.
+#[test]
+fn defensive_zero_single_chain_reproduces_previous_numbers() {
+    let lg = problem(5.0, 1, 11, 3.0);
+    let full = SubModel::new(&lg, vec![0, 1], vec![0.0; 2]).unwrap();
+    let small = SubModel::new(&lg, vec![0], vec![0.0; 2]).unwrap();
+    let models = two_models(&lg, &full, &small);
+    let opts = RjOptions {
+        n_iter: 20_000,
+        burn_in: 500,
+        seed: 3,
+        n_chains: 1,
+        defensive: 0.0,
+        ..RjOptions::default()
+    };
+    let r = run_rjmcmc(&models, &opts, None).unwrap();
+    assert_eq!(r.visits, vec![2319, 17181]);
+    assert_eq!(r.jumps_proposed, vec![vec![0, 2373], vec![17627, 0]]);
+    assert_eq!(r.jumps_accepted, vec![vec![0, 2371], vec![2370, 0]]);
+    assert_eq!(
+        r.in_model_acceptance,
+        vec![Some(0.35440370838600926), Some(0.44777897543541156)]
+    );
+    let p = &r.pairs[0];
+    assert_eq!((p.proposals_k_to_l, p.proposals_l_to_k), (2319, 17181));
+    let v = p.visits.unwrap();
+    assert!((v.ln_b - -2.0026680638064347).abs() < 1e-12);
+    assert!(v.std_err.unwrap() >= 0.02066732453932796 * (1.0 - 1e-9));
+    let rb = p.rao_blackwell.unwrap();
+    assert!((rb.ln_b - -2.013781063445487).abs() < 1e-9, "{rb:?}");
+    assert!(rb.std_err.unwrap() >= 0.004825169025952668 * (1.0 - 1e-9));
+    let b = p.bridge.unwrap();
+    assert!((b.ln_b - -2.012960200168078).abs() < 1e-8, "{b:?}");
+    assert!(b.std_err.unwrap() >= 0.00463142179878529 * (1.0 - 1e-9));
+    // per-pair acceptance
+    assert_eq!(r.jump_acceptance(0, 1), (2371, 2373, Some(2371.0 / 2373.0)));
+    assert_eq!(r.jump_acceptance(0, 0).2, None);
+    let rates = r.jump_acceptance_rates();
+    assert_eq!(rates[1][0], Some(2370.0 / 17627.0));
+    assert!(p.effective_jumps <= 2371 + 2370 && p.effective_jumps > 4000);
+    assert!(p.warning.is_none());
+}
+
+/// Same seed, same result, whether the chains run on one thread or two.
+#[test]
+fn chains_are_independent_of_the_thread_count() {
+    let lg = problem(5.0, 1, 5, 3.0);
+    let full = SubModel::new(&lg, vec![0, 1], vec![0.0; 2]).unwrap();
+    let small = SubModel::new(&lg, vec![0], vec![0.0; 2]).unwrap();
+    let models = two_models(&lg, &full, &small);
+    let opts = RjOptions {
+        n_iter: 9_000,
+        burn_in: 200,
+        n_chains: 3,
+        seed: 17,
+        ..RjOptions::default()
+    };
+    let run = |threads| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| run_rjmcmc(&models, &opts, None).unwrap())
+    };
+    let (a, b) = (run(1), run(2));
+    assert_eq!(a, b);
+    assert_eq!(a.n_chains, 3);
+    assert_eq!(a.n_iter, 9_000);
+    // the chains differ: three chains are not one chain three times
+    let one = run_rjmcmc(
+        &models,
+        &RjOptions {
+            n_iter: 3_000,
+            n_chains: 1,
+            ..opts.clone()
+        },
+        None,
+    )
+    .unwrap();
+    assert_ne!(
+        a.visits,
+        one.visits.iter().map(|v| 3 * v).collect::<Vec<_>>()
+    );
+}
+
+/// The low-SNR failure mode: the posterior fills its prior box but the jump proposal is a
+/// narrow Gaussian centred on a corner of the box (a Fisher matrix at a MAP on the boundary).
+/// Without the defensive prior component almost no jump lands where the posterior is; with
+/// w = 0.1 every estimator agrees with the exact answer within 4σ.
+#[test]
+fn defensive_mixture_rescues_a_misplaced_proposal() {
+    let lg = problem(0.3, 1, 21, 1.0);
+    let full = SubModel::new(&lg, vec![0, 1], vec![0.0; 2]).unwrap();
+    let small = SubModel::new(&lg, vec![0], vec![0.0; 2]).unwrap();
+    let corner = |name: &str, t, d: usize| RjModel {
+        name: name.to_string(),
+        target: t,
+        center: vec![0.99; d],
+        cov: DMatrix::identity(d, d) * 1e-4,
+    };
+    let models = [corner("full", &full, 2), corner("small", &small, 1)];
+    let truth = exact(&lg, &[0, 1], &[0]);
+    let run = |w| {
+        run_rjmcmc(
+            &models,
+            &RjOptions {
+                n_iter: 40_000,
+                burn_in: 1_000,
+                defensive: w,
+                ..RjOptions::default()
+            },
+            None,
+        )
+        .unwrap()
+    };
+    let bad = run(0.0).pair(0, 1).unwrap();
+    let good = run(0.1).pair(0, 1).unwrap();
+    println!("w = 0: {bad:?}\nw = 0.1: {good:?}\ntruth {truth}");
+    assert!(bad.effective_jumps < good.effective_jumps / 10);
+    assert!(good.effective_jumps >= MIN_EFFECTIVE_JUMPS && good.warning.is_none());
+    for e in [good.visits, good.rao_blackwell, good.bridge] {
+        let e = e.unwrap();
+        assert!(
+            (e.ln_b - truth).abs() < 4.0 * e.std_err.unwrap(),
+            "{e:?} vs {truth}"
+        );
+        assert!(e.std_err.unwrap() < 0.2);
+    }
+}
+
+/// A run longer than the pilot (2¹⁷ post-burn-in iterations per chain) with frequent jumps:
+/// the bridge streams on the pilot's grid, more than 1024 regeneration units per chain are
+/// merged, and all estimators still agree with the exact answer.
+#[test]
+fn streaming_beyond_the_pilot_agrees_with_the_exact_answer() {
+    let lg = problem(5.0, 1, 8, 3.0);
+    let full = SubModel::new(&lg, vec![0, 1], vec![0.0; 2]).unwrap();
+    let small = SubModel::new(&lg, vec![0], vec![0.0; 2]).unwrap();
+    let models = two_models(&lg, &full, &small);
+    let opts = RjOptions {
+        n_iter: 2 * 200_000,
+        burn_in: 1_000,
+        ..RjOptions::default()
+    };
+    let r = run_rjmcmc(&models, &opts, None).unwrap();
+    let truth = exact(&lg, &[0, 1], &[0]);
+    let p = r.pair(0, 1).unwrap();
+    assert!(r.regeneration_units <= 2 * 1024 && p.effective_jumps > 4 * 1024);
+    for e in [p.visits, p.rao_blackwell, p.bridge] {
+        let e = e.unwrap();
+        assert!(
+            (e.ln_b - truth).abs() < 4.0 * e.std_err.unwrap(),
+            "{e:?} vs {truth}"
+        );
+        assert!(e.std_err.unwrap() < 0.02, "{e:?}");
+    }
+}
+
+/// The sojourn floor is the two-state Markov chain's asymptotic variance of ln(N_k/N_l):
+/// simulated chains with leave probabilities a = 0.01, β = 0.02 reproduce it.
+#[test]
+fn sojourn_floor_matches_a_two_state_markov_chain() {
+    use rand::RngExt;
+    let (a, b, n, reps) = (0.01, 0.02, 20_000usize, 400);
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(5);
+    let mut lr = Vec::new();
+    let mut floors = Vec::new();
+    for _ in 0..reps {
+        let mut s = 0usize;
+        let mut visits = [0u64; 2];
+        let mut soj = [0u64; 2];
+        let mut last = None;
+        for _ in 0..n {
+            let p = if s == 0 { a } else { b };
+            if rng.random::<f64>() < p {
+                s = 1 - s;
+            }
+            if last != Some(s) {
+                soj[s] += 1;
+                last = Some(s);
+            }
+            visits[s] += 1;
+        }
+        lr.push((visits[0] as f64 / visits[1] as f64).ln());
+        floors.push(estimate::markov_floor(
+            0,
+            1,
+            &Sojourns {
+                sojourns: &soj,
+                visits: &visits,
+            },
+        ));
+    }
+    let m = lr.iter().sum::<f64>() / reps as f64;
+    let var = lr.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (reps - 1) as f64;
+    let floor = floors.iter().sum::<f64>() / reps as f64;
+    // sampling error of a variance from 400 draws: ~7 %
+    assert!((var / floor - 1.0).abs() < 0.25, "var {var} floor {floor}");
+}
