@@ -344,8 +344,8 @@ fn rj_rate() {
     println!(
         "RJMCMC, guidance-delay study: {rate:.0} iterations/s ({} iterations, visits {:?}); \
          10^8 iterations would take {:.1} h",
-        s.rj.n_iter,
-        s.rj.visits,
+        s.rj.as_ref().unwrap().n_iter,
+        s.rj.as_ref().unwrap().visits,
         1e8 / rate / 3600.0
     );
 }

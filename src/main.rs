@@ -282,14 +282,18 @@ fn run_select(study: &Study, out: &std::path::Path, quiet: bool) -> Result<()> {
             .collect();
         println!("posterior model probabilities: {}", parts.join(", "));
     }
+    let rj = match &s.rj {
+        Some(rj) => format!(
+            "RJ visits {:?} over {} iterations in {} chains ({:.0} iterations/s)",
+            rj.visits, rj.n_iter, rj.n_chains, s.rj_iterations_per_second
+        ),
+        None => "no RJ run".into(),
+    };
     println!(
-        "rho_opt = {} (simulation noise model), {:.4e} (analysis noise estimate); RJ visits {:?} over {} iterations ({:.0} iterations/s)",
+        "rho_opt = {} (simulation noise model), {:.4e} (analysis noise estimate); {rj}",
         s.rho_opt_simulated
             .map_or("–".into(), |r| format!("{r:.4e}")),
         s.rho_opt,
-        s.rj.visits,
-        s.rj.n_iter,
-        s.rj_iterations_per_second
     );
     for w in &s.warnings {
         eprintln!("warning: {w}");
@@ -383,7 +387,7 @@ fn sweep(path: PathBuf, snr: Option<Vec<f64>>, output: Option<PathBuf>) -> Resul
     )?;
     let json: Vec<serde_json::Value> = rows
         .iter()
-        .map(|(rho, s)| serde_json::json!({"target_snr": rho, "pairs": s.pairs, "rj_visits": s.rj.visits}))
+        .map(|(rho, s)| serde_json::json!({"target_snr": rho, "pairs": s.pairs, "rj_visits": s.rj.as_ref().map(|r| &r.visits)}))
         .collect();
     let p = out.join("sweep.json");
     occam::atomic::write_bytes(&p, (serde_json::to_string_pretty(&json)? + "\n").as_bytes())?;

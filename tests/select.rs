@@ -29,9 +29,9 @@ fn competitive_regime_prefers_the_simpler_model_but_not_decisively() {
     let p = &out.pairs[0];
     assert_eq!((p.x.as_str(), p.y.as_str()), ("X", "Y"));
     assert!(
-        out.rj.visits.iter().all(|&v| v > 1000),
+        out.rj.as_ref().unwrap().visits.iter().all(|&v| v > 1000),
         "{:?}",
-        out.rj.visits
+        out.rj.as_ref().unwrap().visits
     );
     let rj = ln_b(p, "RJMCMC visits").unwrap();
     assert!((0.05f64.ln()..0.0).contains(&rj), "RJ ln B = {rj}");
@@ -55,7 +55,12 @@ fn high_snr_regime_rj_never_enters_x_but_bridge_and_laplace_are_finite() {
     let prep = prepare(&s).unwrap();
     let out = run(&s, &prep, None).unwrap();
     let p = &out.pairs[0];
-    assert_eq!(out.rj.visits[0], 0, "visits {:?}", out.rj.visits);
+    assert_eq!(
+        out.rj.as_ref().unwrap().visits[0],
+        0,
+        "visits {:?}",
+        out.rj.as_ref().unwrap().visits
+    );
     assert!(ln_b(p, "RJMCMC visits").is_none());
     let bridge = ln_b(p, "RJMCMC bridge").unwrap();
     let lf = ln_b(p, "Laplace-Fisher box").unwrap();

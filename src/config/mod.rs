@@ -308,6 +308,12 @@ pub struct SelectOptions {
     pub jump_scale: f64,
     /// Where `μ_k, Σ_k` of the jump proposals come from.
     pub jump_proposal: JumpProposal,
+    /// Weight of each model's own prior in its jump proposal (a defensive mixture component
+    /// that keeps the proposal positive wherever the prior is), in [0, 1).
+    pub defensive: f64,
+    /// Independent reversible-jump chains (run in parallel, combined; `rj_iterations` is
+    /// their total).
+    pub rj_chains: usize,
     /// Degrees of freedom of a Student-t jump proposal; 0 for Gaussian.
     pub student_t: f64,
     /// Metropolis–Hastings per model for Laplace–Metropolis: chains, iterations, burn-in.
@@ -334,6 +340,8 @@ impl Default for SelectOptions {
             rj_burn_in: 2_000,
             jump_scale: 1.2,
             jump_proposal: JumpProposal::Chain,
+            defensive: 0.1,
+            rj_chains: 2,
             student_t: 0.0,
             chains: 2,
             iterations: 12_000,
@@ -852,6 +860,29 @@ fn validate_select(
             format!(
                 "parallel tempering needs 3 to 200 rungs (0 turns it off) and pt_burn_in < pt_iterations (got {} rungs, pt_burn_in = {}, pt_iterations = {})",
                 s.pt_temperatures, s.pt_burn_in, s.pt_iterations
+            ),
+        ));
+    }
+    if !(s.defensive >= 0.0 && s.defensive < 1.0) {
+        return Err(bad(
+            "select.defensive".into(),
+            format!(
+                "the prior's weight in the jump proposal must be in [0, 1) (got {})",
+                s.defensive
+            ),
+        ));
+    }
+    if s.rj_chains == 0
+        || s.rj_chains > 4096
+        || s.rj_burn_in >= s.rj_iterations / s.rj_chains.max(1)
+    {
+        return Err(bad(
+            "select.rj_chains".into(),
+            format!(
+                "need 1 to 4096 chains, each longer than rj_burn_in (got {} chains of {} iterations, rj_burn_in = {})",
+                s.rj_chains,
+                s.rj_iterations / s.rj_chains.max(1),
+                s.rj_burn_in
             ),
         ));
     }

@@ -165,7 +165,9 @@ pub struct SelectSummary {
     /// `P(k|y)` from the reference `ln B` of every pair with the first model and the prior
     /// model probabilities (`None` when a pair has no reference number).
     pub posterior_model_probabilities: Option<Vec<f64>>,
-    pub rj: RjResult,
+    /// The reversible-jump run (absent when it could not run: see `rj_note`).
+    pub rj: Option<RjResult>,
+    pub rj_note: Option<String>,
     pub rj_iterations_per_second: f64,
     pub seconds: f64,
     /// Warnings about the models, the data and the estimators.
@@ -268,17 +270,24 @@ pub fn run(
             ProposalShape::Gaussian
         },
         jump_scale: sel.jump_scale,
+        n_chains: sel.rj_chains,
+        defensive: sel.defensive,
         ..Default::default()
     };
     let t_rj = Instant::now();
-    let rj = run_rjmcmc(&rj_models, &opts, progress)
-        .map_err(|e| SelectError::Config(format!("reversible jump: {e}")))?;
+    let (rj, rj_note) = match run_rjmcmc(&rj_models, &opts, progress) {
+        Ok(r) => (Some(r), None),
+        Err(e) => (
+            None,
+            Some(format!("the reversible-jump chain did not run: {e}")),
+        ),
+    };
     let rj_rate = sel.rj_iterations as f64 / t_rj.elapsed().as_secs_f64();
     let models: Vec<ModelOutcome> = runs.into_iter().map(|r| r.outcome).collect();
     let mut pairs = Vec::new();
     for x in 0..models.len() {
         for y in x + 1..models.len() {
-            pairs.push(pair::pair(&models, &rj, x, y));
+            pairs.push(pair::pair(&models, rj.as_ref(), rj_note.as_deref(), x, y));
         }
     }
     let mut warnings: Vec<String> = parents
@@ -287,6 +296,12 @@ pub fn run(
         .collect();
     for m in &models {
         warnings.extend(m.notes.iter().map(|n| format!("model `{}`: {n}", m.name)));
+    }
+    warnings.extend(rj_note.clone());
+    for p in &pairs {
+        if let Some(w) = &p.jumps.warning {
+            warnings.push(format!("{}/{}: {w}", p.x, p.y));
+        }
     }
     // ρ_opt at the truth where the first model has every true value, else at its MAP
     let m0 = study.select_models[0].spec.model;
@@ -303,6 +318,7 @@ pub fn run(
         models,
         pairs,
         rj,
+        rj_note,
         rj_iterations_per_second: rj_rate,
         seconds: t0.elapsed().as_secs_f64(),
         warnings,

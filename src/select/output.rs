@@ -66,17 +66,20 @@ pub fn write_outputs(s: &SelectSummary, out: &Path) -> Result<(), SelectError> {
     crate::atomic::write_bytes(&p, t.to_text().as_bytes()).map_err(|e| io(&p, e))?;
     let p = out.join("table.md");
     crate::atomic::write_bytes(&p, t.to_markdown().as_bytes()).map_err(|e| io(&p, e))?;
+    let Some(rj) = &s.rj else {
+        return Ok(());
+    };
     let series: Vec<(String, Vec<(f64, f64)>)> = s
         .pairs
         .iter()
         .enumerate()
         .map(|(i, p)| {
             let (x, y) = pair_indices(s.models.len(), i);
-            let pts =
-                s.rj.ln_b_trace(x, y)
-                    .into_iter()
-                    .map(|(it, v)| (it as f64, v.map_or(f64::NAN, f64::exp)))
-                    .collect();
+            let pts = rj
+                .ln_b_trace(x, y)
+                .into_iter()
+                .map(|(it, v)| (it as f64, v.map_or(f64::NAN, f64::exp)))
+                .collect();
             (format!("B {}/{}", p.x, p.y), pts)
         })
         .collect();
@@ -93,7 +96,7 @@ pub fn write_outputs(s: &SelectSummary, out: &Path) -> Result<(), SelectError> {
         )?;
     }
     let labels: Vec<String> = s.models.iter().map(|m| m.name.clone()).collect();
-    let counts: Vec<f64> = s.rj.visits.iter().map(|&v| v as f64).collect();
+    let counts: Vec<f64> = rj.visits.iter().map(|&v| v as f64).collect();
     crate::report::model_histogram(out, "model_visits", &labels, &counts)?;
     Ok(())
 }

@@ -61,6 +61,14 @@ pub struct JumpStats {
     pub accepted_x_to_y: u64,
     pub proposed_y_to_x: u64,
     pub accepted_y_to_x: u64,
+    /// Accepted jumps between the two models after burn-in (both ways, all chains): the
+    /// sojourns the visit ratio averages over.
+    pub effective_jumps: u64,
+    /// `Σα` over the post-burn-in proposals both ways: what Rao-Blackwell and the bridge
+    /// average over.
+    pub expected_jumps: f64,
+    /// Set when the jumps are too few for the visit ratio's error bar to be trusted.
+    pub warning: Option<String>,
 }
 
 /// `ln B_XY` of one pair by every estimator.
@@ -140,19 +148,29 @@ fn difference(name: &str, kind: EstimateKind, a: &Evidence, b: &Evidence) -> Pai
 }
 
 /// Every estimator's row for models `x`, `y`, the reference and the verdict.
-pub(super) fn pair(models: &[ModelOutcome], rj: &RjResult, x: usize, y: usize) -> PairResult {
+pub(super) fn pair(
+    models: &[ModelOutcome],
+    rj: Option<&RjResult>,
+    rj_note: Option<&str>,
+    x: usize,
+    y: usize,
+) -> PairResult {
     let (mx, my) = (&models[x], &models[y]);
     let mut est = Vec::new();
-    let rjp = rj.pair(x, y);
+    let rjp = rj.and_then(|r| r.pair(x, y));
+    // without a jump chain every RJ row carries the reason
+    let why = |w: &'static str| -> String { rj_note.map_or(w.to_string(), str::to_string) };
     est.push(from_lnb(
         "RJMCMC visits",
         rjp.as_ref().and_then(|p| p.visits),
-        "a model was never visited: the visit ratio is undefined (see Rao-Blackwell / bridge)",
+        &why(
+            "a model was never visited: the visit ratio is undefined (see Rao-Blackwell / bridge)",
+        ),
     ));
     let mut rb = from_lnb(
         "RJMCMC Rao-Blackwell",
         rjp.as_ref().and_then(|p| p.rao_blackwell),
-        "no jump proposals in either direction",
+        &why("no jump proposals in either direction"),
     );
     if rb.ln_b.is_some() && rjp.as_ref().is_some_and(|p| p.visits.is_none()) {
         rb.note = Some(
@@ -164,7 +182,7 @@ pub(super) fn pair(models: &[ModelOutcome], rj: &RjResult, x: usize, y: usize) -
     est.push(from_lnb(
         "RJMCMC bridge",
         rjp.as_ref().and_then(|p| p.bridge),
-        "no in-box proposals between the two models",
+        &why("no in-box proposals between the two models"),
     ));
     let stat = EstimateKind::Statistical;
     est.push(difference(
@@ -223,15 +241,9 @@ pub(super) fn pair(models: &[ModelOutcome], rj: &RjResult, x: usize, y: usize) -
         .unwrap_or(0.0);
     let count = |a: usize, b: usize| {
         (
-            rj.jumps_proposed
-                .get(a)
-                .and_then(|r| r.get(b))
-                .copied()
+            rj.and_then(|r| r.jumps_proposed.get(a)?.get(b).copied())
                 .unwrap_or(0),
-            rj.jumps_accepted
-                .get(a)
-                .and_then(|r| r.get(b))
-                .copied()
+            rj.and_then(|r| r.jumps_accepted.get(a)?.get(b).copied())
                 .unwrap_or(0),
         )
     };
@@ -255,6 +267,9 @@ pub(super) fn pair(models: &[ModelOutcome], rj: &RjResult, x: usize, y: usize) -
             accepted_x_to_y: axy,
             proposed_y_to_x: pyx,
             accepted_y_to_x: ayx,
+            effective_jumps: rjp.as_ref().map_or(0, |p| p.effective_jumps),
+            expected_jumps: rjp.as_ref().map_or(0.0, |p| p.expected_jumps),
+            warning: rjp.as_ref().and_then(|p| p.warning.clone()),
         },
     }
 }
