@@ -214,6 +214,9 @@ fn runaway_window(k: &PriorKind) -> (f64, f64) {
     }
 }
 
+/// Gradient of `ln L + ln π` and the scoring matrix at a point of the free parameters.
+type GradFisher<'a> = dyn Fn(&[f64]) -> (Vec<f64>, DMatrix<f64>) + 'a;
+
 /// The optimisation problem over the free parameters, independent of the likelihood (so the
 /// algorithm can be tested on analytic objectives).
 struct Problem {
@@ -272,7 +275,7 @@ impl Problem {
         &self,
         x0: &[f64],
         post: &dyn Fn(&[f64]) -> f64,
-        grad_fisher: &dyn Fn(&[f64]) -> (Vec<f64>, DMatrix<f64>),
+        grad_fisher: &GradFisher<'_>,
     ) -> Result<Solution, MapError> {
         let d = x0.len();
         let mut x = x0.to_vec();
@@ -433,6 +436,8 @@ impl Problem {
 mod tests {
     use super::*;
 
+    type Objective = (Box<dyn Fn(&[f64]) -> f64>, Box<GradFisher<'static>>);
+
     fn problem(bounds: &[(f64, f64)], bounded: bool) -> Problem {
         Problem {
             names: (0..bounds.len()).map(|i| format!("p{i}")).collect(),
@@ -448,13 +453,7 @@ mod tests {
     }
 
     /// A correlated Gaussian `ln L = −½ (x − μ)ᵀ F (x − μ)` (Fisher scoring is exact Newton).
-    fn gaussian(
-        mu: [f64; 2],
-        f: [[f64; 2]; 2],
-    ) -> (
-        impl Fn(&[f64]) -> f64,
-        impl Fn(&[f64]) -> (Vec<f64>, DMatrix<f64>),
-    ) {
+    fn gaussian(mu: [f64; 2], f: [[f64; 2]; 2]) -> Objective {
         let post = move |x: &[f64]| {
             let d = [x[0] - mu[0], x[1] - mu[1]];
             -0.5 * (f[0][0] * d[0] * d[0] + 2.0 * f[0][1] * d[0] * d[1] + f[1][1] * d[1] * d[1])
@@ -467,7 +466,7 @@ mod tests {
             ];
             (g, DMatrix::from_fn(2, 2, |i, j| f[i][j]))
         };
-        (post, gf)
+        (Box::new(post), Box::new(gf))
     }
 
     /// Brute-force maximum of `post` over a grid of the box.
@@ -541,10 +540,7 @@ mod tests {
 
     /// `ln L = −(y − tanh x)²` with `y = 1.5` outside the range of `tanh`: `ln L` rises
     /// monotonically towards a plateau, there is no maximum, Gauss–Newton runs away.
-    fn plateau() -> (
-        impl Fn(&[f64]) -> f64,
-        impl Fn(&[f64]) -> (Vec<f64>, DMatrix<f64>),
-    ) {
+    fn plateau() -> Objective {
         let y = 1.5;
         let post = move |x: &[f64]| -(y - x[0].tanh()).powi(2) - 0.5 * (x[1] - 0.5).powi(2);
         let gf = move |x: &[f64]| {
@@ -556,7 +552,7 @@ mod tests {
                 DMatrix::from_row_slice(2, 2, &[2.0 * dt * dt, 0.0, 0.0, 1.0]),
             )
         };
-        (post, gf)
+        (Box::new(post), Box::new(gf))
     }
 
     #[test]
