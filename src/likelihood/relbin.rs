@@ -190,7 +190,8 @@ pub struct RelBinLikelihood {
     base: f64,
     fiducial: Vec<f64>,
     n_coarse: usize,
-    validation: RelBinValidation,
+    /// Boxed: the struct is held by value in enums next to small variants.
+    validation: Box<RelBinValidation>,
 }
 
 impl RelBinLikelihood {
@@ -232,7 +233,7 @@ impl RelBinLikelihood {
         let mut rng = Xoshiro256PlusPlus::seed_from_u64(opts.seed);
         let mut build = region.axis_points(fid, &bounds, opts.n_sigma);
         build.extend(region.random_points(fid, &bounds, opts.n_sigma, opts.n_build, &mut rng));
-        let mut rng = Xoshiro256PlusPlus::seed_from_u64(opts.seed ^ 0x5eed_0f_7a11d);
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(opts.seed ^ 0x05ee_d0f7_a11d);
         let mut check = vec![fid.to_vec()];
         check.extend(region.random_points(fid, &bounds, opts.n_sigma, opts.n_validation, &mut rng));
         let exact_at: Vec<f64> = check.iter().map(|t| exact.ln_likelihood_full(t)).collect();
@@ -268,7 +269,7 @@ impl RelBinLikelihood {
                 }
             }
             if worst <= opts.max_delta_ln_l {
-                rb.validation = RelBinValidation {
+                rb.validation = Box::new(RelBinValidation {
                     n_points,
                     worst_abs_delta_ln_l: worst,
                     worst_point,
@@ -278,7 +279,7 @@ impl RelBinLikelihood {
                     n_coarse: rb.n_coarse,
                     coverage,
                     box_params: box_params.iter().map(|&i| names[i].clone()).collect(),
-                };
+                });
                 return Ok(rb);
             }
             let capped = opts.max_coarse.is_some_and(|c| rb.n_coarse >= c);
@@ -321,7 +322,7 @@ impl RelBinLikelihood {
             base,
             fiducial: fid.to_vec(),
             n_coarse,
-            validation: RelBinValidation {
+            validation: Box::new(RelBinValidation {
                 n_points: 0,
                 worst_abs_delta_ln_l: f64::NAN,
                 worst_point: Vec::new(),
@@ -331,7 +332,7 @@ impl RelBinLikelihood {
                 n_coarse,
                 coverage: Vec::new(),
                 box_params: Vec::new(),
-            },
+            }),
         })
     }
 
