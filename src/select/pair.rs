@@ -381,4 +381,75 @@ mod tests {
         let mut none = vec![row("RJMCMC bridge", Statistical, None, None)];
         assert_eq!(judge(&mut none).0, "none");
     }
+
+    fn outcome(name: &str, ln_z: Option<f64>) -> ModelOutcome {
+        let ev = |v: Option<f64>, se: Option<f64>| Evidence {
+            ln_z: v,
+            std_err: se,
+            integration_err: None,
+            assumes: v.map(|_| "a Gaussian".into()),
+            note: v.is_none().then(|| "does not apply here".into()),
+        };
+        ModelOutcome {
+            name: name.into(),
+            model: "ltp".into(),
+            params: vec!["a".into()],
+            free: vec!["a".into()],
+            prior_probability: 1.0,
+            map: vec![0.0],
+            map_found: true,
+            map_at_bound: vec![],
+            relbin: None,
+            ln_l_map: 0.0,
+            unbounded_max: None,
+            min_margin_sigma: 0.0,
+            laplace_fisher_raw: ev(None, None),
+            laplace_fisher_box: ev(ln_z, None),
+            laplace_metropolis_mve: ev(ln_z, None),
+            laplace_metropolis_mcd: ev(ln_z, None),
+            thermodynamic: ev(ln_z.map(|v| v + 0.01), Some(0.02)),
+            stepping_stone: ev(ln_z, Some(0.02)),
+            tempering: None,
+            schwarz_ln_z: 0.0,
+            mcmc_acceptance: vec![],
+            mcmc_max_rhat: None,
+            jump_proposal: "in-model chains".into(),
+            notes: vec![],
+        }
+    }
+
+    /// A failed reversible-jump run leaves its reason on the three RJ rows; every other
+    /// estimator still reports, and the reference falls through to stepping-stone.
+    #[test]
+    fn without_a_jump_chain_the_other_estimators_still_decide() {
+        let models = [outcome("X", Some(-3.0)), outcome("Y", Some(-1.0))];
+        let why = "the reversible-jump chain did not run: because";
+        let p = pair(&models, None, Some(why), 0, 1);
+        for m in ["RJMCMC visits", "RJMCMC Rao-Blackwell", "RJMCMC bridge"] {
+            let e = p.estimates.iter().find(|e| e.method == m).unwrap();
+            assert!(e.ln_b.is_none() && e.note.as_deref() == Some(why), "{e:?}");
+        }
+        assert_eq!(p.reference, "Stepping-stone");
+        assert_eq!(p.preferred, "Y");
+        assert_eq!(p.kass_raftery, "positive evidence for Y over X");
+        assert!(p.all_agree);
+        assert_eq!(p.systematic_agree, Some(true));
+        // the raw Laplace row has no number and says why; Laplace rows carry no ± value
+        let raw = p
+            .estimates
+            .iter()
+            .find(|e| e.method == "Laplace-Fisher raw")
+            .unwrap();
+        assert!(raw.ln_b.is_none() && raw.note.is_some());
+        let lf = p
+            .estimates
+            .iter()
+            .find(|e| e.method == "Laplace-Fisher box")
+            .unwrap();
+        assert_eq!((lf.ln_b, lf.std_err), (Some(-2.0), None));
+        assert!(lf.assumes.is_some());
+        // posterior model probabilities from the reference: P(Y)/P(X) = e²
+        let pp = posterior_probabilities(&models, &[p]).unwrap();
+        assert!((pp[1] / pp[0] - 2f64.exp()).abs() < 1e-12);
+    }
 }
