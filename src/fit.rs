@@ -104,6 +104,12 @@ pub fn run(
             map.iterations
         ));
     }
+    let at_bound = map.bound_names(&names, free);
+    if !at_bound.is_empty() {
+        warnings.push(format!(
+            "the MAP is on the prior bound of {at_bound:?}: the posterior is cut by the prior there, and the Cramér–Rao σ and the pulls assume an interior maximum; widen the prior if the bound is not physical"
+        ));
+    }
     let fisher = fisher_exact(exact, &map.theta, free);
     let cr = cramer_rao(&fisher).ok_or_else(|| {
         FitError::Other(format!(

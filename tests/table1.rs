@@ -109,3 +109,35 @@ fn table_one_fit_recovers_the_truth() {
         assert!(dir.path().join(f).exists(), "{f}");
     }
 }
+
+/// A prior box that excludes the truth (a_df = 0.82 against [0.9, 1.5]) puts the MAP on its
+/// lower bound: the fit still runs and says so, instead of exiting with no word about it.
+#[test]
+fn a_map_on_a_prior_bound_is_warned_about() {
+    let mut s = study();
+    s.fit.iterations = 1500;
+    s.fit.burn_in = 500;
+    s.fit.chains = 2;
+    let mi = s.fit_model.model;
+    let names = s.models.models[mi].param_names().to_vec();
+    let mut kinds = s.models.priors[mi].kinds().to_vec();
+    let k = names.iter().position(|n| n == "a_df").unwrap();
+    kinds[k] = occam::prior::PriorKind::Uniform { lo: 0.9, hi: 1.5 };
+    s.models.priors[mi] = occam::prior::Prior::new(names, kinds).unwrap();
+    let prep = prepare(&s).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let o = occam::fit::run(&s, &prep, dir.path(), None, false).unwrap();
+    assert!(
+        (o.map_full[k] - 0.9).abs() < 1e-12,
+        "MAP a_df = {}",
+        o.map_full[k]
+    );
+    assert!(
+        o.summary
+            .warnings
+            .iter()
+            .any(|w| w.contains("prior bound") && w.contains("a_df")),
+        "{:?}",
+        o.summary.warnings
+    );
+}
