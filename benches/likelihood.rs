@@ -6,10 +6,11 @@
 //! `cargo bench --bench likelihood` prints one table of evaluations per second (see
 //! BENCHMARKS.md). `bash bench/peer/setup.sh` creates the numpy venv.
 
+#[path = "../bench/peer/peer_npz.rs"]
+mod peer_npz;
+
 use nalgebra::DMatrix;
-use ndarray::{Array1, Array2};
 use ndarray_npy::NpzWriter;
-use num_complex::Complex64;
 use occam::config::Study;
 use occam::experiment::{System, simulate};
 use occam::likelihood::{
@@ -58,8 +59,7 @@ struct Peer {
     numpy: String,
 }
 
-/// Writes the in-band inputs of every experiment, the masses and the Rust ln L at a few
-/// parameter points to `path` for bench/peer/numpy_lnl.py.
+/// Writes the numpy peer's input file to `path`.
 fn write_peer_inputs(
     path: &Path,
     lik: &Likelihood,
@@ -68,45 +68,7 @@ fn write_peer_inputs(
     checks: &[[f64; N_PARAMS]],
 ) -> Result<(), Box<dyn std::error::Error>> {
     let mut z = NpzWriter::new(std::fs::File::create(path)?);
-    let spectra = lik.spectra();
-    z.add_array(
-        "n_experiments",
-        &Array1::from_vec(vec![spectra.len() as i64]),
-    )?;
-    for (j, e) in spectra.iter().enumerate() {
-        let n = e.len();
-        // data channels (o1, o12, i1, i12); constants (C_df, C_sus, E, E·C_df, E·C_sus)
-        let pairs = |off: usize| Array2::from_shape_fn((n, 2), |(k, c)| e.data_at(k)[off + c]);
-        let col = |g: &dyn Fn(usize) -> Complex64| Array1::from_iter((0..n).map(g));
-        let cst = |k: usize, i: usize| e.consts[5 * k + i];
-        z.add_array(format!("e{j}.freqs"), &Array1::from_vec(e.freqs.clone()))?;
-        z.add_array(format!("e{j}.y"), &pairs(0))?;
-        z.add_array(format!("e{j}.inj"), &pairs(2))?;
-        z.add_array(
-            format!("e{j}.cinv_a"),
-            &Array1::from_iter(e.cinv.iter().map(|c| c.0)),
-        )?;
-        z.add_array(format!("e{j}.cinv_b"), &col(&|k| e.cinv[k].1))?;
-        z.add_array(
-            format!("e{j}.cinv_c"),
-            &Array1::from_iter(e.cinv.iter().map(|c| c.2)),
-        )?;
-        z.add_array(format!("e{j}.cdf"), &col(&|k| cst(k, 0)))?;
-        z.add_array(format!("e{j}.csus"), &col(&|k| cst(k, 1)))?;
-        z.add_array(format!("e{j}.e_oms"), &col(&|k| cst(k, 2)))?;
-    }
-    let m = masses;
-    z.add_array("masses", &Array1::from_vec(vec![m.m1, m.m2, m.msc]))?;
-    z.add_array("theta_truth", &Array1::from_vec(truth.to_vec()))?;
-    z.add_array(
-        "theta",
-        &Array2::from_shape_fn((checks.len(), N_PARAMS), |(i, a)| checks[i][a]),
-    )?;
-    z.add_array(
-        "lnl",
-        &Array1::from_iter(checks.iter().map(|t| lik.ln_likelihood_full(t))),
-    )?;
-    z.add_array("ln_norm", &Array1::from_vec(vec![lik.ln_norm()]))?;
+    peer_npz::write_peer_inputs(&mut z, lik, masses, truth, checks)?;
     z.finish()?;
     Ok(())
 }

@@ -10,9 +10,11 @@
 //! prior boxes; the study). It refuses studies the numpy peer cannot reproduce: a user-defined
 //! or non-default built-in model, non-uniform priors, or models built on different `[[model]]`s.
 
-use ndarray::{Array1, Array2};
+#[path = "../bench/peer/peer_npz.rs"]
+mod peer_npz;
+
+use ndarray::Array1;
 use ndarray_npy::NpzWriter;
-use num_complex::Complex64;
 use occam::analysis::{likelihood_of, load_data};
 use occam::config::{ModelDef, Study};
 use occam::ltp::{N_PARAMS, PARAM_NAMES};
@@ -119,45 +121,7 @@ fn run(study_path: &Path, prefix: &Path) -> Result<(), Box<dyn std::error::Error
 
     let npz_path = prefix.with_extension("npz");
     let mut z = NpzWriter::new(std::fs::File::create(&npz_path)?);
-    z.add_array(
-        "n_experiments",
-        &Array1::from_vec(vec![spectra.len() as i64]),
-    )?;
-    for (j, e) in spectra.iter().enumerate() {
-        let n = e.len();
-        let pairs = |off: usize| Array2::from_shape_fn((n, 2), |(k, c)| e.data_at(k)[off + c]);
-        let col = |g: &dyn Fn(usize) -> Complex64| Array1::from_iter((0..n).map(g));
-        let cst = |k: usize, i: usize| e.consts[5 * k + i];
-        z.add_array(format!("e{j}.freqs"), &Array1::from_vec(e.freqs.clone()))?;
-        z.add_array(format!("e{j}.y"), &pairs(0))?;
-        z.add_array(format!("e{j}.inj"), &pairs(2))?;
-        z.add_array(
-            format!("e{j}.cinv_a"),
-            &Array1::from_iter(e.cinv.iter().map(|c| c.0)),
-        )?;
-        z.add_array(format!("e{j}.cinv_b"), &col(&|k| e.cinv[k].1))?;
-        z.add_array(
-            format!("e{j}.cinv_c"),
-            &Array1::from_iter(e.cinv.iter().map(|c| c.2)),
-        )?;
-        z.add_array(format!("e{j}.cdf"), &col(&|k| cst(k, 0)))?;
-        z.add_array(format!("e{j}.csus"), &col(&|k| cst(k, 1)))?;
-        z.add_array(format!("e{j}.e_oms"), &col(&|k| cst(k, 2)))?;
-    }
-    z.add_array(
-        "masses",
-        &Array1::from_vec(vec![masses.m1, masses.m2, masses.msc]),
-    )?;
-    z.add_array("theta_truth", &Array1::from_vec(truth.to_vec()))?;
-    z.add_array(
-        "theta",
-        &Array2::from_shape_fn((checks.len(), N_PARAMS), |(i, a)| checks[i][a]),
-    )?;
-    z.add_array(
-        "lnl",
-        &Array1::from_iter(checks.iter().map(|t| lik.ln_likelihood_full(t))),
-    )?;
-    z.add_array("ln_norm", &Array1::from_vec(vec![lik.ln_norm()]))?;
+    peer_npz::write_peer_inputs(&mut z, &lik, &masses, &truth, &checks)?;
     z.add_array("prior_lo", &Array1::from_vec(lo.to_vec()))?;
     z.add_array("prior_hi", &Array1::from_vec(hi.to_vec()))?;
     z.finish()?;
