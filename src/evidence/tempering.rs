@@ -1006,10 +1006,9 @@ mod tests {
         assert!(ti.total_err() < 0.1, "{ti:?}");
     }
 
-    /// Gaussian priors (no box term in the exact answer).
-    #[test]
-    fn gaussian_prior() {
-        let lg = LinearGaussian::random(&RandomSpec {
+    /// D = 2, SNR 10, Gaussian priors N(0, 3²): no box term in the exact answer.
+    fn gaussian_prior_problem() -> LinearGaussian {
+        LinearGaussian::random(&RandomSpec {
             n_data: 30,
             dim: 2,
             snr: 10.0,
@@ -1022,7 +1021,13 @@ mod tests {
             seed: 2,
         })
         .unwrap()
-        .model;
+        .model
+    }
+
+    /// Gaussian priors (no box term in the exact answer).
+    #[test]
+    fn gaussian_prior() {
+        let lg = gaussian_prior_problem();
         let (res, exact, se) = run_lg(&lg, &quick(6));
         assert_eq!(se, 0.0);
         check(&res, exact, se, 4.0);
@@ -1246,20 +1251,7 @@ mod tests {
     /// in closed form. Each rung's mean lies within 4.5 of its own standard errors.
     #[test]
     fn rung_means_follow_the_closed_form_power_posterior_curve() {
-        let lg = LinearGaussian::random(&RandomSpec {
-            n_data: 30,
-            dim: 2,
-            snr: 10.0,
-            n_absent: 0,
-            sigma: 1.0,
-            prior: RandomPrior::Gaussian {
-                mu: 0.0,
-                sigma: 3.0,
-            },
-            seed: 2,
-        })
-        .unwrap()
-        .model;
+        let lg = gaussian_prior_problem();
         let cols = [0usize, 1];
         let post = lg.gaussian_posterior(&cols).unwrap();
         let (th, lmax) = lg.max_likelihood(&cols).unwrap();
