@@ -82,6 +82,9 @@ const N_PILOT: usize = 256;
 /// Initial step size `κ₀` of the ladder adaptation (in `ln ΔT` per unit swap-rate difference).
 const LADDER_KAPPA: f64 = 0.5;
 
+/// States kept per rung in [`TemperingResult::rung_samples`].
+pub const SNAPSHOTS: usize = 8;
+
 /// Options of [`run_tempering`].
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct TemperingOptions {
@@ -189,6 +192,10 @@ pub struct TemperingResult {
     pub burn_in: usize,
     /// Batch size (sweeps) of the errors.
     pub batch_size: usize,
+    /// `[rung][k]`: every rung's state at [`SNAPSHOTS`] evenly spaced post-burn-in sweeps, for
+    /// checking an approximate likelihood where each rung goes (the hot rungs roam the whole
+    /// prior, far beyond where an approximation was validated for the posterior).
+    pub rung_samples: Vec<Vec<Vec<f64>>>,
     /// Likelihood evaluations, pilot included.
     pub ln_l_evals: u64,
     /// Proposals and prior draws whose `ln L` was NaN or `+∞` (rejected; at β = 0 the draw
@@ -460,6 +467,7 @@ pub fn run_tempering(
     let mut win_tried = vec![0u64; n_t - 1];
     let mut win_acc = vec![0u64; n_t - 1];
     let mut win_rung: Vec<(u64, u64)> = vec![(0, 0); n_t];
+    let mut rung_samples: Vec<Vec<Vec<f64>>> = vec![Vec::with_capacity(SNAPSHOTS); n_t];
     let n_updates = opts.burn_in / opts.adapt_interval;
     let t0 = (n_updates as f64 / 4.0).max(1.0);
     let mut update = 0usize;
@@ -513,6 +521,13 @@ pub fn run_tempering(
             }
         } else {
             series.extend(rungs.iter().map(|r| r.ln_l));
+            if (t - opts.burn_in + 1) % (n_post / SNAPSHOTS).max(1) == 0 {
+                for (keep, r) in rung_samples.iter_mut().zip(&rungs) {
+                    if keep.len() < SNAPSHOTS {
+                        keep.push(r.theta.clone());
+                    }
+                }
+            }
         }
     }
 
@@ -567,6 +582,7 @@ pub fn run_tempering(
         n_iter: opts.n_iter,
         burn_in: opts.burn_in,
         batch_size: batch,
+        rung_samples,
         ln_l_evals: evals,
         non_finite: pilot_non_finite + rungs.iter().map(|r| r.non_finite).sum::<u64>(),
     })
@@ -1002,6 +1018,20 @@ mod tests {
                 .iter()
                 .all(|&a| a > 0.1 && a < 0.5)
         );
+        // every rung keeps SNAPSHOTS states inside the prior; the prior rung roams the box
+        // while the posterior rung stays near the mode
+        assert!(res.rung_samples.iter().all(|r| r.len() == SNAPSHOTS));
+        assert!(
+            res.rung_samples
+                .iter()
+                .flatten()
+                .all(|t| lg.prior().contains(t))
+        );
+        let spread = |r: &[Vec<f64>]| {
+            let m = r.iter().map(|t| t[0]).sum::<f64>() / r.len() as f64;
+            r.iter().map(|t| (t[0] - m).powi(2)).sum::<f64>().sqrt()
+        };
+        assert!(spread(&res.rung_samples[0]) > 3.0 * spread(&res.rung_samples[31]));
         let ti = res.thermodynamic.unwrap();
         assert!(ti.total_err() < 0.1, "{ti:?}");
     }

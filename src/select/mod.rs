@@ -146,6 +146,10 @@ pub struct TemperingDiagnostics {
     pub sweeps: usize,
     pub burn_in: usize,
     pub ln_l_evals: u64,
+    /// Bound on the shift of `ln Z` by relative binning along the ladder (the rungs' kept
+    /// states, exact against relative-binned `ln L`, trapezoid-weighted), added in quadrature
+    /// to the thermodynamic and stepping-stone errors; absent on the exact likelihood.
+    pub approximation_err: Option<f64>,
     pub seconds: f64,
 }
 

@@ -357,6 +357,7 @@ pub(super) fn run_model(
     let (thermodynamic, stepping_stone, tempering) = tempering(
         study,
         &sub_s,
+        matches!(sampled, Sampled::RelBin(_)).then_some(&sub_exact as &dyn LogDensity),
         best.as_deref().unwrap_or(&centre),
         &jump_cov,
         seed,
@@ -417,11 +418,42 @@ pub(super) fn run_model(
     })
 }
 
+/// `Σ_i w_i max_k |ln L_exact − ln L_approx|` over the states each rung kept, `w_i` the
+/// trapezoid weights of the ladder: a bound on how far an approximate likelihood moves the
+/// integral `∫ E_β[ln L] dβ`. The hot rungs roam the whole prior, far beyond the region where
+/// relative binning was validated for the posterior, but enter with weights of order `β`.
+fn ladder_approximation_error(
+    betas: &[f64],
+    rung_samples: &[Vec<Vec<f64>>],
+    approx: &dyn LogDensity,
+    exact: &dyn LogDensity,
+) -> f64 {
+    let n = betas.len();
+    (0..n)
+        .map(|i| {
+            let lo = if i > 0 { betas[i] - betas[i - 1] } else { 0.0 };
+            let hi = if i + 1 < n {
+                betas[i + 1] - betas[i]
+            } else {
+                0.0
+            };
+            let worst = rung_samples[i]
+                .iter()
+                .map(|t| (exact.ln_likelihood(t) - approx.ln_likelihood(t)).abs())
+                .fold(0.0, f64::max);
+            0.5 * (lo + hi) * worst
+        })
+        .sum()
+}
+
 /// Thermodynamic integration and stepping-stone from one parallel-tempering run on the
-/// sampled likelihood (its own seed stream, `seed + 7919`).
+/// sampled likelihood (its own seed stream, `seed + 7919`). With `exact` (the sampled
+/// likelihood is an approximation of it), the approximation's effect along the ladder is
+/// measured at the rungs' states and added to both errors.
 fn tempering(
     study: &Study,
     target: &dyn LogDensity,
+    exact: Option<&dyn LogDensity>,
     start: &[f64],
     cov: &DMatrix<f64>,
     seed: u64,
@@ -445,15 +477,18 @@ fn tempering(
     let t0 = std::time::Instant::now();
     match run_tempering(target, start, cov, &opts) {
         Ok(r) => {
+            let approx_err =
+                exact.map(|e| ladder_approximation_error(&r.betas, &r.rung_samples, target, e));
+            let a = approx_err.unwrap_or(0.0);
             let ti = r
                 .thermodynamic
                 .as_ref()
-                .map(|t| (t.ln_z, t.total_err(), Some(t.discretisation_err)))
+                .map(|t| (t.ln_z, t.total_err().hypot(a), Some(t.discretisation_err)))
                 .map_err(|e| e.clone());
             let ss = r
                 .stepping_stone
                 .as_ref()
-                .map(|t| (t.ln_z, t.std_err, None))
+                .map(|t| (t.ln_z, t.std_err.hypot(a), None))
                 .map_err(|e| e.clone());
             let diag = TemperingDiagnostics {
                 betas: r.betas,
@@ -462,6 +497,7 @@ fn tempering(
                 sweeps: r.n_iter,
                 burn_in: r.burn_in,
                 ln_l_evals: r.ln_l_evals,
+                approximation_err: approx_err,
                 seconds: t0.elapsed().as_secs_f64(),
             };
             (
@@ -583,5 +619,43 @@ mod tests {
         }
         let e = chain_starts(&Nowhere(t.prior().clone()), &corner, &fisher_cov, 2, 1).unwrap_err();
         assert!(e.contains("finite ln L"), "{e}");
+    }
+
+    #[test]
+    fn ladder_error_weights_each_rung_by_its_share_of_beta() {
+        let prior = Prior::new(
+            vec!["a".into()],
+            vec![PriorKind::Uniform { lo: 0.0, hi: 1.0 }],
+        )
+        .unwrap();
+        let exact = CornerTarget {
+            sd: 1.0,
+            prior: prior.clone(),
+        };
+        // an approximation off by |θ|·3 nats: the hot rung's far states count with weight β
+        struct Off<'a>(&'a CornerTarget);
+        impl LogDensity for Off<'_> {
+            fn ln_likelihood(&self, th: &[f64]) -> f64 {
+                self.0.ln_likelihood(th) + 3.0 * th[0]
+            }
+            fn prior(&self) -> &Prior {
+                self.0.prior()
+            }
+        }
+        let betas = [0.0, 0.25, 1.0];
+        let samples = vec![
+            vec![vec![1.0], vec![0.5]], // β = 0: worst |Δ| = 3,   weight 0.125
+            vec![vec![0.2]],            // β = 0.25: |Δ| = 0.6,   weight 0.5
+            vec![vec![0.1], vec![0.0]], // β = 1: worst |Δ| = 0.3, weight 0.375
+        ];
+        let e = ladder_approximation_error(&betas, &samples, &Off(&exact), &exact);
+        assert!(
+            (e - (0.125 * 3.0 + 0.5 * 0.6 + 0.375 * 0.3)).abs() < 1e-12,
+            "{e}"
+        );
+        assert_eq!(
+            ladder_approximation_error(&betas, &samples, &exact, &exact),
+            0.0
+        );
     }
 }
