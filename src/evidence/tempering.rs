@@ -521,7 +521,7 @@ pub fn run_tempering(
             }
         } else {
             series.extend(rungs.iter().map(|r| r.ln_l));
-            if (t - opts.burn_in + 1) % (n_post / SNAPSHOTS).max(1) == 0 {
+            if (t - opts.burn_in + 1).is_multiple_of((n_post / SNAPSHOTS).max(1)) {
                 for (keep, r) in rung_samples.iter_mut().zip(&rungs) {
                     if keep.len() < SNAPSHOTS {
                         keep.push(r.theta.clone());
