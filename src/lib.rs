@@ -16,6 +16,7 @@ pub mod evidence;
 pub mod experiment;
 pub mod fit;
 pub mod hermitian;
+pub mod jobs;
 pub mod likelihood;
 pub mod lti;
 pub mod ltp;
