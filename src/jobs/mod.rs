@@ -2,3 +2,5 @@
 //! (`occam sweep`); the executors are shared with the jobs that follow.
 
 pub mod exec;
+#[cfg(feature = "mpi")]
+pub mod mpi;
