@@ -2,3 +2,4 @@
 //! (`occam sweep`); the executors are shared with the jobs that follow.
 
 pub mod exec;
+pub mod sweep;
