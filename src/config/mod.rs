@@ -23,10 +23,10 @@ use crate::prior::PriorKind;
 
 mod models;
 mod sweep;
-pub use sweep::{MAX_POINTS, MAX_REALISATIONS, Spacing, SweepAxis, SweepOptions};
 pub use models::{BUILTIN_LTP, LtpModelEntry, ModelDef, ModelEntry, ModelSet, ModelSpec};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
+pub use sweep::{MAX_POINTS, MAX_REALISATIONS, Spacing, SweepAxis, SweepOptions};
 
 /// A configuration problem, naming the file and the field.
 #[derive(Debug, thiserror::Error)]

@@ -63,7 +63,10 @@ impl SweepAxis {
             msg,
         };
         if self.key.trim().is_empty() {
-            return Err(bad("key", "name a study key, e.g. \"simulation.target_snr\"".into()));
+            return Err(bad(
+                "key",
+                "name a study key, e.g. \"simulation.target_snr\"".into(),
+            ));
         }
         let ranged = self.from.is_some() || self.to.is_some() || self.points.is_some();
         let v = match (&self.values, ranged) {
@@ -88,15 +91,26 @@ impl SweepAxis {
                     ));
                 }
                 if !(a.is_finite() && b.is_finite()) {
-                    return Err(bad("from", format!("`from` and `to` must be finite (got {a}, {b})")));
+                    return Err(bad(
+                        "from",
+                        format!("`from` and `to` must be finite (got {a}, {b})"),
+                    ));
                 }
                 if self.spacing == Spacing::Log && !(a > 0.0 && b > 0.0) {
                     return Err(bad(
                         "spacing",
-                        format!("a log axis needs from, to > 0 (got {a}, {b}); use spacing = \"linear\""),
+                        format!(
+                            "a log axis needs from, to > 0 (got {a}, {b}); use spacing = \"linear\""
+                        ),
                     ));
                 }
-                let t = |i: usize| if n == 1 { 0.0 } else { i as f64 / (n - 1) as f64 };
+                let t = |i: usize| {
+                    if n == 1 {
+                        0.0
+                    } else {
+                        i as f64 / (n - 1) as f64
+                    }
+                };
                 // the ends exactly as written (exp(ln a) is not always a)
                 (0..n)
                     .map(|i| match self.spacing {
@@ -121,7 +135,10 @@ impl SweepAxis {
             ));
         }
         if let Some(x) = v.iter().find(|x| !x.is_finite()) {
-            return Err(bad("values", format!("every value must be finite (got {x})")));
+            return Err(bad(
+                "values",
+                format!("every value must be finite (got {x})"),
+            ));
         }
         for (i, a) in v.iter().enumerate() {
             if v[..i].contains(a) {
@@ -164,7 +181,11 @@ impl Default for SweepOptions {
 
 impl SweepOptions {
     /// Checks the table against the study's `[[select.model]]` names; returns the axes' grids.
-    pub fn validate(&self, select_models: &[&str], file: &str) -> Result<Vec<Vec<f64>>, ConfigError> {
+    pub fn validate(
+        &self,
+        select_models: &[&str],
+        file: &str,
+    ) -> Result<Vec<Vec<f64>>, ConfigError> {
         let bad = |field: &str, msg: String| ConfigError::Invalid {
             file: file.into(),
             field: format!("sweep.{field}"),
@@ -173,7 +194,10 @@ impl SweepOptions {
         if !(1..=MAX_REALISATIONS).contains(&self.realisations) {
             return Err(bad(
                 "realisations",
-                format!("must be in 1..={MAX_REALISATIONS} (got {})", self.realisations),
+                format!(
+                    "must be in 1..={MAX_REALISATIONS} (got {})",
+                    self.realisations
+                ),
             ));
         }
         if let Some(t) = &self.truth
@@ -191,7 +215,10 @@ impl SweepOptions {
             ));
         }
         if self.axis.len() == 2 && self.axis[0].key == self.axis[1].key {
-            return Err(bad("axis", format!("`{}` is swept twice", self.axis[0].key)));
+            return Err(bad(
+                "axis",
+                format!("`{}` is swept twice", self.axis[0].key),
+            ));
         }
         let grids = self
             .axis
@@ -235,7 +262,9 @@ mod tests {
             .grid("f", "x")
             .unwrap();
         assert_eq!(g, vec![-1.0, 0.0, 1.0]);
-        let g = axis("key = \"a\"\nfrom = 3.0\nto = 9.0\npoints = 1").grid("f", "x").unwrap();
+        let g = axis("key = \"a\"\nfrom = 3.0\nto = 9.0\npoints = 1")
+            .grid("f", "x")
+            .unwrap();
         assert_eq!(g, vec![3.0]);
     }
 
@@ -243,16 +272,31 @@ mod tests {
     fn bad_axes_are_named() {
         for (text, field, needle) in [
             ("key = \"a\"", "x.values", "give the axis"),
-            ("key = \"a\"\nvalues = [1.0]\nfrom = 1.0", "x.values", "not both"),
+            (
+                "key = \"a\"\nvalues = [1.0]\nfrom = 1.0",
+                "x.values",
+                "not both",
+            ),
             ("key = \"a\"\nfrom = 1.0\nto = 2.0", "x.points", "all of"),
-            ("key = \"a\"\nfrom = 0.0\nto = 2.0\npoints = 3", "x.spacing", "linear"),
-            ("key = \"a\"\nfrom = 1.0\nto = 2.0\npoints = 1000000", "x.points", "1..="),
+            (
+                "key = \"a\"\nfrom = 0.0\nto = 2.0\npoints = 3",
+                "x.spacing",
+                "linear",
+            ),
+            (
+                "key = \"a\"\nfrom = 1.0\nto = 2.0\npoints = 1000000",
+                "x.points",
+                "1..=",
+            ),
             ("key = \"a\"\nvalues = []", "x.values", "1..="),
             ("key = \"a\"\nvalues = [1.0, 1.0]", "x.values", "twice"),
             ("key = \"\"\nvalues = [1.0]", "x.key", "study key"),
         ] {
             let e = axis(text).grid("f", "x").unwrap_err().to_string();
-            assert!(e.contains(&format!("`{field}`")) && e.contains(needle), "{text}: {e}");
+            assert!(
+                e.contains(&format!("`{field}`")) && e.contains(needle),
+                "{text}: {e}"
+            );
         }
     }
 
@@ -267,16 +311,33 @@ mod tests {
         assert!(e.contains("sweep.truth") && e.contains("\"Z\""), "{e}");
         let mut big = o.clone();
         big.realisations = 0;
-        assert!(big.validate(&["Y"], "f").unwrap_err().to_string().contains("sweep.realisations"));
+        assert!(
+            big.validate(&["Y"], "f")
+                .unwrap_err()
+                .to_string()
+                .contains("sweep.realisations")
+        );
         big.realisations = 10_000;
         big.axis[0].values = Some((0..200).map(f64::from).collect());
         let e = big.validate(&["Y"], "f").unwrap_err().to_string();
         assert!(e.contains("tasks"), "{e}");
         let mut three = o.clone();
         three.axis = vec![o.axis[0].clone(); 3];
-        assert!(three.validate(&["Y"], "f").unwrap_err().to_string().contains("one or two"));
+        assert!(
+            three
+                .validate(&["Y"], "f")
+                .unwrap_err()
+                .to_string()
+                .contains("one or two")
+        );
         let mut twice = o.clone();
         twice.axis = vec![o.axis[0].clone(); 2];
-        assert!(twice.validate(&["Y"], "f").unwrap_err().to_string().contains("swept twice"));
+        assert!(
+            twice
+                .validate(&["Y"], "f")
+                .unwrap_err()
+                .to_string()
+                .contains("swept twice")
+        );
     }
 }

@@ -50,6 +50,50 @@ impl Grid {
     }
 }
 
+/// An axis from the command line: `KEY=v1,v2,…`, `KEY=log:FROM:TO:N` or `KEY=lin:FROM:TO:N`,
+/// checked like a `[[sweep.axis]]` table.
+pub fn parse_axis(arg: &str) -> anyhow::Result<Axis> {
+    use crate::config::{Spacing, SweepAxis};
+    let (key, rhs) = arg.split_once('=').with_context(|| {
+        format!("--axis `{arg}`: write KEY=v1,v2,… or KEY=log:FROM:TO:N (or lin:…)")
+    })?;
+    let num = |s: &str| -> anyhow::Result<f64> {
+        s.trim()
+            .parse::<f64>()
+            .with_context(|| format!("--axis `{arg}`: `{s}` is not a number"))
+    };
+    let mut a = SweepAxis {
+        key: key.trim().to_string(),
+        values: None,
+        from: None,
+        to: None,
+        points: None,
+        spacing: Spacing::Log,
+    };
+    let range = rhs
+        .strip_prefix("log:")
+        .map(|r| (Spacing::Log, r))
+        .or_else(|| rhs.strip_prefix("lin:").map(|r| (Spacing::Linear, r)));
+    if let Some((spacing, r)) = range {
+        let f: Vec<&str> = r.split(':').collect();
+        let [from, to, n] = f[..] else {
+            bail!("--axis `{arg}`: a range is {}:FROM:TO:N", &rhs[..3]);
+        };
+        a.spacing = spacing;
+        a.from = Some(num(from)?);
+        a.to = Some(num(to)?);
+        a.points = Some(
+            n.trim()
+                .parse()
+                .with_context(|| format!("--axis `{arg}`: N = `{n}` is not a whole number"))?,
+        );
+    } else {
+        a.values = Some(rhs.split(',').map(num).collect::<anyhow::Result<_>>()?);
+    }
+    let values = a.grid("the command line", &format!("--axis {}", a.key))?;
+    Ok(Axis { key: a.key, values })
+}
+
 /// SplitMix64's output function: a bijective mix of 64 bits.
 fn mix(mut z: u64) -> u64 {
     z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
@@ -217,11 +261,40 @@ x12 = { kind = "sine_train", segments = [{ freq = 0.1, amplitude = 1e-6, duratio
     }
 
     #[test]
+    fn command_line_axes() {
+        let a = parse_axis("simulation.target_snr=5,10,20").unwrap();
+        assert_eq!(a.key, "simulation.target_snr");
+        assert_eq!(a.values, vec![5.0, 10.0, 20.0]);
+        let a = parse_axis("experiment.inv1.x1.freq=log:1e-4:1:5").unwrap();
+        assert_eq!(a.values.len(), 5);
+        assert_eq!((a.values[0], a.values[4]), (1e-4, 1.0));
+        let a = parse_axis("truth.d21=lin:-1e-4:1e-4:3").unwrap();
+        assert_eq!(a.values, vec![-1e-4, 0.0, 1e-4]);
+        for (bad, needle) in [
+            ("simulation.target_snr", "KEY=v1"),
+            ("k=1,x", "`x` is not a number"),
+            ("k=log:1:2", "FROM:TO:N"),
+            ("k=log:0:2:3", "linear"),
+            ("k=lin:0:2:2.5", "whole number"),
+            ("k=1,1", "twice"),
+        ] {
+            let e = format!("{:#}", parse_axis(bad).unwrap_err());
+            assert!(e.contains(needle), "{bad}: {e}");
+        }
+    }
+
+    #[test]
     fn grid_points_and_seeds() {
         let g = Grid {
             axes: vec![
-                Axis { key: "a".into(), values: vec![1.0, 2.0, 3.0] },
-                Axis { key: "b".into(), values: vec![10.0, 20.0] },
+                Axis {
+                    key: "a".into(),
+                    values: vec![1.0, 2.0, 3.0],
+                },
+                Axis {
+                    key: "b".into(),
+                    values: vec![10.0, 20.0],
+                },
             ],
         };
         assert_eq!(g.len(), 6);
@@ -241,6 +314,10 @@ x12 = { kind = "sine_train", segments = [{ freq = 0.1, amplitude = 1e-6, duratio
         ];
         all.sort();
         all.dedup();
-        assert_eq!(all.len(), 6, "seeds must differ across points, realisations and runs");
+        assert_eq!(
+            all.len(),
+            6,
+            "seeds must differ across points, realisations and runs"
+        );
     }
 }

@@ -203,7 +203,10 @@ mod tests {
         let back = TaskRecord::load(dir.path(), &id(0)).unwrap();
         assert_eq!(back, rec);
         assert_eq!(back.outcome.as_ref().unwrap().pick(), Some(1));
-        assert_eq!(back.outcome.unwrap().pairs[0].reference_ln_b(), Some(-1.0 / 3.0));
+        assert_eq!(
+            back.outcome.unwrap().pairs[0].reference_ln_b(),
+            Some(-1.0 / 3.0)
+        );
         assert!(TaskRecord::load(dir.path(), &id(1)).is_none());
         // a file at the right name holding another task is not reused
         std::fs::copy(&p, id(1).path(dir.path())).unwrap();

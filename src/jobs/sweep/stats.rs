@@ -114,7 +114,11 @@ pub fn point_stats(
     let correct = truth
         .and_then(|t| models.iter().position(|m| m == t))
         .map(|k| picks[k]);
-    let mut rho: Vec<f64> = ok.iter().map(|o| o.rho_opt).filter(|v| v.is_finite()).collect();
+    let mut rho: Vec<f64> = ok
+        .iter()
+        .map(|o| o.rho_opt)
+        .filter(|v| v.is_finite())
+        .collect();
     rho.sort_by(f64::total_cmp);
     let pairs = methods
         .iter()
