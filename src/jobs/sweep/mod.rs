@@ -191,7 +191,7 @@ impl Sweep {
         let values = self.grid.point(p);
         let mut doc = self.base.clone();
         for (a, v) in self.grid.axes.iter().zip(&values) {
-            set_key(&mut doc, &a.key, *v).with_context(|| format!("{}", self.file))?;
+            set_key(&mut doc, &a.key, *v).with_context(|| self.file.clone())?;
         }
         let seed = task_seed(self.seed, &values, r);
         // a TOML integer cannot hold every u64: set the seed after validation
