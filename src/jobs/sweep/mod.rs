@@ -239,6 +239,15 @@ impl Sweep {
             std::fs::create_dir_all(&tasks).with_context(|| {
                 format!("cannot create the sweep's directory {}", tasks.display())
             })?;
+            // temporaries of a killed run (atomic writes rename theirs on success)
+            if let Ok(rd) = std::fs::read_dir(&tasks) {
+                for e in rd.flatten() {
+                    let name = e.file_name().to_string_lossy().into_owned();
+                    if name.starts_with('.') && name.contains(".tmp-") {
+                        let _ = std::fs::remove_file(e.path());
+                    }
+                }
+            }
             let probe = tasks.join(".write-test");
             crate::atomic::write_bytes(&probe, b"")
                 .and_then(|_| std::fs::remove_file(&probe))

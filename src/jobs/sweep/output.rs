@@ -158,6 +158,26 @@ fn write_npz(sweep: &Sweep, res: &SweepResult, path: &std::path::Path) -> anyhow
     .with_context(|| format!("writing {}", path.display()))
 }
 
+/// Keys along which more is more signal (a threshold "from here on" makes sense).
+fn monotone_key(key: &str) -> bool {
+    ["snr", "amplitude", "duration"]
+        .iter()
+        .any(|k| key.rsplit('.').next().is_some_and(|leaf| leaf.contains(k)))
+}
+
+/// The Kass–Raftery grade of a median ln B_XY, short: `bare`, `positive X`, `strong Y`, …
+/// (2 ln B at 2, 6 and 10).
+fn grade(ln_b: Option<f64>, x: &str, y: &str) -> String {
+    let Some(v) = ln_b else { return "–".into() };
+    let w = if v > 0.0 { x } else { y };
+    match v.abs() {
+        a if a <= 1.0 => "bare".into(),
+        a if a <= 3.0 => format!("positive {w}"),
+        a if a <= 5.0 => format!("strong {w}"),
+        _ => format!("very strong {w}"),
+    }
+}
+
 fn opt(v: Option<f64>, prec: usize) -> String {
     v.map_or("–".into(), |x| format!("{x:.prec$}"))
 }
@@ -181,7 +201,7 @@ pub fn table(sweep: &Sweep, res: &SweepResult) -> String {
         let _ = writeln!(s, "\npair {}/{}", first.x, first.y);
         let mut head: Vec<String> = keys.iter().map(|k| k.to_string()).collect();
         head.extend(
-            ["ok", "reference ln B [16, 84]", "agree"]
+            ["ok", "reference ln B [16, 84]", "median's grade", "agree"]
                 .iter()
                 .map(|h| h.to_string()),
         );
@@ -199,6 +219,7 @@ pub fn table(sweep: &Sweep, res: &SweepResult) -> String {
                 opt(r.q16, 2),
                 opt(r.q84, 2)
             ));
+            row.push(grade(r.median, &pair.x, &pair.y));
             row.push(opt(Some(pair.agree).filter(|v| v.is_finite()), 2));
             row.push(
                 p.picks
@@ -216,14 +237,42 @@ pub fn table(sweep: &Sweep, res: &SweepResult) -> String {
         }
         s.push_str(&t.to_text());
         if let (Some(truth), 1) = (&sweep.truth, keys.len()) {
+            let sign = if *truth == first.x { 1.0 } else { -1.0 };
+            let at = |right: bool| {
+                let v: Vec<String> = res
+                    .points
+                    .iter()
+                    .filter(|p| {
+                        p.pairs
+                            .get(j)
+                            .and_then(|q| q.estimators[0].median)
+                            .is_some_and(|m| m != 0.0 && (m * sign > 0.0) == right)
+                    })
+                    .map(|p| format!("{}", p.values[0]))
+                    .collect();
+                if v.is_empty() {
+                    "none".into()
+                } else {
+                    v.join(", ")
+                }
+            };
             let _ = writeln!(
                 s,
-                "{truth} (the truth) is favoured by the reference's median and the estimators agree in ≥ half the realisations {}",
-                match super::stats::threshold(&res.points, j, truth) {
-                    Some(v) => format!("from {} = {v} on", keys[0]),
-                    None => "at no point from the top of the grid down".into(),
-                }
+                "{truth} (the truth) is favoured by the reference's median at {} = {}; misidentified at {}",
+                keys[0],
+                at(true),
+                at(false)
             );
+            if monotone_key(keys[0]) {
+                let _ = writeln!(
+                    s,
+                    "{truth} is favoured and the estimators agree in ≥ half the realisations {}",
+                    match super::stats::threshold(&res.points, j, truth) {
+                        Some(v) => format!("from {} = {v} on", keys[0]),
+                        None => "at no point from the top of the grid down".into(),
+                    }
+                );
+            }
         }
         for p in res.points.iter().filter(|p| p.failed > 0) {
             let _ = writeln!(
