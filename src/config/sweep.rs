@@ -119,6 +119,8 @@ impl SweepAxis {
                         Spacing::Log => (a.ln() + t(i) * (b.ln() - a.ln())).exp(),
                         Spacing::Linear => a + t(i) * (b - a),
                     })
+                    // 10 significant digits: 100, not 100.00000000000004
+                    .map(|x: f64| format!("{x:.9e}").parse::<f64>().unwrap_or(x))
                     .collect()
             }
             (None, false) => {
@@ -257,7 +259,7 @@ mod tests {
             .unwrap();
         assert_eq!(g.len(), 5);
         assert!((g[0] - 1e-4).abs() < 1e-18 && (g[4] - 1.0).abs() < 1e-14);
-        assert!((g[1] - 1e-3).abs() < 1e-15, "{g:?}");
+        assert_eq!(g[1], 1e-3, "{g:?}");
         let g = axis("key = \"a\"\nfrom = -1.0\nto = 1.0\npoints = 3\nspacing = \"linear\"")
             .grid("f", "x")
             .unwrap();

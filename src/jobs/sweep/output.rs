@@ -266,7 +266,7 @@ pub fn table(sweep: &Sweep, res: &SweepResult) -> String {
             if monotone_key(keys[0]) {
                 let _ = writeln!(
                     s,
-                    "{truth} is favoured and the estimators agree in ≥ half the realisations {}",
+                    "{truth} wins (median at least positive evidence) and the estimators agree in ≥ half the realisations {}",
                     match super::stats::threshold(&res.points, j, truth) {
                         Some(v) => format!("from {} = {v} on", keys[0]),
                         None => "at no point from the top of the grid down".into(),

@@ -182,9 +182,10 @@ pub fn point_stats(
 }
 
 /// On a 1-D sweep with a known true model: the smallest axis value from which on, at every
-/// point, the reference's median ln B favours the truth and the statistical estimators agree
-/// in at least half the realisations (the paper's "SNR above which the estimators agree and
-/// the right model wins"). `None` if the last point already fails.
+/// point, the reference's median ln B favours the truth by at least "positive evidence"
+/// (Kass–Raftery, |ln B| > 1) and the statistical estimators agree in at least half the
+/// realisations (the paper's "SNR above which the estimators agree and the right model
+/// wins"). `None` if the last point already fails.
 pub fn threshold(points: &[PointStats], pair: usize, truth: &str) -> Option<f64> {
     let good = |p: &PointStats| {
         let Some(ps) = p.pairs.get(pair) else {
@@ -197,7 +198,7 @@ pub fn threshold(points: &[PointStats], pair: usize, truth: &str) -> Option<f64>
         } else {
             return false;
         };
-        ps.estimators[0].median.is_some_and(|m| m * sign > 0.0) && ps.agree >= 0.5
+        ps.estimators[0].median.is_some_and(|m| m * sign > 1.0) && ps.agree >= 0.5
     };
     let mut idx: Vec<usize> = (0..points.len()).collect();
     idx.sort_by(|&a, &b| points[a].values[0].total_cmp(&points[b].values[0]));
@@ -313,7 +314,7 @@ mod tests {
         // truth Y: ln B_XY < 0 wins; disagreement at 40 breaks the run above 20
         let pts = vec![
             mk(0, 5.0, 0.5, true),
-            mk(1, 10.0, -1.0, true),
+            mk(1, 10.0, -1.5, true),
             mk(2, 20.0, -3.0, true),
             mk(3, 40.0, -9.0, false),
             mk(4, 80.0, -20.0, true),
@@ -322,6 +323,12 @@ mod tests {
         let mut fixed = pts.clone();
         fixed[3] = mk(3, 40.0, -9.0, true);
         assert_eq!(threshold(&fixed, 0, "Y"), Some(10.0));
+        fixed[1] = mk(1, 10.0, -0.9, true);
+        assert_eq!(
+            threshold(&fixed, 0, "Y"),
+            Some(20.0),
+            "a bare mention is no win"
+        );
         fixed[4] = mk(4, 80.0, 2.0, true);
         assert_eq!(threshold(&fixed, 0, "Y"), None);
     }
