@@ -401,6 +401,9 @@ fn sweep(path: PathBuf, cli: SweepCli) -> Result<()> {
         output: cli.output,
     };
     let sweep = Sweep::load(&path, args)?;
+    for w in &sweep.warnings {
+        eprintln!("warning: {w}");
+    }
     let exec = occam::jobs::exec::Threads::new(cli.threads)?;
     println!(
         "sweep of {}: {} point(s) × {} realisation(s) = {} tasks on {} worker(s), into {}",

@@ -58,6 +58,8 @@ pub struct Sweep {
     pub out: PathBuf,
     /// The `[[select.model]]` names.
     pub models: Vec<String>,
+    /// What the user should know before the sweep runs.
+    pub warnings: Vec<String>,
 }
 
 /// The numbers of a finished sweep.
@@ -150,7 +152,16 @@ impl Sweep {
                     .as_bytes()
             )
         );
+        let mut warnings = Vec::new();
+        let read = study.analysis.dataset.is_some() || !study.data_sources.is_empty();
+        if read && checked.realisations > 1 {
+            warnings.push(format!(
+                "{file} reads its data from files: its {} realisations share the same noise and differ only in the samplers' seeds",
+                checked.realisations
+            ));
+        }
         let sweep = Sweep {
+            warnings,
             file: file.into(),
             base_dir: base_dir.to_path_buf(),
             base,
