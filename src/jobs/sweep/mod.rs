@@ -12,6 +12,7 @@
 
 pub mod grid;
 pub mod output;
+mod plots;
 pub mod record;
 pub mod stats;
 

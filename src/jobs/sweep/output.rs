@@ -23,6 +23,7 @@ pub fn write_outputs(sweep: &Sweep, res: &SweepResult) -> anyhow::Result<Vec<Pat
     crate::atomic::write_bytes(&p, table(sweep, res).as_bytes())
         .with_context(|| format!("writing {}", p.display()))?;
     files.push(p);
+    files.extend(super::plots::write_plots(sweep, res)?);
     Ok(files)
 }
 
