@@ -51,17 +51,36 @@ enum Command {
         #[arg(short, long)]
         quiet: bool,
     },
-    /// ln B of every estimator against ρ_opt: the study's `[[select.model]]` models on data
-    /// scaled to each `--snr` value (default: 8 values from 100 to 3e5).
+    /// Model selection over a grid of study keys (`[sweep]` or `--axis`) with noise
+    /// realisations per point: ln B of every estimator, its band over realisations, how often
+    /// each model is picked (the paper's Fig. 5 and 6). Finished points are kept in the run
+    /// directory and skipped on a rerun.
     Sweep {
         /// The study file (TOML) with `[[select.model]]` tables.
         study: PathBuf,
-        /// Target ρ_opt values.
+        /// An axis, replacing `[[sweep.axis]]`: `KEY=v1,v2,…`, `KEY=log:FROM:TO:N` or
+        /// `KEY=lin:FROM:TO:N` (KEY a dotted study key, e.g. `experiment.inv1.x1.freq`);
+        /// repeat for a 2-D grid.
+        #[arg(long = "axis")]
+        axis: Vec<String>,
+        /// Shorthand for `--axis simulation.target_snr=…` (ρ_opt values).
         #[arg(long, value_delimiter = ',')]
         snr: Option<Vec<f64>>,
+        /// Noise realisations per point (default: `[sweep] realisations`, else 1).
+        #[arg(long)]
+        realisations: Option<usize>,
+        /// The `[[select.model]]` that generated the data.
+        #[arg(long)]
+        truth: Option<String>,
+        /// Worker threads (default: one per core).
+        #[arg(long, default_value_t = 0)]
+        threads: usize,
         /// Output directory (default: `<output>/sweep`).
         #[arg(short, long)]
         output: Option<PathBuf>,
+        /// No per-task lines.
+        #[arg(short, long)]
+        quiet: bool,
     },
     /// Bayes factors between the study's `[[select.model]]` models with every estimator.
     Select {
@@ -92,7 +111,27 @@ fn main() {
             quiet,
         } => select(study, output, quiet),
         Command::Demo { output, quiet } => demo(output, quiet),
-        Command::Sweep { study, snr, output } => sweep(study, snr, output),
+        Command::Sweep {
+            study,
+            axis,
+            snr,
+            realisations,
+            truth,
+            threads,
+            output,
+            quiet,
+        } => sweep(
+            study,
+            SweepCli {
+                axis,
+                snr,
+                realisations,
+                truth,
+                threads,
+                output,
+                quiet,
+            },
+        ),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");
@@ -329,72 +368,67 @@ fn demo(output: PathBuf, quiet: bool) -> Result<()> {
     Ok(())
 }
 
-fn sweep(path: PathBuf, snr: Option<Vec<f64>>, output: Option<PathBuf>) -> Result<()> {
+/// `occam sweep`'s options.
+struct SweepCli {
+    axis: Vec<String>,
+    snr: Option<Vec<f64>>,
+    realisations: Option<usize>,
+    truth: Option<String>,
+    threads: usize,
+    output: Option<PathBuf>,
+    quiet: bool,
+}
+
+fn sweep(path: PathBuf, cli: SweepCli) -> Result<()> {
+    use occam::jobs::sweep::{Sweep, SweepArgs, grid};
     let t0 = Instant::now();
-    let base = Study::load(&path)?;
-    let out = output.unwrap_or_else(|| base.output.join("sweep"));
-    let snrs = snr.unwrap_or_else(|| vec![100.0, 200.0, 450.0, 1e3, 3e3, 1e4, 5e4, 3e5]);
-    if let Some(bad) = snrs.iter().find(|v| !(v.is_finite() && **v > 0.0)) {
-        anyhow::bail!("--snr: every value must be a finite ρ_opt > 0 (got {bad})");
-    }
-    let mut rows = Vec::new();
-    for &rho in &snrs {
-        let mut study = base.clone();
-        study.simulation.target_snr = Some(rho);
-        let prep = occam::analysis::prepare(&study)?;
-        let s = occam::select::run(&study, &prep, None)?;
-        let p = &s.pairs[0];
-        print!("rho_opt {rho:>9.3e}:");
-        for e in &p.estimates {
-            print!(
-                "  {} {}",
-                e.method,
-                e.ln_b.map_or("–".into(), |v| format!("{v:.3}"))
-            );
-        }
-        println!();
-        rows.push((rho, s));
-    }
-    let first = &rows[0].1.pairs[0];
-    let methods: Vec<String> = first.estimates.iter().map(|e| e.method.clone()).collect();
-    let mut series = Vec::new();
-    let mut errs = Vec::new();
-    for (m, name) in methods.iter().enumerate() {
-        let pts: Vec<(f64, f64)> = rows
-            .iter()
-            .map(|(rho, s)| (*rho, s.pairs[0].estimates[m].ln_b.unwrap_or(f64::NAN)))
-            .collect();
-        let e: Vec<f64> = rows
-            .iter()
-            .map(|(_, s)| s.pairs[0].estimates[m].std_err.unwrap_or(f64::NAN))
-            .collect();
-        series.push((name.clone(), pts));
-        errs.push(e);
-    }
-    let title = format!("ln B {}/{} against rho_opt", first.x, first.y);
-    occam::report::line_plot(
-        &out,
-        "ln_b_vs_snr",
-        &occam::report::LinePlot {
-            title: &title,
-            x_label: "rho_opt",
-            y_label: "ln B_XY",
-            series: &series,
-            y_err: Some(&errs),
-            log_x: true,
-            log_y: false,
-        },
-    )?;
-    let json: Vec<serde_json::Value> = rows
+    let mut axes = cli
+        .axis
         .iter()
-        .map(|(rho, s)| serde_json::json!({"target_snr": rho, "pairs": s.pairs, "rj_visits": s.rj.as_ref().map(|r| &r.visits)}))
-        .collect();
-    let p = out.join("sweep.json");
-    occam::atomic::write_bytes(&p, (serde_json::to_string_pretty(&json)? + "\n").as_bytes())?;
+        .map(|a| grid::parse_axis(a))
+        .collect::<Result<Vec<_>>>()?;
+    if let Some(snr) = cli.snr {
+        let list: Vec<String> = snr.iter().map(|v| v.to_string()).collect();
+        axes.push(grid::parse_axis(&format!(
+            "simulation.target_snr={}",
+            list.join(",")
+        ))?);
+    }
+    let args = SweepArgs {
+        axes: (!axes.is_empty()).then_some(axes),
+        realisations: cli.realisations,
+        truth: cli.truth,
+        output: cli.output,
+    };
+    let sweep = Sweep::load(&path, args)?;
+    for w in &sweep.warnings {
+        eprintln!("warning: {w}");
+    }
+    let exec = occam::jobs::exec::Threads::new(cli.threads)?;
     println!(
-        "wrote {}/{{sweep.json, ln_b_vs_snr.png, ln_b_vs_snr.svg}}",
-        out.display()
+        "sweep of {}: {} point(s) × {} realisation(s) = {} tasks on {} worker(s), into {}",
+        path.display(),
+        sweep.grid.len(),
+        sweep.realisations,
+        sweep.task_count(),
+        occam::jobs::exec::Executor::workers(&exec),
+        sweep.out.display()
     );
-    println!("took {:.1} s", t0.elapsed().as_secs_f64());
+    let Some(res) = sweep.run(&exec, !cli.quiet)? else {
+        return Ok(());
+    };
+    print!("{}", occam::jobs::sweep::output::table(&sweep, &res));
+    let files = occam::jobs::sweep::write_outputs(&sweep, &res)?;
+    let names: Vec<String> = files
+        .iter()
+        .filter_map(|f| f.file_name().map(|n| n.to_string_lossy().into_owned()))
+        .collect();
+    println!("wrote {}/{{{}}}", sweep.out.display(), names.join(", "));
+    println!(
+        "{} task(s) computed, {} reused; took {:.1} s",
+        res.computed,
+        res.reused,
+        t0.elapsed().as_secs_f64()
+    );
     Ok(())
 }

@@ -22,9 +22,11 @@ use crate::ltp::{Controllers, LtpParams, Masses, NoiseModel, check_stable};
 use crate::prior::PriorKind;
 
 mod models;
+mod sweep;
 pub use models::{BUILTIN_LTP, LtpModelEntry, ModelDef, ModelEntry, ModelSet, ModelSpec};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
+pub use sweep::{MAX_POINTS, MAX_REALISATIONS, Spacing, SweepAxis, SweepOptions};
 
 /// A configuration problem, naming the file and the field.
 #[derive(Debug, thiserror::Error)]
@@ -394,6 +396,9 @@ pub struct StudyFile {
     pub fit: FitOptions,
     #[serde(default)]
     pub select: SelectOptions,
+    /// `[sweep]`: the grid of `occam sweep` (ignored by the other commands).
+    #[serde(default)]
+    pub sweep: Option<SweepOptions>,
     pub experiment: Vec<ExperimentEntry>,
 }
 
@@ -423,6 +428,8 @@ pub struct Study {
     pub select: SelectOptions,
     /// The validated `[[select.model]]` list (empty if none).
     pub select_models: Vec<SelectModel>,
+    /// `[sweep]` as written (validated against the select models).
+    pub sweep: Option<SweepOptions>,
     /// The file it came from (for messages).
     pub source: String,
 }
@@ -717,7 +724,12 @@ impl StudyFile {
         .resolve(&models, file, "fit.")?;
         validate_fit(&self.fit, &models, file)?;
         let select_models = validate_select(&self.select, &models, file)?;
+        if let Some(sw) = &self.sweep {
+            let names: Vec<&str> = select_models.iter().map(|m| m.name.as_str()).collect();
+            sw.validate(&names, file)?;
+        }
         Ok(Study {
+            sweep: self.sweep,
             select: self.select,
             select_models,
             analysis: self.analysis,

@@ -4,3 +4,4 @@
 pub mod exec;
 #[cfg(feature = "mpi")]
 pub mod mpi;
+pub mod sweep;

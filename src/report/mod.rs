@@ -20,6 +20,7 @@
 //! ```
 
 mod axis;
+mod bands;
 mod bars;
 mod corner;
 mod format;
@@ -32,6 +33,7 @@ mod trace;
 
 use std::path::PathBuf;
 
+pub use bands::{BandPlot, BandSeries, HeatMap, band_plot, heat_map};
 pub use bars::model_histogram;
 pub use corner::corner_plot;
 pub use format::{fmt_pm, fmt_sig, kass_raftery, kass_raftery_named};

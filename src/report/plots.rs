@@ -191,7 +191,7 @@ pub(crate) struct Ticked {
 }
 
 impl Ticked {
-    fn new(a: &Axis) -> Self {
+    pub(crate) fn new(a: &Axis) -> Self {
         Ticked {
             inner: (a.lo..a.hi).into(),
             ticks: a.ticks.clone(),

@@ -9,7 +9,7 @@ const PNG_SIGNATURE: [u8; 8] = [137, 80, 78, 71, 13, 10, 26, 10];
 /// Asserts that `dir` holds exactly `<stem>.png` and `<stem>.svg` (no temporaries), that the
 /// PNG is complete (signature, IHDR first, IEND last, > 1 kB) and that the SVG is a whole
 /// document containing every string in `svg_has`. Returns the PNG's (width, height).
-fn check_outputs(dir: &Path, stem: &str, svg_has: &[&str]) -> (u32, u32) {
+pub(super) fn check_outputs(dir: &Path, stem: &str, svg_has: &[&str]) -> (u32, u32) {
     let mut names: Vec<String> = std::fs::read_dir(dir)
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
@@ -42,7 +42,7 @@ fn names(n: &[&str]) -> Vec<String> {
     n.iter().map(|s| s.to_string()).collect()
 }
 
-fn assert_invalid(r: Result<(), ReportError>, field: &str, dir: &Path) {
+pub(super) fn assert_invalid(r: Result<(), ReportError>, field: &str, dir: &Path) {
     match r {
         Err(ReportError::InvalidInput { field: f, .. }) => assert_eq!(f, field),
         other => panic!("expected InvalidInput on {field}, got {other:?}"),

@@ -25,7 +25,7 @@ use crate::report::kass_raftery_named;
 use serde::Serialize;
 
 /// What kind of error an estimator's row carries (see the module docs).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum EstimateKind {
     /// Monte-Carlo estimate with a standard error.

@@ -1,0 +1,97 @@
+//! Benchmark: a 2-D design sweep with full model selection at every point, and the sweep's
+//! parallel efficiency from 1 to 2 workers.
+//!
+//! The study is `examples/design-frequency.toml` (X = 4 parameters against Y = 5, every
+//! estimator including parallel tempering with the file's 12 rungs) on a grid of the x1
+//! injection frequency (1e-4–1 Hz) × ρ_opt (10–1000), one realisation per point.
+//!
+//! `cargo bench --bench sweep` runs the `SWEEP_BENCH_N` × `SWEEP_BENCH_N` grid (default 20) on
+//! 2 workers and prints its wall time, then the first `SWEEP_BENCH_EFF` tasks (default 24) on 1
+//! and on 2 workers, side by side, and the parallel efficiency T₁ / (2 T₂). Each run writes into
+//! a fresh temporary directory, so nothing is reused.
+
+use occam::jobs::exec::Threads;
+use occam::jobs::sweep::grid::Axis;
+use occam::jobs::sweep::{Sweep, SweepArgs};
+use std::path::Path;
+use std::time::Instant;
+
+fn env(name: &str, default: usize) -> usize {
+    std::env::var(name)
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(default)
+}
+
+fn log_axis(key: &str, from: f64, to: f64, n: usize) -> Axis {
+    let values = (0..n)
+        .map(|i| {
+            let t = if n == 1 {
+                0.0
+            } else {
+                i as f64 / (n - 1) as f64
+            };
+            (from.ln() + t * (to.ln() - from.ln())).exp()
+        })
+        .collect();
+    Axis {
+        key: key.into(),
+        values,
+    }
+}
+
+fn plan(n_freq: usize, n_snr: usize, out: &Path) -> Result<Sweep, Box<dyn std::error::Error>> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let args = SweepArgs {
+        axes: Some(vec![
+            log_axis("experiment.scan.x1.freq", 1e-4, 1.0, n_freq),
+            log_axis("simulation.target_snr", 10.0, 1000.0, n_snr),
+        ]),
+        realisations: Some(1),
+        output: Some(out.to_path_buf()),
+        ..Default::default()
+    };
+    Ok(Sweep::load(
+        &root.join("examples/design-frequency.toml"),
+        args,
+    )?)
+}
+
+fn timed(s: &Sweep, workers: usize) -> Result<f64, Box<dyn std::error::Error>> {
+    let t0 = Instant::now();
+    let r = s
+        .run(&Threads::new(workers)?, false)?
+        .ok_or("the thread executor is always the root")?;
+    let failed: usize = r.points.iter().map(|p| p.failed).sum();
+    if failed > 0 {
+        return Err(format!("{failed} task(s) failed").into());
+    }
+    Ok(t0.elapsed().as_secs_f64())
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let n = env("SWEEP_BENCH_N", 20);
+    let n_eff = env("SWEEP_BENCH_EFF", 24);
+    let dir = tempfile::tempdir()?;
+
+    // efficiency: the same tasks (a 6 × k slice of the grid) on 1 and on 2 workers
+    let k = n_eff.div_ceil(6).max(1);
+    let small = |name: &str| plan(6, k, &dir.path().join(name));
+    let t1 = timed(&small("eff1")?, 1)?;
+    let t2 = timed(&small("eff2")?, 2)?;
+    println!(
+        "{} tasks: 1 worker {t1:.1} s, 2 workers {t2:.1} s; speed-up {:.2}, parallel efficiency {:.0} %",
+        6 * k,
+        t1 / t2,
+        100.0 * t1 / (2.0 * t2)
+    );
+
+    let s = plan(n, n, &dir.path().join("grid"))?;
+    let t = timed(&s, 2)?;
+    println!(
+        "{n} × {n} grid ({} tasks, full model selection each) on 2 workers: {t:.1} s ({:.2} s per task)",
+        s.task_count(),
+        t / s.task_count() as f64
+    );
+    Ok(())
+}

@@ -1,0 +1,290 @@
+//! A finished sweep on disk: `sweep.json` (every number), `sweep.npz` (the arrays),
+//! `table.txt` and the plots.
+
+use super::stats::REFERENCE;
+use super::{Sweep, SweepResult};
+use anyhow::Context;
+use ndarray::{Array, ArrayD, IxDyn};
+use std::path::PathBuf;
+
+/// Writes the sweep's outputs into its run directory; returns the files written.
+pub fn write_outputs(sweep: &Sweep, res: &SweepResult) -> anyhow::Result<Vec<PathBuf>> {
+    let out = &sweep.out;
+    let mut files = Vec::new();
+    let p = out.join("sweep.json");
+    let json = serde_json::to_string_pretty(&json(sweep, res))? + "\n";
+    crate::atomic::write_bytes(&p, json.as_bytes())
+        .with_context(|| format!("writing {}", p.display()))?;
+    files.push(p);
+    let p = out.join("sweep.npz");
+    write_npz(sweep, res, &p)?;
+    files.push(p);
+    let p = out.join("table.txt");
+    crate::atomic::write_bytes(&p, table(sweep, res).as_bytes())
+        .with_context(|| format!("writing {}", p.display()))?;
+    files.push(p);
+    files.extend(super::plots::write_plots(sweep, res)?);
+    Ok(files)
+}
+
+/// `sweep.json`: the grid, each point's statistics and every realisation's rows. Each point
+/// also keeps the keys of the single-realisation `sweep.json` of earlier versions
+/// (`target_snr` when it is swept, `pairs` and `rj_visits` of realisation 0).
+fn json(sweep: &Sweep, res: &SweepResult) -> serde_json::Value {
+    let r = sweep.realisations;
+    let points: Vec<serde_json::Value> = res
+        .points
+        .iter()
+        .map(|ps| {
+            let recs = &res.records[ps.index * r..(ps.index + 1) * r];
+            let mut v = serde_json::json!({
+                "values": ps.values,
+                "stats": ps,
+                "realisations": recs,
+                "pairs": recs[0].outcome.as_ref().map(|o| &o.pairs),
+                "rj_visits": recs[0].outcome.as_ref().and_then(|o| o.rj_visits.as_ref()),
+            });
+            for (a, x) in sweep.grid.axes.iter().zip(&ps.values) {
+                if a.key == "simulation.target_snr" {
+                    v["target_snr"] = serde_json::json!(x);
+                }
+            }
+            v
+        })
+        .collect();
+    let threshold: Vec<serde_json::Value> = match (&sweep.truth, sweep.grid.axes.len()) {
+        (Some(t), 1) => (0..res.methods.len())
+            .map(|k| {
+                serde_json::json!({
+                    "pair": k,
+                    "from": super::stats::threshold(&res.points, k, t),
+                })
+            })
+            .collect(),
+        _ => Vec::new(),
+    };
+    serde_json::json!({
+        "study": sweep.file,
+        "seed": sweep.seed,
+        "axes": sweep.grid.axes.iter().map(|a| serde_json::json!({"key": a.key, "values": a.values})).collect::<Vec<_>>(),
+        "realisations": r,
+        "truth": sweep.truth,
+        "models": sweep.models,
+        "estimators": res.methods.iter().map(|m| {
+            let mut v = vec![REFERENCE.to_string()];
+            v.extend(m.iter().cloned());
+            v
+        }).collect::<Vec<_>>(),
+        "threshold": threshold,
+        "points": points,
+    })
+}
+
+/// `sweep.npz`: `axis0` (and `axis1`), `grid_shape`; per point, realisation, pair and
+/// estimator (the reference first, as in `sweep.json`'s `estimators`): `ln_b`, `std_err`;
+/// per point, pair and estimator: `median`, `q16`, `q84`; `agree` (point, pair), `picks`
+/// (point, model), `rho_opt` (point, realisation). NaN where there is no number.
+fn write_npz(sweep: &Sweep, res: &SweepResult, path: &std::path::Path) -> anyhow::Result<()> {
+    let np = res.points.len();
+    let r = sweep.realisations;
+    let npair = res.methods.len();
+    let ne = res.methods.iter().map(|m| m.len() + 1).max().unwrap_or(1);
+    let mut ln_b = ArrayD::<f64>::from_elem(IxDyn(&[np, r, npair, ne]), f64::NAN);
+    let mut se = ln_b.clone();
+    let mut rho = ArrayD::<f64>::from_elem(IxDyn(&[np, r]), f64::NAN);
+    for (t, rec) in res.records.iter().enumerate() {
+        let (p, k) = (t / r, t % r);
+        let Some(o) = &rec.outcome else { continue };
+        rho[[p, k]] = o.rho_opt;
+        for (j, (pair, names)) in o.pairs.iter().zip(&res.methods).enumerate() {
+            ln_b[[p, k, j, 0]] = pair.reference_ln_b().unwrap_or(f64::NAN);
+            if let Some(e) = pair.estimates.iter().find(|e| e.method == pair.reference) {
+                se[[p, k, j, 0]] = e.std_err.unwrap_or(f64::NAN);
+            }
+            for (m, name) in names.iter().enumerate() {
+                if let Some(e) = pair.estimates.iter().find(|e| &e.method == name) {
+                    ln_b[[p, k, j, m + 1]] = e.ln_b.unwrap_or(f64::NAN);
+                    se[[p, k, j, m + 1]] = e.std_err.unwrap_or(f64::NAN);
+                }
+            }
+        }
+    }
+    let mut q = [
+        ArrayD::<f64>::from_elem(IxDyn(&[np, npair, ne]), f64::NAN),
+        ArrayD::<f64>::from_elem(IxDyn(&[np, npair, ne]), f64::NAN),
+        ArrayD::<f64>::from_elem(IxDyn(&[np, npair, ne]), f64::NAN),
+    ];
+    let mut agree = ArrayD::<f64>::from_elem(IxDyn(&[np, npair]), f64::NAN);
+    let mut picks = ArrayD::<f64>::from_elem(IxDyn(&[np, sweep.models.len()]), f64::NAN);
+    for ps in &res.points {
+        for (j, pair) in ps.pairs.iter().enumerate() {
+            agree[[ps.index, j]] = pair.agree;
+            for (m, e) in pair.estimators.iter().enumerate() {
+                for (arr, v) in q.iter_mut().zip([e.median, e.q16, e.q84]) {
+                    arr[[ps.index, j, m]] = v.unwrap_or(f64::NAN);
+                }
+            }
+        }
+        for (k, v) in ps.picks.iter().enumerate() {
+            picks[[ps.index, k]] = *v;
+        }
+    }
+    let shape: Vec<i64> = sweep
+        .grid
+        .axes
+        .iter()
+        .map(|a| a.values.len() as i64)
+        .collect();
+    crate::atomic::write_with(path, |w| {
+        let io = |e: ndarray_npy::WriteNpzError| std::io::Error::other(e.to_string());
+        let mut z = ndarray_npy::NpzWriter::new(w);
+        for (k, a) in sweep.grid.axes.iter().enumerate() {
+            z.add_array(format!("axis{k}"), &Array::from_vec(a.values.clone()))
+                .map_err(io)?;
+        }
+        z.add_array("grid_shape", &Array::from_vec(shape.clone()))
+            .map_err(io)?;
+        z.add_array("ln_b", &ln_b).map_err(io)?;
+        z.add_array("std_err", &se).map_err(io)?;
+        let [median, q16, q84] = &q;
+        z.add_array("median", median).map_err(io)?;
+        z.add_array("q16", q16).map_err(io)?;
+        z.add_array("q84", q84).map_err(io)?;
+        z.add_array("agree", &agree).map_err(io)?;
+        z.add_array("picks", &picks).map_err(io)?;
+        z.add_array("rho_opt", &rho).map_err(io)?;
+        z.finish().map_err(io)?;
+        Ok(())
+    })
+    .with_context(|| format!("writing {}", path.display()))
+}
+
+/// Keys along which more is more signal (a threshold "from here on" makes sense).
+fn monotone_key(key: &str) -> bool {
+    ["snr", "amplitude", "duration"]
+        .iter()
+        .any(|k| key.rsplit('.').next().is_some_and(|leaf| leaf.contains(k)))
+}
+
+/// The Kass–Raftery grade of a median ln B_XY, short: `bare`, `positive X`, `strong Y`, …
+/// (2 ln B at 2, 6 and 10).
+fn grade(ln_b: Option<f64>, x: &str, y: &str) -> String {
+    let Some(v) = ln_b else { return "–".into() };
+    let w = if v > 0.0 { x } else { y };
+    match v.abs() {
+        a if a <= 1.0 => "bare".into(),
+        a if a <= 3.0 => format!("positive {w}"),
+        a if a <= 5.0 => format!("strong {w}"),
+        _ => format!("very strong {w}"),
+    }
+}
+
+fn opt(v: Option<f64>, prec: usize) -> String {
+    v.map_or("–".into(), |x| format!("{x:.prec$}"))
+}
+
+/// The text table: per pair and point, the reference's median ln B with its 16–84 % band,
+/// how often the estimators agree, how often each model is picked, and every estimator's
+/// median.
+pub fn table(sweep: &Sweep, res: &SweepResult) -> String {
+    use std::fmt::Write;
+    let mut s = String::new();
+    let keys: Vec<&str> = sweep.grid.axes.iter().map(|a| a.key.as_str()).collect();
+    let _ = writeln!(
+        s,
+        "{} realisation(s) per point; ln B_XY median [16 %, 84 %] over realisations; agree: fraction with the statistical estimators within errors; picks: fraction preferring each model",
+        sweep.realisations
+    );
+    for (j, names) in res.methods.iter().enumerate() {
+        let Some(first) = res.points.iter().find_map(|p| p.pairs.get(j)) else {
+            continue;
+        };
+        let _ = writeln!(s, "\npair {}/{}", first.x, first.y);
+        let mut head: Vec<String> = keys.iter().map(|k| k.to_string()).collect();
+        head.extend(
+            ["ok", "reference ln B [16, 84]", "median's grade", "agree"]
+                .iter()
+                .map(|h| h.to_string()),
+        );
+        head.push(format!("picks {}", sweep.models.join("/")));
+        head.extend(names.iter().cloned());
+        let mut t = crate::report::Table::new(head);
+        for p in &res.points {
+            let Some(pair) = p.pairs.get(j) else { continue };
+            let mut row: Vec<String> = p.values.iter().map(|v| format!("{v:.4e}")).collect();
+            let r = &pair.estimators[0];
+            row.push(format!("{}/{}", p.realisations - p.failed, p.realisations));
+            row.push(format!(
+                "{} [{}, {}]",
+                opt(r.median, 3),
+                opt(r.q16, 2),
+                opt(r.q84, 2)
+            ));
+            row.push(grade(r.median, &pair.x, &pair.y));
+            row.push(opt(Some(pair.agree).filter(|v| v.is_finite()), 2));
+            row.push(
+                p.picks
+                    .iter()
+                    .map(|v| opt(Some(*v).filter(|v| v.is_finite()), 2))
+                    .collect::<Vec<_>>()
+                    .join("/"),
+            );
+            for e in &pair.estimators[1..] {
+                row.push(opt(e.median, 3));
+            }
+            if t.push_row(row).is_err() {
+                continue;
+            }
+        }
+        s.push_str(&t.to_text());
+        if let (Some(truth), 1) = (&sweep.truth, keys.len()) {
+            let sign = if *truth == first.x { 1.0 } else { -1.0 };
+            let at = |right: bool| {
+                let v: Vec<String> = res
+                    .points
+                    .iter()
+                    .filter(|p| {
+                        p.pairs
+                            .get(j)
+                            .and_then(|q| q.estimators[0].median)
+                            .is_some_and(|m| m != 0.0 && (m * sign > 0.0) == right)
+                    })
+                    .map(|p| format!("{}", p.values[0]))
+                    .collect();
+                if v.is_empty() {
+                    "none".into()
+                } else {
+                    v.join(", ")
+                }
+            };
+            let _ = writeln!(
+                s,
+                "{truth} (the truth) is favoured by the reference's median at {} = {}; misidentified at {}",
+                keys[0],
+                at(true),
+                at(false)
+            );
+            if monotone_key(keys[0]) {
+                let _ = writeln!(
+                    s,
+                    "{truth} wins (median at least positive evidence) and the estimators agree in ≥ half the realisations {}",
+                    match super::stats::threshold(&res.points, j, truth) {
+                        Some(v) => format!("from {} = {v} on", keys[0]),
+                        None => "at no point from the top of the grid down".into(),
+                    }
+                );
+            }
+        }
+        for p in res.points.iter().filter(|p| p.failed > 0) {
+            let _ = writeln!(
+                s,
+                "note: {}: {} of {} realisations failed: {}",
+                sweep.grid.label(p.index),
+                p.failed,
+                p.realisations,
+                p.first_error.as_deref().unwrap_or("")
+            );
+        }
+    }
+    s
+}
