@@ -404,17 +404,19 @@ fn sweep(path: PathBuf, cli: SweepCli) -> Result<()> {
     for w in &sweep.warnings {
         eprintln!("warning: {w}");
     }
-    let exec = occam::jobs::exec::Threads::new(cli.threads)?;
-    println!(
-        "sweep of {}: {} point(s) × {} realisation(s) = {} tasks on {} worker(s), into {}",
-        path.display(),
-        sweep.grid.len(),
-        sweep.realisations,
-        sweep.task_count(),
-        occam::jobs::exec::Executor::workers(&exec),
-        sweep.out.display()
-    );
-    let Some(res) = sweep.run(&exec, !cli.quiet)? else {
+    let exec = executor(cli.threads)?;
+    if exec.is_root() {
+        println!(
+            "sweep of {}: {} point(s) × {} realisation(s) = {} tasks on {} worker(s), into {}",
+            path.display(),
+            sweep.grid.len(),
+            sweep.realisations,
+            sweep.task_count(),
+            exec.workers(),
+            sweep.out.display()
+        );
+    }
+    let Some(res) = sweep.run(exec.as_ref(), !cli.quiet)? else {
         return Ok(());
     };
     print!("{}", occam::jobs::sweep::output::table(&sweep, &res));
@@ -431,4 +433,16 @@ fn sweep(path: PathBuf, cli: SweepCli) -> Result<()> {
         t0.elapsed().as_secs_f64()
     );
     Ok(())
+}
+
+/// Where a job's tasks run. With the `mpi` feature, under `mpirun -n N` (N > 1) the tasks are
+/// spread over the N ranks, each running its share on `threads` threads (0 there means 1: one
+/// rank per core is how `mpirun` places ranks); otherwise on `threads` threads of this process
+/// (0: one per core). Only the root (`is_root()`) prints summaries and writes aggregate files.
+fn executor(threads: usize) -> Result<Box<dyn occam::jobs::exec::Executor>> {
+    #[cfg(feature = "mpi")]
+    if let Some(mpi) = occam::jobs::mpi::Mpi::init()? {
+        return Ok(Box::new(mpi.with_threads(threads.max(1))?));
+    }
+    Ok(Box::new(occam::jobs::exec::Threads::new(threads)?))
 }

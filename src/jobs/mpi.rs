@@ -29,7 +29,7 @@
 use super::exec::{Executor, TaskFn, Threads};
 use anyhow::{Context, Result, anyhow, bail};
 use mpi::environment::Universe;
-use mpi::point_to_point::{Destination, Source};
+use mpi::point_to_point::{Destination, MatchedReceiveVec, Source};
 use mpi::topology::{Communicator, Rank};
 use mpi::{Tag, Threading};
 use std::collections::VecDeque;
@@ -64,9 +64,10 @@ impl Mpi {
     /// `mpirun -n 1`): the caller should then use [`Threads`], which does the same work without
     /// the message passing. Each rank runs its tasks on one thread; see [`Mpi::with_threads`].
     pub fn init() -> Result<Option<Self>> {
-        let (universe, level) = mpi::initialize_with_threading(Threading::Serialized).ok_or_else(
-            || anyhow!("MPI is already initialised in this process; create the Mpi executor once"),
-        )?;
+        let (universe, level) =
+            mpi::initialize_with_threading(Threading::Serialized).ok_or_else(|| {
+                anyhow!("MPI is already initialised in this process; create the Mpi executor once")
+            })?;
         if !matches!(level, Threading::Serialized | Threading::Multiple) {
             bail!(
                 "the MPI library offers thread level {level:?}, but the Mpi executor needs \
@@ -145,7 +146,7 @@ impl Mpi {
             let mut active = self.size - 1;
             let mut sleep = Duration::from_micros(100);
             while active > 0 {
-                let Some((msg, status)) = world
+                let Some(probed) = world
                     .any_process()
                     .immediate_matched_probe_with_tag(TAG_REQUEST)
                 else {
@@ -154,10 +155,13 @@ impl Mpi {
                     continue;
                 };
                 sleep = Duration::from_micros(100);
-                let (bytes, _) = msg.matched_receive_vec::<u8>();
+                let (bytes, status) = probed.matched_receive_vec::<u8>();
                 let from = status.source_rank();
                 let batch = match decode_request(&bytes) {
-                    Ok(Request::Done { capacity, results: r }) => {
+                    Ok(Request::Done {
+                        capacity,
+                        results: r,
+                    }) => {
                         lock(&results).extend(r);
                         take(capacity)
                     }
@@ -250,8 +254,8 @@ fn poll_receive(world: &mpi::topology::SimpleCommunicator, tag: Tag) -> Vec<u8> 
     let root = world.process_at_rank(0);
     let mut sleep = Duration::from_micros(100);
     loop {
-        if let Some((msg, _)) = root.immediate_matched_probe_with_tag(tag) {
-            return msg.matched_receive_vec::<u8>().0;
+        if let Some(probed) = root.immediate_matched_probe_with_tag(tag) {
+            return probed.matched_receive_vec::<u8>().0;
         }
         std::thread::sleep(sleep);
         sleep = (sleep * 2).min(MAX_POLL_SLEEP);
@@ -289,7 +293,10 @@ impl Reader<'_> {
 
     fn bytes(&mut self, n: usize) -> Result<&[u8]> {
         if self.0.len() < n {
-            bail!("message ends early: {n} bytes announced, {} left", self.0.len());
+            bail!(
+                "message ends early: {n} bytes announced, {} left",
+                self.0.len()
+            );
         }
         let (b, rest) = self.0.split_at(n);
         self.0 = rest;
@@ -357,7 +364,10 @@ fn decode_indices(bytes: &[u8]) -> Result<Vec<usize>> {
     let mut r = Reader(bytes);
     let n = r.word()?;
     if n > r.0.len() / 8 {
-        bail!("message ends early: {n} indices announced, {} bytes left", r.0.len());
+        bail!(
+            "message ends early: {n} indices announced, {} bytes left",
+            r.0.len()
+        );
     }
     let out = (0..n).map(|_| r.word()).collect::<Result<Vec<_>>>()?;
     r.end()?;
