@@ -13,6 +13,7 @@
 //! world is not an MPI job.
 
 use anyhow::{Result, bail};
+use mpi::collective::CommunicatorCollectives;
 use occam::jobs::exec::{Executor, Threads};
 use occam::jobs::mpi::Mpi;
 use rand::{RngExt, SeedableRng};
@@ -35,14 +36,6 @@ fn task(i: usize) -> Vec<u8> {
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    // The executor (and with it MPI) is finalised inside `run`, before the exit.
-    if let Err((rank, e)) = run(&args) {
-        eprintln!("mpi_exec rank {rank}: error: {e:#}");
-        std::process::exit(3);
-    }
-}
-
-fn run(args: &[String]) -> std::result::Result<(), (usize, anyhow::Error)> {
     let threads = std::env::var("MPI_EXEC_THREADS")
         .ok()
         .and_then(|v| v.parse().ok())
@@ -52,9 +45,11 @@ fn run(args: &[String]) -> std::result::Result<(), (usize, anyhow::Error)> {
         None => bail!("run this under `mpirun -n N` with N > 1"),
     }) {
         Ok(m) => m,
-        Err(e) => return Err((0, e)),
+        Err(e) => {
+            eprintln!("mpi_exec: error: {e:#}");
+            std::process::exit(3);
+        }
     };
-    let rank = mpi.rank();
     let out = match args.first().map(String::as_str) {
         None => check(&mpi),
         Some("fail") => {
@@ -65,7 +60,17 @@ fn run(args: &[String]) -> std::result::Result<(), (usize, anyhow::Error)> {
             "unknown mode {other:?} (none, or `fail R`)"
         )),
     };
-    out.map_err(|e| (rank, e))
+    if let Err(e) = &out {
+        eprintln!("mpi_exec rank {}: error: {e:#}", mpi.rank());
+    }
+    // Every rank has returned from `run` (a hang would stop here, and CI's timeout would
+    // catch it); meet so that every rank's line is out before the first non-zero exit makes
+    // mpirun kill the others.
+    mpi::topology::SimpleCommunicator::world().barrier();
+    drop(mpi);
+    if out.is_err() {
+        std::process::exit(3);
+    }
 }
 
 /// The results of `Mpi` equal those of `Threads`, in index order; a second run on the same

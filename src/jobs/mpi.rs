@@ -448,7 +448,7 @@ mod tests {
         long.push(0);
         let e = decode_request(&long).unwrap_err();
         assert!(e.to_string().contains("stray"), "{e}");
-        let e = decode_request(&encode_indices(&[7])).unwrap_err();
+        let e = decode_request(&encode_indices(&[7, 8])).unwrap_err(); // first word 2
         assert!(e.to_string().contains("status"), "{e}");
         assert!(decode_indices(&encode_indices(&[1, 2])[..12]).is_err());
         // A length word far beyond the message must not allocate or read past the end.
