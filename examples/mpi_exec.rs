@@ -24,7 +24,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 fn task(i: usize) -> Vec<u8> {
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(0x5eed ^ i as u64);
     let mut acc = 0.0f64;
-    for _ in 0..((i % 7) + 1) * 200_000 {
+    for _ in 0..((i % 7) + 1) * 2_000_000 {
         acc += rng.random::<f64>().ln();
     }
     format!(

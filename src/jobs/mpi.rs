@@ -45,7 +45,7 @@ const TAG_OUTCOME: Tag = 13;
 
 /// Longest sleep between two polls of a waiting rank; short next to a task (seconds), long
 /// enough that a waiting rank uses no measurable CPU.
-const MAX_POLL_SLEEP: Duration = Duration::from_millis(20);
+const MAX_POLL_SLEEP: Duration = Duration::from_millis(5);
 
 /// The ranks of the MPI job this process belongs to, each running its tasks on `threads`
 /// threads. Holding it keeps MPI initialised; dropping it finalises MPI (after which MPI cannot
