@@ -134,6 +134,21 @@ fn a_2d_sweep_is_the_same_on_any_number_of_threads_and_resumes_where_it_stopped(
     // a third run computes nothing
     let r4 = run(&small(&a), 1);
     assert_eq!((r4.computed, r4.reused), (0, 8));
+    assert!(a.join("ln_b_map.png").exists() && a.join("ln_b_map.svg").exists());
+    // the same directory as a 1-D sweep: its figure replaces the map
+    let args = SweepArgs {
+        axes: Some(vec![parse_axis("simulation.target_snr=20,3000").unwrap()]),
+        output: Some(a.clone()),
+        ..Default::default()
+    };
+    let s1d = Sweep::from_text(SMALL, "small.toml", Path::new("."), args).unwrap();
+    let r5 = run(&s1d, 2);
+    assert_eq!(r5.points.len(), 2);
+    assert!(a.join("ln_b_vs_snr.png").exists());
+    assert!(
+        !a.join("ln_b_map.png").exists(),
+        "a stale figure must not stay"
+    );
 }
 
 #[test]

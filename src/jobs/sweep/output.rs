@@ -24,6 +24,18 @@ pub fn write_outputs(sweep: &Sweep, res: &SweepResult) -> anyhow::Result<Vec<Pat
         .with_context(|| format!("writing {}", p.display()))?;
     files.push(p);
     files.extend(super::plots::write_plots(sweep, res)?);
+    // a previous run's figures of other axes or pairs would read as this run's
+    if let Ok(rd) = std::fs::read_dir(out) {
+        for e in rd.flatten() {
+            let p = e.path();
+            let name = e.file_name().to_string_lossy().into_owned();
+            let figure = (name.starts_with("ln_b_vs_") || name.starts_with("ln_b_map"))
+                && (name.ends_with(".png") || name.ends_with(".svg"));
+            if figure && !files.contains(&p) {
+                let _ = std::fs::remove_file(&p);
+            }
+        }
+    }
     Ok(files)
 }
 
