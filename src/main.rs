@@ -72,7 +72,7 @@ enum Command {
         /// The `[[select.model]]` that generated the data.
         #[arg(long)]
         truth: Option<String>,
-        /// Worker threads (default: one per core).
+        /// Worker threads (default: one per core; under `mpirun`, threads per rank, default 1).
         #[arg(long, default_value_t = 0)]
         threads: usize,
         /// Output directory (default: `<output>/sweep`).
@@ -400,12 +400,12 @@ fn sweep(path: PathBuf, cli: SweepCli) -> Result<()> {
         truth: cli.truth,
         output: cli.output,
     };
-    let sweep = Sweep::load(&path, args)?;
-    for w in &sweep.warnings {
-        eprintln!("warning: {w}");
-    }
     let exec = executor(cli.threads)?;
+    let sweep = Sweep::load(&path, args)?;
     if exec.is_root() {
+        for w in &sweep.warnings {
+            eprintln!("warning: {w}");
+        }
         println!(
             "sweep of {}: {} point(s) × {} realisation(s) = {} tasks on {} worker(s), into {}",
             path.display(),

@@ -278,7 +278,8 @@ impl Sweep {
                 );
             }
         }
-        let done = AtomicUsize::new(n - todo.len());
+        let root = exec.is_root();
+        let done = AtomicUsize::new(if root { n - todo.len() } else { 0 });
         let task = |t: usize| -> anyhow::Result<Vec<u8>> {
             let ts = Instant::now();
             let rec = self.run_task(t);
@@ -288,6 +289,12 @@ impl Sweep {
                 .with_context(|| format!("writing {}", path.display()))?;
             if log {
                 let k = done.fetch_add(1, Ordering::Relaxed) + 1;
+                // only the root knows how many tasks were left: other ranks count their own
+                let k = if root {
+                    format!("{k}/{n}")
+                } else {
+                    format!("{k} here")
+                };
                 let what = match (&rec.outcome, &rec.error) {
                     (Some(o), _) => o
                         .pairs
@@ -300,7 +307,7 @@ impl Sweep {
                     (None, e) => format!("failed: {}", e.as_deref().unwrap_or("")),
                 };
                 println!(
-                    "[{k}/{n}] {} r={}: {what} ({:.1} s)",
+                    "[{k}] {} r={}: {what} ({:.1} s)",
                     self.grid.label(t / self.realisations),
                     t % self.realisations,
                     ts.elapsed().as_secs_f64()
