@@ -55,33 +55,7 @@ enum Command {
     /// realisations per point: ln B of every estimator, its band over realisations, how often
     /// each model is picked (the paper's Fig. 5 and 6). Finished points are kept in the run
     /// directory and skipped on a rerun.
-    Sweep {
-        /// The study file (TOML) with `[[select.model]]` tables.
-        study: PathBuf,
-        /// An axis, replacing `[[sweep.axis]]`: `KEY=v1,v2,…`, `KEY=log:FROM:TO:N` or
-        /// `KEY=lin:FROM:TO:N` (KEY a dotted study key, e.g. `experiment.inv1.x1.freq`);
-        /// repeat for a 2-D grid.
-        #[arg(long = "axis")]
-        axis: Vec<String>,
-        /// Shorthand for `--axis simulation.target_snr=…` (ρ_opt values).
-        #[arg(long, value_delimiter = ',')]
-        snr: Option<Vec<f64>>,
-        /// Noise realisations per point (default: `[sweep] realisations`, else 1).
-        #[arg(long)]
-        realisations: Option<usize>,
-        /// The `[[select.model]]` that generated the data.
-        #[arg(long)]
-        truth: Option<String>,
-        /// Worker threads (default: one per core; under `mpirun`, threads per rank, default 1).
-        #[arg(long, default_value_t = 0)]
-        threads: usize,
-        /// Output directory (default: `<output>/sweep`).
-        #[arg(short, long)]
-        output: Option<PathBuf>,
-        /// No per-task lines.
-        #[arg(short, long)]
-        quiet: bool,
-    },
+    Sweep(SweepCli),
     /// Bayes factors between the study's `[[select.model]]` models with every estimator.
     Select {
         /// The study file (TOML).
@@ -111,27 +85,7 @@ fn main() {
             quiet,
         } => select(study, output, quiet),
         Command::Demo { output, quiet } => demo(output, quiet),
-        Command::Sweep {
-            study,
-            axis,
-            snr,
-            realisations,
-            truth,
-            threads,
-            output,
-            quiet,
-        } => sweep(
-            study,
-            SweepCli {
-                axis,
-                snr,
-                realisations,
-                truth,
-                threads,
-                output,
-                quiet,
-            },
-        ),
+        Command::Sweep(cli) => sweep(cli),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");
@@ -369,18 +323,38 @@ fn demo(output: PathBuf, quiet: bool) -> Result<()> {
 }
 
 /// `occam sweep`'s options.
+#[derive(clap::Args)]
 struct SweepCli {
+    /// The study file (TOML) with `[[select.model]]` tables.
+    study: PathBuf,
+    /// An axis, replacing `[[sweep.axis]]`: `KEY=v1,v2,…`, `KEY=log:FROM:TO:N` or
+    /// `KEY=lin:FROM:TO:N` (KEY a dotted study key, e.g. `experiment.inv1.x1.freq`);
+    /// repeat for a 2-D grid.
+    #[arg(long = "axis")]
     axis: Vec<String>,
+    /// Shorthand for `--axis simulation.target_snr=…` (ρ_opt values).
+    #[arg(long, value_delimiter = ',')]
     snr: Option<Vec<f64>>,
+    /// Noise realisations per point (default: `[sweep] realisations`, else 1).
+    #[arg(long)]
     realisations: Option<usize>,
+    /// The `[[select.model]]` that generated the data.
+    #[arg(long)]
     truth: Option<String>,
+    /// Worker threads (default: one per core; under `mpirun`, threads per rank, default 1).
+    #[arg(long, default_value_t = 0)]
     threads: usize,
+    /// Output directory (default: `<output>/sweep`).
+    #[arg(short, long)]
     output: Option<PathBuf>,
+    /// No per-task lines.
+    #[arg(short, long)]
     quiet: bool,
 }
 
-fn sweep(path: PathBuf, cli: SweepCli) -> Result<()> {
+fn sweep(cli: SweepCli) -> Result<()> {
     use occam::jobs::sweep::{Sweep, SweepArgs, grid};
+    let path = cli.study;
     let t0 = Instant::now();
     let mut axes = cli
         .axis
