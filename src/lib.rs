@@ -11,6 +11,7 @@ pub mod atomic;
 pub mod config;
 pub mod data;
 pub mod dataset;
+pub mod design;
 pub mod density;
 pub mod evidence;
 pub mod experiment;

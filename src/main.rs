@@ -74,6 +74,17 @@ enum Command {
         #[arg(short, long)]
         quiet: bool,
     },
+    /// Choose the injections that best separate the `[[select.model]]` models under the
+    /// `[design]` budget; writes design.toml (a runnable study), baseline.toml and design.json.
+    Design {
+        study: PathBuf,
+        /// Output directory (default: `<output>/design`).
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+        /// Noise realisations of full model selection for the chosen design and the baseline.
+        #[arg(long)]
+        validate: Option<usize>,
+    },
 }
 
 fn main() {
@@ -93,6 +104,13 @@ fn main() {
         } => select(study, output, quiet),
         Command::Demo { output, quiet } => demo(output, quiet),
         Command::Sweep { study, snr, output } => sweep(study, snr, output),
+        Command::Design {
+            study,
+            output,
+            validate,
+        } => occam::design::run_cli(&study, output, validate)
+            .map(|r| println!("{}", occam::design::table(&r)))
+            .map_err(Into::into),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");

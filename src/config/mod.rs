@@ -394,6 +394,9 @@ pub struct StudyFile {
     pub fit: FitOptions,
     #[serde(default)]
     pub select: SelectOptions,
+    /// `[design]`: the injection-design search of `occam design` ([`crate::design`]).
+    #[serde(default)]
+    pub design: Option<crate::design::DesignOptions>,
     pub experiment: Vec<ExperimentEntry>,
 }
 
@@ -423,6 +426,8 @@ pub struct Study {
     pub select: SelectOptions,
     /// The validated `[[select.model]]` list (empty if none).
     pub select_models: Vec<SelectModel>,
+    /// `[design]` as written (validated by [`crate::design::DesignOptions::validate`]).
+    pub design: Option<crate::design::DesignOptions>,
     /// The file it came from (for messages).
     pub source: String,
 }
@@ -720,6 +725,7 @@ impl StudyFile {
         Ok(Study {
             select: self.select,
             select_models,
+            design: self.design,
             analysis: self.analysis,
             models,
             fit: self.fit,
