@@ -95,9 +95,9 @@ pub fn validate(
     let vals: Vec<f64> = ln_b.iter().flatten().copied().collect();
     let n = vals.len() as f64;
     let mean = (!vals.is_empty()).then(|| vals.iter().sum::<f64>() / n);
-    let std_err = mean.filter(|_| vals.len() > 1).map(|m| {
-        (vals.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (n - 1.0)).sqrt() / n.sqrt()
-    });
+    let std_err = mean
+        .filter(|_| vals.len() > 1)
+        .map(|m| (vals.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (n - 1.0)).sqrt() / n.sqrt());
     Ok(Validation {
         label: label.into(),
         realisations: r,
@@ -123,8 +123,8 @@ pub fn study_toml(
 ) -> Result<String, DesignError> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| DesignError::Io(format!("{}: {e}", path.display())))?;
-    let mut t: toml::Table = toml::from_str(&text)
-        .map_err(|e| DesignError::Io(format!("{}: {e}", path.display())))?;
+    let mut t: toml::Table =
+        toml::from_str(&text).map_err(|e| DesignError::Io(format!("{}: {e}", path.display())))?;
     let mut exps = toml::value::Array::new();
     for (ch, s) in plan.options.channels.iter().zip(segs) {
         if s.is_empty() {

@@ -482,8 +482,8 @@ pub fn asimov_score(
         }
         let why = |e: String| DesignError::Proxy(format!("model `{}`: {e}", m.name));
         let map = fisher_scoring(&lik, &start, free, 1e-4, 200).map_err(|e| why(e.to_string()))?;
-        let sub = SubModel::new(&lik, free.clone(), map.theta.clone())
-            .map_err(|e| why(e.to_string()))?;
+        let sub =
+            SubModel::new(&lik, free.clone(), map.theta.clone()).map_err(|e| why(e.to_string()))?;
         let fv = |th: &[f64]| free.iter().map(|&i| th[i]).collect::<Vec<f64>>();
         let boxed = fisher_scoring_unbounded(&lik, &map.theta, free, 1e-4, 200)
             .ok()

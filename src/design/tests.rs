@@ -53,8 +53,14 @@ fn config_errors_name_the_field() {
         (OK.replace("[\"x12\"]", "[]"), "design.channels"),
         (OK.replace("4.5e-2", "2.0"), "design.candidates"),
         (OK.replace("1.7e-3", "1e-4"), "design.candidates"),
-        (OK.replace("segments = 1", "segments = 3"), "design.candidates"),
-        (OK.replace("segments = 1", "segments = 0"), "design.segments"),
+        (
+            OK.replace("segments = 1", "segments = 3"),
+            "design.candidates",
+        ),
+        (
+            OK.replace("segments = 1", "segments = 0"),
+            "design.segments",
+        ),
         (OK.replace("1e-8", "-1e-8"), "design.amplitude"),
         (format!("{OK}\nmax_accel = 0.0"), "design.max_accel"),
         (format!("{OK}\ngap = -1.0"), "design.gap"),
@@ -129,7 +135,10 @@ fn asimov_equals_the_occam_factor_for_a_nested_truth() {
     let n = f.nrows();
     let d: Vec<f64> = (0..n).map(|i| 1.0 / f[(i, i)].sqrt()).collect();
     let g = nalgebra::DMatrix::from_fn(n, n, |i, j| f[(i, j)] * d[i] * d[j]);
-    let gi = g.cholesky().expect("Fisher of Y positive definite").inverse();
+    let gi = g
+        .cholesky()
+        .expect("Fisher of Y positive definite")
+        .inverse();
     let cov = nalgebra::DMatrix::from_fn(n, n, |i, j| gi[(i, j)] * d[i] * d[j]);
     let names = lik.model().param_names();
     let k = y.free.iter().position(|&i| names[i] == "d21").unwrap();
@@ -149,9 +158,7 @@ fn asimov_equals_the_occam_factor_for_a_nested_truth() {
 /// best of its start and the candidates as scored independently, never below its start.
 #[test]
 fn search_picks_the_obviously_best_frequency() {
-    let d = OK
-        .replace("[\"x12\"]", "[\"x1\"]")
-        .replace("1e-8", "1e-6");
+    let d = OK.replace("[\"x12\"]", "[\"x1\"]").replace("1e-8", "1e-6");
     let s = study(&format!("{d}\nmax_accel = 1e-10")).unwrap();
     let p = s.design.clone().unwrap().validate(&s).unwrap();
     assert!(p.amplitude_cap(4.5e-2) < 1e-2 * p.amplitude_cap(1.7e-3));
