@@ -154,8 +154,9 @@ pub fn study_toml(
     );
     let body = toml::to_string(&t).map_err(|e| DesignError::Io(e.to_string()))?;
     Ok(format!(
-        "# Written by `occam design {}`: the study with the {label} design's experiments.\n#   occam select <this file>\n{body}",
-        path.display()
+        "# Written by `occam design {}`: the study with the experiments of the {} design.\n#   occam select <this file>\n{body}",
+        path.display(),
+        if label == "design" { "chosen" } else { label }
     ))
 }
 
