@@ -81,9 +81,10 @@ enum Command {
         /// Output directory (default: `<output>/design`).
         #[arg(short, long)]
         output: Option<PathBuf>,
-        /// Noise realisations of full model selection for the chosen design and the baseline.
-        #[arg(long)]
-        validate: Option<usize>,
+        /// Noise realisations of full model selection for the chosen design and the baseline
+        /// (without a number: `[design] realisations`).
+        #[arg(long, num_args = 0..=1)]
+        validate: Option<Option<usize>>,
     },
 }
 

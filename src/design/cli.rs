@@ -238,13 +238,14 @@ pub fn table(r: &DesignReport) -> String {
     out
 }
 
-/// `occam design`: loads the study, searches, validates `validate` realisations each of the
-/// chosen design and the baseline (0: none), prints the table and writes `design.toml`,
+/// `occam design`: loads the study, searches, validates `validate_r` realisations each of the
+/// chosen design and the baseline (`None`: no validation; `Some(None)`: `[design]
+/// realisations`), prints the table and writes `design.toml`,
 /// `baseline.toml` and `design.json` to `out` (default `<output>/design`).
 pub fn run_cli(
     path: &Path,
     out: Option<PathBuf>,
-    validate_r: Option<usize>,
+    validate_r: Option<Option<usize>>,
 ) -> Result<DesignReport, DesignError> {
     let t0 = Instant::now();
     let study = Study::load(path).map_err(|e| DesignError::Io(e.to_string()))?;
@@ -272,7 +273,11 @@ pub fn run_cli(
         segments: s.chosen.clone(),
         proxy: s.chosen_score.clone(),
     };
-    let r = validate_r.unwrap_or(0);
+    let r = match validate_r {
+        None => 0,
+        Some(None) => opts.realisations,
+        Some(Some(r)) => r,
+    };
     let mut validation = Vec::new();
     if r > 0 {
         validation.push(validate(&study, &plan, "chosen", &chosen.segments, r)?);

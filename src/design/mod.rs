@@ -15,7 +15,10 @@
 //! For a nested pair whose truth sits at the nested value of the extra parameter, both MAPs are
 //! the truth and the proxy is the Occam factor `ln(Δ / (√(2π) σ))`, `Δ` the extra parameter's
 //! prior width and `σ` its marginal Fisher error; the Monte-Carlo mean of `ln B` is lower by
-//! ½ (the mean of half a χ²₁ that noise lets the larger model fit). When the truth needs the
+//! ½ (the mean of half a χ²₁ that noise lets the larger model fit); measured on
+//! `examples/design-optimise.toml` with 16 realisations per design it is lower by 0.74 ± 0.19
+//! at every amplitude from 0.3× to 30× the budget (the Welch noise estimate and the reference
+//! estimator add to the ½), and the ranks agree. When the truth needs the
 //! extra parameter, the proxy grows as `½ (θ/σ)²`. `occam design --validate R` measures the
 //! offset between proxy and Monte-Carlo mean for the chosen and the baseline designs.
 //!
