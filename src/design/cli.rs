@@ -249,10 +249,11 @@ pub fn run_cli(
 ) -> Result<DesignReport, DesignError> {
     let t0 = Instant::now();
     let study = Study::load(path).map_err(|e| DesignError::Io(e.to_string()))?;
-    let opts = study.design.clone().ok_or_else(|| DesignError::Config {
-        file: study.source.clone(),
-        field: "".into(),
-        msg: "the study has no [design] table: add one with true_model and candidates (see README, \"Designing experiments\")".into(),
+    let opts = study.design.clone().ok_or_else(|| {
+        DesignError::Proxy(format!(
+            "{}: `design`: the study has no [design] table: add one with true_model and candidates (see README, \"Designing experiments\")",
+            study.source
+        ))
     })?;
     let plan = opts.validate(&study)?;
     let out = out.unwrap_or_else(|| study.output.join("design"));
