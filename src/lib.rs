@@ -12,6 +12,7 @@ pub mod config;
 pub mod data;
 pub mod dataset;
 pub mod density;
+pub mod design;
 pub mod evidence;
 pub mod experiment;
 pub mod fit;

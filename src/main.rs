@@ -67,6 +67,18 @@ enum Command {
         #[arg(short, long)]
         quiet: bool,
     },
+    /// Choose the injections that best separate the `[[select.model]]` models under the
+    /// `[design]` budget; writes design.toml (a runnable study), baseline.toml and design.json.
+    Design {
+        study: PathBuf,
+        /// Output directory (default: `<output>/design`).
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+        /// Noise realisations of full model selection for the chosen design and the baseline
+        /// (without a number: `[design] realisations`).
+        #[arg(long, num_args = 0..=1)]
+        validate: Option<Option<usize>>,
+    },
 }
 
 fn main() {
@@ -86,6 +98,13 @@ fn main() {
         } => select(study, output, quiet),
         Command::Demo { output, quiet } => demo(output, quiet),
         Command::Sweep(cli) => sweep(cli),
+        Command::Design {
+            study,
+            output,
+            validate,
+        } => occam::design::run_cli(&study, output, validate)
+            .map(|r| println!("{}", occam::design::table(&r)))
+            .map_err(Into::into),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");

@@ -399,6 +399,9 @@ pub struct StudyFile {
     /// `[sweep]`: the grid of `occam sweep` (ignored by the other commands).
     #[serde(default)]
     pub sweep: Option<SweepOptions>,
+    /// `[design]`: the injection-design search of `occam design` ([`crate::design`]).
+    #[serde(default)]
+    pub design: Option<crate::design::DesignOptions>,
     pub experiment: Vec<ExperimentEntry>,
 }
 
@@ -430,6 +433,8 @@ pub struct Study {
     pub select_models: Vec<SelectModel>,
     /// `[sweep]` as written (validated against the select models).
     pub sweep: Option<SweepOptions>,
+    /// `[design]` as written (validated by [`crate::design::DesignOptions::validate`]).
+    pub design: Option<crate::design::DesignOptions>,
     /// The file it came from (for messages).
     pub source: String,
 }
@@ -732,6 +737,7 @@ impl StudyFile {
             sweep: self.sweep,
             select: self.select,
             select_models,
+            design: self.design,
             analysis: self.analysis,
             models,
             fit: self.fit,
