@@ -70,6 +70,7 @@ enum Command {
     /// Choose the injections that best separate the `[[select.model]]` models under the
     /// `[design]` budget; writes design.toml (a runnable study), baseline.toml and design.json.
     Design {
+        /// The study file (TOML) with `[[select.model]]` tables and a `[design]` table.
         study: PathBuf,
         /// Output directory (default: `<output>/design`).
         #[arg(short, long)]
