@@ -11,7 +11,7 @@
 //! a fresh temporary directory, so nothing is reused.
 
 use occam::jobs::exec::Threads;
-use occam::jobs::sweep::grid::Axis;
+use occam::jobs::sweep::grid::parse_axis;
 use occam::jobs::sweep::{Sweep, SweepArgs};
 use std::path::Path;
 use std::time::Instant;
@@ -23,29 +23,12 @@ fn env(name: &str, default: usize) -> usize {
         .unwrap_or(default)
 }
 
-fn log_axis(key: &str, from: f64, to: f64, n: usize) -> Axis {
-    let values = (0..n)
-        .map(|i| {
-            let t = if n == 1 {
-                0.0
-            } else {
-                i as f64 / (n - 1) as f64
-            };
-            (from.ln() + t * (to.ln() - from.ln())).exp()
-        })
-        .collect();
-    Axis {
-        key: key.into(),
-        values,
-    }
-}
-
 fn plan(n_freq: usize, n_snr: usize, out: &Path) -> Result<Sweep, Box<dyn std::error::Error>> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let args = SweepArgs {
         axes: Some(vec![
-            log_axis("experiment.scan.x1.freq", 1e-4, 1.0, n_freq),
-            log_axis("simulation.target_snr", 10.0, 1000.0, n_snr),
+            parse_axis(&format!("experiment.scan.x1.freq=log:1e-4:1:{n_freq}"))?,
+            parse_axis(&format!("simulation.target_snr=log:10:1000:{n_snr}"))?,
         ]),
         realisations: Some(1),
         output: Some(out.to_path_buf()),

@@ -647,8 +647,6 @@ pub fn search(study: &Study, plan: &DesignPlan) -> Result<SearchResult, DesignEr
 /// `seed + (r + 1)·0x9E3779B97F4A7C15`, so realisations are independent streams and
 /// realisation `r` is the same whichever others run.
 pub fn realisation_seed(seed: u64, r: usize) -> u64 {
-    let mut z = seed.wrapping_add((r as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15));
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
+    // the (r+1)-th output of a SplitMix64 stream started at `seed`
+    crate::jobs::sweep::grid::mix(seed.wrapping_add((r as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)))
 }

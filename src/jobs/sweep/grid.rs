@@ -94,8 +94,9 @@ pub fn parse_axis(arg: &str) -> anyhow::Result<Axis> {
     Ok(Axis { key: a.key, values })
 }
 
-/// SplitMix64's output function: a bijective mix of 64 bits.
-fn mix(mut z: u64) -> u64 {
+/// One SplitMix64 step from state `z`: add the golden-ratio increment, then the output mix (a
+/// bijection of 64 bits). The seeds of sweeps and of `occam design`'s realisations.
+pub fn mix(mut z: u64) -> u64 {
     z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
     z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
