@@ -713,10 +713,16 @@ impl StudyFile {
         let check_freqs: Vec<f64> = (0..40)
             .map(|i| blo * (bhi / blo).powf(i as f64 / 39.0))
             .collect();
+        let accel_defaults = crate::model::AccelOptions {
+            d21: self.truth.d21,
+            tau_ifo: self.oms_delay,
+            ..Default::default()
+        };
         let models = ModelSet::resolve(
             &self.model,
             &self.prior,
             &ltp_defaults,
+            &accel_defaults,
             &check_freqs,
             check_fs,
             file,

@@ -42,6 +42,39 @@ pub struct LtpModelEntry {
     pub response: LoopResponse,
 }
 
+/// A `[[model]]` table of kind `accel`: the acceleration-domain model
+/// ([`crate::model::accel`]). Unset keys take the study's values: `d21` from `[truth]`,
+/// `tau_ifo` from `oms_delay`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AccelModelEntry {
+    pub name: String,
+    /// Actuators with a pole (parameters `f_o1`, `f_o2`); default true.
+    pub pole: Option<bool>,
+    /// Actuators with a delay (parameters `tau_c1`, `tau_c2`); default false.
+    pub delay: Option<bool>,
+    /// `fpsder` (default) or `exact`.
+    pub derivative: Option<crate::model::accel::Derivative>,
+    /// The five-point stencil's `m` (default 2/7).
+    pub fpsder_m: Option<f64>,
+    /// Known cross-talk δ21.
+    pub d21: Option<f64>,
+    /// Read-out delay τ_ifo (s), `o(t) = x(t − τ_ifo)`.
+    pub tau_ifo: Option<f64>,
+}
+
+/// A `[[model]]` table of kind `tied`: model `of` with parameters tied together
+/// ([`crate::model::tied`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TiedModelEntry {
+    pub name: String,
+    /// The parent model (defined earlier in the file, or `ltp`).
+    pub of: String,
+    /// Tied parameter = the parameter whose value it takes.
+    pub tie: BTreeMap<String, String>,
+}
+
 /// A model's default prior per parameter name.
 type DefaultPriors = Vec<(String, PriorKind)>;
 
@@ -54,6 +87,13 @@ pub enum ModelDef {
         name: String,
         options: LtpModelOptions,
     },
+    /// The acceleration-domain model.
+    Accel {
+        name: String,
+        options: crate::model::AccelOptions,
+    },
+    /// A model with tied parameters.
+    Tied(TiedModelEntry),
     /// A model defined in the study file (see [`crate::model::user`]).
     User(UserModelDef),
 }
@@ -62,18 +102,43 @@ impl ModelDef {
     /// The model's name.
     pub fn name(&self) -> &str {
         match self {
-            ModelDef::Ltp { name, .. } => name,
+            ModelDef::Ltp { name, .. } | ModelDef::Accel { name, .. } => name,
+            ModelDef::Tied(t) => &t.name,
             ModelDef::User(d) => &d.name,
         }
     }
 
-    /// The model and its default priors (none for user-defined models).
-    fn build(&self) -> Result<(Arc<dyn Model>, DefaultPriors), String> {
+    /// The model and its default priors (none for user-defined models; a tied model's are its
+    /// parent's). `built` holds the models built so far, by name, for tied models' parents.
+    fn build(
+        &self,
+        built: &[(String, Arc<dyn Model>, DefaultPriors)],
+    ) -> Result<(Arc<dyn Model>, DefaultPriors), String> {
         Ok(match self {
             ModelDef::Ltp { name, options } => {
                 let m = LtpModel::new(name, options.clone());
                 let d = m.default_priors();
                 (Arc::new(m), d)
+            }
+            ModelDef::Accel { name, options } => {
+                options.validate()?;
+                let m = crate::model::AccelModel::new(name, options.clone());
+                let d = m.default_priors();
+                (Arc::new(m), d)
+            }
+            ModelDef::Tied(t) => {
+                let (_, parent, defaults) =
+                    built.iter().find(|(n, _, _)| *n == t.of).ok_or_else(|| {
+                        format!(
+                            "`of = \"{}\"` names no model defined before this one; the models so far are {:?}",
+                            t.of,
+                            built.iter().map(|(n, _, _)| n).collect::<Vec<_>>()
+                        )
+                    })?;
+                let ties: Vec<(String, String)> =
+                    t.tie.iter().map(|(a, b)| (a.clone(), b.clone())).collect();
+                let m = crate::model::TiedModel::new(&t.name, parent.clone(), &ties)?;
+                (Arc::new(m), defaults.clone())
             }
             ModelDef::User(def) => (Arc::new(UserModel::new(def)?), Vec::new()),
         })
@@ -125,6 +190,7 @@ impl ModelSet {
         tables: &[toml::Table],
         prior: &BTreeMap<String, PriorKind>,
         ltp_defaults: &LtpModelOptions,
+        accel_defaults: &crate::model::AccelOptions,
         check_freqs: &[f64],
         check_fs: f64,
         file: &str,
@@ -166,11 +232,29 @@ impl ModelSet {
                         },
                     }
                 }
+                "accel" => {
+                    let e: AccelModelEntry = t.try_into().map_err(parse_err)?;
+                    let d = accel_defaults;
+                    ModelDef::Accel {
+                        name: e.name,
+                        options: crate::model::AccelOptions {
+                            pole: e.pole.unwrap_or(d.pole),
+                            delay: e.delay.unwrap_or(d.delay),
+                            derivative: e.derivative.unwrap_or(d.derivative),
+                            fpsder_m: e.fpsder_m.unwrap_or(d.fpsder_m),
+                            d21: e.d21.unwrap_or(d.d21),
+                            tau_ifo: e.tau_ifo.unwrap_or(d.tau_ifo),
+                        },
+                    }
+                }
+                "tied" => ModelDef::Tied(t.try_into().map_err(parse_err)?),
                 "user" => ModelDef::User(t.try_into().map_err(parse_err)?),
                 other => {
                     return Err(bad(
                         format!("{at}.kind"),
-                        format!("unknown model kind `{other}`; the kinds are \"ltp\" and \"user\""),
+                        format!(
+                            "unknown model kind `{other}`; the kinds are \"ltp\", \"accel\", \"tied\" and \"user\""
+                        ),
                     ));
                 }
             };
@@ -193,6 +277,7 @@ impl ModelSet {
         }
         let mut models = Vec::new();
         let mut priors = Vec::new();
+        let mut built: Vec<(String, Arc<dyn Model>, DefaultPriors)> = Vec::new();
         for d in &defs {
             let at = match tables
                 .iter()
@@ -201,7 +286,8 @@ impl ModelSet {
                 Some(i) => format!("model[{i}]"),
                 None => format!("model.{}", d.name()),
             };
-            let (m, defaults) = d.build().map_err(|e| bad(at.clone(), e))?;
+            let (m, defaults) = d.build(&built).map_err(|e| bad(at.clone(), e))?;
+            built.push((d.name().to_string(), m.clone(), defaults.clone()));
             crate::model::validate_shape(m.as_ref())
                 .map_err(|e| bad(format!("model.{}", d.name()), e))?;
             let mut kinds = Vec::new();

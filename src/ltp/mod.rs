@@ -17,6 +17,7 @@
 mod closed_loop;
 mod controllers;
 pub mod discrete_response;
+pub mod fpsder;
 mod noise;
 mod params;
 pub mod timedomain;

@@ -21,11 +21,15 @@
 //! bin by [`Model::bin_consts`] and handed back on every call in [`Bin::consts`]: the hot
 //! path never recomputes them and never allocates.
 
+pub mod accel;
 pub mod ltp;
 mod ltp_kernel;
+pub mod tied;
 pub mod user;
 
+pub use accel::{AccelModel, AccelOptions};
 pub use ltp::{LoopResponse, LtpModel, LtpModelOptions, ThrusterResponse};
+pub use tied::TiedModel;
 
 use num_complex::{Complex, Complex64};
 use num_dual::Dual64;
