@@ -14,6 +14,7 @@
 //!
 //! The stiffnesses use the physical sign convention `ẍ + ω² x = f/m` with `ω² < 0`.
 
+pub mod a12;
 mod closed_loop;
 mod controllers;
 pub mod discrete_response;
