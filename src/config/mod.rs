@@ -1178,4 +1178,59 @@ design = "tn3045_x1"
         let e = with("\"prior\"").unwrap_err().to_string();
         assert!(e.contains("jump_proposal") && e.contains("chain"), "{e}");
     }
+
+    /// `kind = "accel"` and `kind = "tied"` models: parameters, defaults from the study, and the
+    /// messages for a bad parent, a bad tie and an unphysical option.
+    #[test]
+    fn acceleration_domain_and_tied_models() {
+        let models = r#"
+[[model]]
+kind = "accel"
+name = "full"
+delay = true
+[[model]]
+kind = "tied"
+name = "sym"
+of = "full"
+tie = { a2 = "a1", f_o2 = "f_o1", tau_c2 = "tau_c1" }
+[fit]
+model = "sym"
+"#;
+        let s = load(&format!("oms_delay = 0.3\n{OK}{models}")).unwrap();
+        let full = &s.models.models[s.models.index("full").unwrap()];
+        assert_eq!(full.param_names().len(), 8);
+        match &s.models.defs[s.models.index("full").unwrap()] {
+            ModelDef::Accel { options, .. } => {
+                assert_eq!(options.tau_ifo, 0.3);
+                assert_eq!(options.d21, s.truth.d21);
+            }
+            d => panic!("{d:?}"),
+        }
+        let sym = &s.models.models[s.fit_model.model];
+        assert_eq!(sym.param_names(), ["w1sq", "w2sq", "a1", "f_o1", "tau_c1"]);
+        // the tied model's priors are its parent's defaults, by name
+        assert_eq!(
+            s.models.priors[s.fit_model.model].names(),
+            sym.param_names()
+        );
+
+        let bad = |m: &str| err(&format!("{OK}{m}"));
+        let e = bad(
+            "[[model]]\nkind = \"tied\"\nname = \"t\"\nof = \"nothing\"\ntie = { a2 = \"a1\" }\n",
+        );
+        assert!(e.contains("model[0]") && e.contains("nothing"), "{e}");
+        let e = bad(
+            "[[model]]\nkind = \"accel\"\nname = \"a\"\n[[model]]\nkind = \"tied\"\nname = \"t\"\nof = \"a\"\ntie = { a3 = \"a1\" }\n",
+        );
+        assert!(
+            e.contains("model[1]") && e.contains("`a3` is not a parameter"),
+            "{e}"
+        );
+        let e = bad("[[model]]\nkind = \"accel\"\nname = \"a\"\ntau_ifo = -1.0\n");
+        assert!(e.contains("model[0]") && e.contains("tau_ifo"), "{e}");
+        let e = bad("[[model]]\nkind = \"accel\"\nname = \"a\"\npoles = true\n");
+        assert!(e.contains("model[0]") && e.contains("poles"), "{e}");
+        let e = bad("[[model]]\nkind = \"acel\"\nname = \"a\"\n");
+        assert!(e.contains("\"accel\""), "{e}");
+    }
 }
