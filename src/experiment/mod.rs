@@ -5,7 +5,7 @@ mod design;
 mod simulate;
 mod waveform;
 
-pub use design::{ExperimentDesign, ladder_freqs};
+pub use design::{ExperimentDesign, FORCE_CHANNELS, ladder_freqs};
 pub use simulate::{
     SimError, Simulation, System, delayed_injections, optimal_snr, simulate, stream,
 };
