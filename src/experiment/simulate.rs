@@ -4,9 +4,33 @@
 //! `H_io` on the DFT grid of the series, which is exact for the fit model (ltp-model.md §4
 //! "Discretisation"); the time-domain option runs the discretised loop instead. Noise is
 //! synthesised from the exact output CSD `S_o(f)` of the noise model.
+//!
+//! # Actuators, force injections and telemetry
+//!
+//! The true actuators ([`Actuator`]) apply `Act_i(f)·g_i` to test mass `i` for the commanded
+//! force per unit mass `g_i`; the thrusters apply `A_df R_df(f)·g_sc` to the spacecraft. With
+//! `u = −K(o − T i)` the loop's commanded accelerations (`u1` drag-free, `u2` suspension) and
+//! `q = (f1, f2, fsc)` the commanded force injections, the telemetry is
+//! `g1 = f1`, `g2 = u2 + f2`, `gsc = −u1 + fsc`, and the three-body equations (ltp-model.md
+//! §2.1, actuator forces reacting on the spacecraft) give, for `x = (x1, x12)`,
+//!
+//! ```text
+//! D x = B_u u + B_q q + g_noise
+//! B_u = [[A_df R_df, e2 Act2], [0, Act2]]                      e1 = m1/m_sc, e2 = m2/m_sc
+//! B_q = [[(1 + e1) Act1, e2 Act2, −A_df R_df], [−Act1, Act2, 0]]
+//! P = D + B_u K E S,  x = P⁻¹(B_u K T i + B_q q + g_noise − B_u K n_o),  o = E S x + n_o
+//! ```
+//!
+//! Row 2 is what the acceleration domain reads:
+//! `(ω2² − ω1²) x1 + (s² + ω2²) x12 = Act2 g2 − Act1 g1 + (g_noise)_2`.
+//! The telemetry is computed per DFT bin from the simulated total output (response + noise),
+//! `ũ = −K(f)(õ − T ĩ)` for `k ≥ 1` and, where the integrators make `K` infinite, from the
+//! plant at DC: `ũ(0) = B_u(0)⁻¹(D(0) S⁻¹ õ(0) − B_q(0) q̃(0))`. At the Nyquist bin of an
+//! even-length series only the real part of a spectrum survives the inverse transform, so the
+//! loop relations hold there only approximately (as for the outputs themselves).
 
 use super::ExperimentDesign;
-use crate::config::{Method, NoiseSynthesis, Study};
+use crate::config::{Actuator, Method, NoiseSynthesis, Study};
 use crate::dataset::{Dataset, ExperimentData};
 use crate::hermitian;
 use crate::ltp::{BinConsts, ClosedLoop, Controllers, LtpParams, Masses, NoiseModel};
@@ -24,6 +48,14 @@ pub enum SimError {
     Other(String, String),
 }
 
+/// Names of the commanded-force telemetry channels `(g1, g2, gsc)` (m s⁻², per unit mass of
+/// TM1, TM2 and the spacecraft) in [`ExperimentData::extra`] and `noise_extra`.
+pub const TELEMETRY_CHANNELS: [&str; 3] = ["g1", "g2", "gsc"];
+
+type Spectrum2 = [Vec<Complex64>; 2];
+type Spectrum3 = [Vec<Complex64>; 3];
+type Mat23 = [[Complex64; 3]; 2];
+
 /// The physical system being simulated (truth, loop, noise).
 #[derive(Debug, Clone)]
 pub struct System {
@@ -35,6 +67,8 @@ pub struct System {
     pub oms_delay: f64,
     /// Thruster response on the drag-free actuation (none by default).
     pub thruster: Option<crate::config::TruthThruster>,
+    /// The true actuators `[TM1, TM2]`; TM2's gain is `truth.a_sus`.
+    pub actuators: [Actuator; 2],
 }
 
 impl System {
@@ -47,7 +81,57 @@ impl System {
             noise: study.noise,
             oms_delay: study.oms_delay,
             thruster: study.simulation.thruster,
+            actuators: study.simulation.actuators.resolve(study.truth.a_sus),
         }
+    }
+
+    /// `[Act1(f), Act2(f)]`: the force actually applied to each test mass per unit commanded
+    /// force (`g1`, `g2` of the telemetry), at `f` Hz.
+    pub fn actuator_response(&self, f: f64) -> [Complex64; 2] {
+        [self.actuators[0].response(f), self.actuators[1].response(f)]
+    }
+
+    /// The closed loop at `f` with the thruster response and the TM2 actuator.
+    pub fn closed_loop(&self, f: f64) -> ClosedLoop {
+        let bc = BinConsts::new(f, &self.controllers, self.oms_delay);
+        let r_df = self.thruster_factor(f);
+        match self.actuators[1].shape(f) {
+            None => ClosedLoop::with_thruster(&self.truth, &bc, &self.masses, r_df),
+            Some(r) => ClosedLoop::with_actuators(&self.truth, &bc, &self.masses, r_df, r),
+        }
+    }
+
+    /// The plant `D(f)` of `D x = …` (ltp-model.md §2.1, full `D`, `s = i2πf`; real).
+    pub fn plant_matrix(&self, f: f64) -> [[f64; 2]; 2] {
+        let (w1, w2) = (self.truth.w1sq, self.truth.w2sq);
+        let e1 = self.masses.m1 / self.masses.msc;
+        let e2 = self.masses.m2 / self.masses.msc;
+        let s2 = -(2.0 * std::f64::consts::PI * f).powi(2);
+        [
+            [s2 + w1 * (1.0 + e1) + w2 * e2, w2 * e2],
+            [w2 - w1, s2 + w2],
+        ]
+    }
+
+    /// `B_u(f)`: applied coordinate accelerations per commanded acceleration `u = (u1, u2)`.
+    pub fn actuation_matrix(&self, f: f64) -> [[Complex64; 2]; 2] {
+        let e2 = self.masses.m2 / self.masses.msc;
+        let adf = self.thruster_factor(f) * self.truth.a_df;
+        let act2 = self.actuators[1].response(f);
+        [[adf, act2 * e2], [Complex64::new(0.0, 0.0), act2]]
+    }
+
+    /// `B_q(f)`: applied coordinate accelerations per commanded force injection
+    /// `q = (f1, f2, fsc)` (the TM forces react on the spacecraft).
+    pub fn force_matrix(&self, f: f64) -> Mat23 {
+        let e1 = self.masses.m1 / self.masses.msc;
+        let e2 = self.masses.m2 / self.masses.msc;
+        let adf = self.thruster_factor(f) * self.truth.a_df;
+        let [act1, act2] = self.actuator_response(f);
+        [
+            [act1 * (1.0 + e1), act2 * e2, -adf],
+            [-act1, act2, Complex64::new(0.0, 0.0)],
+        ]
     }
 
     /// The thruster factor `R(f)` on the drag-free actuation (1 without a thruster response).
@@ -63,13 +147,7 @@ impl System {
         if f <= 0.0 {
             return [[Complex64::new(0.0, 0.0); 2]; 2];
         }
-        let cl = ClosedLoop::with_thruster(
-            &self.truth,
-            &BinConsts::new(f, &self.controllers, self.oms_delay),
-            &self.masses,
-            self.thruster_factor(f),
-        );
-        self.noise.output_csd(&cl, f, &self.masses)
+        self.noise.output_csd(&self.closed_loop(f), f, &self.masses)
     }
 
     /// The noiseless output spectrum `H_io(f_k) I_k` for `k = 0 … N/2` of injections whose DFT
@@ -92,7 +170,13 @@ impl System {
             } else {
                 let f = k as f64 * fs / n as f64;
                 let bc = BinConsts::new(f, &self.controllers, self.oms_delay);
-                let h = crate::ltp::h_io_matrix(&th, &bc, &self.masses, self.thruster_factor(f));
+                let r_df = self.thruster_factor(f);
+                let h = match self.actuators[1].shape(f) {
+                    None => crate::ltp::h_io_matrix(&th, &bc, &self.masses, r_df),
+                    Some(r) => {
+                        crate::ltp::h_io_matrix_actuated(&th, &bc, &self.masses, r_df, r)
+                    }
+                };
                 let v = [inj[0][k], inj[1][k]];
                 [
                     h[0][0] * v[0] + h[0][1] * v[1],
@@ -104,6 +188,117 @@ impl System {
         }
         out
     }
+
+    /// The noiseless output spectrum `E S P⁻¹ B_q Q_k` of commanded force injections whose DFT
+    /// is `q = (f1, f2, fsc)`, `k = 0 … N/2`. At DC the integrators hold the outputs on the
+    /// guidance whatever the force: zero.
+    pub fn force_response_spectrum(&self, q: &Spectrum3, fs: f64, n: usize) -> Spectrum2 {
+        let m = q[0].len();
+        let mut out = [
+            vec![Complex64::new(0.0, 0.0); m],
+            vec![Complex64::new(0.0, 0.0); m],
+        ];
+        for k in 1..m {
+            let f = k as f64 * fs / n as f64;
+            let hgo = self.closed_loop(f).h_go;
+            let w = mat23_vec(&self.force_matrix(f), [q[0][k], q[1][k], q[2][k]]);
+            for (r, o) in out.iter_mut().enumerate() {
+                o[k] = hgo[r][0] * w[0] + hgo[r][1] * w[1];
+            }
+        }
+        out
+    }
+
+    /// The telemetry spectra `(g̃1, g̃2, g̃sc)` from the spectra of the outputs `o`, the
+    /// guidance injections `i` (`None`: none) and the force injections `q` (`None`: none) of a
+    /// length-`n` series at `fs`: `ũ = −K(f)(õ − T ĩ)` for `k ≥ 1`,
+    /// `ũ(0) = B_u(0)⁻¹(D(0) S⁻¹ õ(0) − B_q(0) q̃(0))`, then `g1 = f1`, `g2 = u2 + f2`,
+    /// `gsc = −u1 + fsc` (see the module docs).
+    pub fn telemetry_spectrum(
+        &self,
+        o: &Spectrum2,
+        i: Option<&Spectrum2>,
+        q: Option<&Spectrum3>,
+        fs: f64,
+        n: usize,
+    ) -> Spectrum3 {
+        let m = o[0].len();
+        let zero = Complex64::new(0.0, 0.0);
+        let mut g = [vec![zero; m], vec![zero; m], vec![zero; m]];
+        let d21 = self.truth.d21;
+        for k in 0..m {
+            let qk = q.map_or([zero; 3], |q| [q[0][k], q[1][k], q[2][k]]);
+            let u = if k == 0 {
+                let d = self.plant_matrix(0.0);
+                // x(0) = S⁻¹ o(0), S⁻¹ = [[1, 0], [−δ21, 1]]
+                let x = [o[0][0], o[1][0] - o[0][0] * d21];
+                let bq = mat23_vec(&self.force_matrix(0.0), qk);
+                let rhs = [
+                    x[0] * d[0][0] + x[1] * d[0][1] - bq[0],
+                    x[0] * d[1][0] + x[1] * d[1][1] - bq[1],
+                ];
+                // B_u(0) = [[a, b], [0, c]] is upper triangular
+                let bu = self.actuation_matrix(0.0);
+                let u2 = rhs[1] / bu[1][1];
+                [(rhs[0] - bu[0][1] * u2) / bu[0][0], u2]
+            } else {
+                let f = k as f64 * fs / n as f64;
+                let c = BinConsts::new(f, &self.controllers, self.oms_delay);
+                let (ti1, ti2) = match i {
+                    Some(i) => (
+                        crate::lti::delay(self.truth.dt1, f) * i[0][k],
+                        crate::lti::delay(self.truth.dt2, f) * i[1][k],
+                    ),
+                    None => (zero, zero),
+                };
+                [-(c.cdf * (o[0][k] - ti1)), -(c.csus * (o[1][k] - ti2))]
+            };
+            g[0][k] = qk[0];
+            g[1][k] = u[1] + qk[1];
+            g[2][k] = -u[0] + qk[2];
+        }
+        g
+    }
+
+    /// The telemetry series `[g1, g2, gsc]` (m s⁻²) of the output series `o` with guidance
+    /// injections `i` and force injections `q` (see [`Self::telemetry_spectrum`]).
+    pub fn telemetry(
+        &self,
+        o: &[Vec<f64>; 2],
+        i: Option<&[Vec<f64>; 2]>,
+        q: Option<&[Vec<f64>; 3]>,
+        fs: f64,
+    ) -> Result<[Vec<f64>; 3], SignalError> {
+        let n = o[0].len();
+        let mut fft = RealFft::new(n)?;
+        let mut dft = |x: &[f64]| -> Result<Vec<Complex64>, SignalError> {
+            let mut out = vec![Complex64::new(0.0, 0.0); fft.spectrum_len()];
+            fft.forward(x, &mut out)?;
+            Ok(out)
+        };
+        let os = [dft(&o[0])?, dft(&o[1])?];
+        let is = match i {
+            Some(i) => Some([dft(&i[0])?, dft(&i[1])?]),
+            None => None,
+        };
+        let qs = match q {
+            Some(q) => Some([dft(&q[0])?, dft(&q[1])?, dft(&q[2])?]),
+            None => None,
+        };
+        let g = self.telemetry_spectrum(&os, is.as_ref(), qs.as_ref(), fs, n);
+        let mut out = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+        for (c, v) in out.iter_mut().enumerate() {
+            fft.inverse(&g[c], v)?;
+        }
+        Ok(out)
+    }
+}
+
+fn mat23_vec(b: &Mat23, q: [Complex64; 3]) -> [Complex64; 2] {
+    [
+        b[0][0] * q[0] + b[0][1] * q[1] + b[0][2] * q[2],
+        b[1][0] * q[0] + b[1][1] * q[1] + b[1][2] * q[2],
+    ]
 }
 
 /// The outcome of [`simulate`].
@@ -137,7 +332,46 @@ fn injection_dft(design: &ExperimentDesign) -> Result<[Vec<Complex64>; 2], SimEr
     Ok(out)
 }
 
-/// Optimal SNR ρ_opt = √⟨h|h⟩ of one experiment's noiseless response over `band` (Hz).
+/// DFT of the three force-injection channels, if the design has any.
+fn force_dft(design: &ExperimentDesign) -> Result<Option<Spectrum3>, SimError> {
+    if !design.has_forces() {
+        return Ok(None);
+    }
+    let n = design.n_samples();
+    let err = |e| SimError::Signal(design.name.clone(), e);
+    let mut fft = RealFft::new(n).map_err(err)?;
+    let q = design.force_injections();
+    let m = fft.spectrum_len();
+    let mut out = [
+        vec![Complex64::new(0.0, 0.0); m],
+        vec![Complex64::new(0.0, 0.0); m],
+        vec![Complex64::new(0.0, 0.0); m],
+    ];
+    for c in 0..3 {
+        fft.forward(&q[c], &mut out[c]).map_err(err)?;
+    }
+    Ok(Some(out))
+}
+
+/// The noiseless output spectrum of a design: guidance response `H_io I` plus, when the design
+/// injects forces, `E S P⁻¹ B_q Q`.
+fn noiseless_spectrum(sys: &System, design: &ExperimentDesign) -> Result<Spectrum2, SimError> {
+    let n = design.n_samples();
+    let inj = injection_dft(design)?;
+    let mut h = sys.response_spectrum(&inj, design.fs, n);
+    if let Some(q) = force_dft(design)? {
+        let hq = sys.force_response_spectrum(&q, design.fs, n);
+        for c in 0..2 {
+            for (a, b) in h[c].iter_mut().zip(&hq[c]) {
+                *a += b;
+            }
+        }
+    }
+    Ok(h)
+}
+
+/// Optimal SNR ρ_opt = √⟨h|h⟩ of one experiment's noiseless response (to the guidance and the
+/// force injections) over `band` (Hz).
 ///
 /// # Formula
 /// `ρ² = 2 Σ_{k ∈ band} h_kᴴ C_k⁻¹ h_k`, `C_k = (N fs/2) S_o(f_k)` (ltp-model.md §8.2).
@@ -148,8 +382,7 @@ pub fn optimal_snr(
 ) -> Result<f64, SimError> {
     let n = design.n_samples();
     let fs = design.fs;
-    let inj = injection_dft(design)?;
-    let h = sys.response_spectrum(&inj, fs, n);
+    let h = noiseless_spectrum(sys, design)?;
     let mut rho2 = 0.0;
     for k in 1..h[0].len() {
         let f = k as f64 * fs / n as f64;
@@ -217,18 +450,21 @@ pub fn simulate(study: &Study) -> Result<Simulation, SimError> {
         let err = |e| SimError::Signal(d.name.clone(), e);
         let n = d.n_samples();
         let inj = d.injections();
-        let o = match opts.method {
+        let forces = d.has_forces().then(|| d.force_injections());
+        let (o, commands) = match opts.method {
             Method::Frequency => {
-                let spec = injection_dft(d)?;
-                let h = sys.response_spectrum(&spec, d.fs, n);
+                let h = noiseless_spectrum(&sys, d)?;
                 let mut fft = RealFft::new(n).map_err(err)?;
                 let mut o = [vec![0.0; n], vec![0.0; n]];
                 for c in 0..2 {
                     fft.inverse(&h[c], &mut o[c]).map_err(err)?;
                 }
-                o
+                (o, None)
             }
-            Method::Time => time_domain_response(&sys, d, opts.oversample)?,
+            Method::Time => {
+                let (o, u) = time_domain_response(&sys, d, opts.oversample)?;
+                (o, Some(u))
+            }
         };
         let noise_of = |len: usize, idx: u64| -> Result<[Vec<f64>; 2], SimError> {
             let mode = match opts.noise {
@@ -247,14 +483,38 @@ pub fn simulate(study: &Study) -> Result<Simulation, SimError> {
                 .map(|(a, b)| a + b)
                 .collect::<Vec<f64>>()
         });
+        let g = match commands {
+            // the continuous loop: the telemetry of the total output, bin by bin
+            None => sys.telemetry(&o, Some(&inj), forces.as_ref(), d.fs),
+            // the discrete loop's own commands for the response, plus the telemetry of the
+            // noise, which is the continuous model's (as it is on the outputs)
+            Some([u1, u2]) => sys.telemetry(&fit_noise, None, None, d.fs).map(|[g1, g2, gsc]| {
+                let g2 = g2.iter().zip(&u2).map(|(a, b)| a + b).collect();
+                let gsc = gsc.iter().zip(&u1).map(|(a, b)| a - b).collect();
+                [g1, g2, gsc]
+            }),
+        }
+        .map_err(err)?;
+        let noise_g = sys.telemetry(&noise, None, None, d.fs).map_err(err)?;
+        let mut extra = std::collections::BTreeMap::new();
+        let mut noise_extra = std::collections::BTreeMap::new();
+        for ((name, v), nv) in TELEMETRY_CHANNELS.iter().zip(g).zip(noise_g) {
+            extra.insert(name.to_string(), v);
+            noise_extra.insert(name.to_string(), nv);
+        }
+        if let Some(q) = forces {
+            for (name, v) in super::FORCE_CHANNELS.iter().zip(q) {
+                extra.insert(name.to_string(), v);
+            }
+        }
         experiments.push(ExperimentData {
             name: d.name.clone(),
             fs: d.fs,
             o,
             i: inj,
             noise,
-            extra: Default::default(),
-            noise_extra: Default::default(),
+            extra,
+            noise_extra,
         });
     }
     let snr_total = snr.iter().map(|r| r * r).sum::<f64>().sqrt();
@@ -262,6 +522,13 @@ pub fn simulate(study: &Study) -> Result<Simulation, SimError> {
         "source": study.source,
         "method": opts.method,
         "thruster": opts.thruster,
+        "actuators": {
+            "tm1": sys.actuators[0],
+            "tm2": sys.actuators[1],
+            "convention": "applied force per unit mass = Act(f)·g, Act(f) = gain/(1 + i f/pole)·e^{−i2πf·delay}; tm2.gain = truth.a_sus",
+        },
+        "telemetry_channels": TELEMETRY_CHANNELS,
+        "force_channels": super::FORCE_CHANNELS,
         "noise_synthesis": opts.noise,
         "noise_model": study.noise,
         "masses": study.masses,
@@ -323,11 +590,12 @@ pub fn delayed_injections(
 /// `oversample × fs`, driven by the exactly delayed injections and sampled back at fs. The OMS
 /// delay must be a whole number of internal samples. Noise is added afterwards from the
 /// continuous-model CSD.
+#[allow(clippy::type_complexity)]
 fn time_domain_response(
     sys: &System,
     d: &ExperimentDesign,
     oversample: usize,
-) -> Result<[Vec<f64>; 2], SimError> {
+) -> Result<([Vec<f64>; 2], [Vec<f64>; 2]), SimError> {
     let k = oversample.max(1);
     let lp = crate::ltp::timedomain::DiscreteLoop::new(
         &sys.truth,
@@ -338,10 +606,11 @@ fn time_domain_response(
     )
     .map_err(|e| SimError::Other(d.name.clone(), e.to_string()))?;
     let [i1, i12] = delayed_injections(d, [sys.truth.dt1, sys.truth.dt2], k)?;
-    let o = lp
-        .simulate(&i1, &i12, None, None)
+    let (o, u) = lp
+        .simulate_with_commands(&i1, &i12, None, None)
         .map_err(|e| SimError::Other(d.name.clone(), e.to_string()))?;
-    Ok(o.map(|v| v.into_iter().step_by(k).collect()))
+    let down = |x: [Vec<f64>; 2]| x.map(|v| v.into_iter().step_by(k).collect());
+    Ok((down(o), down(u)))
 }
 
 #[cfg(test)]
