@@ -141,9 +141,7 @@ impl ExperimentDesign {
 
     /// Whether any force channel carries an injection.
     pub fn has_forces(&self) -> bool {
-        [&self.f1, &self.f2, &self.fsc]
-            .iter()
-            .any(|w| !w.is_none())
+        [&self.f1, &self.f2, &self.fsc].iter().any(|w| !w.is_none())
     }
 
     fn place(&self, w: &Waveform) -> Vec<f64> {

@@ -173,9 +173,7 @@ impl System {
                 let r_df = self.thruster_factor(f);
                 let h = match self.actuators[1].shape(f) {
                     None => crate::ltp::h_io_matrix(&th, &bc, &self.masses, r_df),
-                    Some(r) => {
-                        crate::ltp::h_io_matrix_actuated(&th, &bc, &self.masses, r_df, r)
-                    }
+                    Some(r) => crate::ltp::h_io_matrix_actuated(&th, &bc, &self.masses, r_df, r),
                 };
                 let v = [inj[0][k], inj[1][k]];
                 [
@@ -488,11 +486,13 @@ pub fn simulate(study: &Study) -> Result<Simulation, SimError> {
             None => sys.telemetry(&o, Some(&inj), forces.as_ref(), d.fs),
             // the discrete loop's own commands for the response, plus the telemetry of the
             // noise, which is the continuous model's (as it is on the outputs)
-            Some([u1, u2]) => sys.telemetry(&fit_noise, None, None, d.fs).map(|[g1, g2, gsc]| {
-                let g2 = g2.iter().zip(&u2).map(|(a, b)| a + b).collect();
-                let gsc = gsc.iter().zip(&u1).map(|(a, b)| a - b).collect();
-                [g1, g2, gsc]
-            }),
+            Some([u1, u2]) => sys
+                .telemetry(&fit_noise, None, None, d.fs)
+                .map(|[g1, g2, gsc]| {
+                    let g2 = g2.iter().zip(&u2).map(|(a, b)| a + b).collect();
+                    let gsc = gsc.iter().zip(&u1).map(|(a, b)| a - b).collect();
+                    [g1, g2, gsc]
+                }),
         }
         .map_err(err)?;
         let noise_g = sys.telemetry(&noise, None, None, d.fs).map_err(err)?;
@@ -819,7 +819,11 @@ fsc = { kind = "sine", freq = 0.1, amplitude = 5e-9, duration = 200.0 }
         let g = sys.telemetry_spectrum(&o, Some(&i), Some(&q), fs, n);
         let (rows, tele) = plant_residuals(&s, &o, &i, &g, &q, fs, n);
         for (r, row) in rows.iter().enumerate() {
-            let used: Vec<f64> = row.iter().filter(|p| p.0 > 0.0).map(|p| p.1 / p.0).collect();
+            let used: Vec<f64> = row
+                .iter()
+                .filter(|p| p.0 > 0.0)
+                .map(|p| p.1 / p.0)
+                .collect();
             let worst = used.iter().cloned().fold(0.0, f64::max);
             eprintln!(
                 "spectra, row {r}: {} of {} bins, worst residual/largest term {worst:.2e}",
@@ -860,7 +864,11 @@ fsc = { kind = "sine", freq = 0.1, amplitude = 5e-9, duration = 200.0 }
         let text = format!(
             "seed = 1\noutput = \"x\"\n[simulation]\nnoise = \"none\"\n[simulation.actuators]\ntm1 = {{ gain = 1.2 }}\n[[experiment]]\nname = \"a\"\nfs = 10.0\npre_pad = 200.0\npost_pad = 3000.0\nnoise_duration = 100.0\n{ch} = {{ kind = \"sine\", freq = 0.01, amplitude = 1e-9, duration = 3000.0 }}\n"
         );
-        simulate(&load(&text)).unwrap().dataset.experiments.remove(0)
+        simulate(&load(&text))
+            .unwrap()
+            .dataset
+            .experiments
+            .remove(0)
     }
 
     #[test]
@@ -911,7 +919,11 @@ fsc = { kind = "sine", freq = 0.1, amplitude = 5e-9, duration = 200.0 }
                         .fold(0.0, f64::max);
                     assert!(d < 1e-12 * 1e-9, "g1 − f1 = {d:e}");
                     let want = (1.0 + e1) * a1 / adf;
-                    assert!((r("gsc") / want - 1.0).abs() < 0.05, "{} vs {want}", r("gsc"));
+                    assert!(
+                        (r("gsc") / want - 1.0).abs() < 0.05,
+                        "{} vs {want}",
+                        r("gsc")
+                    );
                     assert!((ro12 / a1 - 1.0).abs() < 0.1, "{ro12}");
                     assert!(r("g2") > 0.0 && r("g2") < 0.1);
                     assert!(ro1 < 0.1);
@@ -922,7 +934,11 @@ fsc = { kind = "sine", freq = 0.1, amplitude = 5e-9, duration = 200.0 }
                     // the spacecraft, which the thrusters follow: gsc ≈ −e2 A2/A_df f2
                     assert!((r("g2") - 1.0).abs() < 0.1, "{}", r("g2"));
                     assert!((ro12 / a2 - 1.0).abs() < 0.1, "{ro12}");
-                    assert!((r("gsc") / (e2 * a2 / adf) - 1.0).abs() < 0.1, "{}", r("gsc"));
+                    assert!(
+                        (r("gsc") / (e2 * a2 / adf) - 1.0).abs() < 0.1,
+                        "{}",
+                        r("gsc")
+                    );
                 }
                 _ => {
                     assert!(g("g1").iter().all(|v| *v == 0.0));
@@ -972,14 +988,15 @@ fsc = { kind = "sine", freq = 0.1, amplitude = 5e-9, duration = 200.0 }
             s.noise.output_csd(&cl, f, &s.masses)
         };
         let noise = |len, idx| {
-            synth_two_channel(len, fs, csd, &mut stream(s.seed, idx), SynthMode::Circular)
-                .unwrap()
+            synth_two_channel(len, fs, csd, &mut stream(s.seed, idx), SynthMode::Circular).unwrap()
         };
         let fit = noise(n, 0);
         for c in 0..2 {
             let want: Vec<f64> = o[c].iter().zip(&fit[c]).map(|(a, b)| a + b).collect();
             assert!(
-                want.iter().zip(&e.o[c]).all(|(a, b)| a.to_bits() == b.to_bits()),
+                want.iter()
+                    .zip(&e.o[c])
+                    .all(|(a, b)| a.to_bits() == b.to_bits()),
                 "o channel {c} differs"
             );
         }
@@ -1050,8 +1067,14 @@ fsc = { kind = "sine", freq = 0.1, amplitude = 5e-9, duration = 200.0 }
             let m = (hi - lo) as f64;
             let mean = sum / m;
             // each |a12|²/E is exponential (mean 1, sd 1): 5σ of the band mean
-            eprintln!("bins {lo}..{hi}: mean ratio {mean:.4} (5σ = {:.3})", 5.0 / m.sqrt());
-            assert!((mean - 1.0).abs() < 5.0 / m.sqrt(), "bins {lo}..{hi}: {mean}");
+            eprintln!(
+                "bins {lo}..{hi}: mean ratio {mean:.4} (5σ = {:.3})",
+                5.0 / m.sqrt()
+            );
+            assert!(
+                (mean - 1.0).abs() < 5.0 / m.sqrt(),
+                "bins {lo}..{hi}: {mean}"
+            );
             checked += 1;
         }
         assert!(checked >= 5);
@@ -1066,15 +1089,25 @@ fsc = { kind = "sine", freq = 0.1, amplitude = 5e-9, duration = 200.0 }
                 let text = format!(
                     "seed = 3\noutput = \"x\"\n[simulation]\nnoise = \"none\"\nmethod = \"{method}\"\n[[experiment]]\nname = \"a\"\nfs = 10.0\npre_pad = 200.0\npost_pad = 6000.0\nnoise_duration = 100.0\n{ch} = {{ kind = \"sine\", freq = 0.002, amplitude = 1e-6, duration = 3000.0 }}\n"
                 );
-                simulate(&load(&text)).unwrap().dataset.experiments.remove(0)
+                simulate(&load(&text))
+                    .unwrap()
+                    .dataset
+                    .experiments
+                    .remove(0)
             };
             let (f, t) = (mk("frequency"), mk("time"));
             // the sine's start (200 s) and end (3200 s) are kinks whose broadband content the
             // Tustin controllers and the hold treat differently from the continuous loop near
             // Nyquist (2.4e−2 of the peak on gsc at the kink): compare 100 s away from them
             let keep = |k: &usize| !(1000..3000).contains(k) && !(31_000..33_000).contains(k);
-            let a: Vec<f64> = (0..f.o[0].len()).filter(keep).map(|k| f.extra[tele][k]).collect();
-            let b: Vec<f64> = (0..f.o[0].len()).filter(keep).map(|k| t.extra[tele][k]).collect();
+            let a: Vec<f64> = (0..f.o[0].len())
+                .filter(keep)
+                .map(|k| f.extra[tele][k])
+                .collect();
+            let b: Vec<f64> = (0..f.o[0].len())
+                .filter(keep)
+                .map(|k| t.extra[tele][k])
+                .collect();
             let peak = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
             let worst = a
                 .iter()
@@ -1103,7 +1136,11 @@ fsc = { kind = "sine", freq = 0.1, amplitude = 5e-9, duration = 200.0 }
         let s = load(text);
         let sim = simulate(&s).unwrap();
         // the force-only experiment has an SNR, so the target is met through the force response
-        assert!((sim.snr_total - 30.0).abs() < 1e-9 * 30.0, "{}", sim.snr_total);
+        assert!(
+            (sim.snr_total - 30.0).abs() < 1e-9 * 30.0,
+            "{}",
+            sim.snr_total
+        );
         let e = &sim.dataset.experiments[0];
         let want = sim.designs[0].force_injections();
         assert_eq!(e.extra["f2"], want[1]);
@@ -1123,9 +1160,14 @@ fsc = { kind = "sine", freq = 0.1, amplitude = 5e-9, duration = 200.0 }
         let e = &back.experiments[0];
         assert_eq!(
             e.channel_names(),
-            ["o1", "o12", "i1", "i12", "f1", "f2", "fsc", "g1", "g2", "gsc"]
+            [
+                "o1", "o12", "i1", "i12", "f1", "f2", "fsc", "g1", "g2", "gsc"
+            ]
         );
-        assert_eq!(e.noise_extra.keys().collect::<Vec<_>>(), ["g1", "g2", "gsc"]);
+        assert_eq!(
+            e.noise_extra.keys().collect::<Vec<_>>(),
+            ["g1", "g2", "gsc"]
+        );
         let act = &back.extra["actuators"];
         assert_eq!(act["tm1"]["gain"], 1.2);
         assert_eq!(act["tm1"]["pole"], 0.9);
@@ -1135,19 +1177,26 @@ fsc = { kind = "sine", freq = 0.1, amplitude = 5e-9, duration = 200.0 }
 
     #[test]
     fn actuator_config_errors_name_the_field() {
-        let base = "seed = 1\noutput = \"x\"\n[[experiment]]\nname = \"a\"\ndesign = \"tn3045_x1\"\n";
+        let base =
+            "seed = 1\noutput = \"x\"\n[[experiment]]\nname = \"a\"\ndesign = \"tn3045_x1\"\n";
         let err = |sim: &str| {
             Study::from_toml(&format!("{base}\n{sim}"), "t.toml", Path::new("."))
                 .unwrap_err()
                 .to_string()
         };
         let e = err("[simulation.actuators]\ntm1 = { delay = -0.1 }");
-        assert!(e.contains("simulation.actuators.tm1.delay") && e.contains("≥ 0"), "{e}");
+        assert!(
+            e.contains("simulation.actuators.tm1.delay") && e.contains("≥ 0"),
+            "{e}"
+        );
         let e = err("[simulation.actuators]\ntm2 = { delay = inf }");
         assert!(e.contains("simulation.actuators.tm2.delay"), "{e}");
         for p in ["0.0", "-2.0", "nan"] {
             let e = err(&format!("[simulation.actuators]\ntm2 = {{ pole = {p} }}"));
-            assert!(e.contains("simulation.actuators.tm2.pole") && e.contains("> 0 Hz"), "{e}");
+            assert!(
+                e.contains("simulation.actuators.tm2.pole") && e.contains("> 0 Hz"),
+                "{e}"
+            );
         }
         let e = err("[simulation.actuators]\ntm1 = { gain = 0.0 }");
         assert!(e.contains("simulation.actuators.tm1.gain"), "{e}");
@@ -1158,12 +1207,15 @@ fsc = { kind = "sine", freq = 0.1, amplitude = 5e-9, duration = 200.0 }
         );
         let e = err("[simulation.actuators]\ntm1 = { bogus = 1.0 }");
         assert!(e.contains("bogus"), "{e}");
-        let e = err("[simulation]\nmethod = \"time\"\n[simulation.actuators]\ntm1 = { pole = 2.0 }");
+        let e =
+            err("[simulation]\nmethod = \"time\"\n[simulation.actuators]\ntm1 = { pole = 2.0 }");
         assert!(
-            e.contains("simulation.actuators.tm1.pole") && e.contains("method = \"frequency\" only"),
+            e.contains("simulation.actuators.tm1.pole")
+                && e.contains("method = \"frequency\" only"),
             "{e}"
         );
-        let e = err("[simulation]\nmethod = \"time\"\n[simulation.actuators]\ntm2 = { delay = 0.1 }");
+        let e =
+            err("[simulation]\nmethod = \"time\"\n[simulation.actuators]\ntm2 = { delay = 0.1 }");
         assert!(e.contains("simulation.actuators.tm2.delay"), "{e}");
         // a gain alone is fine with the time method (it only scales force injections)
         Study::from_toml(
@@ -1183,6 +1235,9 @@ fsc = { kind = "sine", freq = 0.1, amplitude = 5e-9, duration = 200.0 }
         let e = err(
             "[[experiment]]\nname = \"b\"\nfs = 1.0\nf1 = { kind = \"sine\", freq = 0.7, amplitude = 1e-9, duration = 100.0 }",
         );
-        assert!(e.contains("experiment[1].f1.freq") && e.contains("Nyquist"), "{e}");
+        assert!(
+            e.contains("experiment[1].f1.freq") && e.contains("Nyquist"),
+            "{e}"
+        );
     }
 }
