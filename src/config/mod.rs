@@ -12,10 +12,18 @@
 //! method = "frequency"         # or "time" (discretised loop)
 //! noise = "circular"           # or "realistic"
 //! target_snr = 1000.0          # optional: scale all injections to this ρ_opt
+//! [simulation.actuators]       # true actuators (default: flat, both with gain a_sus)
+//! tm1 = { gain = 1.1, pole = 1.963, delay = 0.0 }   # gain default [truth].a_sus
+//! tm2 = { pole = 1.963 }       # no gain key: TM2's gain is [truth].a_sus
 //! [[experiment]]
 //! name = "inv1"
 //! design = "tn3045_x1"         # a built-in design; any field below overrides it
+//! f1 = { kind = "sine", freq = 0.01, amplitude = 1e-9, duration = 1000.0 }  # force, m s⁻²
 //! ```
+//!
+//! Force injections `f1`, `f2`, `fsc` (commanded force per unit mass on TM1, TM2 and the
+//! spacecraft) take the waveform kinds of `x1`/`x12`, are scaled with them by `target_snr` and
+//! `amplitude_scale`, and need `method = "frequency"`, as do actuator poles and delays.
 
 use crate::experiment::{ExperimentDesign, SineSegment, Waveform};
 use crate::ltp::{Controllers, LtpParams, Masses, NoiseModel, check_stable};

@@ -28,6 +28,14 @@
 //! plant at DC: `ũ(0) = B_u(0)⁻¹(D(0) S⁻¹ õ(0) − B_q(0) q̃(0))`. At the Nyquist bin of an
 //! even-length series only the real part of a spectrum survives the inverse transform, so the
 //! loop relations hold there only approximately (as for the outputs themselves).
+//!
+//! Every simulated experiment carries the telemetry [`TELEMETRY_CHANNELS`] in
+//! [`ExperimentData::extra`] (fit stretch) and `noise_extra` (noise-only stretch, no
+//! injections), and, when it injects forces, the commanded injections
+//! [`FORCE_CHANNELS`](super::FORCE_CHANNELS) in `extra` (known inputs: no noise series). With
+//! `method = "time"` the response part of the telemetry is the discrete loop's own commands
+//! (`g2 = u2`, `gsc = −u1` at the data samples); the noise part is computed from the noise as
+//! above, because the noise on the outputs is the continuous model's in that method too.
 
 use super::ExperimentDesign;
 use crate::config::{Actuator, Method, NoiseSynthesis, Study};
