@@ -220,17 +220,18 @@ fn bad_models_are_reported_with_file_model_and_entry() {
         &[],
     );
     assert!(e.contains("s.toml") && e.contains("`a`"), "{e}");
-    // a channel no experiment has
+    // a channel no experiment has (not g1: simulated experiments carry the telemetry
+    // g1, g2, gsc)
     let e = study_error(
         &format!(
             "{base}[prior]\na = {{ kind = \"uniform\", lo = 0.0, hi = 2.0 }}\n{}",
             USER_MODEL
-                .replace("[\"o1\", \"i1\"]", "[\"o1\", \"g1\"]")
-                .replace("i1 = \"-a\"", "g1 = \"-a\"")
+                .replace("[\"o1\", \"i1\"]", "[\"o1\", \"h1\"]")
+                .replace("i1 = \"-a\"", "h1 = \"-a\"")
         ),
         &[],
     );
-    assert!(e.contains("g1"), "{e}");
+    assert!(e.contains("h1"), "{e}");
     // an unknown model kind
     let e = study_error(
         &format!("{base}[[model]]\nkind = \"magic\"\nname = \"g\"\n"),

@@ -12,10 +12,18 @@
 //! method = "frequency"         # or "time" (discretised loop)
 //! noise = "circular"           # or "realistic"
 //! target_snr = 1000.0          # optional: scale all injections to this ρ_opt
+//! [simulation.actuators]       # true actuators (default: flat, both with gain a_sus)
+//! tm1 = { gain = 1.1, pole = 1.963, delay = 0.0 }   # gain default [truth].a_sus
+//! tm2 = { pole = 1.963 }       # no gain key: TM2's gain is [truth].a_sus
 //! [[experiment]]
 //! name = "inv1"
 //! design = "tn3045_x1"         # a built-in design; any field below overrides it
+//! f1 = { kind = "sine", freq = 0.01, amplitude = 1e-9, duration = 1000.0 }  # force, m s⁻²
 //! ```
+//!
+//! Force injections `f1`, `f2`, `fsc` (commanded force per unit mass on TM1, TM2 and the
+//! spacecraft) take the waveform kinds of `x1`/`x12`, are scaled with them by `target_snr` and
+//! `amplitude_scale`, and need `method = "frequency"`, as do actuator poles and delays.
 
 use crate::experiment::{ExperimentDesign, SineSegment, Waveform};
 use crate::ltp::{Controllers, LtpParams, Masses, NoiseModel, check_stable};
@@ -90,6 +98,170 @@ pub struct SimulationOptions {
     /// sample, which puts it 3.3e−3 from the continuous model at 10 mHz; 10 brings that to
     /// 3.3e−4.
     pub oversample: usize,
+    /// `[simulation.actuators]`: the true capacitive actuators of the two test masses (default:
+    /// flat, both with the gain `[truth].a_sus`, which is the system of K14).
+    #[serde(skip_serializing_if = "ActuatorOptions::is_default")]
+    pub actuators: ActuatorOptions,
+}
+
+/// One test mass's actuator as written in `[simulation.actuators]`:
+/// `tm1 = { gain = 1.08, pole = 1.963, delay = 0.0 }`, `tm2 = { pole = 1.963 }`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields, default)]
+pub struct ActuatorEntry {
+    /// DC gain (TM1 only; absent: `[truth].a_sus`, symmetric actuators). TM2's gain is the
+    /// closed loop's `[truth].a_sus` and cannot be set here.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gain: Option<f64>,
+    /// Frequency (Hz) of a single real pole `1/(1 + i f/f_o)` with unity DC gain; absent: none.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pole: Option<f64>,
+    /// Delay τ (s) between the commanded and the applied force, `e^{−i2πfτ}`; default 0.
+    pub delay: f64,
+}
+
+/// `[simulation.actuators]`: the true actuators of TM1 and TM2.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields, default)]
+pub struct ActuatorOptions {
+    pub tm1: ActuatorEntry,
+    pub tm2: ActuatorEntry,
+}
+
+impl ActuatorOptions {
+    /// Whether nothing is set (today's system: flat actuators with gain `a_sus`).
+    pub fn is_default(&self) -> bool {
+        *self == Self::default()
+    }
+
+    /// Whether either actuator has a pole or a delay (dynamics beyond a gain).
+    pub fn has_dynamics(&self) -> bool {
+        [self.tm1, self.tm2]
+            .iter()
+            .any(|a| a.pole.is_some() || a.delay != 0.0)
+    }
+
+    /// The actuators `[TM1, TM2]` of a system whose suspension gain is `a_sus`.
+    pub fn resolve(&self, a_sus: f64) -> [Actuator; 2] {
+        [
+            Actuator {
+                gain: self.tm1.gain.unwrap_or(a_sus),
+                pole: self.tm1.pole,
+                delay: self.tm1.delay,
+            },
+            Actuator {
+                gain: a_sus,
+                pole: self.tm2.pole,
+                delay: self.tm2.delay,
+            },
+        ]
+    }
+
+    fn validate(&self, method: Method, file: &str) -> Result<(), ConfigError> {
+        let bad = |field: &str, msg: String| ConfigError::Invalid {
+            file: file.into(),
+            field: format!("simulation.actuators.{field}"),
+            msg,
+        };
+        if let Some(g) = self.tm2.gain {
+            return Err(bad(
+                "tm2.gain",
+                format!(
+                    "TM2's actuator gain is the closed loop's suspension gain [truth].a_sus: set a_sus there and remove `gain = {g}` here (only tm1 takes a gain, for A1 ≠ A2)"
+                ),
+            ));
+        }
+        for (tm, a) in [("tm1", &self.tm1), ("tm2", &self.tm2)] {
+            if let Some(g) = a.gain
+                && !finite_pos(g)
+            {
+                return Err(bad(
+                    &format!("{tm}.gain"),
+                    format!("must be a finite gain > 0 (got {g})"),
+                ));
+            }
+            if let Some(p) = a.pole
+                && !finite_pos(p)
+            {
+                return Err(bad(
+                    &format!("{tm}.pole"),
+                    format!(
+                        "must be a finite pole frequency > 0 Hz (got {p}); leave it out for no pole"
+                    ),
+                ));
+            }
+            if !(a.delay.is_finite() && a.delay >= 0.0) {
+                return Err(bad(
+                    &format!("{tm}.delay"),
+                    format!("must be a finite delay ≥ 0 s (got {})", a.delay),
+                ));
+            }
+            if method == Method::Time {
+                let field = if a.pole.is_some() {
+                    Some("pole")
+                } else if a.delay != 0.0 {
+                    Some("delay")
+                } else {
+                    None
+                };
+                if let Some(f) = field {
+                    return Err(bad(
+                        &format!("{tm}.{f}"),
+                        "an actuator pole or delay is supported with method = \"frequency\" only (the discretised loop of method = \"time\" has flat actuators)".into(),
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A resolved true actuator of one test mass: the force applied per unit mass is
+/// `Act(f)·g` for the commanded `g` (m s⁻²), with `Act(f) = gain · 1/(1 + i f/f_o) · e^{−i2πfτ}`
+/// (e^{−2πift} Fourier convention, unity-DC-gain pole when `pole` is set).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Actuator {
+    pub gain: f64,
+    /// Pole frequency `f_o` (Hz), if any.
+    pub pole: Option<f64>,
+    /// Delay τ (s).
+    pub delay: f64,
+}
+
+impl Actuator {
+    /// `Act(f)`, the applied force per unit commanded force at `f` (Hz).
+    ///
+    /// ```
+    /// use occam::config::Actuator;
+    /// let a = Actuator { gain: 1.08, pole: Some(2.0), delay: 0.0 };
+    /// let r = a.response(2.0); // at the pole: gain/(1 + i)
+    /// assert!((r.re - 0.54).abs() < 1e-15 && (r.im + 0.54).abs() < 1e-15);
+    /// ```
+    pub fn response(&self, f: f64) -> num_complex::Complex64 {
+        match self.shape(f) {
+            Some(r) => r * self.gain,
+            None => num_complex::Complex64::new(self.gain, 0.0),
+        }
+    }
+
+    /// `Act(f)/gain`: the pole and delay factors, or `None` for a flat actuator (no pole, no
+    /// delay), so that callers can keep the arithmetic of the flat loop exactly.
+    pub fn shape(&self, f: f64) -> Option<num_complex::Complex64> {
+        if self.pole.is_none() && self.delay == 0.0 {
+            return None;
+        }
+        let mut r = num_complex::Complex64::new(1.0, 0.0);
+        if let Some(fo) = self.pole {
+            // 1/(1 + i u) = (1 − i u)/(1 + u²), u = f/f_o
+            let u = f / fo;
+            let d = 1.0 / (1.0 + u * u);
+            r = num_complex::Complex64::new(d, -u * d);
+        }
+        if self.delay != 0.0 {
+            r *= crate::lti::delay(self.delay, f);
+        }
+        Some(r)
+    }
 }
 
 /// The true thruster response of a simulation: `response = "delay"` with `value` = τ_df (s),
@@ -110,6 +282,7 @@ impl Default for SimulationOptions {
             noise: NoiseSynthesis::Circular,
             target_snr: None,
             snr_band: [1e-4, 1.0],
+            actuators: ActuatorOptions::default(),
         }
     }
 }
@@ -129,7 +302,8 @@ pub enum InjectionEntry {
         amplitude: f64,
         duration: f64,
     },
-    /// A one-column (or named-column) CSV file of samples at the experiment's `fs`, in metres.
+    /// A one-column (or named-column) CSV file of samples at the experiment's `fs`: metres on
+    /// `x1`, `x12`; m s⁻² on the force channels `f1`, `f2`, `fsc`.
     File {
         path: PathBuf,
         #[serde(default)]
@@ -157,6 +331,16 @@ pub struct ExperimentEntry {
     pub x1: Option<InjectionEntry>,
     #[serde(default)]
     pub x12: Option<InjectionEntry>,
+    /// Commanded force per unit mass injected on TM1 (m s⁻²; `method = "frequency"` only).
+    #[serde(default)]
+    pub f1: Option<InjectionEntry>,
+    /// Commanded force per unit mass injected on TM2 (m s⁻²; `method = "frequency"` only).
+    #[serde(default)]
+    pub f2: Option<InjectionEntry>,
+    /// Commanded force per unit mass injected on the spacecraft (m s⁻²; `method = "frequency"`
+    /// only).
+    #[serde(default)]
+    pub fsc: Option<InjectionEntry>,
     /// Multiplies every amplitude of this experiment.
     #[serde(default)]
     pub amplitude_scale: Option<f64>,
@@ -527,6 +711,7 @@ impl StudyFile {
                 ));
             }
         }
+        sim.actuators.validate(sim.method, file)?;
         if let Some(t) = sim.target_snr
             && !finite_pos(t)
         {
@@ -583,6 +768,9 @@ impl StudyFile {
                     ("design", e.design.is_some()),
                     ("x1", e.x1.is_some()),
                     ("x12", e.x12.is_some()),
+                    ("f1", e.f1.is_some()),
+                    ("f2", e.f2.is_some()),
+                    ("fsc", e.fsc.is_some()),
                     ("pre_pad", e.pre_pad.is_some()),
                     ("post_pad", e.post_pad.is_some()),
                     ("noise_duration", e.noise_duration.is_some()),
@@ -649,6 +837,9 @@ impl StudyFile {
                     noise_duration: 20000.0,
                     x1: Waveform::None,
                     x12: Waveform::None,
+                    f1: Waveform::None,
+                    f2: Waveform::None,
+                    fsc: Waveform::None,
                 },
             };
             d.name = e.name.clone();
@@ -679,10 +870,26 @@ impl StudyFile {
                     ),
                 ));
             }
-            for (ch, entry, dst) in [("x1", &e.x1, &mut d.x1), ("x12", &e.x12, &mut d.x12)] {
+            for (ch, entry, dst) in [
+                ("x1", &e.x1, &mut d.x1),
+                ("x12", &e.x12, &mut d.x12),
+                ("f1", &e.f1, &mut d.f1),
+                ("f2", &e.f2, &mut d.f2),
+                ("fsc", &e.fsc, &mut d.fsc),
+            ] {
                 if let Some(entry) = entry {
                     *dst = to_waveform(entry, base, file, &at(ch))?;
                 }
+            }
+            if sim.method == Method::Time
+                && let Some((ch, _)) = [("f1", &d.f1), ("f2", &d.f2), ("fsc", &d.fsc)]
+                    .into_iter()
+                    .find(|(_, w)| !w.is_none())
+            {
+                return Err(bad(
+                    at(ch),
+                    "force injections are supported with method = \"frequency\" only (the discretised loop of method = \"time\" takes guidance injections x1, x12)".into(),
+                ));
             }
             if let Some(s) = e.amplitude_scale {
                 if !s.is_finite() {
@@ -1034,7 +1241,13 @@ fn to_waveform(
 
 fn validate_waveforms(d: &ExperimentDesign, file: &str, at: &str) -> Result<(), ConfigError> {
     let nyq = d.fs / 2.0;
-    for (ch, w) in [("x1", &d.x1), ("x12", &d.x12)] {
+    for (ch, w) in [
+        ("x1", &d.x1),
+        ("x12", &d.x12),
+        ("f1", &d.f1),
+        ("f2", &d.f2),
+        ("fsc", &d.fsc),
+    ] {
         let bad = |f: String, msg: String| ConfigError::Invalid {
             file: file.into(),
             field: format!("{at}{ch}{f}"),
@@ -1088,11 +1301,14 @@ fn validate_waveforms(d: &ExperimentDesign, file: &str, at: &str) -> Result<(), 
             ));
         }
     }
-    if d.x1.is_empty(d.fs) && d.x12.is_empty(d.fs) {
+    if [&d.x1, &d.x12, &d.f1, &d.f2, &d.fsc]
+        .iter()
+        .all(|w| w.is_empty(d.fs))
+    {
         return Err(ConfigError::Invalid {
             file: file.into(),
             field: format!("{at}x1"),
-            msg: "the experiment injects nothing: give `x1` or `x12` (or a `design`)".into(),
+            msg: "the experiment injects nothing: give `x1` or `x12` (or a `design`), or a force injection `f1`, `f2` or `fsc`".into(),
         });
     }
     Ok(())

@@ -23,7 +23,21 @@ pub struct ExperimentDesign {
     pub x1: Waveform,
     /// Injection on the x12 guidance channel.
     pub x12: Waveform,
+    /// Commanded force per unit mass injected on TM1 (m s⁻²), an "out of loop force" of the
+    /// last TN3045 experiments.
+    #[serde(default = "Waveform::none", skip_serializing_if = "Waveform::is_none")]
+    pub f1: Waveform,
+    /// Commanded force per unit mass injected on TM2 (m s⁻²), added to the suspension command.
+    #[serde(default = "Waveform::none", skip_serializing_if = "Waveform::is_none")]
+    pub f2: Waveform,
+    /// Commanded force per unit mass injected on the spacecraft (m s⁻², per unit spacecraft
+    /// mass), added to the drag-free command.
+    #[serde(default = "Waveform::none", skip_serializing_if = "Waveform::is_none")]
+    pub fsc: Waveform,
 }
+
+/// Names of the force-injection channels `(f1, f2, fsc)`, in study files and datasets.
+pub const FORCE_CHANNELS: [&str; 3] = ["f1", "f2", "fsc"];
 
 /// Frequencies of the TN3045-like ladder: 7 segments of 1200 s with 1, 2, 4, … 64 cycles.
 pub fn ladder_freqs() -> [f64; 7] {
@@ -79,6 +93,9 @@ impl ExperimentDesign {
             noise_duration: 20000.0,
             x1,
             x12,
+            f1: Waveform::None,
+            f2: Waveform::None,
+            fsc: Waveform::None,
         }
     }
 
@@ -98,7 +115,12 @@ impl ExperimentDesign {
     pub fn n_samples(&self) -> usize {
         let pre = (self.pre_pad * self.fs).round() as usize;
         let post = (self.post_pad * self.fs).round() as usize;
-        pre + self.x1.len(self.fs).max(self.x12.len(self.fs)) + post
+        let longest = [&self.x1, &self.x12, &self.f1, &self.f2, &self.fsc]
+            .iter()
+            .map(|w| w.len(self.fs))
+            .max()
+            .unwrap_or(0);
+        pre + longest + post
     }
 
     /// Number of samples of the noise-only stretch.
@@ -108,22 +130,38 @@ impl ExperimentDesign {
 
     /// The commanded injection series `(i1, i12)` over the fit stretch: padding, waveform, padding.
     pub fn injections(&self) -> [Vec<f64>; 2] {
-        let n = self.n_samples();
-        let pre = (self.pre_pad * self.fs).round() as usize;
-        [&self.x1, &self.x12].map(|w| {
-            let mut v = vec![0.0; n];
-            for (k, x) in w.render(self.fs).into_iter().enumerate() {
-                v[pre + k] = x;
-            }
-            v
-        })
+        [&self.x1, &self.x12].map(|w| self.place(w))
     }
 
-    /// A copy with every injection amplitude multiplied by `k`.
+    /// The commanded force injections `(f1, f2, fsc)` (m s⁻²) over the fit stretch, placed
+    /// like the guidance injections.
+    pub fn force_injections(&self) -> [Vec<f64>; 3] {
+        [&self.f1, &self.f2, &self.fsc].map(|w| self.place(w))
+    }
+
+    /// Whether any force channel carries an injection.
+    pub fn has_forces(&self) -> bool {
+        [&self.f1, &self.f2, &self.fsc].iter().any(|w| !w.is_none())
+    }
+
+    fn place(&self, w: &Waveform) -> Vec<f64> {
+        let n = self.n_samples();
+        let pre = (self.pre_pad * self.fs).round() as usize;
+        let mut v = vec![0.0; n];
+        for (k, x) in w.render(self.fs).into_iter().enumerate() {
+            v[pre + k] = x;
+        }
+        v
+    }
+
+    /// A copy with every injection amplitude (guidance and force) multiplied by `k`.
     pub fn scaled(&self, k: f64) -> Self {
         Self {
             x1: self.x1.scaled(k),
             x12: self.x12.scaled(k),
+            f1: self.f1.scaled(k),
+            f2: self.f2.scaled(k),
+            fsc: self.fsc.scaled(k),
             ..self.clone()
         }
     }

@@ -5,8 +5,9 @@ mod design;
 mod simulate;
 mod waveform;
 
-pub use design::{ExperimentDesign, ladder_freqs};
+pub use design::{ExperimentDesign, FORCE_CHANNELS, ladder_freqs};
 pub use simulate::{
-    SimError, Simulation, System, delayed_injections, optimal_snr, simulate, stream,
+    SimError, Simulation, System, TELEMETRY_CHANNELS, delayed_injections, optimal_snr, simulate,
+    stream,
 };
 pub use waveform::{SineSegment, Waveform};

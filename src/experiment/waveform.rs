@@ -37,6 +37,16 @@ pub enum Waveform {
 }
 
 impl Waveform {
+    /// `Waveform::None` (a serde default).
+    pub fn none() -> Self {
+        Waveform::None
+    }
+
+    /// Whether this is `Waveform::None`.
+    pub fn is_none(&self) -> bool {
+        matches!(self, Waveform::None)
+    }
+
     /// Number of samples the waveform occupies at sample rate `fs`.
     pub fn len(&self, fs: f64) -> usize {
         self.render(fs).len()

@@ -123,9 +123,11 @@ pub(crate) fn lift<T: DualNum<Primitive = f64> + Copy>(z: Complex64) -> Complex<
     Complex::new(T::from(z.re), T::from(z.im))
 }
 
-/// `P = D + E M A K S` and the actuator terms `k1 = A_df r_df C_df`, `k2 = A_sus C_sus`, for any
-/// plant matrix `D` (continuous `s² I + W`, or the inverse of the held plant of the discrete
-/// loop) and controller responses `(C_df, C_sus)`.
+/// `P = D + E M A K S` and the actuator terms `k1 = A_df r_df C_df`, `k2 = A_sus r_sus C_sus`,
+/// for any plant matrix `D` (continuous `s² I + W`, or the inverse of the held plant of the
+/// discrete loop) and controller responses `(C_df, C_sus)`. `r_sus` is the frequency response
+/// of the TM2 actuator beyond its gain (`None`: flat, the K14 loop; kept apart from `Some(1)`
+/// so that the plain loop's arithmetic, and hence its numbers, stay exactly as they were).
 #[inline(always)]
 #[allow(clippy::type_complexity)]
 pub(crate) fn close_loop<T: DualNum<Primitive = f64> + Copy>(
@@ -135,11 +137,15 @@ pub(crate) fn close_loop<T: DualNum<Primitive = f64> + Copy>(
     ctrl: (Complex64, Complex64),
     m: &Masses,
     r_df: Complex<T>,
+    r_sus: Option<Complex<T>>,
 ) -> ([[Complex<T>; 2]; 2], Complex<T>, Complex<T>) {
     let (adf, asus, d21) = (th[4], th[5], th[6]);
     let e2 = m.m2 / m.msc;
     let k1 = lift::<T>(ctrl.0) * r_df * adf;
-    let k2 = lift::<T>(ctrl.1) * asus;
+    let k2 = match r_sus {
+        None => lift::<T>(ctrl.1) * asus,
+        Some(r) => lift::<T>(ctrl.1) * r * asus,
+    };
     let p00 = d[0][0] + e * (k1 + k2 * (d21 * e2));
     let p01 = d[0][1] + e * k2 * T::from(e2);
     let p10 = d[1][0] + e * k2 * d21;
@@ -202,6 +208,7 @@ fn loop_matrix<T: DualNum<Primitive = f64> + Copy>(
     c: &BinConsts,
     m: &Masses,
     r_df: Complex<T>,
+    r_sus: Option<Complex<T>>,
 ) -> ([[Complex<T>; 2]; 2], Complex<T>, Complex<T>) {
     close_loop(
         th,
@@ -210,6 +217,7 @@ fn loop_matrix<T: DualNum<Primitive = f64> + Copy>(
         (c.cdf, c.csus),
         m,
         r_df,
+        r_sus,
     )
 }
 
@@ -236,7 +244,7 @@ pub fn response<T: DualNum<Primitive = f64> + Copy>(
     inj: [Complex64; 2],
 ) -> [Complex<T>; 2] {
     let one = Complex::new(T::one(), T::zero());
-    let ([[p00, p01], [p10, p11]], k1, k2) = loop_matrix(th, c, m, one);
+    let ([[p00, p01], [p10, p11]], k1, k2) = loop_matrix(th, c, m, one, None);
     let e2 = m.m2 / m.msc;
     // guidance delays act on the injections only: T = diag(e^{−iωΔt1}, e^{−iωΔt2})
     let (s1, c1) = (th[2] * c.omega).sin_cos();
@@ -265,7 +273,37 @@ pub fn h_io_matrix<T: DualNum<Primitive = f64> + Copy>(
     m: &Masses,
     r_df: Complex<T>,
 ) -> [[Complex<T>; 2]; 2] {
-    h_io_of_loop(th, loop_matrix(th, c, m, r_df), lift(c.e_oms), c.omega, m)
+    h_io_of_loop(
+        th,
+        loop_matrix(th, c, m, r_df, None),
+        lift(c.e_oms),
+        c.omega,
+        m,
+    )
+}
+
+/// [`h_io_matrix`] with a frequency response `r_sus` of the TM2 (suspension) actuator beyond its
+/// gain: `A_sus → A_sus r_sus` (a real pole, a delay; see
+/// [`Actuator`](crate::config::Actuator)).
+///
+/// # Formula
+/// `H_io = E S P⁻¹ B_u K T`, `P = D + E B_u K S`, `B_u = [[A_df r_df, e2 A_sus r_sus],
+/// [0, A_sus r_sus]]`, `e2 = m2/m_sc`.
+#[inline]
+pub fn h_io_matrix_actuated<T: DualNum<Primitive = f64> + Copy>(
+    th: &[T; N_PARAMS],
+    c: &BinConsts,
+    m: &Masses,
+    r_df: Complex<T>,
+    r_sus: Complex<T>,
+) -> [[Complex<T>; 2]; 2] {
+    h_io_of_loop(
+        th,
+        loop_matrix(th, c, m, r_df, Some(r_sus)),
+        lift(c.e_oms),
+        c.omega,
+        m,
+    )
 }
 
 /// The three closed-loop transfer matrices at one frequency (rows = outputs `(o1, o12)`).
@@ -288,8 +326,31 @@ impl ClosedLoop {
     /// As [`ClosedLoop::at`] with an extra factor `r_df` on the drag-free actuation
     /// (`A_df → A_df r_df`: a thruster response).
     pub fn with_thruster(p: &LtpParams, c: &BinConsts, m: &Masses, r_df: Complex64) -> Self {
+        Self::build(p, c, m, r_df, None)
+    }
+
+    /// As [`ClosedLoop::with_thruster`] with a frequency response `r_sus` of the TM2 actuator
+    /// beyond its gain (`A_sus → A_sus r_sus`). `H_go` stays the response to forces per unit
+    /// mass *applied* in coordinate space; `H_io` and `H_no` use `B_u K` in place of `M A K`.
+    pub fn with_actuators(
+        p: &LtpParams,
+        c: &BinConsts,
+        m: &Masses,
+        r_df: Complex64,
+        r_sus: Complex64,
+    ) -> Self {
+        Self::build(p, c, m, r_df, Some(r_sus))
+    }
+
+    fn build(
+        p: &LtpParams,
+        c: &BinConsts,
+        m: &Masses,
+        r_df: Complex64,
+        r_sus: Option<Complex64>,
+    ) -> Self {
         let th = p.to_array();
-        let ([[p00, p01], [p10, p11]], k1, k2) = loop_matrix::<f64>(&th, c, m, r_df);
+        let ([[p00, p01], [p10, p11]], k1, k2) = loop_matrix::<f64>(&th, c, m, r_df, r_sus);
         let det = p00 * p11 - p01 * p10;
         let pinv = [[p11 / det, -p01 / det], [-p10 / det, p00 / det]];
         let e = c.e_oms;

@@ -252,7 +252,15 @@ pub fn h_io_discrete<T: DualNum<Primitive = f64> + Copy>(
     r_df: Complex<T>,
 ) -> [[Complex<T>; 2]; 2] {
     let e: Complex<T> = lift(c.e_oms);
-    let p = close_loop(th, zoh_plant_inverse(th, c, m), e, (c.kdf, c.ksus), m, r_df);
+    let p = close_loop(
+        th,
+        zoh_plant_inverse(th, c, m),
+        e,
+        (c.kdf, c.ksus),
+        m,
+        r_df,
+        None,
+    );
     h_io_of_loop(th, p, e, c.omega, m)
 }
 

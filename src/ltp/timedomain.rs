@@ -333,6 +333,34 @@ impl DiscreteLoop {
         g: Option<[&[f64]; 2]>,
         n_o: Option<[&[f64]; 2]>,
     ) -> Result<[Vec<f64>; 2], SimError> {
+        self.run(i1, i12, g, n_o, false).map(|(o, _)| o)
+    }
+
+    /// As [`Self::simulate`], also returning the commanded accelerations
+    /// `u[n] = −K(z)(o[n] − i[n])` (m s⁻², `[u1, u2]`: `u1` of the drag-free loop, `u2` of the
+    /// suspension), exactly the values the discrete controllers produced and the hold applied
+    /// (as `M A u[n]`) over sample `n`.
+    #[allow(clippy::type_complexity)]
+    pub fn simulate_with_commands(
+        &self,
+        i1: &[f64],
+        i12: &[f64],
+        g: Option<[&[f64]; 2]>,
+        n_o: Option<[&[f64]; 2]>,
+    ) -> Result<([Vec<f64>; 2], [Vec<f64>; 2]), SimError> {
+        self.run(i1, i12, g, n_o, true)
+            .map(|(o, u)| (o, u.expect("commands recorded")))
+    }
+
+    #[allow(clippy::type_complexity)]
+    fn run(
+        &self,
+        i1: &[f64],
+        i12: &[f64],
+        g: Option<[&[f64]; 2]>,
+        n_o: Option<[&[f64]; 2]>,
+        record: bool,
+    ) -> Result<([Vec<f64>; 2], Option<[Vec<f64>; 2]>), SimError> {
         let n = i1.len();
         check_series("i1", i1, n)?;
         check_series("i12", i12, n)?;
@@ -351,6 +379,9 @@ impl DiscreteLoop {
         let mut x = Vector4::<f64>::zeros();
         let mut o1 = Vec::with_capacity(n);
         let mut o12 = Vec::with_capacity(n);
+        let cap = if record { n } else { 0 };
+        let mut u1 = Vec::with_capacity(cap);
+        let mut u2 = Vec::with_capacity(cap);
         for k in 0..n {
             let sx = [x[0], self.d21 * x[0] + x[1]];
             let mut o = if self.delay == 0 {
@@ -367,6 +398,10 @@ impl DiscreteLoop {
                 o[1] += b[k];
             }
             let u = Vector2::new(-fdf.step(o[0] - i1[k]), -fsus.step(o[1] - i12[k]));
+            if record {
+                u1.push(u[0]);
+                u2.push(u[1]);
+            }
             let mut acc = self.ma * u;
             if let Some([a, b]) = g {
                 acc[0] += a[k];
@@ -376,7 +411,7 @@ impl DiscreteLoop {
             o1.push(o[0]);
             o12.push(o[1]);
         }
-        Ok([o1, o12])
+        Ok(([o1, o12], record.then_some([u1, u2])))
     }
 
     /// The dense closed-loop difference equations (the poles come from them; the simulator
