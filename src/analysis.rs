@@ -138,22 +138,59 @@ pub fn spectra_options(study: &Study) -> SpectraOptions {
     }
 }
 
-/// The reference point of model `mi`: the truth where the model has the truth's parameters,
-/// else `[fit] start`, else the prior centre. The residual noise is evaluated there.
+/// The true values a study's simulation uses, by parameter name: the seven loop parameters of
+/// `[truth]` and the actuators of `[simulation.actuators]` as the acceleration-domain model
+/// names them (`a1, a2` gains, `f_o1, f_o2` poles where there is one, `tau_c1, tau_c2` delays).
+pub fn true_values(
+    truth: &crate::ltp::LtpParams,
+    actuators: &[crate::config::Actuator; 2],
+) -> Vec<(String, f64)> {
+    let mut v: Vec<(String, f64)> = crate::ltp::PARAM_NAMES
+        .iter()
+        .zip(truth.to_array())
+        .map(|(n, x)| (n.to_string(), x))
+        .collect();
+    for (i, a) in actuators.iter().enumerate() {
+        v.push((format!("a{}", i + 1), a.gain));
+        if let Some(p) = a.pole {
+            v.push((format!("f_o{}", i + 1), p));
+        }
+        v.push((format!("tau_c{}", i + 1), a.delay));
+    }
+    v
+}
+
+/// The true actuators recorded in a dataset's metadata (`extra.actuators`), if any.
+fn dataset_actuators(dataset: &Dataset) -> Option<[crate::config::Actuator; 2]> {
+    let a = dataset.extra.get("actuators")?;
+    let one = |k: &str| -> Option<crate::config::Actuator> {
+        let t = a.get(k)?;
+        Some(crate::config::Actuator {
+            gain: t.get("gain")?.as_f64()?,
+            pole: t.get("pole").and_then(|p| p.as_f64()),
+            delay: t.get("delay").and_then(|d| d.as_f64()).unwrap_or(0.0),
+        })
+    };
+    Some([one("tm1")?, one("tm2")?])
+}
+
+/// The reference point of model `mi`: the truth where the model has the truth's parameters
+/// (the loop's `[truth]` and the simulated actuators), else `[fit] start`, else the prior
+/// centre. The residual noise is evaluated there.
 pub fn reference_point(study: &Study, mi: usize) -> Vec<f64> {
     let m = &study.models.models[mi];
     let prior = &study.models.priors[mi];
-    let truth = crate::ltp::PARAM_NAMES
-        .iter()
-        .zip(study.truth.to_array())
-        .collect::<Vec<_>>();
+    let truth = true_values(
+        &study.truth,
+        &study.simulation.actuators.resolve(study.truth.a_sus),
+    );
     m.param_names()
         .iter()
         .enumerate()
         .map(|(i, n)| {
             truth
                 .iter()
-                .find(|(t, _)| *t == n)
+                .find(|(t, _)| t == n)
                 .map(|(_, v)| *v)
                 .or_else(|| study.fit.start.as_ref().and_then(|s| s.get(n).copied()))
                 .unwrap_or_else(|| prior_centre(&prior.kinds()[i]))
@@ -256,18 +293,23 @@ pub fn default_start(study: &Study, model: &ModelSpec) -> Vec<f64> {
     th
 }
 
-/// The true parameter values of model `mi` that the dataset knows, by name.
+/// The true parameter values of model `mi` that the dataset knows, by name (the loop's and,
+/// when the dataset records them, the actuators').
 pub fn truth_of(study: &Study, mi: usize, dataset: &Dataset) -> Option<Vec<Option<f64>>> {
     let t = dataset.truth?;
-    let vals = crate::ltp::PARAM_NAMES
-        .iter()
-        .zip(t.to_array())
-        .collect::<Vec<_>>();
+    let vals = match dataset_actuators(dataset) {
+        Some(a) => true_values(&t, &a),
+        None => crate::ltp::PARAM_NAMES
+            .iter()
+            .zip(t.to_array())
+            .map(|(n, x)| (n.to_string(), x))
+            .collect(),
+    };
     Some(
         study.models.models[mi]
             .param_names()
             .iter()
-            .map(|n| vals.iter().find(|(p, _)| *p == n).map(|(_, v)| *v))
+            .map(|n| vals.iter().find(|(p, _)| p == n).map(|(_, v)| *v))
             .collect(),
     )
 }

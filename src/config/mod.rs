@@ -250,17 +250,12 @@ impl Actuator {
         if self.pole.is_none() && self.delay == 0.0 {
             return None;
         }
-        let mut r = num_complex::Complex64::new(1.0, 0.0);
-        if let Some(fo) = self.pole {
-            // 1/(1 + i u) = (1 − i u)/(1 + u²), u = f/f_o
-            let u = f / fo;
-            let d = 1.0 / (1.0 + u * u);
-            r = num_complex::Complex64::new(d, -u * d);
-        }
-        if self.delay != 0.0 {
-            r *= crate::lti::delay(self.delay, f);
-        }
-        Some(r)
+        Some(crate::model::accel::actuator(
+            1.0,
+            self.pole,
+            (self.delay != 0.0).then_some(self.delay),
+            f,
+        ))
     }
 }
 

@@ -53,7 +53,7 @@ pub struct AccelModelEntry {
     pub pole: Option<bool>,
     /// Actuators with a delay (parameters `tau_c1`, `tau_c2`); default false.
     pub delay: Option<bool>,
-    /// `fpsder` (default) or `exact`.
+    /// `exact` (default) or `fpsder` (LTPDA's stencil, with its error).
     pub derivative: Option<crate::model::accel::Derivative>,
     /// The five-point stencil's `m` (default 2/7).
     pub fpsder_m: Option<f64>,
