@@ -314,10 +314,55 @@ pub fn truth_of(study: &Study, mi: usize, dataset: &Dataset) -> Option<Vec<Optio
     )
 }
 
+/// Warnings about the noise estimate of model `mi`: a fit band that starts below the lowest
+/// frequency the Welch estimate of an experiment's noise-only stretch resolves, where the
+/// residual PSD is the nearest (lowest-frequency) estimate extrapolated, for a model whose
+/// residual combines more noisy channels than it has residuals (the acceleration domain: a12
+/// from o1, o12, g1, g2). Its residual noise is a small difference of large correlated terms,
+/// and an extrapolated CSD does not cancel: a 3000 s stretch under a 1 mHz band edge made the
+/// stiffnesses' Fisher errors 1.5× too small (`tests/accel.rs`). The closed loop (`M_o = I`)
+/// has no such cancellation and is not warned about.
+pub fn noise_warnings(study: &Study, mi: usize, dataset: &Dataset) -> Vec<String> {
+    let opts = spectra_options(study);
+    let m = &study.models.models[mi];
+    if opts.noise != crate::likelihood::NoiseSource::Welch {
+        return Vec::new();
+    }
+    dataset
+        .experiments
+        .iter()
+        .filter_map(|e| {
+            let noisy: Vec<&[f64]> = m
+                .data_channels()
+                .iter()
+                .filter_map(|c| e.noise_channel(c))
+                .collect();
+            if noisy.len() <= m.residual_channels().len() {
+                return None;
+            }
+            let len = noisy[0].len();
+            let seg = crate::likelihood::welch_segment_len(len, &opts);
+            let first = e.fs / seg.max(1) as f64;
+            (opts.band[0] < first).then(|| {
+                let ov = opts.welch_window.recommended_overlap();
+                let need =
+                    (1.0 + (opts.welch_averages as f64 - 1.0) * (1.0 - ov)) / opts.band[0];
+                format!(
+                    "model `{}`, experiment `{}`: the fit band starts at {:.3e} Hz, below the lowest frequency the noise-only stretch resolves with {} Welch averages ({first:.3e} Hz); this model's residual noise is a difference of correlated channels, and extrapolated there it can be badly wrong: make noise_duration at least {need:.0} s, lower [analysis] welch_averages, or raise the band's lower edge",
+                    m.name(),
+                    e.name,
+                    opts.band[0],
+                    opts.welch_averages,
+                )
+            })
+        })
+        .collect()
+}
+
 /// Warnings about fitting model `mi` to `dataset`: a start point (fixed and start values) the
 /// model rejects ([`crate::model::Model::check`]), and a continuous-time closed loop fitted to
 /// data from the discretised loop (`[simulation] method = "time"`), which the zero-order
-/// hold's half-sample lag biases (tens of σ on the Table I study).
+/// hold's half-sample lag biases (tens of σ on the Table I study), and [`noise_warnings`].
 pub fn model_warnings(study: &Study, mi: usize, dataset: &Dataset) -> Vec<String> {
     let mut w = Vec::new();
     let specs = std::iter::once(&study.fit_model)
@@ -332,6 +377,7 @@ pub fn model_warnings(study: &Study, mi: usize, dataset: &Dataset) -> Vec<String
             break;
         }
     }
+    w.extend(noise_warnings(study, mi, dataset));
     let time_domain = dataset.extra.get("method").and_then(|v| v.as_str()) == Some("time");
     if let crate::config::ModelDef::Ltp { name, options } = &study.models.defs[mi]
         && time_domain

@@ -17,7 +17,9 @@ pub use exact::{Likelihood, LikelihoodError};
 pub use fisher::{cramer_rao, default_step, fisher_exact, fisher_numeric, gradient_and_fisher};
 pub use map::{MapError, RUNAWAY_WIDTHS, ScoringResult, fisher_scoring, fisher_scoring_unbounded};
 pub use relbin::{MAX_REFINEMENTS, RelBinError, RelBinLikelihood, RelBinOptions, RelBinValidation};
-pub use spectra::{ExperimentSpectra, NoiseSource, SpectraError, SpectraOptions};
+pub use spectra::{
+    ExperimentSpectra, NoiseSource, SpectraError, SpectraOptions, welch_segment_len,
+};
 
 #[cfg(test)]
 pub(crate) mod tests;

@@ -343,6 +343,15 @@ impl ExperimentSpectra {
     }
 }
 
+/// The Welch segment length for a noise-only series of `len` samples: `welch_averages`
+/// segments with the window's recommended overlap span the series.
+pub fn welch_segment_len(len: usize, opts: &SpectraOptions) -> usize {
+    let navs = opts.welch_averages.max(1) as f64;
+    let ov = opts.welch_window.recommended_overlap();
+    // M segments of length L overlapping by ov·L span L (1 + (M − 1)(1 − ov)) samples
+    (len as f64 / (1.0 + (navs - 1.0) * (1.0 - ov))).floor() as usize
+}
+
 /// Welch CSD matrix of the noise-only series `ser` (all the same length), interpolated onto
 /// `freqs`, flattened row-major per frequency. Below the first Welch frequency (and above the
 /// last regular one) the nearest estimate is used. Pairs of channels are estimated together,
@@ -360,10 +369,7 @@ fn welch_noise(
             s.len()
         ));
     }
-    let navs = opts.welch_averages.max(1) as f64;
-    let ov = opts.welch_window.recommended_overlap();
-    // M segments of length L overlapping by ov·L span L (1 + (M − 1)(1 − ov)) samples
-    let seg = (len as f64 / (1.0 + (navs - 1.0) * (1.0 - ov))).floor() as usize;
+    let seg = welch_segment_len(len, opts);
     if seg < 16 {
         return Err(format!(
             "the noise-only stretch ({len} samples) is too short for {} Welch averages",
