@@ -147,10 +147,17 @@ fn scoring(
     };
     let post = |x: &[f64]| {
         let th = full(x);
+        // the Gaussian (Whittle) ln L whatever the statistic: the gradient and the scoring
+        // matrix are of that ln L, and the line search must climb the same surface
         if bounded {
-            lik.ln_posterior(&th)
+            let lp = lik.prior().ln_pdf(&th);
+            if lp == f64::NEG_INFINITY {
+                f64::NEG_INFINITY
+            } else {
+                lp + lik.ln_likelihood_whittle(&th)
+            }
         } else {
-            lik.ln_likelihood_full(&th)
+            lik.ln_likelihood_whittle(&th)
                 + crate::evidence::laplace::ln_prior_extended(lik.prior(), &th).unwrap_or(f64::NAN)
         }
     };
