@@ -45,7 +45,10 @@ pub struct Likelihood {
 enum StatState {
     Whittle,
     /// Degrees of freedom per experiment and `Σ_k c_k`.
-    StudentT { nu: Vec<f64>, ln_norm: f64 },
+    StudentT {
+        nu: Vec<f64>,
+        ln_norm: f64,
+    },
     LogPeriodogram(Vec<LogPgExperiment>),
 }
 

@@ -24,8 +24,10 @@ pub use map::{
     refine_statistic_max,
 };
 pub use relbin::{MAX_REFINEMENTS, RelBinError, RelBinLikelihood, RelBinOptions, RelBinValidation};
-pub use statistic::{LogPeriodogramOptions, Statistic};
 pub use spectra::{ExperimentSpectra, NoiseSource, SpectraError, SpectraOptions};
+pub use statistic::{LogPeriodogramOptions, Statistic};
 
+#[cfg(test)]
+mod statistic_tests;
 #[cfg(test)]
 pub(crate) mod tests;

@@ -140,7 +140,8 @@ pub fn default_decimation(window: Window, len: usize) -> usize {
 /// The multivariate Student-t `ln` density of one bin (module docs) of a residual with
 /// `q = rᴴ Ĉ⁻¹ r`, `R` residual channels, `ν` degrees of freedom and `ln det Ĉ`.
 pub fn student_t_ln_density(q: f64, nr: usize, nu: f64, ln_det_c: f64) -> f64 {
-    student_t_const(nr, nu) - nr as f64 * std::f64::consts::PI.ln()
+    student_t_const(nr, nu)
+        - nr as f64 * std::f64::consts::PI.ln()
         - ln_det_c
         - student_t_shape(q, nr, nu)
 }
@@ -174,7 +175,7 @@ pub(crate) struct LogPgExperiment {
     n_seg: usize,
     pub(crate) m_eff: f64,
     window: Vec<f64>,
-    /// `2/(fs Σw² M)`: the one-sided Welch scaling.
+    /// `2/(fs Σw² M n²)`: the one-sided Welch scaling, with the `1/n` of the inverse DFT.
     scale: f64,
     /// Retained Welch bins.
     pub(crate) bins: Vec<usize>,
@@ -237,8 +238,7 @@ impl LogPgExperiment {
             return Err("analysis.log_periodogram.averages must be ≥ 1".into());
         }
         let ov = opts.window.recommended_overlap();
-        let seg =
-            (n as f64 / (1.0 + (opts.averages as f64 - 1.0) * (1.0 - ov))).floor() as usize;
+        let seg = (n as f64 / (1.0 + (opts.averages as f64 - 1.0) * (1.0 - ov))).floor() as usize;
         if seg < 16 {
             return Err(format!(
                 "experiment `{}`: the fit stretch ({n} samples) is too short for {} Welch averages (segments of {seg} < 16 samples); lower analysis.log_periodogram.averages",
@@ -254,7 +254,10 @@ impl LogPgExperiment {
             Some(k) => k,
             None => default_decimation(opts.window, seg),
         };
-        let [lo, hi] = [sp.freqs[0] - 0.5 * sp.df, sp.freqs[sp.len() - 1] + 0.5 * sp.df];
+        let [lo, hi] = [
+            sp.freqs[0] - 0.5 * sp.df,
+            sp.freqs[sp.len() - 1] + 0.5 * sp.df,
+        ];
         let dfs = fs / seg as f64;
         let bins: Vec<usize> = (1..seg.div_ceil(2))
             .filter(|&j| {
@@ -266,7 +269,10 @@ impl LogPgExperiment {
         if bins.is_empty() {
             return Err(format!(
                 "experiment `{}`: no Welch bin of the residual (spacing {dfs:.3e} Hz, {} averages) falls in the fit band [{:.3e}, {:.3e}] Hz; lower analysis.log_periodogram.averages or widen the band",
-                e.name, opts.averages, sp.freqs[0], sp.freqs[sp.len() - 1]
+                e.name,
+                opts.averages,
+                sp.freqs[0],
+                sp.freqs[sp.len() - 1]
             ));
         }
         let nc = series.len();
@@ -315,7 +321,8 @@ impl LogPgExperiment {
             n_seg,
             m_eff,
             window,
-            scale: 2.0 / (fs * s2 * n_seg as f64),
+            // the inverse transform is unnormalised: r(t) = IDFT/n
+            scale: 2.0 / (fs * s2 * n_seg as f64 * (n as f64).powi(2)),
             bins,
             inv: planner.plan_fft_inverse(n),
             fwd: planner.plan_fft_forward(seg),
@@ -349,9 +356,7 @@ impl LogPgExperiment {
             grow(&mut s.seg, self.seg);
             grow(
                 &mut s.fft,
-                self.inv
-                    .get_scratch_len()
-                    .max(self.fwd.get_scratch_len()),
+                self.inv.get_scratch_len().max(self.fwd.get_scratch_len()),
             );
             grow(&mut s.acc, self.bins.len());
             // residual spectrum at every bin
@@ -376,7 +381,10 @@ impl LogPgExperiment {
                 if n.is_multiple_of(2) {
                     s.spec[r][m - 1].im = 0.0;
                 }
-                if s.spec[r][..m].iter().any(|c| !(c.re.is_finite() && c.im.is_finite())) {
+                if s.spec[r][..m]
+                    .iter()
+                    .any(|c| !(c.re.is_finite() && c.im.is_finite()))
+                {
                     return f64::NAN;
                 }
                 self.inv

@@ -15,8 +15,8 @@ use crate::evidence::{
     laplace_metropolis, run_tempering, schwarz_ln_z,
 };
 use crate::likelihood::{
-    Likelihood, RelBinLikelihood, Statistic, fisher_exact, fisher_scoring, fisher_scoring_unbounded,
-    refine_statistic_max,
+    Likelihood, RelBinLikelihood, Statistic, fisher_exact, fisher_scoring,
+    fisher_scoring_unbounded, refine_statistic_max,
 };
 use crate::nested::SubModel;
 use crate::prior::{Prior, PriorKind};
