@@ -368,3 +368,123 @@ fn coverage_log_periodogram() {
     assert!((c68 - 0.68).abs() < tol(0.68, SEEDS), "{c68}");
     assert!((c90 - 0.90).abs() < tol(0.90, SEEDS), "{c90}");
 }
+
+/// The small two-experiment LTP study of the likelihood tests, with extra `[analysis]` lines.
+fn small_study_with(analysis: &str) -> Result<crate::config::Study, crate::config::ConfigError> {
+    let text = format!(
+        r#"seed = 4
+output = "unused"
+[analysis]
+{analysis}
+[[experiment]]
+name = "a"
+fs = 1.0
+pre_pad = 200.0
+post_pad = 1500.0
+noise_duration = 4000.0
+x1 = {{ kind = "sine_train", gap = 20.0, segments = [
+  {{ freq = 0.002, amplitude = 1e-7, duration = 500.0 }},
+  {{ freq = 0.02, amplitude = 1e-7, duration = 200.0 }},
+  {{ freq = 0.1, amplitude = 1e-7, duration = 100.0 }} ] }}
+"#
+    );
+    crate::config::Study::from_toml(&text, "small.toml", std::path::Path::new("."))
+}
+
+#[test]
+fn study_keys_select_the_statistic() {
+    let s = small_study_with("statistic = \"log_periodogram\"\n[analysis.log_periodogram]\naverages = 6\nwindow = \"hann\"\ndecimate = 2").unwrap();
+    assert_eq!(s.analysis.statistic, Statistic::LogPeriodogram);
+    assert_eq!(
+        s.analysis.log_periodogram,
+        LogPeriodogramOptions {
+            averages: 6,
+            window: Window::Hann,
+            decimate: Some(2)
+        }
+    );
+    let d = small_study_with("").unwrap();
+    assert_eq!(d.analysis.statistic, Statistic::Whittle);
+    assert_eq!(d.analysis.log_periodogram, LogPeriodogramOptions::default());
+    for (bad, field) in [
+        (
+            "statistic = \"student_t\"\nnoise = \"model\"",
+            "analysis.statistic",
+        ),
+        (
+            "[analysis.log_periodogram]\naverages = 0",
+            "analysis.log_periodogram.averages",
+        ),
+        (
+            "[analysis.log_periodogram]\ndecimate = 0",
+            "analysis.log_periodogram.decimate",
+        ),
+    ] {
+        let e = small_study_with(bad).unwrap_err().to_string();
+        assert!(e.contains(field), "{bad}: {e}");
+    }
+    let e = small_study_with("statistic = \"t\"")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("student_t"), "{e}");
+}
+
+/// Through the study: every statistic builds on the LTP closed loop (two residual channels),
+/// and the statistic's maximum found from the Whittle MAP is at least as high as the value
+/// there.
+#[test]
+fn every_statistic_on_the_closed_loop_and_its_maximum() {
+    for stat in ["whittle", "student_t", "log_periodogram"] {
+        let s = small_study_with(&format!("statistic = \"{stat}\"")).unwrap();
+        let prep = crate::analysis::prepare(&s).unwrap();
+        let lik = &prep.likelihood;
+        assert_eq!(lik.statistic().name(), stat);
+        let th = s.truth.to_array();
+        assert!(lik.ln_likelihood_full(&th).is_finite(), "{stat}");
+        if stat == "whittle" {
+            assert_eq!(lik.ln_likelihood_full(&th), lik.ln_likelihood_whittle(&th));
+            continue;
+        }
+        // what the x1 ladder measures
+        let names = lik.model().param_names();
+        let free: Vec<usize> = ["a_df", "dt1"]
+            .iter()
+            .map(|n| names.iter().position(|m| m == n).unwrap())
+            .collect();
+        let map = fisher_scoring(lik, &th, &free, 1e-3, 100).unwrap();
+        let f = fisher_exact(lik, &map.theta, &free);
+        let sigma = cramer_rao(&f).unwrap();
+        let (top, l, info) = refine_statistic_max(lik, &map.theta, &free, &sigma, 30).unwrap();
+        assert!(l >= lik.ln_likelihood_full(&map.theta), "{stat}");
+        assert!(info.clone().cholesky().is_some(), "{stat}: {info}");
+        // the statistic's maximum is near the Whittle MAP (a few σ at most)
+        for (k, &a) in free.iter().enumerate() {
+            assert!(
+                (top[a] - map.theta[a]).abs() < 5.0 * sigma[k],
+                "{stat}: {} vs {}",
+                top[a],
+                map.theta[a]
+            );
+        }
+    }
+}
+
+#[test]
+fn numeric_hessian_of_a_quadratic_is_exact() {
+    // f = −½ (x − m)ᵀ A (x − m) over parameters 0 and 2 of three
+    let a = [[2.0, 0.5], [0.5, 1.0]];
+    let m = [0.3, 7.0, -1.0];
+    let f = |x: &[f64]| {
+        let d = [x[0] - m[0], x[2] - m[2]];
+        -0.5 * (d[0] * (a[0][0] * d[0] + a[0][1] * d[1]) + d[1] * (a[1][0] * d[0] + a[1][1] * d[1]))
+    };
+    let (g, h) = gradient_hessian_numeric(&f, &[1.0, 7.0, 0.0], &[0, 2], &[1e-3, 2e-3]);
+    let d = [1.0 - m[0], 0.0 - m[2]];
+    for i in 0..2 {
+        let gi = -(a[i][0] * d[0] + a[i][1] * d[1]);
+        assert!((g[i] - gi).abs() < 1e-8, "{g:?}");
+        for j in 0..2 {
+            assert!((h[(i, j)] + a[i][j]).abs() < 1e-5, "{h}");
+        }
+    }
+}
