@@ -309,6 +309,7 @@ fn run_select(study: &Study, out: &std::path::Path, quiet: bool) -> Result<()> {
             .map_or("–".into(), |r| format!("{r:.4e}")),
         s.rho_opt,
     );
+    println!("ln L statistic: {}", s.statistic.name());
     for w in &s.warnings {
         eprintln!("warning: {w}");
     }
