@@ -93,9 +93,10 @@ impl Statistic {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct LogPeriodogramOptions {
-    /// Number of Welch segments `M` over the fit stretch (default 8: each retained bin then
-    /// has `2 M_eff ≈ 10` degrees of freedom with BH92, and the segments stay long enough to
-    /// resolve the band; fewer averages make ln Ŝ noisier, more make the bins coarser).
+    /// Number of Welch segments `M` over the fit stretch (default 8: with BH92 at 66.1 %
+    /// overlap `M_eff ≈ 7.3`, so each retained bin has `≈ 15` degrees of freedom, and the
+    /// segments stay long enough to resolve the band; fewer averages make ln Ŝ noisier, more
+    /// make the bins coarser).
     pub averages: usize,
     /// Welch window, with its recommended overlap (default BH92, as LTPDA: −92 dB sidelobes
     /// keep a large residual at one frequency from leaking into the others).
