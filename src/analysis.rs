@@ -207,7 +207,8 @@ pub fn prior_centre(k: &PriorKind) -> f64 {
     }
 }
 
-/// The exact likelihood of model `mi` of the study on `dataset`.
+/// The exact likelihood of model `mi` of the study on `dataset`, of the study's statistic
+/// (`[analysis] statistic`).
 pub fn likelihood_of(
     study: &Study,
     mi: usize,
@@ -228,7 +229,9 @@ pub fn likelihood_of(
             Some(&csd),
         )?);
     }
+    let a = &study.analysis;
     Likelihood::new(model, spectra, study.models.priors[mi].clone())
+        .and_then(|l| l.with_statistic(a.statistic, &a.log_periodogram, &dataset.experiments))
         .map_err(|e| AnalysisError::Likelihood(e.to_string()))
 }
 

@@ -53,6 +53,10 @@ pub struct FitSummary {
     pub origin: String,
     /// The fitted model.
     pub model: String,
+    /// The statistic of every `ln L` reported and sampled (`[analysis] statistic`).
+    pub statistic: crate::likelihood::Statistic,
+    /// The likelihood the chains ran on (relative binning is replaced by the exact `ln L`
+    /// when the statistic is not `whittle`).
     pub likelihood: LikelihoodKind,
     pub n_bins: usize,
     pub n_coarse_bins: Option<usize>,
@@ -137,7 +141,16 @@ pub fn run(
         progress_every: 200,
     };
     let t1 = Instant::now();
-    let (chains, n_coarse) = match study.analysis.likelihood {
+    let statistic = exact.statistic();
+    let mut kind = study.analysis.likelihood;
+    if kind == LikelihoodKind::Relbin && statistic != crate::likelihood::Statistic::Whittle {
+        kind = LikelihoodKind::Exact;
+        warnings.push(format!(
+            "relative binning approximates the Whittle likelihood only: with statistic = \"{}\" the chains run on the exact ln L",
+            statistic.name()
+        ));
+    }
+    let (chains, n_coarse) = match kind {
         LikelihoodKind::Exact => (
             sample(
                 exact, model, &map.theta, &cov, settings, out, observer, resume,
@@ -181,11 +194,13 @@ pub fn run(
     let summary = FitSummary {
         origin: prep.origin.clone(),
         model: exact.model().name().to_string(),
-        likelihood: study.analysis.likelihood,
+        statistic,
+        likelihood: kind,
         n_bins: exact.n_bins(),
         n_coarse_bins: n_coarse,
         rho_opt_at_map: exact.snr(&map.theta),
-        map_ln_posterior: map.ln_posterior,
+        // of the statistic, at the (Whittle) MAP the chains start from
+        map_ln_posterior: exact.ln_posterior(&map.theta),
         map_iterations: map.iterations,
         rows,
         acceptance: diag.acceptance.clone(),

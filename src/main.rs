@@ -197,10 +197,11 @@ fn fit(path: PathBuf, output: Option<PathBuf>, resume: bool, quiet: bool) -> Res
         s.rho_opt_at_map, s.map_iterations, s.seconds_map
     );
     println!(
-        "MCMC: {} chains × {} iterations, {:.0} iterations/s ({} likelihood{}), acceptance {:?}",
+        "MCMC: {} chains × {} iterations, {:.0} iterations/s ({} {} likelihood{}), acceptance {:?}",
         s.chains,
         study.fit.iterations,
         s.iterations_per_second,
+        s.statistic.name(),
         match s.likelihood {
             occam::config::LikelihoodKind::Exact => "exact".to_string(),
             occam::config::LikelihoodKind::Relbin => "relative-binned".to_string(),
@@ -308,6 +309,7 @@ fn run_select(study: &Study, out: &std::path::Path, quiet: bool) -> Result<()> {
             .map_or("–".into(), |r| format!("{r:.4e}")),
         s.rho_opt,
     );
+    println!("ln L statistic: {}", s.statistic.name());
     for w in &s.warnings {
         eprintln!("warning: {w}");
     }

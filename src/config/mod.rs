@@ -381,6 +381,14 @@ pub struct AnalysisOptions {
     /// Relative-binning accuracy: region radius (σ) and per-bin template error.
     pub relbin_sigma: f64,
     pub relbin_tolerance: f64,
+    /// The statistic `ln L` is: `whittle` (default; the residual PSD from the noise-only
+    /// stretch, held fixed), `student_t` (that estimate's uncertainty marginalised) or
+    /// `log_periodogram` (the residual's own Welch periodogram, noise level unknown). See
+    /// [`crate::likelihood::statistic`]. With a statistic other than `whittle` relative
+    /// binning (a Gaussian approximation) is not used.
+    pub statistic: crate::likelihood::Statistic,
+    /// `[analysis.log_periodogram]`: Welch settings of the log-periodogram statistic.
+    pub log_periodogram: crate::likelihood::LogPeriodogramOptions,
 }
 
 impl Default for AnalysisOptions {
@@ -397,6 +405,8 @@ impl Default for AnalysisOptions {
             likelihood: LikelihoodKind::Relbin,
             relbin_sigma: r.n_sigma,
             relbin_tolerance: r.tolerance,
+            statistic: Default::default(),
+            log_periodogram: Default::default(),
         }
     }
 }
@@ -992,6 +1002,23 @@ fn validate_analysis(a: &AnalysisOptions, file: &str) -> Result<(), ConfigError>
         return Err(bad(
             "relbin_tolerance",
             format!("must be > 0 (got {})", a.relbin_tolerance),
+        ));
+    }
+    if a.log_periodogram.averages == 0 {
+        return Err(bad("log_periodogram.averages", "must be ≥ 1".into()));
+    }
+    if a.log_periodogram.decimate == Some(0) {
+        return Err(bad(
+            "log_periodogram.decimate",
+            "must be ≥ 1 (1 keeps every Welch bin)".into(),
+        ));
+    }
+    if a.statistic == crate::likelihood::Statistic::StudentT
+        && a.noise == crate::likelihood::NoiseSource::Model
+    {
+        return Err(bad(
+            "statistic",
+            "\"student_t\" marginalises the uncertainty of the Welch noise estimate, and noise = \"model\" has none: use noise = \"welch\" or statistic = \"whittle\"".into(),
         ));
     }
     Ok(())

@@ -1,6 +1,10 @@
 //! The exact frequency-domain likelihood of any [`Model`] over all in-band bins.
 
 use super::spectra::ExperimentSpectra;
+use super::statistic::{
+    LogPeriodogramOptions, LogPgExperiment, Statistic, student_t_const, student_t_shape,
+};
+use crate::dataset::ExperimentData;
 use crate::density::LogDensity;
 use crate::hermitian;
 use crate::model::{BlockKernel, MAX_CHANNELS, MAX_RESIDUALS, Model, residual};
@@ -16,6 +20,13 @@ use std::sync::Arc;
 /// closed loop `r_k = Y_k − H_io(f_k; θ) I_k`). The constant makes `L` the density of the
 /// in-band residual DFTs (a circular complex Gaussian per bin), so evidences are proper
 /// densities; it cancels in every Bayes factor.
+///
+/// That is the default statistic, [`Statistic::Whittle`]; [`Likelihood::with_statistic`]
+/// makes [`Likelihood::ln_likelihood_full`] (hence every sampler and evidence estimator) use
+/// the Student-t or the log-periodogram likelihood instead (`crate::likelihood::statistic`).
+/// The Gaussian pieces (residual power, Fisher matrix, MAP search, relative binning) stay
+/// available through [`Likelihood::ln_likelihood_whittle`]: one type, so `fit`, `select` and
+/// `sweep` need no second code path, and the statistic travels with the likelihood.
 #[derive(Debug, Clone)]
 pub struct Likelihood {
     model: Arc<dyn Model>,
@@ -26,6 +37,19 @@ pub struct Likelihood {
     joint: Option<Arc<dyn BlockKernel>>,
     prior: Prior,
     ln_norm: f64,
+    stat: StatState,
+}
+
+/// The θ-independent state of the chosen statistic.
+#[derive(Debug, Clone)]
+enum StatState {
+    Whittle,
+    /// Degrees of freedom per experiment and `Σ_k c_k`.
+    StudentT {
+        nu: Vec<f64>,
+        ln_norm: f64,
+    },
+    LogPeriodogram(Vec<LogPgExperiment>),
 }
 
 /// Errors building a likelihood.
@@ -41,6 +65,8 @@ pub enum LikelihoodError {
     NoData,
     #[error("model `{0}`: {1}")]
     Model(String, String),
+    #[error("statistic `{0}`: {1}")]
+    Statistic(&'static str, String),
     #[error(
         "experiment `{exp}` was prepared for data channels {got:?}; model `{model}` reads {want:?}"
     )]
@@ -102,7 +128,108 @@ impl Likelihood {
             joint,
             prior,
             ln_norm,
+            stat: StatState::Whittle,
         })
+    }
+
+    /// The same likelihood with statistic `statistic`. `data` are the experiments the spectra
+    /// were prepared from, in the same order (read by the log-periodogram only, which needs
+    /// the whole residual time series); `lp` are the log-periodogram's Welch settings.
+    ///
+    /// The Student-t needs the Welch noise estimate (its degrees of freedom); with
+    /// `noise = "model"` the PSD is exact and the statistic is an error.
+    pub fn with_statistic(
+        mut self,
+        statistic: Statistic,
+        lp: &LogPeriodogramOptions,
+        data: &[ExperimentData],
+    ) -> Result<Self, LikelihoodError> {
+        let name = statistic.name();
+        let nr = self.model.residual_channels().len();
+        self.stat = match statistic {
+            Statistic::Whittle => StatState::Whittle,
+            Statistic::StudentT => {
+                let mut nu = Vec::with_capacity(self.spectra.len());
+                let mut c = self.ln_norm;
+                for e in &self.spectra {
+                    let v = e.noise_dof.ok_or_else(|| {
+                        LikelihoodError::Statistic(
+                            name,
+                            format!(
+                                "experiment `{}` uses the exact noise model (analysis.noise = \"model\"), which has no estimation uncertainty to marginalise; use analysis.noise = \"welch\" or statistic = \"whittle\"",
+                                e.name
+                            ),
+                        )
+                    })?;
+                    nu.push(v);
+                    c += e.len() as f64 * student_t_const(nr, v);
+                }
+                StatState::StudentT { nu, ln_norm: c }
+            }
+            Statistic::LogPeriodogram => {
+                if data.len() != self.spectra.len() {
+                    return Err(LikelihoodError::Statistic(
+                        name,
+                        format!(
+                            "{} experiments of data for {} prepared spectra",
+                            data.len(),
+                            self.spectra.len()
+                        ),
+                    ));
+                }
+                let exps = data
+                    .iter()
+                    .zip(&self.spectra)
+                    .map(|(d, sp)| LogPgExperiment::new(d, sp, self.model.as_ref(), lp))
+                    .collect::<Result<Vec<_>, _>>()
+                    .map_err(|m| LikelihoodError::Statistic(name, m))?;
+                StatState::LogPeriodogram(exps)
+            }
+        };
+        Ok(self)
+    }
+
+    /// The statistic [`Likelihood::ln_likelihood_full`] evaluates.
+    pub fn statistic(&self) -> Statistic {
+        match self.stat {
+            StatState::Whittle => Statistic::Whittle,
+            StatState::StudentT { .. } => Statistic::StudentT,
+            StatState::LogPeriodogram(_) => Statistic::LogPeriodogram,
+        }
+    }
+
+    /// The Student-t degrees of freedom per experiment (empty for other statistics).
+    pub fn student_t_dof(&self) -> &[f64] {
+        match &self.stat {
+            StatState::StudentT { nu, .. } => nu,
+            _ => &[],
+        }
+    }
+
+    /// Per experiment: the frequencies of the log-periodogram's retained Welch bins and its
+    /// effective number of averages `M_eff` (empty for other statistics).
+    pub fn log_periodogram_bins(&self) -> Vec<(Vec<f64>, f64)> {
+        match &self.stat {
+            StatState::LogPeriodogram(x) => x.iter().map(|e| (e.freqs(), e.m_eff)).collect(),
+            _ => Vec::new(),
+        }
+    }
+
+    /// The Welch CSD `[S11, S12, S22]` of the residual time series at θ on the retained bins
+    /// of experiment `e` (log-periodogram only; `None` otherwise).
+    pub fn residual_welch(&self, e: usize, th: &[f64]) -> Option<Vec<[Complex64; 3]>> {
+        match &self.stat {
+            StatState::LogPeriodogram(x) => {
+                let mut out = vec![[Complex64::new(0.0, 0.0); 3]; x[e].bins.len()];
+                x[e].eval(
+                    self.model.as_ref(),
+                    th,
+                    Some(&mut |j: usize, s: [Complex64; 3]| out[j] = s),
+                );
+                Some(out)
+            }
+            _ => None,
+        }
     }
 
     /// The model.
@@ -157,12 +284,46 @@ impl Likelihood {
             .sum()
     }
 
-    /// `ln L` at a full parameter vector.
+    /// `ln L` of the statistic ([`Likelihood::statistic`]) at a full parameter vector.
     pub fn ln_likelihood_full(&self, th: &[f64]) -> f64 {
         if th.len() != self.model.param_names().len() {
             return f64::NAN;
         }
+        match &self.stat {
+            StatState::Whittle => -self.residual_power(th) + self.ln_norm,
+            StatState::StudentT { nu, ln_norm } => self.student_t_shape_sum(th, nu) + ln_norm,
+            StatState::LogPeriodogram(x) => x
+                .iter()
+                .map(|e| e.eval(self.model.as_ref(), th, None))
+                .sum(),
+        }
+    }
+
+    /// The Whittle (Gaussian, known-PSD) `ln L`, whatever the statistic: what the Fisher
+    /// matrix, the MAP search and relative binning approximate.
+    pub fn ln_likelihood_whittle(&self, th: &[f64]) -> f64 {
+        if th.len() != self.model.param_names().len() {
+            return f64::NAN;
+        }
         -self.residual_power(th) + self.ln_norm
+    }
+
+    /// `−Σ_e Σ_k ((ν_e + d)/2) ln(1 + 2 q_k/ν_e)`, bin by bin through the coefficients.
+    fn student_t_shape_sum(&self, th: &[f64], nu: &[f64]) -> f64 {
+        let m = self.model.as_ref();
+        let nc = m.data_channels().len();
+        let nr = m.residual_channels().len();
+        let ncst = m.n_consts();
+        let mut coef = [Complex64::new(0.0, 0.0); MAX_CHANNELS * MAX_RESIDUALS];
+        let mut s = 0.0;
+        for (e, &v) in self.spectra.iter().zip(nu) {
+            for k in 0..e.len() {
+                m.coefficients(th, &e.bin(k, ncst), &mut coef[..nr * nc]);
+                let q = hermitian::quad(&e.cinv[k], residual(&coef, nr, e.data_at(k)));
+                s -= student_t_shape(q, nr, v);
+            }
+        }
+        s
     }
 
     /// The residual `r_k(θ)` and the signal `s_k(θ)` (the part of the residual from the known

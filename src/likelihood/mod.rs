@@ -12,14 +12,24 @@ mod fisher;
 mod map;
 mod relbin;
 mod spectra;
+pub mod statistic;
 
 pub use exact::{Likelihood, LikelihoodError};
-pub use fisher::{cramer_rao, default_step, fisher_exact, fisher_numeric, gradient_and_fisher};
-pub use map::{MapError, RUNAWAY_WIDTHS, ScoringResult, fisher_scoring, fisher_scoring_unbounded};
+pub use fisher::{
+    cramer_rao, default_step, fisher_exact, fisher_numeric, gradient_and_fisher,
+    gradient_hessian_numeric,
+};
+pub use map::{
+    MapError, RUNAWAY_WIDTHS, ScoringResult, fisher_scoring, fisher_scoring_unbounded,
+    refine_statistic_max,
+};
 pub use relbin::{MAX_REFINEMENTS, RelBinError, RelBinLikelihood, RelBinOptions, RelBinValidation};
 pub use spectra::{
     ExperimentSpectra, NoiseSource, SpectraError, SpectraOptions, welch_segment_len,
 };
+pub use statistic::{LogPeriodogramOptions, Statistic};
 
+#[cfg(test)]
+mod statistic_tests;
 #[cfg(test)]
 pub(crate) mod tests;

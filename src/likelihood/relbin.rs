@@ -236,7 +236,10 @@ impl RelBinLikelihood {
         let mut rng = Xoshiro256PlusPlus::seed_from_u64(opts.seed ^ 0x05ee_d0f7_a11d);
         let mut check = vec![fid.to_vec()];
         check.extend(region.random_points(fid, &bounds, opts.n_sigma, opts.n_validation, &mut rng));
-        let exact_at: Vec<f64> = check.iter().map(|t| exact.ln_likelihood_full(t)).collect();
+        let exact_at: Vec<f64> = check
+            .iter()
+            .map(|t| exact.ln_likelihood_whittle(t))
+            .collect();
         let coverage = (0..fid.len())
             .map(|i| {
                 let (lo, hi) = bounds[i];

@@ -101,6 +101,9 @@ pub struct ExperimentSpectra {
     pub active: Vec<bool>,
     /// Which data channels are known inputs (no noise): the "signal" of ρ_opt.
     pub is_input: Vec<bool>,
+    /// Equivalent χ² degrees of freedom `ν = 2 M_eff` of the Welch noise estimate (Percival &
+    /// Walden eq. 292b for the segments, window and overlap used); `None` for the noise model.
+    pub noise_dof: Option<f64>,
 }
 
 impl ExperimentSpectra {
@@ -185,6 +188,7 @@ impl ExperimentSpectra {
         }
         let freqs: Vec<f64> = ks.iter().map(|&k| k as f64 * df).collect();
         // the CSD of the measured channels, S_d, over the noisy channels
+        let mut noise_dof = None;
         let (noisy, sd): (Vec<usize>, Vec<Vec<Complex64>>) = match opts.noise {
             NoiseSource::Model => {
                 let f = model_csd.ok_or_else(|| {
@@ -224,7 +228,9 @@ impl ExperimentSpectra {
                     .iter()
                     .map(|&c| e.noise_channel(&channels[c]).expect("filtered"))
                     .collect();
-                (noisy, welch_noise(e, &ser, opts, &freqs).map_err(&inv)?)
+                let (sd, dof) = welch_noise(e, &ser, opts, &freqs).map_err(&inv)?;
+                noise_dof = Some(dof);
+                (noisy, sd)
             }
         };
         let nr = model.residual_channels().len();
@@ -301,6 +307,7 @@ impl ExperimentSpectra {
             consts,
             active,
             is_input,
+            noise_dof,
         })
     }
 
@@ -355,13 +362,14 @@ pub fn welch_segment_len(len: usize, opts: &SpectraOptions) -> usize {
 /// Welch CSD matrix of the noise-only series `ser` (all the same length), interpolated onto
 /// `freqs`, flattened row-major per frequency. Below the first Welch frequency (and above the
 /// last regular one) the nearest estimate is used. Pairs of channels are estimated together,
-/// so two channels give exactly the two-channel estimate.
+/// so two channels give exactly the two-channel estimate. Also returns the estimate's
+/// equivalent degrees of freedom `2 M_eff`.
 fn welch_noise(
     e: &ExperimentData,
     ser: &[&[f64]],
     opts: &SpectraOptions,
     freqs: &[f64],
-) -> Result<Vec<Vec<Complex64>>, String> {
+) -> Result<(Vec<Vec<Complex64>>, f64), String> {
     let len = ser[0].len();
     if let Some(s) = ser.iter().find(|s| s.len() != len) {
         return Err(format!(
@@ -377,6 +385,11 @@ fn welch_noise(
         ));
     }
     let cfg = WelchConfig::new(e.fs, opts.welch_window, seg);
+    let dof = cfg
+        .n_segments(len)
+        .and_then(|m| cfg.n_eff(m))
+        .map_err(|x| x.to_string())?
+        * 2.0;
     let first = e.fs / seg as f64;
     let last_k = if seg.is_multiple_of(2) {
         seg / 2 - 1
@@ -396,7 +409,7 @@ fn welch_noise(
         for (k, o) in out.iter_mut().enumerate() {
             o[0] = c.matrix(k)[0][0];
         }
-        return Ok(out);
+        return Ok((out, dof));
     }
     for a in 0..nn {
         for b in a + 1..nn {
@@ -410,5 +423,5 @@ fn welch_noise(
             }
         }
     }
-    Ok(out)
+    Ok((out, dof))
 }

@@ -163,6 +163,8 @@ pub struct SelectSummary {
     /// estimate (Welch by default), which differs from the model noise at low frequencies.
     pub rho_opt: f64,
     pub n_bins: usize,
+    /// The statistic of every `ln L` and evidence (`[analysis] statistic`).
+    pub statistic: crate::likelihood::Statistic,
     pub schwarz_n: f64,
     pub models: Vec<ModelOutcome>,
     pub pairs: Vec<PairResult>,
@@ -317,6 +319,7 @@ pub fn run(
         rho_opt_simulated: prep.dataset.extra.get("snr_total").and_then(|v| v.as_f64()),
         rho_opt: truth_snr.unwrap_or_else(|| first.snr(&models[0].map)),
         n_bins: first.n_bins(),
+        statistic: first.statistic(),
         schwarz_n: n_sbic,
         posterior_model_probabilities: pair::posterior_probabilities(&models, &pairs),
         models,

@@ -15,7 +15,8 @@ use crate::evidence::{
     laplace_metropolis, run_tempering, schwarz_ln_z,
 };
 use crate::likelihood::{
-    Likelihood, RelBinLikelihood, fisher_exact, fisher_scoring, fisher_scoring_unbounded,
+    Likelihood, RelBinLikelihood, Statistic, fisher_exact, fisher_scoring,
+    fisher_scoring_unbounded, refine_statistic_max,
 };
 use crate::nested::SubModel;
 use crate::prior::{Prior, PriorKind};
@@ -229,7 +230,16 @@ pub(super) fn run_model(
         .unwrap_or_else(|| prior_cov(&prior));
 
     // the sampled likelihood
+    let statistic = exact.statistic();
+    let whittle = statistic == Statistic::Whittle;
     let sampled = match study.analysis.likelihood {
+        LikelihoodKind::Relbin if !whittle => {
+            notes.push(format!(
+                "relative binning approximates the Whittle likelihood only: with statistic = \"{}\" the samplers run on the exact ln L",
+                statistic.name()
+            ));
+            Sampled::Exact(spec.model)
+        }
         LikelihoodKind::Relbin => match relbin_in_region(study, exact, &base, free, &walk_cov) {
             Ok(rb) => Sampled::RelBin(Box::new(rb)),
             Err(e) => {
@@ -299,12 +309,32 @@ pub(super) fn run_model(
         ));
     }
 
+    // the statistic's own maximum and observed information (the Whittle MAP and Fisher
+    // matrix otherwise)
+    let stat_max = match (&map_theta, &fisher_cov, whittle) {
+        (Some(th), Some(c), false) => {
+            let sigma: Vec<f64> = (0..d).map(|i| c[(i, i)].sqrt()).collect();
+            refine_statistic_max(exact, th, free, &sigma, 30)
+        }
+        _ => None,
+    };
+    if !whittle && map_theta.is_some() && stat_max.is_none() {
+        notes.push(format!(
+            "ln L of statistic \"{}\" is not finite at the Whittle MAP",
+            statistic.name()
+        ));
+    }
+    let (lf_theta, lf_info) = match &stat_max {
+        Some((th, _, info)) => (Some(th.clone()), info.clone()),
+        None if whittle => (map_theta.clone(), f_map.clone()),
+        None => (None, f_map.clone()),
+    };
     // Laplace–Fisher: raw at the MAP, box-corrected at the unconstrained maximum
-    let lf_raw = match (&map_theta, &fisher_cov) {
+    let lf_raw = match (&lf_theta, &fisher_cov) {
         (Some(th), Some(_)) => laplace_fisher(
             &sub_exact,
             &free_vec(th, free),
-            &f_map,
+            &lf_info,
             &LaplaceOptions {
                 box_correction: false,
                 ..Default::default()
@@ -318,9 +348,16 @@ pub(super) fn run_model(
         (_, None) => Err("needs a non-singular Fisher matrix at the MAP".into()),
     };
     let min_margin_sigma = lf_raw.as_ref().map_or(0.0, |e| e.min_margin_sigma);
-    let unb = fisher_scoring_unbounded(exact, &base, free, 1e-3, 200).map_err(|e| {
-        format!("the unconstrained maximum of ln L was not found ({e}); the box-corrected expansion needs it")
-    });
+    let unb = if whittle {
+        fisher_scoring_unbounded(exact, &base, free, 1e-3, 200).map_err(|e| {
+            format!("the unconstrained maximum of ln L was not found ({e}); the box-corrected expansion needs it")
+        })
+    } else {
+        Err(format!(
+            "not computed for statistic \"{}\": the box-corrected expansion uses the Whittle likelihood's unconstrained maximum and Fisher matrix, which are not those of this ln L",
+            statistic.name()
+        ))
+    };
     let lf_box = unb.as_ref().map_err(|e| e.clone()).and_then(|u| {
         let f = fisher_exact(exact, &u.theta, free);
         laplace_fisher(
@@ -365,15 +402,24 @@ pub(super) fn run_model(
 
     // Schwarz at the MAP, or at the best sample when there is no MAP
     let ln_l_map = match (&map_theta, &best) {
+        // the statistic's maximum, not its value at the Whittle MAP
+        (Some(_), _) if stat_max.is_some() => stat_max.as_ref().map_or(f64::NAN, |s| s.1),
         (Some(th), _) => exact.ln_likelihood_full(th),
         (None, Some(b)) => sub_exact.ln_likelihood(b),
         (None, None) => exact.ln_likelihood_full(&base),
     };
     let schwarz = schwarz_ln_z(ln_l_map, d, n_sbic).map_err(|e| e.to_string())?;
 
-    let raw_assumes = format!(
-        "a Gaussian posterior around the MAP, the prior box ignored (MAP {min_margin_sigma:.1} σ inside the nearest bound)"
-    );
+    let raw_assumes = if whittle {
+        format!(
+            "a Gaussian posterior around the MAP, the prior box ignored (MAP {min_margin_sigma:.1} σ inside the nearest bound)"
+        )
+    } else {
+        format!(
+            "a Gaussian posterior around the maximum of the {} ln L with its numerical Hessian, the prior box ignored (maximum {min_margin_sigma:.1} σ inside the nearest bound)",
+            statistic.name()
+        )
+    };
     let box_assumes =
         "a Gaussian likelihood around its unconstrained maximum, cut by the prior box".to_string();
     let lm_assumes = "a Gaussian posterior with the chains' robust covariance, centred on the best sample, the prior box ignored".to_string();

@@ -1,0 +1,490 @@
+//! Known-answer and coverage tests of the Student-t and log-periodogram statistics.
+
+use super::statistic::{default_decimation, student_t_ln_density};
+use super::*;
+use crate::dataset::ExperimentData;
+use crate::model::{Bin, Model};
+use crate::prior::{Prior, PriorKind};
+use crate::signal::{Detrend, WelchConfig, Window, welch_psd};
+use num_complex::{Complex, Complex64};
+use num_dual::Dual64;
+use rand::SeedableRng;
+use rand_distr::{Distribution, StandardNormal};
+use rand_xoshiro::Xoshiro256PlusPlus;
+use std::f64::consts::PI;
+use std::sync::Arc;
+
+#[test]
+fn student_t_tends_to_the_gaussian() {
+    for nr in [1, 2] {
+        for &(q, ln_det) in &[(0.0, 0.0), (0.3, -5.0), (2.5, 12.0), (40.0, 3.0)] {
+            let gauss = -q - nr as f64 * PI.ln() - ln_det;
+            let t = student_t_ln_density(q, nr, 1e9, ln_det);
+            assert!(
+                ((t - gauss) / gauss.abs().max(1e-300)).abs() < 1e-6,
+                "R = {nr}, q = {q}: t {t} vs Gaussian {gauss}"
+            );
+        }
+    }
+}
+
+/// One complex bin with `C = c` (R = 1): `q = |r|²/c`, `d²r = π c dq`; two (R = 2, `C = c I`):
+/// `d⁴r = π² c² q dq`. The density must integrate to 1 over `q ∈ [0, ∞)`.
+#[test]
+fn student_t_density_of_one_bin_integrates_to_one() {
+    for nr in [1usize, 2] {
+        for nu in [2.5, 5.0, 12.0, 80.0] {
+            let c: f64 = 3.7;
+            let ln_det = nr as f64 * c.ln();
+            // q = u/(1 − u) maps [0, 1) onto [0, ∞); midpoint rule on a fine grid
+            let n = 400_000;
+            let mut s = 0.0;
+            for i in 0..n {
+                let u = (i as f64 + 0.5) / n as f64;
+                let q = u / (1.0 - u);
+                let jac = 1.0 / ((1.0 - u) * (1.0 - u));
+                let vol = if nr == 1 { PI * c } else { PI * PI * c * c * q };
+                s += student_t_ln_density(q, nr, nu, ln_det).exp() * vol * jac / n as f64;
+            }
+            assert!((s - 1.0).abs() < 1e-4, "R = {nr}, ν = {nu}: ∫ = {s}");
+        }
+    }
+}
+
+/// And by brute force on a 2-D grid of (Re r, Im r) for R = 1.
+#[test]
+fn student_t_density_integrates_to_one_on_a_grid() {
+    let (c, nu) = (0.8, 5.0);
+    let half = 60.0;
+    let n = 2400;
+    let h = 2.0 * half / n as f64;
+    let mut s = 0.0;
+    for i in 0..n {
+        let x = -half + (i as f64 + 0.5) * h;
+        for j in 0..n {
+            let y = -half + (j as f64 + 0.5) * h;
+            s += student_t_ln_density((x * x + y * y) / c, 1, nu, c.ln()).exp();
+        }
+    }
+    s *= h * h;
+    // mass beyond radius 60 of a ν = 5 t: (1 + 2·60²/(0.8·5))^(−ν/2) ≈ 1e−8
+    assert!((s - 1.0).abs() < 1e-4, "∫ = {s}");
+}
+
+#[test]
+fn default_decimation_is_the_windows_correlation_length() {
+    assert_eq!(default_decimation(Window::Rectangular, 1000), 1);
+    // Hann: |ρ(1)|² = 4/9, |ρ(2)|² = 1/36 ≈ 0.028, ρ(3) = 0
+    assert_eq!(default_decimation(Window::Hann, 1000), 3);
+    let k = default_decimation(Window::Bh92, 1000);
+    assert_eq!(k, 4, "BH92");
+}
+
+/// `r = o − a e^{−i2πfτ} i`: a gain and a delay between a known input and an output.
+#[derive(Debug)]
+pub(crate) struct Toy {
+    names: Vec<String>,
+    data: Vec<String>,
+    res: Vec<String>,
+    tau: f64,
+}
+
+impl Toy {
+    pub(crate) fn new(tau: f64) -> Self {
+        Self {
+            names: vec!["a".into()],
+            data: vec!["o1".into(), "i1".into()],
+            res: vec!["o1".into()],
+            tau,
+        }
+    }
+}
+
+impl Model for Toy {
+    fn name(&self) -> &str {
+        "toy"
+    }
+    fn param_names(&self) -> &[String] {
+        &self.names
+    }
+    fn data_channels(&self) -> &[String] {
+        &self.data
+    }
+    fn residual_channels(&self) -> &[String] {
+        &self.res
+    }
+    fn coefficients(&self, th: &[f64], b: &Bin, out: &mut [Complex64]) {
+        let p = 2.0 * PI * b.f * self.tau;
+        out[0] = Complex64::new(1.0, 0.0);
+        out[1] = Complex64::new(-th[0] * p.cos(), th[0] * p.sin());
+    }
+    fn coefficients_dual(&self, th: &[Dual64], b: &Bin, out: &mut [Complex<Dual64>]) {
+        let p = 2.0 * PI * b.f * self.tau;
+        out[0] = Complex::new(Dual64::from(1.0), Dual64::from(0.0));
+        out[1] = Complex::new(-th[0] * p.cos(), th[0] * p.sin());
+    }
+}
+
+const TAU: usize = 3;
+
+/// Red noise (AR(1), pole 0.9) and a white known input; `o = a·i(t − τ) + n` with the delay
+/// circular, so the frequency-domain model is exact.
+fn toy_data(seed: u64, n: usize, n_noise: usize, a: f64) -> ExperimentData {
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
+    let mut z = || -> f64 { StandardNormal.sample(&mut rng) };
+    let mut x = 0.0;
+    let mut noise: Vec<f64> = (0..n_noise + n + 500)
+        .map(|_| {
+            x = 0.9 * x + z();
+            x
+        })
+        .collect();
+    noise.drain(..500);
+    let fit_noise = noise.split_off(n_noise);
+    let i: Vec<f64> = (0..n).map(|_| 0.3 * z()).collect();
+    let o: Vec<f64> = (0..n)
+        .map(|t| a * i[(t + n - TAU) % n] + fit_noise[t])
+        .collect();
+    ExperimentData {
+        name: "toy".into(),
+        fs: 1.0,
+        o: [o, Vec::new()],
+        i: [i, Vec::new()],
+        noise: [noise, Vec::new()],
+        extra: Default::default(),
+        noise_extra: Default::default(),
+    }
+}
+
+fn toy_likelihood(
+    e: &ExperimentData,
+    welch_averages: usize,
+    stat: Statistic,
+    lp: &LogPeriodogramOptions,
+) -> Likelihood {
+    let model: Arc<dyn Model> = Arc::new(Toy::new(TAU as f64));
+    let opts = SpectraOptions {
+        band: [0.02, 0.45],
+        welch_averages,
+        ..Default::default()
+    };
+    let sp = ExperimentSpectra::new(e, &opts, model.as_ref(), &[1.0], None).unwrap();
+    let prior = Prior::new(
+        vec!["a".into()],
+        vec![PriorKind::Uniform {
+            lo: -10.0,
+            hi: 10.0,
+        }],
+    )
+    .unwrap();
+    Likelihood::new(model, vec![sp], prior)
+        .unwrap()
+        .with_statistic(stat, lp, std::slice::from_ref(e))
+        .unwrap()
+}
+
+#[test]
+fn student_t_likelihood_is_the_sum_of_bin_densities() {
+    let e = toy_data(3, 2048, 2048, 1.0);
+    let lp = LogPeriodogramOptions::default();
+    let t = toy_likelihood(&e, 4, Statistic::StudentT, &lp);
+    let w = toy_likelihood(&e, 4, Statistic::Whittle, &lp);
+    assert_eq!(t.statistic(), Statistic::StudentT);
+    let nu = t.student_t_dof()[0];
+    // 4 BH92 segments at 66.1 % overlap: 2 M_eff between 2·(4/1.5) and 8
+    assert!(nu > 5.0 && nu < 8.0, "ν = {nu}");
+    for a in [0.9, 1.0, 1.05] {
+        let sp = &t.spectra()[0];
+        let mut want = 0.0;
+        t.visit_residuals(sp, &[a], |k, r, _| {
+            let (ci, _, _) = sp.cinv[k];
+            want += student_t_ln_density(r[0].norm_sqr() * ci, 1, nu, -ci.ln());
+        });
+        let got = t.ln_likelihood_full(&[a]);
+        assert!((got - want).abs() < 1e-9 * want.abs(), "{got} vs {want}");
+        // the Gaussian pieces are untouched
+        assert_eq!(t.ln_likelihood_whittle(&[a]), w.ln_likelihood_full(&[a]));
+    }
+}
+
+/// The log-periodogram against an independent path: the residual built in the time domain
+/// (the circular delay is an exact sample shift) and the crate's Welch PSD.
+#[test]
+fn log_periodogram_matches_time_domain_welch() {
+    let n = 3000;
+    let e = toy_data(5, n, 1000, 1.0);
+    for (window, averages, decimate) in [
+        (Window::Bh92, 8, None),
+        (Window::Hann, 5, Some(2)),
+        (Window::Rectangular, 6, None),
+    ] {
+        let lp = LogPeriodogramOptions {
+            averages,
+            window,
+            decimate,
+        };
+        let lik = toy_likelihood(&e, 4, Statistic::LogPeriodogram, &lp);
+        let (freqs, m_eff) = lik.log_periodogram_bins().remove(0);
+        for a in [0.7, 1.0, 1.3] {
+            let r: Vec<f64> = (0..n)
+                .map(|t| e.o[0][t] - a * e.i[0][(t + n - TAU) % n])
+                .collect();
+            let ov = window.recommended_overlap();
+            let seg = (n as f64 / (1.0 + (averages as f64 - 1.0) * (1.0 - ov))).floor() as usize;
+            let cfg = WelchConfig::new(1.0, window, seg).with_detrend(Detrend::Mean);
+            let s = welch_psd(&r, &cfg).unwrap();
+            assert!((s.n_eff - m_eff).abs() < 1e-12);
+            let want: f64 = -m_eff
+                * freqs
+                    .iter()
+                    .map(|f| s.psd[(f * seg as f64).round() as usize].ln())
+                    .sum::<f64>();
+            let got = lik.ln_likelihood_full(&[a]);
+            assert!(
+                (got - want).abs() < 1e-9 * want.abs(),
+                "{window:?}: {got} vs {want}"
+            );
+        }
+        if window == Window::Rectangular {
+            assert_eq!(m_eff, averages as f64);
+            let df = 1.0 / (n / averages) as f64;
+            assert!((freqs[1] - freqs[0] - df).abs() < 1e-12);
+        }
+    }
+}
+
+#[test]
+fn log_periodogram_names_the_key_when_the_stretch_is_too_short() {
+    let e = toy_data(1, 200, 200, 1.0);
+    let lp = LogPeriodogramOptions {
+        averages: 40,
+        ..Default::default()
+    };
+    let model: Arc<dyn Model> = Arc::new(Toy::new(3.0));
+    let opts = SpectraOptions {
+        band: [0.02, 0.45],
+        welch_averages: 2,
+        ..Default::default()
+    };
+    let sp = ExperimentSpectra::new(&e, &opts, model.as_ref(), &[1.0], None).unwrap();
+    let prior = Prior::new(
+        vec!["a".into()],
+        vec![PriorKind::Uniform { lo: -1.0, hi: 3.0 }],
+    )
+    .unwrap();
+    let err = Likelihood::new(model, vec![sp], prior)
+        .unwrap()
+        .with_statistic(Statistic::LogPeriodogram, &lp, std::slice::from_ref(&e))
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("analysis.log_periodogram.averages"), "{err}");
+}
+
+/// Fraction of seeds whose central 68 % and 90 % posterior intervals of `a` (uniform prior,
+/// grid of the posterior over ±12 Fisher σ) contain the truth.
+fn coverage(
+    stat: Statistic,
+    welch_averages: usize,
+    lp: &LogPeriodogramOptions,
+    seeds: u64,
+) -> (f64, f64) {
+    use rayon::prelude::*;
+    let n = 4096;
+    let a0 = 1.0;
+    let hits: Vec<(bool, bool, f64)> = (0..seeds)
+        .into_par_iter()
+        .map(|seed| {
+            let e = toy_data(1000 + seed, n, n, a0);
+            let lik = toy_likelihood(&e, welch_averages, stat, lp);
+            let sigma = 1.0 / fisher_exact(&lik, &[a0], &[0])[(0, 0)].sqrt();
+            // ±w Fisher σ, widened until the posterior has vanished at both ends (the
+            // log-periodogram's posterior is wider than the Whittle Fisher σ)
+            let g = 201;
+            let mut w = 12.0;
+            let (grid, ll, p, mx) = loop {
+                let grid: Vec<f64> = (0..g)
+                    .map(|j| a0 + sigma * w * (-1.0 + 2.0 * j as f64 / (g - 1) as f64))
+                    .collect();
+                let ll: Vec<f64> = grid.iter().map(|&a| lik.ln_likelihood_full(&[a])).collect();
+                let mx = ll.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+                let p: Vec<f64> = ll.iter().map(|l| (l - mx).exp()).collect();
+                if p[0] < 1e-6 && p[g - 1] < 1e-6 {
+                    break (grid, ll, p, mx);
+                }
+                w *= 2.0;
+                assert!(w < 200.0, "seed {seed}: no posterior peak within ±100 σ");
+            };
+            // CDF at the truth (the grid's centre) by the trapezoid rule
+            let total: f64 = p.windows(2).map(|w| w[0] + w[1]).sum();
+            let below: f64 = p[..=g / 2].windows(2).map(|w| w[0] + w[1]).sum();
+            let u = below / total;
+            let imax = ll.iter().position(|&l| l == mx).unwrap();
+            (
+                (0.16..=0.84).contains(&u),
+                (0.05..=0.95).contains(&u),
+                (grid[imax] - a0) / sigma,
+            )
+        })
+        .collect();
+    let c68 = hits.iter().filter(|h| h.0).count() as f64 / seeds as f64;
+    let c90 = hits.iter().filter(|h| h.1).count() as f64 / seeds as f64;
+    let z2 = hits.iter().map(|h| h.2 * h.2).sum::<f64>() / seeds as f64;
+    eprintln!("{stat:?}: mean ((â − a)/σ_Fisher)² = {z2:.3}");
+    (c68, c90)
+}
+
+/// 3σ binomial tolerance around the nominal rate `p` over `n` seeds.
+fn tol(p: f64, n: u64) -> f64 {
+    3.0 * (p * (1.0 - p) / n as f64).sqrt()
+}
+
+const SEEDS: u64 = 400;
+
+#[test]
+fn coverage_whittle_with_many_averages() {
+    let (c68, c90) = coverage(Statistic::Whittle, 32, &Default::default(), SEEDS);
+    eprintln!("whittle, 32 averages: 68 % → {c68:.3}, 90 % → {c90:.3}");
+    assert!((c68 - 0.68).abs() < tol(0.68, SEEDS), "{c68}");
+    assert!((c90 - 0.90).abs() < tol(0.90, SEEDS), "{c90}");
+}
+
+#[test]
+fn coverage_with_few_averages_student_t_fixes_whittle() {
+    let (w68, w90) = coverage(Statistic::Whittle, 4, &Default::default(), SEEDS);
+    let (t68, t90) = coverage(Statistic::StudentT, 4, &Default::default(), SEEDS);
+    eprintln!(
+        "4 averages: whittle 68 % → {w68:.3}, 90 % → {w90:.3}; student_t 68 % → {t68:.3}, 90 % → {t90:.3}"
+    );
+    assert!((t68 - 0.68).abs() < tol(0.68, SEEDS), "{t68}");
+    assert!((t90 - 0.90).abs() < tol(0.90, SEEDS), "{t90}");
+    assert!(w68 < 0.68 - tol(0.68, SEEDS), "{w68}");
+    assert!(w90 < 0.90 - tol(0.90, SEEDS), "{w90}");
+}
+
+#[test]
+fn coverage_log_periodogram() {
+    let (c68, c90) = coverage(Statistic::LogPeriodogram, 4, &Default::default(), SEEDS);
+    eprintln!("log_periodogram (8 averages, BH92): 68 % → {c68:.3}, 90 % → {c90:.3}");
+    assert!((c68 - 0.68).abs() < tol(0.68, SEEDS), "{c68}");
+    assert!((c90 - 0.90).abs() < tol(0.90, SEEDS), "{c90}");
+}
+
+/// The small two-experiment LTP study of the likelihood tests, with extra `[analysis]` lines.
+fn small_study_with(analysis: &str) -> Result<crate::config::Study, crate::config::ConfigError> {
+    let text = format!(
+        r#"seed = 4
+output = "unused"
+[analysis]
+{analysis}
+[[experiment]]
+name = "a"
+fs = 1.0
+pre_pad = 200.0
+post_pad = 1500.0
+noise_duration = 4000.0
+x1 = {{ kind = "sine_train", gap = 20.0, segments = [
+  {{ freq = 0.002, amplitude = 1e-7, duration = 500.0 }},
+  {{ freq = 0.02, amplitude = 1e-7, duration = 200.0 }},
+  {{ freq = 0.1, amplitude = 1e-7, duration = 100.0 }} ] }}
+"#
+    );
+    crate::config::Study::from_toml(&text, "small.toml", std::path::Path::new("."))
+}
+
+#[test]
+fn study_keys_select_the_statistic() {
+    let s = small_study_with("statistic = \"log_periodogram\"\n[analysis.log_periodogram]\naverages = 6\nwindow = \"hann\"\ndecimate = 2").unwrap();
+    assert_eq!(s.analysis.statistic, Statistic::LogPeriodogram);
+    assert_eq!(
+        s.analysis.log_periodogram,
+        LogPeriodogramOptions {
+            averages: 6,
+            window: Window::Hann,
+            decimate: Some(2)
+        }
+    );
+    let d = small_study_with("").unwrap();
+    assert_eq!(d.analysis.statistic, Statistic::Whittle);
+    assert_eq!(d.analysis.log_periodogram, LogPeriodogramOptions::default());
+    for (bad, field) in [
+        (
+            "statistic = \"student_t\"\nnoise = \"model\"",
+            "analysis.statistic",
+        ),
+        (
+            "[analysis.log_periodogram]\naverages = 0",
+            "analysis.log_periodogram.averages",
+        ),
+        (
+            "[analysis.log_periodogram]\ndecimate = 0",
+            "analysis.log_periodogram.decimate",
+        ),
+    ] {
+        let e = small_study_with(bad).unwrap_err().to_string();
+        assert!(e.contains(field), "{bad}: {e}");
+    }
+    let e = small_study_with("statistic = \"t\"")
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("student_t"), "{e}");
+}
+
+/// Through the study: every statistic builds on the LTP closed loop (two residual channels),
+/// and the statistic's maximum found from the Whittle MAP is at least as high as the value
+/// there.
+#[test]
+fn every_statistic_on_the_closed_loop_and_its_maximum() {
+    for stat in ["whittle", "student_t", "log_periodogram"] {
+        let s = small_study_with(&format!("statistic = \"{stat}\"")).unwrap();
+        let prep = crate::analysis::prepare(&s).unwrap();
+        let lik = &prep.likelihood;
+        assert_eq!(lik.statistic().name(), stat);
+        let th = s.truth.to_array();
+        assert!(lik.ln_likelihood_full(&th).is_finite(), "{stat}");
+        if stat == "whittle" {
+            assert_eq!(lik.ln_likelihood_full(&th), lik.ln_likelihood_whittle(&th));
+            continue;
+        }
+        // what the x1 ladder measures
+        let names = lik.model().param_names();
+        let free: Vec<usize> = ["a_df", "dt1"]
+            .iter()
+            .map(|n| names.iter().position(|m| m == n).unwrap())
+            .collect();
+        let map = fisher_scoring(lik, &th, &free, 1e-3, 100).unwrap();
+        let f = fisher_exact(lik, &map.theta, &free);
+        let sigma = cramer_rao(&f).unwrap();
+        let (top, l, info) = refine_statistic_max(lik, &map.theta, &free, &sigma, 30).unwrap();
+        assert!(l >= lik.ln_likelihood_full(&map.theta), "{stat}");
+        assert!(info.clone().cholesky().is_some(), "{stat}: {info}");
+        // the statistic's maximum is near the Whittle MAP (a few σ at most)
+        for (k, &a) in free.iter().enumerate() {
+            assert!(
+                (top[a] - map.theta[a]).abs() < 5.0 * sigma[k],
+                "{stat}: {} vs {}",
+                top[a],
+                map.theta[a]
+            );
+        }
+    }
+}
+
+#[test]
+fn numeric_hessian_of_a_quadratic_is_exact() {
+    // f = −½ (x − m)ᵀ A (x − m) over parameters 0 and 2 of three
+    let a = [[2.0, 0.5], [0.5, 1.0]];
+    let m = [0.3, 7.0, -1.0];
+    let f = |x: &[f64]| {
+        let d = [x[0] - m[0], x[2] - m[2]];
+        -0.5 * (d[0] * (a[0][0] * d[0] + a[0][1] * d[1]) + d[1] * (a[1][0] * d[0] + a[1][1] * d[1]))
+    };
+    let (g, h) = gradient_hessian_numeric(&f, &[1.0, 7.0, 0.0], &[0, 2], &[1e-3, 2e-3]);
+    let d = [1.0 - m[0], 0.0 - m[2]];
+    for i in 0..2 {
+        let gi = -(a[i][0] * d[0] + a[i][1] * d[1]);
+        assert!((g[i] - gi).abs() < 1e-8, "{g:?}");
+        for j in 0..2 {
+            assert!((h[(i, j)] + a[i][j]).abs() < 1e-5, "{h}");
+        }
+    }
+}
