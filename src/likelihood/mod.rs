@@ -12,6 +12,7 @@ mod fisher;
 mod map;
 mod relbin;
 mod spectra;
+pub mod residual_psd;
 pub mod statistic;
 
 pub use exact::{Likelihood, LikelihoodError};

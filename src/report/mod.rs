@@ -26,6 +26,7 @@ mod corner;
 mod format;
 mod lines;
 mod plots;
+pub mod residual_psd;
 mod table;
 #[cfg(test)]
 mod tests;

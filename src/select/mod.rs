@@ -178,6 +178,10 @@ pub struct SelectSummary {
     pub seconds: f64,
     /// Warnings about the models, the data and the estimators.
     pub warnings: Vec<String>,
+    /// Each model's residual PSD at its MAP (Fig. 3), written to `residual_psd.npz` and
+    /// plotted, not into `summary.json`.
+    #[serde(skip)]
+    pub residual_psd: Vec<(String, Vec<crate::likelihood::residual_psd::ResidualPsd>)>,
 }
 
 /// Runs every estimator on the study's `[[select.model]]` list. Each competing model is a
@@ -309,6 +313,18 @@ pub fn run(
             warnings.push(format!("{}/{}: {w}", p.x, p.y));
         }
     }
+    // the paper's Fig. 3: each model's residual PSD at its MAP
+    let mut residual_psd = Vec::new();
+    for (m, sm) in models.iter().zip(&study.select_models) {
+        match crate::likelihood::residual_psd::residual_psds(
+            exact_of(sm.spec.model),
+            &prep.dataset.experiments,
+            &m.map,
+        ) {
+            Ok(c) => residual_psd.push((m.name.clone(), c)),
+            Err(e) => warnings.push(format!("model `{}`: no residual PSD: {e}", m.name)),
+        }
+    }
     // ρ_opt at the truth where the first model has every true value, else at its MAP
     let m0 = study.select_models[0].spec.model;
     let truth_snr = truth_of(study, m0, &prep.dataset)
@@ -329,5 +345,6 @@ pub fn run(
         rj_iterations_per_second: rj_rate,
         seconds: t0.elapsed().as_secs_f64(),
         warnings,
+        residual_psd,
     })
 }

@@ -66,6 +66,7 @@ pub fn write_outputs(s: &SelectSummary, out: &Path) -> Result<(), SelectError> {
     crate::atomic::write_bytes(&p, t.to_text().as_bytes()).map_err(|e| io(&p, e))?;
     let p = out.join("table.md");
     crate::atomic::write_bytes(&p, t.to_markdown().as_bytes()).map_err(|e| io(&p, e))?;
+    crate::report::residual_psd::write(out, &s.residual_psd)?;
     let Some(rj) = &s.rj else {
         return Ok(());
     };
