@@ -303,20 +303,32 @@ fn run_select(study: &Study, out: &std::path::Path, quiet: bool) -> Result<()> {
         ),
         None => "no RJ run".into(),
     };
+    let rho = |r: f64| {
+        if r.is_finite() {
+            format!("{r:.4e}")
+        } else {
+            "–".into()
+        }
+    };
     println!(
-        "rho_opt = {} (simulation noise model), {:.4e} (analysis noise estimate); {rj}",
-        s.rho_opt_simulated
-            .map_or("–".into(), |r| format!("{r:.4e}")),
-        s.rho_opt,
+        "rho_opt = {} (simulation noise model), {} (analysis noise estimate); {rj}",
+        s.rho_opt_simulated.map_or("–".into(), rho),
+        rho(s.rho_opt),
     );
     println!("ln L statistic: {}", s.statistic.name());
     for w in &s.warnings {
         eprintln!("warning: {w}");
     }
-    println!(
-        "wrote {}/{{summary.json, table.txt, table.md, bayes_factor.png, model_visits.png}}",
-        out.display()
-    );
+    let mut written: Vec<String> = std::fs::read_dir(&out)
+        .map(|d| {
+            d.filter_map(|e| e.ok())
+                .filter(|e| e.path().is_file())
+                .map(|e| e.file_name().to_string_lossy().into_owned())
+                .collect()
+        })
+        .unwrap_or_default();
+    written.sort();
+    println!("wrote {}/{{{}}}", out.display(), written.join(", "));
     println!("took {:.1} s", t0.elapsed().as_secs_f64());
     Ok(())
 }

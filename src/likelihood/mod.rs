@@ -11,8 +11,8 @@ mod exact;
 mod fisher;
 mod map;
 mod relbin;
-mod spectra;
 pub mod residual_psd;
+mod spectra;
 pub mod statistic;
 
 pub use exact::{Likelihood, LikelihoodError};

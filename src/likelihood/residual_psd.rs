@@ -100,6 +100,7 @@ pub fn residual_psds(
         averages: 8,
         window: Window::Bh92,
         decimate: Some(1),
+        whiten: true,
     };
     let keep: Vec<bool> = model
         .data_channels()
@@ -212,7 +213,11 @@ model = "pole"
             .max_by(|&&a, &&b| readout[a].total_cmp(&readout[b]))
             .unwrap();
         let ro = readout[at];
-        assert!(ro > 1e4 * near(0.8), "read-out {ro:e} vs noise {:e}", near(0.8));
+        assert!(
+            ro > 1e4 * near(0.8),
+            "read-out {ro:e} vs noise {:e}",
+            near(0.8)
+        );
         assert!(c.residual[at] < 10.0 * near(0.8), "{:e}", c.residual[at]);
     }
 }

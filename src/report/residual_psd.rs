@@ -27,9 +27,8 @@ pub fn write(dir: &Path, curves: &[(String, Vec<ResidualPsd>)]) -> Result<(), Re
         let mut z = NpzWriter::new(w);
         for (k, e) in first.iter().enumerate() {
             let x = &e.experiment;
-            let mut put = |key: String, v: &[f64]| {
-                z.add_array(key, &Array1::from(v.to_vec())).map_err(to_io)
-            };
+            let mut put =
+                |key: String, v: &[f64]| z.add_array(key, &Array1::from(v.to_vec())).map_err(to_io);
             put(format!("{x}__freq"), &e.freqs)?;
             put(format!("{x}__reference_freq"), &e.reference_freqs)?;
             put(format!("{x}__reference"), &e.reference)?;

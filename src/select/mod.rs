@@ -160,7 +160,8 @@ pub struct SelectSummary {
     /// ρ_opt of the injections under the simulation's exact noise model (when simulated).
     pub rho_opt_simulated: Option<f64>,
     /// ρ_opt = √⟨h|h⟩ at the truth (or the first model's MAP) under the analysis's noise
-    /// estimate (Welch by default), which differs from the model noise at low frequencies.
+    /// estimate (Welch by default), which differs from the model noise at low frequencies;
+    /// NaN (null) for a model that reads no noiseless input channel.
     pub rho_opt: f64,
     pub n_bins: usize,
     /// The statistic of every `ln L` and evidence (`[analysis] statistic`).
@@ -333,7 +334,17 @@ pub fn run(
     Ok(SelectSummary {
         origin: prep.origin.clone(),
         rho_opt_simulated: prep.dataset.extra.get("snr_total").and_then(|v| v.as_f64()),
-        rho_opt: truth_snr.unwrap_or_else(|| first.snr(&models[0].map)),
+        // a model without noiseless input channels (the acceleration domain reads telemetry)
+        // has no signal in the sense of ρ_opt
+        rho_opt: if first
+            .spectra()
+            .iter()
+            .any(|e| e.is_input.iter().any(|&x| x))
+        {
+            truth_snr.unwrap_or_else(|| first.snr(&models[0].map))
+        } else {
+            f64::NAN
+        },
         n_bins: first.n_bins(),
         statistic: first.statistic(),
         schwarz_n: n_sbic,
