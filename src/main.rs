@@ -319,7 +319,7 @@ fn run_select(study: &Study, out: &std::path::Path, quiet: bool) -> Result<()> {
     for w in &s.warnings {
         eprintln!("warning: {w}");
     }
-    let mut written: Vec<String> = std::fs::read_dir(&out)
+    let mut written: Vec<String> = std::fs::read_dir(out)
         .map(|d| {
             d.filter_map(|e| e.ok())
                 .filter(|e| e.path().is_file())
