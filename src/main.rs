@@ -193,8 +193,14 @@ fn fit(path: PathBuf, output: Option<PathBuf>, resume: bool, quiet: bool) -> Res
     let s = &outcome.summary;
     println!("{}", occam::fit::table(s));
     println!(
-        "rho_opt at MAP = {:.4e}; MAP found in {} Fisher-scoring iterations ({:.2} s)",
-        s.rho_opt_at_map, s.map_iterations, s.seconds_map
+        "rho_opt at MAP = {}; MAP found in {} Fisher-scoring iterations ({:.2} s)",
+        if s.rho_opt_at_map.is_finite() {
+            format!("{:.4e}", s.rho_opt_at_map)
+        } else {
+            "– (no noiseless input channel)".into()
+        },
+        s.map_iterations,
+        s.seconds_map
     );
     println!(
         "MCMC: {} chains × {} iterations, {:.0} iterations/s ({} {} likelihood{}), acceptance {:?}",

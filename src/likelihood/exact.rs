@@ -356,7 +356,13 @@ impl Likelihood {
 
     /// Optimal SNR `ρ_opt = √⟨s|s⟩ = √(2 Σ s_kᴴ C_k⁻¹ s_k)` of the signal at θ: the model's
     /// response to the known inputs (for the closed loop, `H_io I`).
+    ///
+    /// NaN for a model that reads no noiseless input channel (the acceleration domain reads
+    /// telemetry, which carries noise): it has no signal in this sense.
     pub fn snr(&self, th: &[f64]) -> f64 {
+        if !self.spectra.iter().any(|e| e.is_input.iter().any(|&x| x)) {
+            return f64::NAN;
+        }
         let mut s = 0.0;
         for e in &self.spectra {
             self.visit_residuals(e, th, |k, _, sig| {

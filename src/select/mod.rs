@@ -334,17 +334,7 @@ pub fn run(
     Ok(SelectSummary {
         origin: prep.origin.clone(),
         rho_opt_simulated: prep.dataset.extra.get("snr_total").and_then(|v| v.as_f64()),
-        // a model without noiseless input channels (the acceleration domain reads telemetry)
-        // has no signal in the sense of ρ_opt
-        rho_opt: if first
-            .spectra()
-            .iter()
-            .any(|e| e.is_input.iter().any(|&x| x))
-        {
-            truth_snr.unwrap_or_else(|| first.snr(&models[0].map))
-        } else {
-            f64::NAN
-        },
+        rho_opt: truth_snr.unwrap_or_else(|| first.snr(&models[0].map)),
         n_bins: first.n_bins(),
         statistic: first.statistic(),
         schwarz_n: n_sbic,
