@@ -107,7 +107,7 @@ fn write_npz(sweep: &Sweep, res: &SweepResult, path: &std::path::Path) -> anyhow
     for (t, rec) in res.records.iter().enumerate() {
         let (p, k) = (t / r, t % r);
         let Some(o) = &rec.outcome else { continue };
-        rho[[p, k]] = o.rho_opt;
+        rho[[p, k]] = o.rho_opt.unwrap_or(f64::NAN);
         for (j, (pair, names)) in o.pairs.iter().zip(&res.methods).enumerate() {
             ln_b[[p, k, j, 0]] = pair.reference_ln_b().unwrap_or(f64::NAN);
             if let Some(e) = pair.estimates.iter().find(|e| e.method == pair.reference) {

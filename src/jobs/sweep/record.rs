@@ -71,7 +71,9 @@ pub struct Outcome {
     pub models: Vec<String>,
     pub pairs: Vec<Pair>,
     pub posterior_model_probabilities: Option<Vec<f64>>,
-    pub rho_opt: f64,
+    /// ρ_opt under the analysis's noise estimate; absent (null) for models without noiseless
+    /// input channels (the acceleration domain).
+    pub rho_opt: Option<f64>,
     pub rho_opt_simulated: Option<f64>,
     pub rj_visits: Option<Vec<u64>>,
     pub warnings: Vec<String>,
@@ -107,7 +109,7 @@ impl Outcome {
                 })
                 .collect(),
             posterior_model_probabilities: s.posterior_model_probabilities.clone(),
-            rho_opt: s.rho_opt,
+            rho_opt: s.rho_opt.is_finite().then_some(s.rho_opt),
             rho_opt_simulated: s.rho_opt_simulated,
             rj_visits: s.rj.as_ref().map(|r| r.visits.clone()),
             warnings: s.warnings.clone(),
@@ -191,7 +193,7 @@ mod tests {
                     }],
                 }],
                 posterior_model_probabilities: Some(vec![0.4, 0.6]),
-                rho_opt: 28.000000000000004,
+                rho_opt: Some(28.000000000000004),
                 rho_opt_simulated: None,
                 rj_visits: Some(vec![4, 6]),
                 warnings: vec![],
@@ -208,6 +210,12 @@ mod tests {
             Some(-1.0 / 3.0)
         );
         assert!(TaskRecord::load(dir.path(), &id(1)).is_none());
+        // a model without noiseless inputs has no ρ_opt: it round-trips as null
+        let mut none = rec.clone();
+        none.outcome.as_mut().unwrap().rho_opt = None;
+        crate::atomic::write_bytes(&p, &none.to_bytes()).unwrap();
+        assert_eq!(TaskRecord::load(dir.path(), &id(0)).unwrap(), none);
+        crate::atomic::write_bytes(&p, &rec.to_bytes()).unwrap();
         // a file at the right name holding another task is not reused
         std::fs::copy(&p, id(1).path(dir.path())).unwrap();
         assert!(TaskRecord::load(dir.path(), &id(1)).is_none());

@@ -116,7 +116,7 @@ pub fn point_stats(
         .map(|k| picks[k]);
     let mut rho: Vec<f64> = ok
         .iter()
-        .map(|o| o.rho_opt)
+        .filter_map(|o| o.rho_opt)
         .filter(|v| v.is_finite())
         .collect();
     rho.sort_by(f64::total_cmp);
@@ -259,7 +259,7 @@ mod tests {
                     estimates: vec![est("bridge", ref_lnb), est("LF", lf)],
                 }],
                 posterior_model_probabilities: p_x.map(|p| vec![p, 1.0 - p]),
-                rho_opt: 10.0 + r as f64,
+                rho_opt: Some(10.0 + r as f64),
                 rho_opt_simulated: None,
                 rj_visits: None,
                 warnings: vec![],
