@@ -107,3 +107,82 @@ fn asymmetry_family_picks_the_symmetric_model_then_the_asymmetric_one() {
     );
     assert!(reference(p) < -(1e6f64).ln(), "{}", reference(p));
 }
+
+/// A sweep over the TM1 actuator gain runs on acceleration-domain models (which have no ρ_opt:
+/// it is null in the task records) and picks the symmetric model, then the asymmetric one.
+#[test]
+fn a_sweep_over_the_actuator_gain_runs_in_the_acceleration_domain() {
+    use occam::jobs::exec::Threads;
+    use occam::jobs::sweep::{Sweep, SweepArgs, write_outputs};
+    let text = r#"seed = 9
+output = "unused"
+[simulation.actuators]
+tm1 = { pole = 1.963 }
+tm2 = { pole = 1.963 }
+[[experiment]]
+name = "forces"
+fs = 10.0
+pre_pad = 100.0
+post_pad = 100.0
+noise_duration = 3000.0
+f1 = { kind = "sine", freq = 0.3, amplitude = 3e-10, duration = 600.0 }
+f2 = { kind = "sine", freq = 0.5, amplitude = 3e-10, duration = 600.0 }
+[analysis]
+band = [1e-2, 2.0]
+[[model]]
+kind = "accel"
+name = "asym"
+[[model]]
+kind = "tied"
+name = "sym"
+of = "asym"
+tie = { a2 = "a1", f_o2 = "f_o1" }
+[select]
+rj_iterations = 6000
+rj_burn_in = 1000
+iterations = 3000
+burn_in = 1000
+pt_temperatures = 0
+[[select.model]]
+name = "sym"
+model = "sym"
+fixed = { w1sq = -1.3e-6, w2sq = -1.9e-6 }
+free = ["a1", "f_o1"]
+[[select.model]]
+name = "asym-gain"
+model = "asym"
+free = ["a1", "a2", "f_o1"]
+fixed = { w1sq = -1.3e-6, w2sq = -1.9e-6, f_o2 = 1.963 }
+[sweep]
+realisations = 1
+[[sweep.axis]]
+key = "simulation.actuators.tm1.gain"
+values = [1.08, 1.0]
+"#;
+    let dir = tempfile::tempdir().unwrap();
+    let args = SweepArgs {
+        output: Some(dir.path().to_path_buf()),
+        ..Default::default()
+    };
+    let s = Sweep::from_text(text, "gain.toml", Path::new("."), args).unwrap();
+    let r = s.run(&Threads::new(2).unwrap(), false).unwrap().unwrap();
+    write_outputs(&s, &r).unwrap();
+    let o: Vec<_> = r
+        .records
+        .iter()
+        .map(|t| t.outcome.as_ref().unwrap())
+        .collect();
+    assert!(o.iter().all(|x| x.rho_opt.is_none()));
+    assert_eq!(
+        o[0].pick(),
+        Some(0),
+        "equal gains: {:?}",
+        o[0].posterior_model_probabilities
+    );
+    assert_eq!(
+        o[1].pick(),
+        Some(1),
+        "A1 = 1.0: {:?}",
+        o[1].posterior_model_probabilities
+    );
+}
