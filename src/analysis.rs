@@ -381,6 +381,28 @@ pub fn model_warnings(study: &Study, mi: usize, dataset: &Dataset) -> Vec<String
         }
     }
     w.extend(noise_warnings(study, mi, dataset));
+    // a guidance-injection model on data with force injections: their response is in the
+    // outputs but not in `H_io i`, so the residual is not noise
+    let m = &study.models.models[mi];
+    let reads = |c: &str| m.data_channels().iter().any(|d| d == c);
+    if (reads("i1") || reads("i12")) && !crate::experiment::FORCE_CHANNELS.iter().any(|c| reads(c))
+    {
+        for e in &dataset.experiments {
+            let forced: Vec<&str> = crate::experiment::FORCE_CHANNELS
+                .iter()
+                .copied()
+                .filter(|c| e.channel(c).is_some_and(|v| v.iter().any(|x| *x != 0.0)))
+                .collect();
+            if !forced.is_empty() {
+                w.push(format!(
+                    "experiment `{}` has force injections ({}) that model `{}` does not model: their response is in the outputs, not in the guidance response H_io·i, and biases the fit; fit such experiments in the acceleration domain (kind = \"accel\") or leave them out",
+                    e.name,
+                    forced.join(", "),
+                    m.name()
+                ));
+            }
+        }
+    }
     let time_domain = dataset.extra.get("method").and_then(|v| v.as_str()) == Some("time");
     if let crate::config::ModelDef::Ltp { name, options } = &study.models.defs[mi]
         && time_domain

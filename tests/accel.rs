@@ -290,5 +290,23 @@ fn a_short_noise_stretch_is_warned_about() {
         "{w:?}"
     );
     let ltp = short.models.index("ltp").unwrap();
-    assert!(model_warnings(&short, ltp, &data).is_empty());
+    let w = model_warnings(&short, ltp, &data);
+    assert!(!w.iter().any(|m| m.contains("noise_duration")), "{w:?}");
+}
+
+/// The closed loop fitted to experiments with force injections is warned about (it does not
+/// model their response); the acceleration domain is not.
+#[test]
+fn closed_loop_on_force_injections_is_warned_about() {
+    use occam::analysis::model_warnings;
+    let s = study("circular", 6, "");
+    let (data, _) = load_data(&s).unwrap();
+    let ltp = s.models.index("ltp").unwrap();
+    let w = model_warnings(&s, ltp, &data);
+    assert!(
+        w.iter()
+            .any(|m| m.contains("force injections (f1, f2)") && m.contains("`forces`")),
+        "{w:?}"
+    );
+    assert!(model_warnings(&s, s.fit_model.model, &data).is_empty());
 }
