@@ -13,7 +13,9 @@
 //! ```
 //!
 //! The built-in closed loop is always available as the model `ltp` (the study's masses and
-//! OMS delay, no thruster response).
+//! OMS delay, no thruster response). The other kinds are `accel` (the acceleration domain,
+//! [`crate::model::accel`]), `tied` (any model defined earlier with tied parameters,
+//! [`crate::model::tied`]) and `user` ([`crate::model::user`]).
 
 use super::ConfigError;
 use crate::model::user::{UserModel, UserModelDef};
