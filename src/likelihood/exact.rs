@@ -215,23 +215,6 @@ impl Likelihood {
         }
     }
 
-    /// The Welch CSD `[S11, S12, S22]` of the residual time series at θ on the retained bins
-    /// of experiment `e` (log-periodogram only; `None` otherwise).
-    pub fn residual_welch(&self, e: usize, th: &[f64]) -> Option<Vec<[Complex64; 3]>> {
-        match &self.stat {
-            StatState::LogPeriodogram(x) => {
-                let mut out = vec![[Complex64::new(0.0, 0.0); 3]; x[e].bins.len()];
-                x[e].eval(
-                    self.model.as_ref(),
-                    th,
-                    Some(&mut |j: usize, s: [Complex64; 3]| out[j] = s),
-                );
-                Some(out)
-            }
-            _ => None,
-        }
-    }
-
     /// The model.
     pub fn model(&self) -> &Arc<dyn Model> {
         &self.model

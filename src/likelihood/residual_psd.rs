@@ -119,22 +119,20 @@ pub fn residual_psds(
             .iter()
             .find(|d| d.name == sp.name)
             .ok_or_else(|| format!("experiment `{}` is not in the data", sp.name))?;
-        let welch = |m: &dyn Model| -> Result<Vec<f64>, String> {
-            let plan = LogPgExperiment::new(e, sp, m, &opts)?;
+        let welch = |plan: &LogPgExperiment, m: &dyn Model| {
             let mut s = vec![f64::NAN; plan.bins.len()];
             plan.eval(m, theta, Some(&mut |j, v: [Complex64; 3]| s[j] = v[0].re));
-            Ok(s)
+            s
         };
         let plan = LogPgExperiment::new(e, sp, model.as_ref(), &opts)?;
         out.push(ResidualPsd {
             experiment: sp.name.clone(),
             channel: model.residual_channels()[0].clone(),
             freqs: plan.freqs(),
-            residual: welch(model.as_ref())?,
-            readout: match &readout_model {
-                Some(m) => Some(welch(m.as_ref())?),
-                None => None,
-            },
+            residual: welch(&plan, model.as_ref()),
+            // the plan holds the data and the constants, not the coefficients: it serves the
+            // read-out-only model as well
+            readout: readout_model.as_deref().map(|m| welch(&plan, m)),
             reference_freqs: sp.freqs.clone(),
             reference: sp.csd.iter().map(|s| s[0][0].re).collect(),
         });
