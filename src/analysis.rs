@@ -139,18 +139,19 @@ pub fn spectra_options(study: &Study) -> SpectraOptions {
 }
 
 /// The true values a study's simulation uses, by parameter name: the seven loop parameters of
-/// `[truth]` and the actuators of `[simulation.actuators]` as the acceleration-domain model
-/// names them (`a1, a2` gains, `f_o1, f_o2` poles where there is one, `tau_c1, tau_c2` delays).
+/// `[truth]` and, when known, the actuators of `[simulation.actuators]` as the
+/// acceleration-domain model names them (`a1, a2` gains, `f_o1, f_o2` poles where there is
+/// one, `tau_c1, tau_c2` delays).
 pub fn true_values(
     truth: &crate::ltp::LtpParams,
-    actuators: &[crate::config::Actuator; 2],
+    actuators: Option<&[crate::config::Actuator; 2]>,
 ) -> Vec<(String, f64)> {
     let mut v: Vec<(String, f64)> = crate::ltp::PARAM_NAMES
         .iter()
         .zip(truth.to_array())
         .map(|(n, x)| (n.to_string(), x))
         .collect();
-    for (i, a) in actuators.iter().enumerate() {
+    for (i, a) in actuators.into_iter().flatten().enumerate() {
         v.push((format!("a{}", i + 1), a.gain));
         if let Some(p) = a.pole {
             v.push((format!("f_o{}", i + 1), p));
@@ -160,17 +161,11 @@ pub fn true_values(
     v
 }
 
-/// The true actuators recorded in a dataset's metadata (`extra.actuators`), if any.
+/// The true actuators recorded in a dataset's metadata (`extra.actuators.tm1`, `.tm2`), if
+/// any (datasets written before actuators existed have none).
 fn dataset_actuators(dataset: &Dataset) -> Option<[crate::config::Actuator; 2]> {
     let a = dataset.extra.get("actuators")?;
-    let one = |k: &str| -> Option<crate::config::Actuator> {
-        let t = a.get(k)?;
-        Some(crate::config::Actuator {
-            gain: t.get("gain")?.as_f64()?,
-            pole: t.get("pole").and_then(|p| p.as_f64()),
-            delay: t.get("delay").and_then(|d| d.as_f64()).unwrap_or(0.0),
-        })
-    };
+    let one = |k: &str| serde_json::from_value(a.get(k)?.clone()).ok();
     Some([one("tm1")?, one("tm2")?])
 }
 
@@ -182,7 +177,7 @@ pub fn reference_point(study: &Study, mi: usize) -> Vec<f64> {
     let prior = &study.models.priors[mi];
     let truth = true_values(
         &study.truth,
-        &study.simulation.actuators.resolve(study.truth.a_sus),
+        Some(&study.simulation.actuators.resolve(study.truth.a_sus)),
     );
     m.param_names()
         .iter()
@@ -233,6 +228,27 @@ pub fn likelihood_of(
     Likelihood::new(model, spectra, study.models.priors[mi].clone())
         .and_then(|l| l.with_statistic(a.statistic, &a.log_periodogram, &dataset.experiments))
         .map_err(|e| AnalysisError::Likelihood(e.to_string()))
+}
+
+/// The likelihood the samplers of `exact` run on: the study's `[analysis] likelihood`, except
+/// that relative binning (an approximation of the Whittle sum) gives way to the exact `ln L`
+/// for any other statistic, with the message saying so.
+pub fn sampled_kind(
+    study: &Study,
+    exact: &Likelihood,
+) -> (crate::config::LikelihoodKind, Option<String>) {
+    let kind = study.analysis.likelihood;
+    let stat = exact.statistic();
+    if kind == crate::config::LikelihoodKind::Relbin
+        && stat != crate::likelihood::Statistic::Whittle
+    {
+        let why = format!(
+            "relative binning approximates the Whittle likelihood only: with statistic = \"{}\" the samplers run on the exact ln L",
+            stat.name()
+        );
+        return (crate::config::LikelihoodKind::Exact, Some(why));
+    }
+    (kind, None)
 }
 
 /// The study's relative-binning settings.
@@ -300,14 +316,7 @@ pub fn default_start(study: &Study, model: &ModelSpec) -> Vec<f64> {
 /// when the dataset records them, the actuators').
 pub fn truth_of(study: &Study, mi: usize, dataset: &Dataset) -> Option<Vec<Option<f64>>> {
     let t = dataset.truth?;
-    let vals = match dataset_actuators(dataset) {
-        Some(a) => true_values(&t, &a),
-        None => crate::ltp::PARAM_NAMES
-            .iter()
-            .zip(t.to_array())
-            .map(|(n, x)| (n.to_string(), x))
-            .collect(),
-    };
+    let vals = true_values(&t, dataset_actuators(dataset).as_ref());
     Some(
         study.models.models[mi]
             .param_names()

@@ -142,14 +142,8 @@ pub fn run(
     };
     let t1 = Instant::now();
     let statistic = exact.statistic();
-    let mut kind = study.analysis.likelihood;
-    if kind == LikelihoodKind::Relbin && statistic != crate::likelihood::Statistic::Whittle {
-        kind = LikelihoodKind::Exact;
-        warnings.push(format!(
-            "relative binning approximates the Whittle likelihood only: with statistic = \"{}\" the chains run on the exact ln L",
-            statistic.name()
-        ));
-    }
+    let (kind, why) = crate::analysis::sampled_kind(study, exact);
+    warnings.extend(why);
     let (chains, n_coarse) = match kind {
         LikelihoodKind::Exact => (
             sample(

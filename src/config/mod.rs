@@ -219,7 +219,7 @@ impl ActuatorOptions {
 /// A resolved true actuator of one test mass: the force applied per unit mass is
 /// `Act(f)·g` for the commanded `g` (m s⁻²), with `Act(f) = gain · 1/(1 + i f/f_o) · e^{−i2πfτ}`
 /// (e^{−2πift} Fourier convention, unity-DC-gain pole when `pole` is set).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Actuator {
     pub gain: f64,
     /// Pole frequency `f_o` (Hz), if any.

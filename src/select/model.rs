@@ -232,14 +232,9 @@ pub(super) fn run_model(
     // the sampled likelihood
     let statistic = exact.statistic();
     let whittle = statistic == Statistic::Whittle;
-    let sampled = match study.analysis.likelihood {
-        LikelihoodKind::Relbin if !whittle => {
-            notes.push(format!(
-                "relative binning approximates the Whittle likelihood only: with statistic = \"{}\" the samplers run on the exact ln L",
-                statistic.name()
-            ));
-            Sampled::Exact(spec.model)
-        }
+    let (kind, why) = crate::analysis::sampled_kind(study, exact);
+    notes.extend(why);
+    let sampled = match kind {
         LikelihoodKind::Relbin => match relbin_in_region(study, exact, &base, free, &walk_cov) {
             Ok(rb) => Sampled::RelBin(Box::new(rb)),
             Err(e) => {
