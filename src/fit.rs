@@ -283,6 +283,19 @@ pub fn table(s: &FitSummary) -> Table {
     t
 }
 
+/// What a fit directory held before `manifest.json` existed: the files a new run removes when
+/// it does not write them itself ([`crate::rundir::RunDir::publish`]).
+pub const LEGACY_OUTPUTS: &[&str] = &[
+    "summary.json",
+    "table.txt",
+    "table.md",
+    "chains.npz",
+    "trace.png",
+    "trace.svg",
+    "corner.png",
+    "corner.svg",
+];
+
 /// Writes `summary.json`, `table.txt`, `table.md`, `chains.npz` and the trace and corner plots
 /// into `out`; every file atomically.
 pub fn write_outputs(o: &FitOutcome, out: &Path) -> Result<(), FitError> {

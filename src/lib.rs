@@ -25,6 +25,7 @@ pub mod model;
 pub mod nested;
 pub mod prior;
 pub mod report;
+pub mod rundir;
 pub mod sampler;
 pub mod select;
 pub mod signal;

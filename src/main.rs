@@ -3,7 +3,8 @@
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
 use occam::config::Study;
-use std::path::PathBuf;
+use occam::rundir::RunDir;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 #[derive(Parser)]
@@ -34,7 +35,7 @@ enum Command {
         /// Output directory (default: `<output>/fit`).
         #[arg(short, long)]
         output: Option<PathBuf>,
-        /// Continue from the checkpoint in the output directory.
+        /// Continue from the checkpoint in the output directory (an error when there is none).
         #[arg(long)]
         resume: bool,
         /// No progress bar.
@@ -63,6 +64,10 @@ enum Command {
         /// Output directory (default: `<output>/select`).
         #[arg(short, long)]
         output: Option<PathBuf>,
+        /// Continue from the checkpoint in the output directory (an error when there is none):
+        /// finished stages are not recomputed and the numbers equal an uninterrupted run's.
+        #[arg(long)]
+        resume: bool,
         /// No progress bar.
         #[arg(short, long)]
         quiet: bool,
@@ -82,6 +87,9 @@ enum Command {
     },
 }
 
+/// What `simulate` wrote before `manifest.json` existed (see [`RunDir::publish`]).
+const LEGACY_SIMULATE: &[&str] = &["dataset.npz", "dataset.json"];
+
 fn main() {
     let cli = Cli::parse();
     let result = match cli.command {
@@ -95,8 +103,9 @@ fn main() {
         Command::Select {
             study,
             output,
+            resume,
             quiet,
-        } => select(study, output, quiet),
+        } => select(study, output, resume, quiet),
         Command::Demo { output, quiet } => demo(output, quiet),
         Command::Sweep(cli) => sweep(cli),
         Command::Design {
@@ -117,9 +126,11 @@ fn simulate(path: PathBuf, output: Option<PathBuf>) -> Result<()> {
     let t0 = Instant::now();
     let study = Study::load(&path)?;
     let out = output.unwrap_or_else(|| study.output.clone());
+    let run = RunDir::open(&out)?;
     let sim = occam::experiment::simulate(&study)
         .with_context(|| format!("simulating {}", path.display()))?;
-    let (npz, json) = sim.dataset.write(&out)?;
+    sim.dataset.write(&run.staging()?)?;
+    let written = run.publish("simulate", LEGACY_SIMULATE)?;
     println!(
         "{:<14} {:>10} {:>10} {:>12}",
         "experiment", "samples", "noise", "rho_opt"
@@ -137,9 +148,14 @@ fn simulate(path: PathBuf, output: Option<PathBuf>) -> Result<()> {
         "study rho_opt = {:.4e} over {:?} Hz (amplitude factor {:.4e})",
         sim.snr_total, study.simulation.snr_band, sim.amplitude_factor
     );
-    println!("wrote {} and {}", npz.display(), json.display());
+    println!("wrote {}", listing(&out, &written));
     println!("took {:.2} s", t0.elapsed().as_secs_f64());
     Ok(())
+}
+
+/// `dir/{a, b, …}`: the files a run published.
+fn listing(dir: &Path, names: &[String]) -> String {
+    format!("{}/{{{}}}", dir.display(), names.join(", "))
 }
 
 /// A progress bar over all chains' iterations, drawn only on a terminal.
@@ -162,6 +178,21 @@ fn fit(path: PathBuf, output: Option<PathBuf>, resume: bool, quiet: bool) -> Res
     let t0 = Instant::now();
     let study = Study::load(&path)?;
     let out = output.unwrap_or_else(|| study.output.join("fit"));
+    let run = RunDir::open(&out)?;
+    if resume {
+        let ckpt = out.join("checkpoint.json");
+        if !ckpt.exists() {
+            anyhow::bail!(
+                "--resume: there is nothing to resume in {}: it has no checkpoint.json; run without --resume",
+                out.display()
+            );
+        }
+        let (done, total) = occam::sampler::checkpoint_progress(&ckpt)?;
+        println!(
+            "resuming from {}: iterations done per chain {done:?} of {total}",
+            ckpt.display()
+        );
+    }
     let prep = occam::analysis::prepare(&study)
         .with_context(|| format!("preparing the data of {}", path.display()))?;
     println!(
@@ -189,7 +220,8 @@ fn fit(path: PathBuf, output: Option<PathBuf>, resume: bool, quiet: bool) -> Res
     if let Some(pb) = pb {
         pb.finish_and_clear();
     }
-    occam::fit::write_outputs(&outcome, &out)?;
+    occam::fit::write_outputs(&outcome, &run.staging()?)?;
+    let written = run.publish("fit", occam::fit::LEGACY_OUTPUTS)?;
     let s = &outcome.summary;
     println!("{}", occam::fit::table(s));
     println!(
@@ -222,24 +254,43 @@ fn fit(path: PathBuf, output: Option<PathBuf>, resume: bool, quiet: bool) -> Res
     for w in &s.warnings {
         eprintln!("warning: {w}");
     }
-    println!(
-        "wrote {}/{{summary.json, table.txt, table.md, chains.npz, trace.png, corner.png}}",
-        out.display()
-    );
+    println!("wrote {}", listing(&out, &written));
     println!("took {:.1} s", t0.elapsed().as_secs_f64());
     Ok(())
 }
 
-fn select(path: PathBuf, output: Option<PathBuf>, quiet: bool) -> Result<()> {
+fn select(path: PathBuf, output: Option<PathBuf>, resume: bool, quiet: bool) -> Result<()> {
     let study = Study::load(&path)?;
     let out = output.unwrap_or_else(|| study.output.join("select"));
-    run_select(&study, &out, quiet)
+    run_select(&study, &out, resume, quiet)
 }
 
-fn run_select(study: &Study, out: &std::path::Path, quiet: bool) -> Result<()> {
+fn run_select(study: &Study, out: &std::path::Path, resume: bool, quiet: bool) -> Result<()> {
     let t0 = Instant::now();
+    let run = RunDir::open(out)?;
+    let ckpt_path = out.join(occam::select::CHECKPOINT_FILE);
+    if resume && !ckpt_path.exists() {
+        anyhow::bail!(
+            "--resume: there is nothing to resume in {}: it has no {}; run without --resume",
+            out.display(),
+            occam::select::CHECKPOINT_FILE
+        );
+    }
     let prep = occam::analysis::prepare(study)
         .with_context(|| format!("preparing the data of {}", study.source))?;
+    let identity = occam::select::identity(study, &prep.dataset);
+    let state = if resume {
+        let c = occam::select::SelectCheckpoint::read(&ckpt_path, &identity)?;
+        let names: Vec<String> = study.select_models.iter().map(|m| m.name.clone()).collect();
+        println!(
+            "resuming from {}: {}",
+            ckpt_path.display(),
+            c.describe(&names)
+        );
+        c
+    } else {
+        occam::select::SelectCheckpoint::new(identity)
+    };
     println!(
         "data: {} ({} experiments, {} bins in band)",
         prep.origin,
@@ -253,11 +304,16 @@ fn run_select(study: &Study, out: &std::path::Path, quiet: bool) -> Result<()> {
             pb.set_message(format!("visits {:?}", p.visits));
         }
     };
-    let s = occam::select::run(study, &prep, Some(&mut cb))?;
+    let ckpt = occam::select::Checkpointing {
+        path: &ckpt_path,
+        state,
+    };
+    let s = occam::select::run_checkpointed(study, &prep, Some(&mut cb), Some(ckpt))?;
     if let Some(pb) = pb {
         pb.finish_and_clear();
     }
-    occam::select::write_outputs(&s, out)?;
+    occam::select::write_outputs(&s, &run.staging()?)?;
+    let written = run.publish("select", occam::select::LEGACY_OUTPUTS)?;
     println!("{}", occam::select::table(&s));
     let yes_no = |b: bool| if b { "yes" } else { "no" };
     for p in &s.pairs {
@@ -325,16 +381,7 @@ fn run_select(study: &Study, out: &std::path::Path, quiet: bool) -> Result<()> {
     for w in &s.warnings {
         eprintln!("warning: {w}");
     }
-    let mut written: Vec<String> = std::fs::read_dir(out)
-        .map(|d| {
-            d.filter_map(|e| e.ok())
-                .filter(|e| e.path().is_file())
-                .map(|e| e.file_name().to_string_lossy().into_owned())
-                .collect()
-        })
-        .unwrap_or_default();
-    written.sort();
-    println!("wrote {}/{{{}}}", out.display(), written.join(", "));
+    println!("wrote {}", listing(out, &written));
     println!("took {:.1} s", t0.elapsed().as_secs_f64());
     Ok(())
 }
@@ -356,7 +403,7 @@ fn demo(output: PathBuf, quiet: bool) -> Result<()> {
         let label = format!("built-in study `{name}` (examples/guidance-delays*.toml)");
         let study = Study::from_toml(text, &label, std::path::Path::new("."))?;
         println!("\n=== guidance delays, {name} regime ===");
-        run_select(&study, &output.join(name), quiet)?;
+        run_select(&study, &output.join(name), false, quiet)?;
     }
     println!("\ndemo took {:.1} s", t0.elapsed().as_secs_f64());
     Ok(())
@@ -387,6 +434,10 @@ struct SweepCli {
     /// Output directory (default: `<output>/sweep`).
     #[arg(short, long)]
     output: Option<PathBuf>,
+    /// Say what is resumed, and stop when the run directory holds no finished task of this
+    /// sweep. (Finished tasks are reused with or without it.)
+    #[arg(long)]
+    resume: bool,
     /// No per-task lines.
     #[arg(short, long)]
     quiet: bool,
@@ -416,6 +467,29 @@ fn sweep(cli: SweepCli) -> Result<()> {
     };
     let exec = executor(cli.threads)?;
     let sweep = Sweep::load(&path, args)?;
+    // one run per directory; under MPI the root holds it for every rank
+    let run = if exec.is_root() {
+        Some(RunDir::open(&sweep.out)?)
+    } else {
+        None
+    };
+    if cli.resume {
+        let done = sweep.finished_tasks();
+        if done == 0 {
+            anyhow::bail!(
+                "--resume: there is nothing to resume in {}: no finished task of this sweep in {}/tasks; run without --resume",
+                sweep.out.display(),
+                sweep.out.display()
+            );
+        }
+        if exec.is_root() {
+            println!(
+                "resuming from {}/tasks: {done} of {} tasks finished",
+                sweep.out.display(),
+                sweep.task_count()
+            );
+        }
+    }
     if exec.is_root() {
         for w in &sweep.warnings {
             eprintln!("warning: {w}");
@@ -434,12 +508,9 @@ fn sweep(cli: SweepCli) -> Result<()> {
         return Ok(());
     };
     print!("{}", occam::jobs::sweep::output::table(&sweep, &res));
-    let files = occam::jobs::sweep::write_outputs(&sweep, &res)?;
-    let names: Vec<String> = files
-        .iter()
-        .filter_map(|f| f.file_name().map(|n| n.to_string_lossy().into_owned()))
-        .collect();
-    println!("wrote {}/{{{}}}", sweep.out.display(), names.join(", "));
+    let run = run.expect("the root holds the run directory");
+    let names = occam::jobs::sweep::publish(&sweep, &res, &run)?;
+    println!("wrote {}", listing(&sweep.out, &names));
     println!(
         "{} task(s) computed, {} reused; took {:.1} s",
         res.computed,

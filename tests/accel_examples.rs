@@ -166,7 +166,7 @@ values = [1.08, 1.0]
     };
     let s = Sweep::from_text(text, "gain.toml", Path::new("."), args).unwrap();
     let r = s.run(&Threads::new(2).unwrap(), false).unwrap().unwrap();
-    write_outputs(&s, &r).unwrap();
+    write_outputs(&s, &r, &s.out).unwrap();
     let o: Vec<_> = r
         .records
         .iter()

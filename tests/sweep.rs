@@ -4,7 +4,7 @@
 
 use occam::jobs::exec::Threads;
 use occam::jobs::sweep::grid::{Axis, parse_axis};
-use occam::jobs::sweep::{Sweep, SweepArgs, write_outputs};
+use occam::jobs::sweep::{Sweep, SweepArgs};
 use std::path::Path;
 
 /// Gain-only against gain + thruster pole on one short sinusoid: each task takes a fraction of
@@ -66,7 +66,8 @@ fn run(s: &Sweep, threads: usize) -> occam::jobs::sweep::SweepResult {
         .run(&Threads::new(threads).unwrap(), false)
         .unwrap()
         .unwrap();
-    write_outputs(s, &r).unwrap();
+    let run = occam::rundir::RunDir::open(&s.out).unwrap();
+    occam::jobs::sweep::publish(s, &r, &run).unwrap();
     r
 }
 

@@ -257,6 +257,7 @@ pub fn run_cli(
     })?;
     let plan = opts.validate(&study)?;
     let out = out.unwrap_or_else(|| study.output.join("design"));
+    let run = crate::rundir::RunDir::open(&out).map_err(|e| DesignError::Io(e.to_string()))?;
     let base_segs = plan.baseline();
     let baseline = ScoredDesign {
         label: "baseline".into(),
@@ -296,18 +297,21 @@ pub fn run_cli(
         validation,
         seconds: t0.elapsed().as_secs_f64(),
     };
+    let stage = run.staging().map_err(|e| DesignError::Io(e.to_string()))?;
     let io = |e: std::io::Error| DesignError::Io(format!("{}: {e}", out.display()));
     crate::atomic::write_bytes(
-        &out.join("design.toml"),
+        &stage.join("design.toml"),
         study_toml(path, &study, &plan, &report.chosen.segments, "design")?.as_bytes(),
     )
     .map_err(io)?;
     crate::atomic::write_bytes(
-        &out.join("baseline.toml"),
+        &stage.join("baseline.toml"),
         study_toml(path, &study, &plan, &base_segs, "baseline")?.as_bytes(),
     )
     .map_err(io)?;
     let json = serde_json::to_vec_pretty(&report).map_err(|e| DesignError::Io(e.to_string()))?;
-    crate::atomic::write_bytes(&out.join("design.json"), &json).map_err(io)?;
+    crate::atomic::write_bytes(&stage.join("design.json"), &json).map_err(io)?;
+    run.publish("design", &["design.toml", "baseline.toml", "design.json"])
+        .map_err(|e| DesignError::Io(e.to_string()))?;
     Ok(report)
 }

@@ -48,7 +48,7 @@ pub use tempering::{
 };
 
 /// Which estimator produced a number.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Method {
     /// Closed form (known-answer problems).
@@ -72,7 +72,7 @@ pub enum Method {
 }
 
 /// A log Bayes factor `ln B_XY = ln Z_X − ln Z_Y` with its Monte-Carlo standard error.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, serde::Deserialize)]
 pub struct LnB {
     /// Estimator.
     pub method: Method,

@@ -113,6 +113,13 @@ pub(crate) fn read(path: &Path) -> Result<Checkpoint, SamplerError> {
     Ok(ckpt)
 }
 
+/// How far the run saved in the checkpoint at `path` got: iterations done per chain and the
+/// iterations each chain runs in all (for the "resuming from" line of a command).
+pub fn progress(path: &Path) -> Result<(Vec<usize>, usize), SamplerError> {
+    let c = read(path)?;
+    Ok((c.chains.iter().map(|s| s.iter).collect(), c.settings.n_iter))
+}
+
 /// Equal up to JSON float parsing (serde_json's default parser may be one ulp off).
 fn close(a: f64, b: f64) -> bool {
     a == b || (a - b).abs() <= 1e-14 * a.abs().max(b.abs())

@@ -30,6 +30,7 @@ mod bits;
 mod chain;
 mod chains;
 mod checkpoint;
+pub use checkpoint::progress as checkpoint_progress;
 mod diagnostics;
 mod mh;
 mod optimize;

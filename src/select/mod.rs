@@ -7,11 +7,14 @@
 //! ([`pair`]) that cannot apply carries a note saying why, and every other estimator still
 //! reports.
 
+mod checkpoint;
 mod model;
 mod output;
 mod pair;
 
-pub use output::{table, write_outputs};
+pub use checkpoint::{FILE as CHECKPOINT_FILE, SelectCheckpoint, identity};
+
+pub use output::{LEGACY_OUTPUTS, table, write_outputs};
 pub use pair::{EstimateKind, JumpStats, PairEstimate, PairResult};
 
 use crate::analysis::{Prepared, likelihood_of, model_warnings, truth_of};
@@ -39,7 +42,7 @@ pub enum SelectError {
 }
 
 /// A per-model `ln Z` estimate, or why the estimator does not apply.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, serde::Deserialize)]
 pub struct Evidence {
     pub ln_z: Option<f64>,
     /// Monte-Carlo standard error (statistical estimators only).
@@ -93,7 +96,7 @@ impl Evidence {
 }
 
 /// Per-model results.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, serde::Deserialize)]
 pub struct ModelOutcome {
     pub name: String,
     /// The model this is a sub-model of.
@@ -137,7 +140,7 @@ pub struct ModelOutcome {
 }
 
 /// What a parallel-tempering run of one model looked like.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, serde::Deserialize)]
 pub struct TemperingDiagnostics {
     pub betas: Vec<f64>,
     /// Swap acceptance of each adjacent pair of rungs.
@@ -193,6 +196,26 @@ pub fn run(
     prep: &Prepared,
     progress: Option<&mut dyn FnMut(&crate::evidence::RjProgress<'_>)>,
 ) -> Result<SelectSummary, SelectError> {
+    run_checkpointed(study, prep, progress, None)
+}
+
+/// Where [`run_checkpointed`] saves its finished stages, and what it resumes from.
+pub struct Checkpointing<'a> {
+    /// The checkpoint file, rewritten (atomically) after every stage.
+    pub path: &'a std::path::Path,
+    /// The stages already done (from [`SelectCheckpoint::read`]), or a fresh
+    /// [`SelectCheckpoint::new`].
+    pub state: SelectCheckpoint,
+}
+
+/// [`run`], saving each finished stage to a checkpoint and skipping the stages the
+/// checkpoint already holds; the numbers are those of an uninterrupted run, bit for bit.
+pub fn run_checkpointed(
+    study: &Study,
+    prep: &Prepared,
+    progress: Option<&mut dyn FnMut(&crate::evidence::RjProgress<'_>)>,
+    mut ckpt: Option<Checkpointing<'_>>,
+) -> Result<SelectSummary, SelectError> {
     let t0 = Instant::now();
     let sel = &study.select;
     if study.select_models.len() < 2 {
@@ -226,17 +249,22 @@ pub fn run(
     let n_sbic = sel.schwarz_n.unwrap_or(first.n_real_data() as f64);
     let mut runs = Vec::new();
     for (k, m) in study.select_models.iter().enumerate() {
-        let r = model::run_model(
-            study,
-            exact_of(m.spec.model),
-            m,
-            seed.wrapping_add(k as u64),
-            n_sbic,
-        )
+        let exact = exact_of(m.spec.model);
+        let saved = ckpt.as_ref().and_then(|c| c.state.models.get(k).cloned());
+        let r = match saved {
+            Some(stage) => stage.restore(study, exact, &m.spec),
+            None => model::run_model(study, exact, m, seed.wrapping_add(k as u64), n_sbic),
+        }
         .map_err(|msg| SelectError::Model {
             model: m.name.clone(),
             msg,
         })?;
+        if let Some(c) = ckpt.as_mut()
+            && c.state.models.len() == k
+        {
+            c.state.models.push(checkpoint::ModelStage::of(&r));
+            c.state.write(c.path)?;
+        }
         runs.push(r);
     }
     // reversible jump over all models, each on its own sampled likelihood
@@ -285,15 +313,30 @@ pub fn run(
         defensive: sel.defensive,
         ..Default::default()
     };
-    let t_rj = Instant::now();
-    let (rj, rj_note) = match run_rjmcmc(&rj_models, &opts, progress) {
-        Ok(r) => (Some(r), None),
-        Err(e) => (
-            None,
-            Some(format!("the reversible-jump chain did not run: {e}")),
-        ),
+    let saved_rj = ckpt.as_ref().and_then(|c| c.state.rj.clone());
+    let (rj, rj_note, rj_rate) = match saved_rj {
+        Some(s) => (s.rj, s.note, s.rate),
+        None => {
+            let t_rj = Instant::now();
+            let (rj, note) = match run_rjmcmc(&rj_models, &opts, progress) {
+                Ok(r) => (Some(r), None),
+                Err(e) => (
+                    None,
+                    Some(format!("the reversible-jump chain did not run: {e}")),
+                ),
+            };
+            let rate = sel.rj_iterations as f64 / t_rj.elapsed().as_secs_f64();
+            if let Some(c) = ckpt.as_mut() {
+                c.state.rj = Some(checkpoint::RjStage {
+                    rj: rj.clone(),
+                    note: note.clone(),
+                    rate,
+                });
+                c.state.write(c.path)?;
+            }
+            (rj, note, rate)
+        }
     };
-    let rj_rate = sel.rj_iterations as f64 / t_rj.elapsed().as_secs_f64();
     let models: Vec<ModelOutcome> = runs.into_iter().map(|r| r.outcome).collect();
     let mut pairs = Vec::new();
     for x in 0..models.len() {

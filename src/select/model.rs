@@ -174,6 +174,43 @@ fn sample_matrix(chains: &Chains) -> DMatrix<f64> {
 }
 
 /// Runs every per-model stage for competing model `m` on its parent's exact likelihood.
+/// The random-walk covariance of a model's samplers: the inverse Fisher matrix capped at the
+/// prior's marginal widths, or the prior's covariance when the Fisher matrix is singular.
+pub(super) fn walk_cov(fisher_cov: Option<&DMatrix<f64>>, prior: &Prior) -> DMatrix<f64> {
+    fisher_cov
+        .map(|c| cap_to_prior(c, prior))
+        .unwrap_or_else(|| prior_cov(prior))
+}
+
+/// The likelihood a model's samplers run on around `base` (its MAP), and why it is not the
+/// relative-binned one when it is not. Deterministic, so a run resumed from a checkpoint
+/// rebuilds the very likelihood the checkpointed stage sampled.
+pub(super) fn sampled_around(
+    study: &Study,
+    exact: &Likelihood,
+    spec: &ModelSpec,
+    base: &[f64],
+    walk_cov: &DMatrix<f64>,
+) -> (Sampled, Vec<String>) {
+    let (kind, why) = crate::analysis::sampled_kind(study, exact);
+    let mut notes: Vec<String> = why.into_iter().collect();
+    let sampled = match kind {
+        LikelihoodKind::Relbin => {
+            match relbin_in_region(study, exact, base, &spec.free, walk_cov) {
+                Ok(rb) => Sampled::RelBin(Box::new(rb)),
+                Err(e) => {
+                    notes.push(format!(
+                        "relative binning not used ({e}); the samplers run on the exact likelihood"
+                    ));
+                    Sampled::Exact(spec.model)
+                }
+            }
+        }
+        LikelihoodKind::Exact => Sampled::Exact(spec.model),
+    };
+    (sampled, notes)
+}
+
 pub(super) fn run_model(
     study: &Study,
     exact: &Likelihood,
@@ -224,28 +261,13 @@ pub(super) fn run_model(
             free_names
         ));
     }
-    let walk_cov = fisher_cov
-        .as_ref()
-        .map(|c| cap_to_prior(c, &prior))
-        .unwrap_or_else(|| prior_cov(&prior));
+    let walk_cov = walk_cov(fisher_cov.as_ref(), &prior);
 
     // the sampled likelihood
     let statistic = exact.statistic();
     let whittle = statistic == Statistic::Whittle;
-    let (kind, why) = crate::analysis::sampled_kind(study, exact);
+    let (sampled, why) = sampled_around(study, exact, spec, &base, &walk_cov);
     notes.extend(why);
-    let sampled = match kind {
-        LikelihoodKind::Relbin => match relbin_in_region(study, exact, &base, free, &walk_cov) {
-            Ok(rb) => Sampled::RelBin(Box::new(rb)),
-            Err(e) => {
-                notes.push(format!(
-                    "relative binning not used ({e}); the samplers run on the exact likelihood"
-                ));
-                Sampled::Exact(spec.model)
-            }
-        },
-        LikelihoodKind::Exact => Sampled::Exact(spec.model),
-    };
     let target: &dyn LogDensity = match &sampled {
         Sampled::RelBin(rb) => rb.as_ref(),
         Sampled::Exact(_) => exact,

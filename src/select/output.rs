@@ -53,6 +53,21 @@ pub fn table(s: &SelectSummary) -> Table {
     t
 }
 
+/// What a select directory held before `manifest.json` existed: the files a new run removes
+/// when it does not write them itself ([`crate::rundir::RunDir::publish`]).
+pub const LEGACY_OUTPUTS: &[&str] = &[
+    "summary.json",
+    "table.txt",
+    "table.md",
+    "residual_psd.npz",
+    "residual_psd_*.png",
+    "residual_psd_*.svg",
+    "bayes_factor.png",
+    "bayes_factor.svg",
+    "model_visits.png",
+    "model_visits.svg",
+];
+
 /// Writes `summary.json`, `table.txt`, `table.md`, the evolution of B (`bayes_factor`) and the
 /// model-visit histogram (`model_visits`), each atomically.
 pub fn write_outputs(s: &SelectSummary, out: &Path) -> Result<(), SelectError> {

@@ -271,7 +271,7 @@ pub struct RjProgress<'a> {
 }
 
 /// Bayes-factor estimates for one pair, `ln B_kl = ln Z_k − ln Z_l`.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, serde::Deserialize)]
 pub struct RjPair {
     /// First model.
     pub k: usize,
@@ -324,7 +324,7 @@ impl RjPair {
 }
 
 /// Visit counts at one point of the run.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, serde::Deserialize)]
 pub struct RjTracePoint {
     /// Iterations done (including burn-in), summed over the chains.
     pub iteration: usize,
@@ -333,7 +333,7 @@ pub struct RjTracePoint {
 }
 
 /// Output of [`run_rjmcmc`].
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, serde::Deserialize)]
 pub struct RjResult {
     /// Model names.
     pub model_names: Vec<String>,

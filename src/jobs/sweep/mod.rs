@@ -16,7 +16,7 @@ mod plots;
 pub mod record;
 pub mod stats;
 
-pub use output::write_outputs;
+pub use output::{LEGACY_OUTPUTS, publish, write_outputs};
 
 use crate::config::{Study, StudyFile};
 use crate::jobs::exec::Executor;
@@ -236,6 +236,14 @@ impl Sweep {
             outcome,
             error,
         }
+    }
+
+    /// How many of the sweep's tasks are finished in its run directory (what `--resume`
+    /// resumes from).
+    pub fn finished_tasks(&self) -> usize {
+        (0..self.task_count())
+            .filter(|&t| TaskRecord::load(&self.out, &self.id(t)).is_some())
+            .count()
     }
 
     /// Runs every task not already in the run directory on `exec`, then computes each

@@ -5,11 +5,35 @@ use super::stats::REFERENCE;
 use super::{Sweep, SweepResult};
 use anyhow::Context;
 use ndarray::{Array, ArrayD, IxDyn};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
-/// Writes the sweep's outputs into its run directory; returns the files written.
-pub fn write_outputs(sweep: &Sweep, res: &SweepResult) -> anyhow::Result<Vec<PathBuf>> {
-    let out = &sweep.out;
+/// What a sweep directory held before `manifest.json` existed: the files a new run removes
+/// when it does not write them itself ([`crate::rundir::RunDir::publish`]).
+pub const LEGACY_OUTPUTS: &[&str] = &[
+    "sweep.json",
+    "sweep.npz",
+    "table.txt",
+    "ln_b_vs_*.png",
+    "ln_b_vs_*.svg",
+    "ln_b_map*.png",
+    "ln_b_map*.svg",
+];
+
+/// Writes the sweep's outputs into the staging area of the run directory `run` and publishes
+/// them together; returns the published file names.
+pub fn publish(
+    sweep: &Sweep,
+    res: &SweepResult,
+    run: &crate::rundir::RunDir,
+) -> anyhow::Result<Vec<String>> {
+    write_outputs(sweep, res, &run.staging()?)?;
+    Ok(run.publish("sweep", LEGACY_OUTPUTS)?)
+}
+
+/// Writes the sweep's outputs into `dir` (the run directory, or its staging directory: see
+/// [`crate::rundir`]); returns the files written.
+pub fn write_outputs(sweep: &Sweep, res: &SweepResult, dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
+    let out = dir;
     let mut files = Vec::new();
     let p = out.join("sweep.json");
     let json = serde_json::to_string_pretty(&json(sweep, res))? + "\n";
@@ -23,19 +47,7 @@ pub fn write_outputs(sweep: &Sweep, res: &SweepResult) -> anyhow::Result<Vec<Pat
     crate::atomic::write_bytes(&p, table(sweep, res).as_bytes())
         .with_context(|| format!("writing {}", p.display()))?;
     files.push(p);
-    files.extend(super::plots::write_plots(sweep, res)?);
-    // a previous run's figures of other axes or pairs would read as this run's
-    if let Ok(rd) = std::fs::read_dir(out) {
-        for e in rd.flatten() {
-            let p = e.path();
-            let name = e.file_name().to_string_lossy().into_owned();
-            let figure = (name.starts_with("ln_b_vs_") || name.starts_with("ln_b_map"))
-                && (name.ends_with(".png") || name.ends_with(".svg"));
-            if figure && !files.contains(&p) {
-                let _ = std::fs::remove_file(&p);
-            }
-        }
-    }
+    files.extend(super::plots::write_plots(sweep, res, out)?);
     Ok(files)
 }
 

@@ -5,7 +5,7 @@
 use super::{Sweep, SweepResult};
 use crate::report::{BandPlot, BandSeries, HeatMap, band_plot, heat_map};
 use crate::select::EstimateKind;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// A log axis when every value is positive and they span more than a decade.
 fn log_axis(v: &[f64]) -> bool {
@@ -68,7 +68,7 @@ fn clip_systematic(series: &mut [BandSeries], statistical: impl Fn(&str) -> bool
 }
 
 /// Draws the sweep's plots; returns the files written.
-pub fn write_plots(sweep: &Sweep, res: &SweepResult) -> anyhow::Result<Vec<PathBuf>> {
+pub fn write_plots(sweep: &Sweep, res: &SweepResult, dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
     let mut files = Vec::new();
     let axes = &sweep.grid.axes;
     let n_pairs = res.methods.len();
@@ -137,7 +137,7 @@ pub fn write_plots(sweep: &Sweep, res: &SweepResult) -> anyhow::Result<Vec<PathB
                 sweep.realisations
             );
             band_plot(
-                &sweep.out,
+                dir,
                 &stem,
                 &BandPlot {
                     title: &title,
@@ -148,8 +148,8 @@ pub fn write_plots(sweep: &Sweep, res: &SweepResult) -> anyhow::Result<Vec<PathB
                     zones: true,
                 },
             )?;
-            files.push(sweep.out.join(format!("{stem}.png")));
-            files.push(sweep.out.join(format!("{stem}.svg")));
+            files.push(dir.join(format!("{stem}.png")));
+            files.push(dir.join(format!("{stem}.svg")));
         } else {
             let (xs, ys) = (&axes[0].values, &axes[1].values);
             let z: Vec<Vec<f64>> = (0..ys.len())
@@ -171,7 +171,7 @@ pub fn write_plots(sweep: &Sweep, res: &SweepResult) -> anyhow::Result<Vec<PathB
                 sweep.realisations
             );
             heat_map(
-                &sweep.out,
+                dir,
                 &stem,
                 &HeatMap {
                     title: &title,
@@ -186,8 +186,8 @@ pub fn write_plots(sweep: &Sweep, res: &SweepResult) -> anyhow::Result<Vec<PathB
                     diverging: true,
                 },
             )?;
-            files.push(sweep.out.join(format!("{stem}.png")));
-            files.push(sweep.out.join(format!("{stem}.svg")));
+            files.push(dir.join(format!("{stem}.png")));
+            files.push(dir.join(format!("{stem}.svg")));
         }
     }
     Ok(files)

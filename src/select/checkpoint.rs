@@ -1,0 +1,211 @@
+//! Checkpoints of `occam select`: every finished stage — one model's MAP, chains, tempering and
+//! Laplace estimates, then the reversible-jump run — is saved as it ends, so a killed run
+//! resumes at the first unfinished stage. Each stage is deterministic given its seed and the
+//! stages before it, so a resumed run ends with the numbers of an uninterrupted one, bit for bit.
+//!
+//! The file is CBOR (not JSON) because JSON has no NaN or ∞ and its floats need care to
+//! round-trip; CBOR keeps every `f64` bit pattern. It carries an identity — a hash of the
+//! resolved study (without its output directory) and of the data — and a checkpoint of another
+//! study or other data is refused.
+
+use super::model::{ModelRun, Sampled, sampled_around, spd_inverse, walk_cov};
+use super::{ModelOutcome, SelectError};
+use crate::config::{ModelSpec, Study};
+use crate::dataset::Dataset;
+use crate::density::LogDensity;
+use crate::evidence::RjResult;
+use crate::likelihood::{Likelihood, fisher_exact};
+use crate::nested::SubModel;
+use nalgebra::DMatrix;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// The checkpoint's file name inside the run directory.
+pub const FILE: &str = "checkpoint.cbor";
+const FORMAT: &str = "occam-select-checkpoint";
+const VERSION: u32 = 1;
+
+/// One model's finished stage: what the reversible-jump run and the tables need from it.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub(super) struct ModelStage {
+    pub outcome: ModelOutcome,
+    pub base: Vec<f64>,
+    pub jump_center: Vec<f64>,
+    /// `jump_cov` in nalgebra's column-major order.
+    pub jump_cov: Vec<f64>,
+    /// Whether the samplers ran on the relative-binned likelihood.
+    pub relbin: bool,
+}
+
+/// The finished reversible-jump stage.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub(super) struct RjStage {
+    pub rj: Option<RjResult>,
+    pub note: Option<String>,
+    /// Iterations per second of the run that computed it.
+    pub rate: f64,
+}
+
+/// The saved stages of one select run.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct SelectCheckpoint {
+    format: String,
+    version: u32,
+    identity: String,
+    pub(super) models: Vec<ModelStage>,
+    pub(super) rj: Option<RjStage>,
+}
+
+/// A hash of what a select run's numbers depend on: the resolved study without its output
+/// directory and file name, and every sample of the data.
+pub fn identity(study: &Study, data: &Dataset) -> String {
+    use crate::jobs::sweep::record::fnv1a;
+    let mut v = serde_json::to_value(study).expect("a study serialises");
+    if let Some(o) = v.as_object_mut() {
+        o.remove("output");
+        o.remove("source");
+        o.remove("base_dir");
+    }
+    let mut bytes = serde_json::to_vec(&v).expect("a study serialises");
+    for e in &data.experiments {
+        bytes.extend_from_slice(e.name.as_bytes());
+        bytes.extend_from_slice(&e.fs.to_bits().to_le_bytes());
+        let named = e.extra.iter().chain(&e.noise_extra);
+        let fixed = e.o.iter().chain(&e.i).chain(&e.noise);
+        for s in fixed.chain(named.map(|(_, s)| s)) {
+            bytes.extend_from_slice(&(s.len() as u64).to_le_bytes());
+            for x in s {
+                bytes.extend_from_slice(&x.to_bits().to_le_bytes());
+            }
+        }
+    }
+    format!("{:016x}", fnv1a(&bytes))
+}
+
+fn io_err(path: &Path, what: &str, e: impl std::fmt::Display) -> SelectError {
+    SelectError::Io(format!("{}: {what}: {e}", path.display()))
+}
+
+impl SelectCheckpoint {
+    /// An empty checkpoint of the run with this [`identity`].
+    pub fn new(identity: String) -> Self {
+        Self {
+            format: FORMAT.into(),
+            version: VERSION,
+            identity,
+            models: Vec::new(),
+            rj: None,
+        }
+    }
+
+    /// Reads the checkpoint at `path` and checks that it belongs to the run `identity`.
+    pub fn read(path: &Path, identity: &str) -> Result<Self, SelectError> {
+        let f = std::fs::File::open(path).map_err(|e| io_err(path, "cannot open", e))?;
+        let c: SelectCheckpoint = ciborium::from_reader(std::io::BufReader::new(f))
+            .map_err(|e| io_err(path, "not a readable occam select checkpoint", e))?;
+        if c.format != FORMAT || c.version != VERSION {
+            return Err(io_err(
+                path,
+                "unsupported checkpoint",
+                format!(
+                    "format `{}` version {}, expected `{FORMAT}` version {VERSION}",
+                    c.format, c.version
+                ),
+            ));
+        }
+        if c.identity != identity {
+            return Err(SelectError::Io(format!(
+                "{}: the checkpoint belongs to a different study or different data (identity {} here, {} in the checkpoint); run without --resume to start afresh",
+                path.display(),
+                identity,
+                c.identity
+            )));
+        }
+        Ok(c)
+    }
+
+    /// Writes the checkpoint atomically.
+    pub fn write(&self, path: &Path) -> Result<(), SelectError> {
+        crate::atomic::write_with(path, |w| {
+            ciborium::into_writer(self, w).map_err(|e| std::io::Error::other(e.to_string()))
+        })
+        .map_err(|e| io_err(path, "cannot write the checkpoint", e))
+    }
+
+    /// What is done and what is left, for the "resuming from" line.
+    pub fn describe(&self, model_names: &[String]) -> String {
+        let done: Vec<&str> = self
+            .models
+            .iter()
+            .map(|m| m.outcome.name.as_str())
+            .collect();
+        let left: Vec<&str> = model_names
+            .iter()
+            .skip(self.models.len())
+            .map(String::as_str)
+            .collect();
+        let rj = if self.rj.is_some() { "done" } else { "to run" };
+        format!(
+            "models done: {}; to run: {}; reversible jump {rj}",
+            if done.is_empty() {
+                "none".into()
+            } else {
+                done.join(", ")
+            },
+            if left.is_empty() {
+                "none".into()
+            } else {
+                left.join(", ")
+            },
+        )
+    }
+}
+
+impl ModelStage {
+    /// The saved form of a finished model stage.
+    pub(super) fn of(run: &ModelRun) -> Self {
+        Self {
+            outcome: run.outcome.clone(),
+            base: run.base.clone(),
+            jump_center: run.jump_center.clone(),
+            jump_cov: run.jump_cov.as_slice().to_vec(),
+            relbin: matches!(run.sampled, Sampled::RelBin(_)),
+        }
+    }
+
+    /// The model stage again, its sampled likelihood rebuilt exactly as the run built it.
+    pub(super) fn restore(
+        self,
+        study: &Study,
+        exact: &Likelihood,
+        spec: &ModelSpec,
+    ) -> Result<ModelRun, String> {
+        let d = spec.free.len();
+        if self.jump_center.len() != d || self.jump_cov.len() != d * d {
+            return Err(format!(
+                "the checkpoint's stage of `{}` has {} free parameters, the study {d}",
+                self.outcome.name,
+                self.jump_center.len()
+            ));
+        }
+        let sub = SubModel::new(exact, spec.free.clone(), self.base.clone())
+            .map_err(|e| e.to_string())?;
+        let fisher_cov = spd_inverse(&fisher_exact(exact, &self.base, &spec.free));
+        let cov = walk_cov(fisher_cov.as_ref(), sub.prior());
+        let (sampled, _) = sampled_around(study, exact, spec, &self.base, &cov);
+        if matches!(sampled, Sampled::RelBin(_)) != self.relbin {
+            return Err(format!(
+                "the sampled likelihood of `{}` does not rebuild as checkpointed",
+                self.outcome.name
+            ));
+        }
+        Ok(ModelRun {
+            outcome: self.outcome,
+            spec: spec.clone(),
+            sampled,
+            base: self.base,
+            jump_center: self.jump_center,
+            jump_cov: DMatrix::from_column_slice(d, d, &self.jump_cov),
+        })
+    }
+}
