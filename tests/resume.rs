@@ -1,0 +1,252 @@
+//! Run directories and resumption: `select` checkpoints every stage and a resumed run gives
+//! the numbers of an uninterrupted one, bit for bit; `--resume` with nothing to resume is an
+//! error; a second run on a busy directory and an unusable directory are refused before any
+//! work; a killed run leaves no temporaries and a manifest only when it finished.
+
+mod common;
+use common::occam;
+use occam::select::{Checkpointing, SelectCheckpoint, run_checkpointed};
+use std::path::Path;
+
+const SMALL: &str = r#"
+seed = 8
+output = "out"
+[analysis]
+band = [1e-3, 0.4]
+[fit]
+free = ["a_df", "a_sus", "d21"]
+fixed = { w1sq = -1.3e-6, w2sq = -1.9e-6, dt1 = 0.2, dt2 = 0.2 }
+chains = 2
+iterations = 2000
+burn_in = 500
+[select]
+rj_iterations = 6000
+rj_burn_in = 500
+iterations = 2000
+burn_in = 500
+pt_temperatures = 6
+pt_iterations = 1500
+pt_burn_in = 300
+[[select.model]]
+name = "X"
+free = ["a_df", "a_sus", "d21"]
+fixed = { w1sq = -1.3e-6, w2sq = -1.9e-6, dt1 = 0.2, dt2 = 0.2 }
+[[select.model]]
+name = "Y"
+free = ["a_df", "a_sus"]
+fixed = { w1sq = -1.3e-6, w2sq = -1.9e-6, dt1 = 0.2, dt2 = 0.2, d21 = 0.0 }
+[[experiment]]
+name = "a"
+fs = 1.0
+pre_pad = 200.0
+post_pad = 1500.0
+noise_duration = 8000.0
+x1 = { kind = "sine_train", gap = 20.0, segments = [
+  { freq = 0.002, amplitude = 1e-6, duration = 500.0 },
+  { freq = 0.05, amplitude = 1e-7, duration = 200.0 } ] }
+[[experiment]]
+name = "b"
+fs = 1.0
+pre_pad = 200.0
+post_pad = 1500.0
+noise_duration = 8000.0
+x12 = { kind = "sine", freq = 0.002, amplitude = 1e-6, duration = 500.0 }
+"#;
+
+/// The summary's numbers: its JSON with every timing field removed.
+fn numbers(v: serde_json::Value) -> serde_json::Value {
+    use serde_json::Value;
+    match v {
+        Value::Object(m) => Value::Object(
+            m.into_iter()
+                .filter(|(k, _)| !(k.starts_with("seconds") || k.ends_with("per_second")))
+                .map(|(k, x)| (k, numbers(x)))
+                .collect(),
+        ),
+        Value::Array(a) => Value::Array(a.into_iter().map(numbers).collect()),
+        x => x,
+    }
+}
+
+fn summary_numbers(dir: &Path) -> serde_json::Value {
+    let text = std::fs::read_to_string(dir.join("summary.json")).unwrap();
+    numbers(serde_json::from_str(&text).unwrap())
+}
+
+#[test]
+fn select_resumed_after_a_crash_in_the_reversible_jump_stage_equals_an_uninterrupted_run() {
+    let study = occam::config::Study::from_toml(SMALL, "small.toml", Path::new(".")).unwrap();
+    let prep = occam::analysis::prepare(&study).unwrap();
+    let id = occam::select::identity(&study, &prep.dataset);
+    let dir = tempfile::tempdir().unwrap();
+    let ck = dir.path().join("checkpoint.cbor");
+
+    let whole = occam::select::run(&study, &prep, None).unwrap();
+
+    // a crash part-way through the reversible-jump run: both model stages are saved
+    let crash = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        let mut cb = |p: &occam::evidence::RjProgress<'_>| {
+            if p.iteration > 1000 {
+                panic!("killed");
+            }
+        };
+        let c = Checkpointing {
+            path: &ck,
+            state: SelectCheckpoint::new(id.clone()),
+        };
+        run_checkpointed(&study, &prep, Some(&mut cb), Some(c)).map(|_| ())
+    }));
+    assert!(crash.is_err(), "the callback must have stopped the run");
+    let saved = SelectCheckpoint::read(&ck, &id).unwrap();
+    let names = vec!["X".to_string(), "Y".to_string()];
+    assert_eq!(
+        saved.describe(&names),
+        "models done: X, Y; to run: none; reversible jump to run"
+    );
+    let c = Checkpointing {
+        path: &ck,
+        state: saved,
+    };
+    let resumed = run_checkpointed(&study, &prep, None, Some(c)).unwrap();
+    let a = numbers(serde_json::to_value(&whole).unwrap());
+    let b = numbers(serde_json::to_value(&resumed).unwrap());
+    assert!(a == b, "a resumed select must equal an uninterrupted one");
+
+    // resuming a finished run recomputes nothing and still gives the same numbers
+    let done = SelectCheckpoint::read(&ck, &id).unwrap();
+    assert!(done.describe(&names).ends_with("reversible jump done"));
+    let c = Checkpointing {
+        path: &ck,
+        state: done,
+    };
+    let again = run_checkpointed(&study, &prep, None, Some(c)).unwrap();
+    assert!(numbers(serde_json::to_value(&again).unwrap()) == a);
+
+    // a checkpoint of other data is refused
+    let mut other = prep.dataset.clone();
+    other.experiments[0].o[0][3] += 1e-12;
+    let e = SelectCheckpoint::read(&ck, &occam::select::identity(&study, &other))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("different study or different data") && e.contains("without --resume"),
+        "{e}"
+    );
+}
+
+#[test]
+fn resume_with_nothing_to_resume_is_an_error_for_every_command() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("s.toml"), SMALL).unwrap();
+    for cmd in ["fit", "select", "sweep"] {
+        let (ok, _, err) = occam(&[cmd, "s.toml", "-q", "--resume"], dir.path());
+        assert!(!ok, "{cmd}");
+        assert!(
+            err.contains("nothing to resume") && err.contains("run without --resume"),
+            "{cmd}: {err}"
+        );
+    }
+}
+
+#[test]
+fn a_busy_or_unusable_directory_is_refused_before_any_work() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("s.toml"), SMALL).unwrap();
+    let held = occam::rundir::RunDir::open(&dir.path().join("out/select")).unwrap();
+    let (ok, _, err) = occam(&["select", "s.toml", "-q"], dir.path());
+    assert!(!ok);
+    assert!(
+        err.contains("another occam run is writing into this directory")
+            && err.contains(&format!("process {}", std::process::id())),
+        "{err}"
+    );
+    drop(held);
+    std::fs::write(dir.path().join("plain"), b"").unwrap();
+    for cmd in ["simulate", "fit", "select", "sweep"] {
+        let t0 = std::time::Instant::now();
+        let (ok, _, err) = occam(&[cmd, "s.toml", "-o", "plain/out"], dir.path());
+        assert!(!ok, "{cmd}");
+        assert!(
+            err.contains("plain/out") && err.contains("-o/--output"),
+            "{cmd}: {err}"
+        );
+        // found at once, not after the computing (a select here takes seconds)
+        assert!(t0.elapsed().as_secs_f64() < 30.0);
+    }
+}
+
+/// `select` killed with SIGKILL as soon as its first stage is saved, then resumed: the
+/// directory ends as an uninterrupted run's, with no temporaries left.
+#[cfg(unix)]
+#[test]
+fn select_killed_mid_run_and_resumed_matches_an_uninterrupted_run() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("s.toml"), SMALL).unwrap();
+    let (ok, _, err) = occam(&["select", "s.toml", "-q", "-o", "whole"], d);
+    assert!(ok, "{err}");
+
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_occam"))
+        .args(["select", "s.toml", "-q", "-o", "cut"])
+        .current_dir(d)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let ck = d.join("cut").join(occam::select::CHECKPOINT_FILE);
+    let t0 = std::time::Instant::now();
+    while !ck.exists() && t0.elapsed().as_secs() < 120 {
+        if child.try_wait().unwrap().is_some() {
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    let _ = child.kill();
+    child.wait().unwrap();
+    assert!(ck.exists(), "the first stage must have been checkpointed");
+    let (ok, out, err) = occam(&["select", "s.toml", "-q", "-o", "cut", "--resume"], d);
+    assert!(ok, "{err}");
+    assert!(out.contains("resuming from"), "{out}");
+    assert!(summary_numbers(&d.join("whole")) == summary_numbers(&d.join("cut")));
+    for f in ["table.txt", "residual_psd.npz"] {
+        assert_eq!(
+            std::fs::read(d.join("whole").join(f)).unwrap(),
+            std::fs::read(d.join("cut").join(f)).unwrap(),
+            "{f}"
+        );
+    }
+    let m = occam::rundir::Manifest::read(&d.join("cut")).expect("a finished run has a manifest");
+    for f in &m.files {
+        assert!(d.join("cut").join(&f.name).exists(), "{}", f.name);
+    }
+    let leftovers: Vec<String> = std::fs::read_dir(d.join("cut"))
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.contains(".tmp") || n == ".staging")
+        .collect();
+    assert!(leftovers.is_empty(), "{leftovers:?}");
+}
+
+#[test]
+fn a_rerun_removes_the_previous_runs_files_it_does_not_write() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(d.join("s.toml"), SMALL).unwrap();
+    // a directory of an older occam: a figure this run does not draw
+    std::fs::create_dir_all(d.join("out/select")).unwrap();
+    std::fs::write(d.join("out/select/residual_psd_old.png"), b"stale").unwrap();
+    std::fs::write(d.join("out/select/my-notes.txt"), b"the user's").unwrap();
+    let (ok, out, err) = occam(&["select", "s.toml", "-q"], d);
+    assert!(ok, "{err}");
+    assert!(!d.join("out/select/residual_psd_old.png").exists());
+    assert!(d.join("out/select/my-notes.txt").exists());
+    // the files it says it wrote are exactly those on disk, listed in the manifest
+    let line = out.lines().find(|l| l.starts_with("wrote ")).unwrap();
+    let m = occam::rundir::Manifest::read(&d.join("out/select")).unwrap();
+    for f in &m.files {
+        assert!(line.contains(&f.name), "{line} lacks {}", f.name);
+        assert!(d.join("out/select").join(&f.name).exists());
+    }
+    assert!(!line.contains("my-notes.txt"), "{line}");
+}
