@@ -35,6 +35,10 @@ pub(super) struct ModelStage {
     pub jump_cov: Vec<f64>,
     /// Whether the samplers ran on the relative-binned likelihood.
     pub relbin: bool,
+    pub tempering_start: Vec<f64>,
+    pub seed: u64,
+    /// Whether the tempering stage is in `outcome` too.
+    pub tempered: bool,
 }
 
 /// The finished reversible-jump stage.
@@ -134,10 +138,16 @@ impl SelectCheckpoint {
 
     /// What is done and what is left, for the "resuming from" line.
     pub fn describe(&self, model_names: &[String]) -> String {
-        let done: Vec<&str> = self
+        let done: Vec<String> = self
             .models
             .iter()
-            .map(|m| m.outcome.name.as_str())
+            .map(|m| {
+                if m.tempered {
+                    m.outcome.name.clone()
+                } else {
+                    format!("{} (but its tempering)", m.outcome.name)
+                }
+            })
             .collect();
         let left: Vec<&str> = model_names
             .iter()
@@ -163,13 +173,16 @@ impl SelectCheckpoint {
 
 impl ModelStage {
     /// The saved form of a finished model stage.
-    pub(super) fn of(run: &ModelRun) -> Self {
+    pub(super) fn of(run: &ModelRun, tempered: bool) -> Self {
         Self {
             outcome: run.outcome.clone(),
             base: run.base.clone(),
             jump_center: run.jump_center.clone(),
             jump_cov: run.jump_cov.as_slice().to_vec(),
             relbin: matches!(run.sampled, Sampled::RelBin(_)),
+            tempering_start: run.tempering_start.clone(),
+            seed: run.seed,
+            tempered,
         }
     }
 
@@ -206,6 +219,8 @@ impl ModelStage {
             base: self.base,
             jump_center: self.jump_center,
             jump_cov: DMatrix::from_column_slice(d, d, &self.jump_cov),
+            tempering_start: self.tempering_start,
+            seed: self.seed,
         })
     }
 }

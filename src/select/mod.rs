@@ -251,19 +251,28 @@ pub fn run_checkpointed(
     for (k, m) in study.select_models.iter().enumerate() {
         let exact = exact_of(m.spec.model);
         let saved = ckpt.as_ref().and_then(|c| c.state.models.get(k).cloned());
-        let r = match saved {
+        let tempered = saved.as_ref().is_some_and(|s| s.tempered);
+        let err = |msg| SelectError::Model {
+            model: m.name.clone(),
+            msg,
+        };
+        let mut r = match saved {
             Some(stage) => stage.restore(study, exact, &m.spec),
             None => model::run_model(study, exact, m, seed.wrapping_add(k as u64), n_sbic),
         }
-        .map_err(|msg| SelectError::Model {
-            model: m.name.clone(),
-            msg,
-        })?;
+        .map_err(err)?;
         if let Some(c) = ckpt.as_mut()
             && c.state.models.len() == k
         {
-            c.state.models.push(checkpoint::ModelStage::of(&r));
+            c.state.models.push(checkpoint::ModelStage::of(&r, false));
             c.state.write(c.path)?;
+        }
+        if !tempered {
+            model::temper(study, exact, &mut r).map_err(err)?;
+            if let Some(c) = ckpt.as_mut() {
+                c.state.models[k] = checkpoint::ModelStage::of(&r, true);
+                c.state.write(c.path)?;
+            }
         }
         runs.push(r);
     }

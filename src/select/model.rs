@@ -44,6 +44,9 @@ pub(super) struct ModelRun {
     /// Location and covariance of the jump proposal (free parameters).
     pub jump_center: Vec<f64>,
     pub jump_cov: DMatrix<f64>,
+    /// Where the tempering stage ([`temper`]) starts (free parameters) and the model's seed.
+    pub tempering_start: Vec<f64>,
+    pub seed: u64,
 }
 
 fn free_vec(th: &[f64], free: &[usize]) -> Vec<f64> {
@@ -407,15 +410,9 @@ pub(super) fn run_model(
             (why.clone(), why, None)
         }
     };
-    // parallel tempering from the best sample with the chains' covariance
-    let (thermodynamic, stepping_stone, tempering) = tempering(
-        study,
-        &sub_s,
-        matches!(sampled, Sampled::RelBin(_)).then_some(&sub_exact as &dyn LogDensity),
-        best.as_deref().unwrap_or(&centre),
-        &jump_cov,
-        seed,
-    );
+    // parallel tempering (its own stage: [`temper`]) starts from the best sample with the
+    // chains' covariance
+    let tempering_start = best.clone().unwrap_or_else(|| centre.clone());
 
     // Schwarz at the MAP, or at the best sample when there is no MAP
     let ln_l_map = match (&map_theta, &best) {
@@ -460,9 +457,9 @@ pub(super) fn run_model(
         laplace_fisher_box: Evidence::systematic(lf_box, box_assumes),
         laplace_metropolis_mve: Evidence::systematic(lm_mve, lm_assumes.clone()),
         laplace_metropolis_mcd: Evidence::systematic(lm_mcd, lm_assumes),
-        thermodynamic,
-        stepping_stone,
-        tempering,
+        thermodynamic: Evidence::not_applicable("parallel tempering has not run yet".into()),
+        stepping_stone: Evidence::not_applicable("parallel tempering has not run yet".into()),
+        tempering: None,
         schwarz_ln_z: schwarz,
         mcmc_acceptance: diag.as_ref().map_or(Vec::new(), |g| g.acceptance.clone()),
         mcmc_max_rhat: diag
@@ -478,7 +475,35 @@ pub(super) fn run_model(
         base,
         jump_center,
         jump_cov,
+        tempering_start,
+        seed,
     })
+}
+
+/// The parallel-tempering stage of a model (thermodynamic integration and stepping-stone),
+/// run after [`run_model`]: a stage of its own so that a checkpoint can hold a model whose
+/// tempering, the longest part, has not run yet.
+pub(super) fn temper(study: &Study, exact: &Likelihood, run: &mut ModelRun) -> Result<(), String> {
+    let free = &run.spec.free;
+    let target: &dyn LogDensity = match &run.sampled {
+        Sampled::RelBin(rb) => rb.as_ref(),
+        Sampled::Exact(_) => exact,
+    };
+    let sub_s = SubModel::new(target, free.clone(), run.base.clone()).map_err(|e| e.to_string())?;
+    let sub_exact =
+        SubModel::new(exact, free.clone(), run.base.clone()).map_err(|e| e.to_string())?;
+    let (thermodynamic, stepping_stone, tempering) = tempering(
+        study,
+        &sub_s,
+        matches!(run.sampled, Sampled::RelBin(_)).then_some(&sub_exact as &dyn LogDensity),
+        &run.tempering_start,
+        &run.jump_cov,
+        run.seed,
+    );
+    run.outcome.thermodynamic = thermodynamic;
+    run.outcome.stepping_stone = stepping_stone;
+    run.outcome.tempering = tempering;
+    Ok(())
 }
 
 /// `Σ_i w_i max_k |ln L_exact − ln L_approx|` over the states each rung kept, `w_i` the
