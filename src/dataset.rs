@@ -533,8 +533,12 @@ impl Dataset {
                 ),
             )
         })?;
-        serde_json::from_str(text)
-            .map_err(|e| fmt_err(json, format!("not an occam dataset sidecar: {e}")))
+        serde_json::from_str(text).map_err(|e| {
+            let key = json_key_before(text, e.line(), e.column())
+                .map(|k| format!(" (at `{k}`)"))
+                .unwrap_or_default();
+            fmt_err(json, format!("not an occam dataset sidecar{key}: {e}"))
+        })
     }
 
     fn check_digest(
@@ -719,6 +723,29 @@ impl Dataset {
         }
         Err(DataError::Names { msg })
     }
+}
+
+/// The last object key (`"name":`) before line `line`, column `col` (1-based, as serde_json
+/// reports errors) of `text`, so that a type error names its field.
+fn json_key_before(text: &str, line: usize, col: usize) -> Option<String> {
+    let start: usize = text
+        .split_inclusive('\n')
+        .take(line.saturating_sub(1))
+        .map(str::len)
+        .sum();
+    let end = (start + col).min(text.len());
+    let prefix = text.get(..end)?;
+    let mut rest = prefix;
+    while let Some(c) = rest.rfind(':') {
+        let before = rest[..c].trim_end();
+        if let Some(b) = before.strip_suffix('"')
+            && let Some(q) = b.rfind('"')
+        {
+            return Some(b[q + 1..].to_string());
+        }
+        rest = &rest[..c];
+    }
+    None
 }
 
 /// A CSV file of named numeric columns.
@@ -1077,6 +1104,24 @@ mod tests {
         std::fs::write(&json, serde_json::to_string_pretty(&v).unwrap()).unwrap();
         let e = Dataset::read(a.path()).unwrap_err().to_string();
         assert!(e.contains("dataset.json") && e.contains("sidecar"), "{e}");
+    }
+
+    #[test]
+    fn sidecar_type_errors_name_the_field() {
+        let text = "{\n  \"experiments\": [\n    {\"name\": \"a\", \"fs\": 1.0, \"n_samples\": 1e300}\n  ]\n}";
+        let e = Dataset::parse_sidecar(Path::new("d.json"), text.as_bytes())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("d.json") && e.contains("(at `n_samples`)"),
+            "{e}"
+        );
+        assert_eq!(
+            json_key_before("{\"a\": 1, \"b\" : x", 1, 15),
+            Some("b".into())
+        );
+        assert_eq!(json_key_before("[1, 2", 1, 5), None);
+        assert_eq!(json_key_before("", 9, 9), None);
     }
 
     #[test]
