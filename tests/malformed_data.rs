@@ -865,7 +865,7 @@ fn command_line_dataset_path_and_budget() {
     let study = |dataset: &str| {
         format!(
             "seed = 1\noutput = \"out\"\n[analysis]\ndataset = \"{dataset}\"\nband = [1e-2, 4.0]\n\
-             [fit]\nfree = [\"d21\"]\nchains = 2\niterations = 200\nburn_in = 100\n\
+             [fit]\nfree = [\"a_df\", \"a_sus\", \"d21\", \"dt1\"]\nfixed = {{ w1sq = -1.3e-6, w2sq = -1.9e-6, dt2 = 0.2 }}\nchains = 2\niterations = 200\nburn_in = 100\n\
              [[experiment]]\nname = \"inv1\"\nfs = 10.0\npre_pad = 1.0\npost_pad = 1.0\nnoise_duration = 10.0\n\
              x1 = {{ kind = \"sine\", freq = 0.5, amplitude = 1e-6, duration = 4.0 }}\n"
         )
@@ -883,7 +883,7 @@ fn command_line_dataset_path_and_budget() {
     // the budget, from the environment, before reading
     std::fs::write(d.join("big.csv"), good_csv().repeat(50)).unwrap();
     let text = "seed = 1\noutput = \"out2\"\n[analysis]\nband = [1e-2, 4.0]\n\
-                [fit]\nfree = [\"d21\"]\nchains = 2\niterations = 200\nburn_in = 100\n\
+                [fit]\nfree = [\"a_df\", \"a_sus\", \"d21\", \"dt1\"]\nfixed = { w1sq = -1.3e-6, w2sq = -1.9e-6, dt2 = 0.2 }\nchains = 2\niterations = 200\nburn_in = 100\n\
                 [[experiment]]\nname = \"inv1\"\ndata = \"big.csv\"\n";
     std::fs::write(d.join("b.toml"), text).unwrap();
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_occam"))
