@@ -1,34 +1,24 @@
-//! The valid dataset the dataset targets pair with fuzzed input: written once per process.
+//! The valid dataset the dataset targets pair with fuzzed input: the committed seed pair
+//! (written by `occam simulate` on a small study).
 
-use occam::dataset::{Dataset, ExperimentData};
 use std::sync::OnceLock;
 
-/// `(dataset.json, dataset.json without its npz digest, dataset.npz)` of a small dataset.
-pub fn pair() -> &'static (Vec<u8>, Vec<u8>, Vec<u8>) {
-    static PAIR: OnceLock<(Vec<u8>, Vec<u8>, Vec<u8>)> = OnceLock::new();
-    PAIR.get_or_init(|| {
-        let v = |a: f64, n: usize| (0..n).map(|k| a * (k as f64 + 1.0)).collect::<Vec<_>>();
-        let mut e = ExperimentData::new(
-            "inv1",
-            10.0,
-            [v(1.0, 32), v(2.0, 32)],
-            [v(3.0, 32), v(4.0, 32)],
-            [v(5.0, 16), v(6.0, 16)],
-        );
-        e.extra.insert("g1".into(), v(0.5, 32));
-        e.noise_extra.insert("g1".into(), v(0.25, 16));
-        let d = Dataset {
-            experiments: vec![e],
-            seed: Some(1),
-            truth: Some(Default::default()),
-            extra: serde_json::Value::Null,
-        };
-        let dir = std::env::temp_dir().join(format!("occam-fuzz-{}", std::process::id()));
-        let (npz, json) = d.write(&dir).expect("the sample dataset is valid");
-        let (npz, json) = (std::fs::read(npz).unwrap(), std::fs::read(json).unwrap());
-        let _ = std::fs::remove_dir_all(&dir);
-        let mut old: serde_json::Value = serde_json::from_slice(&json).unwrap();
-        old.as_object_mut().unwrap().remove("npz_digest");
-        (json, serde_json::to_vec_pretty(&old).unwrap(), npz)
+/// The seed `dataset.json`.
+pub const JSON: &[u8] = include_bytes!("../seeds/dataset_json/dataset.json");
+/// The seed `dataset.npz`, which `JSON` describes.
+pub const NPZ: &[u8] = include_bytes!("../seeds/dataset_npz/dataset.npz");
+
+/// `JSON` without its npz digest, as a sidecar written before digests existed: paired with a
+/// fuzzed archive, the readers' checks are reached instead of stopping at the hash.
+pub fn old_json() -> &'static [u8] {
+    static OLD: OnceLock<Vec<u8>> = OnceLock::new();
+    OLD.get_or_init(|| {
+        let mut v: serde_json::Value = serde_json::from_slice(JSON).unwrap();
+        v.as_object_mut().unwrap().remove("npz_digest");
+        let old = serde_json::to_vec_pretty(&v).unwrap();
+        // the pair itself must read, or the targets test nothing
+        occam::dataset::Dataset::from_bytes(JSON, NPZ).expect("the seed pair reads");
+        occam::dataset::Dataset::from_bytes(&old, NPZ).expect("the old-format seed pair reads");
+        old
     })
 }
