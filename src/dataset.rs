@@ -7,8 +7,16 @@
 //! `<experiment>.noise_o12` (empty when the channel is absent), `<experiment>.<channel>` and
 //! `<experiment>.noise_<channel>` for further channels, `<experiment>.fs`, and `truth` when
 //! known) plus `dataset.json`, a sidecar with the metadata that lists the further channels.
-//! [`Dataset::read`] checks the two against each other. Users' own files are read by
-//! [`crate::data::DataSource`] (CSV via [`read_csv`], or npz).
+//! [`Dataset::read`] checks the two against each other.
+//!
+//! Integrity: [`Dataset::write`] writes the archive first and the sidecar last, and the sidecar
+//! records the archive's length and FNV-1a hash (`npz_digest`). [`Dataset::read`] refuses an
+//! archive that does not match (a run killed between the two writes, or files copied from two
+//! runs), then checks every experiment's sample rate, lengths, channel names and the truth
+//! against the arrays, and every array's size against the memory budget before reading it
+//! ([`crate::data::npz`]). Sidecars without a digest (written before it existed) are read with
+//! the field checks alone. Users' own files are read by [`crate::data::DataSource`] (CSV via
+//! [`read_csv`], or npz).
 
 use crate::ltp::LtpParams;
 use ndarray::Array1;
