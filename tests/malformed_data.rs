@@ -32,7 +32,7 @@ fn dataset() -> Dataset {
 /// `.npy` bytes with header dictionary `h` (padded as numpy pads it) and `data`.
 fn npy(h: &str, data: &[u8]) -> Vec<u8> {
     let mut h = h.to_string();
-    while (10 + h.len() + 1) % 64 != 0 {
+    while !(10 + h.len() + 1).is_multiple_of(64) {
         h.push(' ');
     }
     h.push('\n');
@@ -84,7 +84,7 @@ fn arrays(edit: impl Fn(&mut BTreeMap<String, Vec<u8>>)) -> Vec<u8> {
         m.insert(format!("inv1.{n}"), f8(v));
     }
     m.insert("inv1.fs".into(), f8(&[10.0]));
-    m.insert("truth".into(), f8(&d.truth.unwrap().to_array().to_vec()));
+    m.insert("truth".into(), f8(d.truth.unwrap().to_array().as_ref()));
     edit(&mut m);
     zip(&m.into_iter().collect::<Vec<_>>())
 }

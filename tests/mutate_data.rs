@@ -169,7 +169,7 @@ fn mutate_json(rng: &mut Rng, v: &Value, nodes: &[String]) -> Vec<u8> {
 
 fn npy(h: &str, data: &[u8]) -> Vec<u8> {
     let mut h = h.to_string();
-    while (10 + h.len() + 1) % 64 != 0 {
+    while !(10 + h.len() + 1).is_multiple_of(64) {
         h.push(' ');
     }
     h.push('\n');

@@ -348,7 +348,7 @@ mod tests {
     /// An `.npy` file with header text `h` (padded as numpy does) and `data`.
     fn raw(h: &str, data: &[u8]) -> Vec<u8> {
         let mut h = h.to_string();
-        while (10 + h.len() + 1) % 64 != 0 {
+        while !(10 + h.len() + 1).is_multiple_of(64) {
             h.push(' ');
         }
         h.push('\n');
