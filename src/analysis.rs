@@ -43,7 +43,14 @@ pub struct Prepared {
 /// `[[experiment]]` simulated or read from its `data` file, in the order of the study file.
 pub fn load_data(study: &Study) -> Result<(Dataset, String), AnalysisError> {
     if let Some(p) = &study.analysis.dataset {
-        let d = Dataset::read(p)?;
+        // the key and the study file first: the path may be a typo the user must find
+        let d = Dataset::read(p).map_err(|e| {
+            AnalysisError::Likelihood(format!(
+                "{}: `analysis.dataset` = {}: {e}",
+                study.source,
+                p.display()
+            ))
+        })?;
         d.check_names(&study.experiment_names).map_err(|e| {
             AnalysisError::Likelihood(format!(
                 "{}: `analysis.dataset` = {}: {e}",

@@ -7,12 +7,20 @@
 //! `<experiment>.noise_o12` (empty when the channel is absent), `<experiment>.<channel>` and
 //! `<experiment>.noise_<channel>` for further channels, `<experiment>.fs`, and `truth` when
 //! known) plus `dataset.json`, a sidecar with the metadata that lists the further channels.
-//! [`Dataset::read`] checks the two against each other. Users' own files are read by
-//! [`crate::data::DataSource`] (CSV via [`read_csv`], or npz).
+//! [`Dataset::read`] checks the two against each other.
+//!
+//! Integrity: [`Dataset::write`] writes the archive first and the sidecar last, and the sidecar
+//! records the archive's length and FNV-1a hash (`npz_digest`). [`Dataset::read`] refuses an
+//! archive that does not match (a run killed between the two writes, or files copied from two
+//! runs), then checks every experiment's sample rate, lengths, channel names and the truth
+//! against the arrays, and every array's size against the memory budget before reading it
+//! ([`crate::data::npz`]). Sidecars without a digest (written before it existed) are read with
+//! the field checks alone. Users' own files are read by [`crate::data::DataSource`] (CSV via
+//! [`read_csv`], or npz).
 
 use crate::ltp::LtpParams;
 use ndarray::Array1;
-use ndarray_npy::{NpzReader, NpzWriter};
+use ndarray_npy::NpzWriter;
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -55,6 +63,10 @@ pub(crate) fn fmt_err(file: &Path, msg: impl Into<String>) -> DataError {
     }
 }
 
+/// The longest experiment or channel name, in bytes: names become array names in the npz
+/// archive, whose format caps a file name at 65 535 bytes.
+pub const MAX_NAME_LEN: usize = 256;
+
 /// The channels every experiment has a slot for; an empty series means the channel is absent.
 pub const FIXED_CHANNELS: [&str; 4] = ["o1", "o12", "i1", "i12"];
 
@@ -62,12 +74,14 @@ pub const FIXED_CHANNELS: [&str; 4] = ["o1", "o12", "i1", "i12"];
 /// column), not `fs`, and not starting with `noise_` (those name noise-only arrays on disk).
 pub fn check_channel_name(name: &str) -> Result<(), String> {
     if name.is_empty()
+        || name.len() > MAX_NAME_LEN
         || !name
             .chars()
             .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
     {
         return Err(format!(
-            "channel name `{name}`: use letters, digits, `_` or `-` (it names arrays in the dataset)"
+            "channel name `{}`: use 1 to {MAX_NAME_LEN} letters, digits, `_` or `-` (it names arrays in the dataset)",
+            name.chars().take(40).collect::<String>()
         ));
     }
     if name == "t" || name == "fs" || name.starts_with("noise_") {
@@ -112,6 +126,38 @@ pub struct Sidecar {
     /// Anything else the writer wants to record (resolved study, SNRs, …).
     #[serde(default)]
     pub extra: serde_json::Value,
+    /// The size and hash of the `dataset.npz` written with this sidecar, so that a sidecar
+    /// beside another run's archive (a run killed between the two writes) is refused. Absent
+    /// in datasets written before it existed; those are read unchecked.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub npz_digest: Option<NpzDigest>,
+}
+
+/// Identifies one `dataset.npz` file: its length and 64-bit FNV-1a hash
+/// ([`crate::data::Fnv1a`]) as 16 hex digits.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NpzDigest {
+    pub bytes: u64,
+    pub fnv1a64: String,
+}
+
+impl NpzDigest {
+    /// The digest of a file of `bytes` bytes with hash `hash`.
+    pub fn new(bytes: u64, hash: u64) -> Self {
+        NpzDigest {
+            bytes,
+            fnv1a64: format!("{hash:016x}"),
+        }
+    }
+
+    /// The digest of the file at `path`, read in pieces.
+    pub fn of_file(path: &Path) -> Result<Self, DataError> {
+        let f = std::fs::File::open(path).map_err(io_err(path))?;
+        let (n, h) =
+            crate::data::Fnv1a::of_reader(std::io::BufReader::new(f)).map_err(io_err(path))?;
+        Ok(NpzDigest::new(n, h))
+    }
 }
 
 /// Per-experiment metadata.
@@ -223,6 +269,27 @@ impl ExperimentData {
     /// Every present fit-stretch channel has the same length (≥ 16); the noise-only channels
     /// likewise (≥ 16, or no noise-only stretch at all).
     pub fn validate(&self, file: &Path) -> Result<(), DataError> {
+        if self.name.is_empty()
+            || self.name.len() > MAX_NAME_LEN
+            || !self
+                .name
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+        {
+            let shown: String = self.name.chars().take(40).collect();
+            return Err(fmt_err(
+                file,
+                format!(
+                    "experiment name `{shown}`{} ({} bytes): use 1 to {MAX_NAME_LEN} letters, digits, `_` or `-` (it names arrays in the dataset)",
+                    if shown.len() < self.name.len() {
+                        "…"
+                    } else {
+                        ""
+                    },
+                    self.name.len()
+                ),
+            ));
+        }
         let err = |msg: String| fmt_err(file, format!("experiment `{}`: {msg}", self.name));
         if !(self.fs.is_finite() && self.fs > 0.0) {
             return Err(err(format!("sample rate {} is not > 0", self.fs)));
@@ -337,7 +404,9 @@ impl ExperimentData {
 }
 
 impl Dataset {
-    /// Writes `dir/dataset.npz` and `dir/dataset.json`, each atomically.
+    /// Writes `dir/dataset.npz` and `dir/dataset.json`, each atomically, the archive first;
+    /// the sidecar records the archive's digest ([`NpzDigest`]), so [`Dataset::read`] refuses
+    /// a sidecar beside an archive written by another run.
     pub fn write(&self, dir: &Path) -> Result<(PathBuf, PathBuf), DataError> {
         std::fs::create_dir_all(dir).map_err(io_err(dir))?;
         let npz = dir.join("dataset.npz");
@@ -363,6 +432,8 @@ impl Dataset {
             Ok(())
         })
         .map_err(io_err(&npz))?;
+        // the digest of the file as it is on disk, written last into the sidecar
+        let npz_digest = Some(NpzDigest::of_file(&npz)?);
         let side = Sidecar {
             occam_version: env!("CARGO_PKG_VERSION").into(),
             seed: self.seed,
@@ -380,6 +451,7 @@ impl Dataset {
                 })
                 .collect(),
             extra: self.extra.clone(),
+            npz_digest,
         };
         let json = dir.join("dataset.json");
         let mut text = serde_json::to_string_pretty(&side).expect("sidecar serialises");
@@ -429,22 +501,90 @@ impl Dataset {
     }
 
     /// Reads a dataset written by [`Dataset::write`]: `path` is the directory, the `.npz` or
-    /// the `.json` (which must exist). The sidecar is checked against the arrays: the same
-    /// experiments, sample rates, lengths and channels, and the same truth.
+    /// the `.json` (which must exist). The sidecar is checked against the arrays: the archive's
+    /// digest when the sidecar records one, the same experiments, sample rates, lengths and
+    /// channels, and the same truth. Sizes are checked against the memory budget
+    /// ([`crate::data::memory_budget`]) before anything is read.
     pub fn read(path: &Path) -> Result<Dataset, DataError> {
         let (json, npz) = Self::files(path)?;
-        let text = std::fs::read_to_string(&json).map_err(io_err(&json))?;
-        let side: Sidecar = serde_json::from_str(&text)
-            .map_err(|e| fmt_err(&json, format!("not an occam dataset sidecar: {e}")))?;
+        let jlen = std::fs::metadata(&json).map_err(io_err(&json))?.len();
+        crate::data::check_budget(&json, "the sidecar", jlen.saturating_mul(4))?;
+        let text = std::fs::read(&json).map_err(io_err(&json))?;
+        let side = Self::parse_sidecar(&json, &text)?;
+        if let Some(want) = &side.npz_digest {
+            Self::check_digest(&json, &npz, want, &NpzDigest::of_file(&npz)?)?;
+        }
+        let z = crate::data::npz::NpzArchive::open(&npz).map_err(|m| fmt_err(&npz, m))?;
+        Self::from_parts(side, z, &json, &npz)
+    }
+
+    /// Reads a dataset from the contents of its two files (as [`Dataset::read`] does from
+    /// disk); messages call them `dataset.json` and `dataset.npz`.
+    pub fn from_bytes(json_text: &[u8], npz_bytes: &[u8]) -> Result<Dataset, DataError> {
+        let (json, npz) = (Path::new("dataset.json"), Path::new("dataset.npz"));
+        let side = Self::parse_sidecar(json, json_text)?;
+        if let Some(want) = &side.npz_digest {
+            let have = NpzDigest::new(npz_bytes.len() as u64, crate::data::Fnv1a::of(npz_bytes));
+            Self::check_digest(json, npz, want, &have)?;
+        }
+        let z = crate::data::npz::NpzBytes::from_bytes(npz_bytes).map_err(|m| fmt_err(npz, m))?;
+        Self::from_parts(side, z, json, npz)
+    }
+
+    fn parse_sidecar(json: &Path, text: &[u8]) -> Result<Sidecar, DataError> {
+        let text = std::str::from_utf8(text).map_err(|e| {
+            fmt_err(
+                json,
+                format!(
+                    "not UTF-8 text (byte {}); not an occam dataset sidecar",
+                    e.valid_up_to()
+                ),
+            )
+        })?;
+        serde_json::from_str(text).map_err(|e| {
+            let key = json_key_before(text, e.line(), e.column())
+                .map(|k| format!(" (at `{k}`)"))
+                .unwrap_or_default();
+            fmt_err(json, format!("not an occam dataset sidecar{key}: {e}"))
+        })
+    }
+
+    fn check_digest(
+        json: &Path,
+        npz: &Path,
+        want: &NpzDigest,
+        have: &NpzDigest,
+    ) -> Result<(), DataError> {
+        if want != have {
+            return Err(fmt_err(
+                npz,
+                format!(
+                    "does not match {} (written by a different run; rerun `occam simulate`): the sidecar's `npz_digest` is {} bytes, FNV-1a {}, the archive is {} bytes, FNV-1a {}",
+                    json.display(),
+                    want.bytes,
+                    want.fnv1a64,
+                    have.bytes,
+                    have.fnv1a64
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Checks the sidecar `side` against the archive `z` and reads the arrays.
+    fn from_parts<R: std::io::Read + std::io::Seek>(
+        side: Sidecar,
+        mut z: crate::data::npz::NpzArchive<R>,
+        json: &Path,
+        npz: &Path,
+    ) -> Result<Dataset, DataError> {
+        let (json, npz) = (json.to_path_buf(), npz.to_path_buf());
         let mismatch = |msg: String| DataError::Mismatch {
             json: json.display().to_string(),
             npz: npz.display().to_string(),
             msg,
         };
-        let f = std::fs::File::open(&npz).map_err(io_err(&npz))?;
-        let mut z = NpzReader::new(f).map_err(|e| fmt_err(&npz, e.to_string()))?;
-        let names = z.names().map_err(|e| fmt_err(&npz, e.to_string()))?;
-        let names: BTreeSet<String> = names.into_iter().collect();
+        let names: BTreeSet<String> = z.names().into_iter().collect();
 
         // the sidecar's list of arrays against the archive's
         let mut listed = BTreeSet::new();
@@ -484,11 +624,19 @@ impl Dataset {
             return Err(mismatch(what));
         }
 
+        // every array's size, against the budget, before any is read: all of them are held at
+        // once, plus the largest one's bytes while it is decoded
+        let (mut total, mut largest) = (0u64, 0u64);
+        for a in &listed {
+            let n = z.stored_size(a).map_err(|m| fmt_err(&npz, m))?;
+            total = total.saturating_add(n);
+            largest = largest.max(n);
+        }
+        crate::data::check_budget(&npz, "reading its arrays", total.saturating_add(largest))?;
+        let budget = crate::data::memory_budget_bytes();
+
         let mut get = |key: &str| -> Result<Vec<f64>, DataError> {
-            let a: Array1<f64> = z
-                .by_name(key)
-                .map_err(|e| fmt_err(&npz, format!("array `{key}`: {e}")))?;
-            Ok(a.to_vec())
+            z.read_f64(key, budget).map_err(|m| fmt_err(&npz, m))
         };
         let mut experiments = Vec::new();
         for m in &side.experiments {
@@ -585,6 +733,29 @@ impl Dataset {
     }
 }
 
+/// The last object key (`"name":`) before line `line`, column `col` (1-based, as serde_json
+/// reports errors) of `text`, so that a type error names its field.
+fn json_key_before(text: &str, line: usize, col: usize) -> Option<String> {
+    let start: usize = text
+        .split_inclusive('\n')
+        .take(line.saturating_sub(1))
+        .map(str::len)
+        .sum();
+    let end = (start + col).min(text.len());
+    let prefix = text.get(..end)?;
+    let mut rest = prefix;
+    while let Some(c) = rest.rfind(':') {
+        let before = rest[..c].trim_end();
+        if let Some(b) = before.strip_suffix('"')
+            && let Some(q) = b.rfind('"')
+        {
+            return Some(b[q + 1..].to_string());
+        }
+        rest = &rest[..c];
+    }
+    None
+}
+
 /// A CSV file of named numeric columns.
 #[derive(Debug, Clone, PartialEq)]
 pub struct CsvTable {
@@ -613,11 +784,46 @@ impl CsvTable {
     }
 }
 
+/// Memory a CSV file of `len` bytes can need once read, as a multiple of its size: the text,
+/// plus at most one 8-byte value and one 8-byte line number per 2 bytes of text (every value
+/// takes at least a digit and a separator).
+const CSV_MEMORY_FACTOR: u64 = 9;
+
 /// Reads a CSV file with a header row of column names and numeric rows. Lines starting with `#`
-/// and blank lines are skipped; header names may be quoted. Errors name the file, the line
-/// (1-based, counting the header and comments) and the column.
+/// and blank lines are skipped; header names and values may be enclosed in double quotes; a
+/// UTF-8 byte-order mark and `\r\n` line ends are accepted. Errors name the file, the line
+/// (1-based, counting the header and comments) and the column. The file's size is checked
+/// against the memory budget ([`crate::data::memory_budget`]) before it is read.
 pub fn read_csv(path: &Path) -> Result<CsvTable, DataError> {
-    let text = std::fs::read_to_string(path).map_err(io_err(path))?;
+    let len = std::fs::metadata(path).map_err(io_err(path))?.len();
+    crate::data::check_budget(
+        path,
+        &format!("reading this {len}-byte CSV file"),
+        len.saturating_mul(CSV_MEMORY_FACTOR),
+    )?;
+    let bytes = std::fs::read(path).map_err(io_err(path))?;
+    parse_csv(path, &bytes)
+}
+
+/// Parses the contents of a CSV file as [`read_csv`] does; `file` names it in messages.
+pub fn parse_csv(file: &Path, bytes: &[u8]) -> Result<CsvTable, DataError> {
+    let path = file;
+    let text = std::str::from_utf8(bytes).map_err(|e| {
+        let line = bytes[..e.valid_up_to()]
+            .iter()
+            .filter(|&&b| b == b'\n')
+            .count()
+            + 1;
+        fmt_err(
+            path,
+            format!(
+                "line {line}: not UTF-8 text (byte {}); save the file as UTF-8 or ASCII",
+                e.valid_up_to()
+            ),
+        )
+    })?;
+    // a byte-order mark (spreadsheets write one) is not part of the first column's name
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut lines = text
         .lines()
         .enumerate()
@@ -628,25 +834,43 @@ pub fn read_csv(path: &Path) -> Result<CsvTable, DataError> {
             "empty file: expected a header row of column names, then one row per sample",
         )
     })?;
-    let names: Vec<String> = header
-        .split(',')
-        .map(|s| s.trim().trim_matches('"').trim().to_string())
-        .collect();
+    let no_cr = |ln: usize, line: &str| {
+        if line.contains('\r') {
+            Err(fmt_err(
+                path,
+                format!(
+                    "line {}: a carriage return inside the line (old Mac line ends?); end lines with `\\n` or `\\r\\n`",
+                    ln + 1
+                ),
+            ))
+        } else {
+            Ok(())
+        }
+    };
+    no_cr(hl, header)?;
+    let mut names: Vec<String> = Vec::new();
+    for (j, cell) in header.split(',').enumerate() {
+        let n = unquote(cell)
+            .map_err(|m| fmt_err(path, format!("line {}, column {}: {m}", hl + 1, j + 1)))?;
+        names.push(n.trim().to_string());
+    }
     if let Some(j) = names
         .iter()
         .position(|n| n.is_empty() || n.parse::<f64>().is_ok())
     {
+        let shown: String = header.chars().take(80).collect();
         return Err(fmt_err(
             path,
             format!(
-                "line {}, column {}: the first row must name the columns (e.g. `t,o1,o12,i1,i12`), got `{header}`",
+                "line {}, column {}: the first row must name the columns (e.g. `t,o1,o12,i1,i12`), got `{shown}`",
                 hl + 1,
                 j + 1
             ),
         ));
     }
+    let mut seen: std::collections::HashMap<&str, usize> = std::collections::HashMap::new();
     for (j, n) in names.iter().enumerate() {
-        if let Some(k) = names[..j].iter().position(|m| m == n) {
+        if let Some(k) = seen.insert(n.as_str(), j) {
             return Err(fmt_err(
                 path,
                 format!(
@@ -661,37 +885,32 @@ pub fn read_csv(path: &Path) -> Result<CsvTable, DataError> {
     let mut columns = vec![Vec::new(); names.len()];
     let mut rows = Vec::new();
     for (ln, line) in lines {
-        let cells: Vec<&str> = line.split(',').collect();
-        if cells.len() != names.len() {
+        no_cr(ln, line)?;
+        let n_cells = line.split(',').count();
+        if n_cells != names.len() {
             return Err(fmt_err(
                 path,
                 format!(
-                    "line {}: {} values for {} columns; every row needs one value per column (channels of different lengths?)",
+                    "line {}: {n_cells} values for {} columns; every row needs one value per column (channels of different lengths? a decimal comma?)",
                     ln + 1,
-                    cells.len(),
                     names.len()
                 ),
             ));
         }
-        for (j, c) in cells.iter().enumerate() {
-            let v: f64 = c.trim().parse().map_err(|_| {
-                fmt_err(
-                    path,
-                    format!(
-                        "line {}, column `{}`: `{}` is not a number",
-                        ln + 1,
-                        names[j],
-                        c.trim()
-                    ),
-                )
+        for (j, c) in line.split(',').enumerate() {
+            let at = || format!("line {}, column `{}`", ln + 1, names[j]);
+            let cell = unquote(c).map_err(|m| fmt_err(path, format!("{}: {m}", at())))?;
+            let cell = cell.trim();
+            let v: f64 = cell.parse().map_err(|_| {
+                let shown: String = cell.chars().take(40).collect();
+                fmt_err(path, format!("{}: `{shown}` is not a number", at()))
             })?;
             if !v.is_finite() {
                 return Err(fmt_err(
                     path,
                     format!(
-                        "line {}, column `{}`: {v} is not finite (NaN and infinities are not allowed)",
-                        ln + 1,
-                        names[j]
+                        "{}: {v} is not finite (NaN and infinities are not allowed)",
+                        at()
                     ),
                 ));
             }
@@ -710,6 +929,23 @@ pub fn read_csv(path: &Path) -> Result<CsvTable, DataError> {
         columns,
         lines: rows,
     })
+}
+
+/// A CSV cell without its enclosing double quotes, if it has a pair; a lone quote is an error
+/// (a quoted field holding a comma, which this reader does not split on).
+fn unquote(cell: &str) -> Result<&str, String> {
+    let t = cell.trim();
+    let inner = t
+        .strip_prefix('"')
+        .and_then(|r| r.strip_suffix('"'))
+        .unwrap_or(t);
+    if inner.contains('"') {
+        let shown: String = t.chars().take(40).collect();
+        return Err(format!(
+            "unbalanced or embedded quote in `{shown}`: quote a whole field or none of it, and use `.` as the decimal separator (fields holding commas are not supported)"
+        ));
+    }
+    Ok(inner)
 }
 
 #[cfg(test)]
@@ -806,7 +1042,7 @@ mod tests {
         let side: Sidecar = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
         assert_eq!(side.experiments[0].channels, vec!["g1", "g2"]);
         assert_eq!(side.experiments[0].noise_channels, vec!["g1"]);
-        let mut z = NpzReader::new(std::fs::File::open(&npz).unwrap()).unwrap();
+        let mut z = ndarray_npy::NpzReader::new(std::fs::File::open(&npz).unwrap()).unwrap();
         let names = z.names().unwrap();
         assert!(names.contains(&"inv1.g2".to_string()), "{names:?}");
         assert!(names.contains(&"inv1.noise_g1".to_string()), "{names:?}");
@@ -820,6 +1056,119 @@ mod tests {
             assert_eq!(e.noise_channel("g2"), None);
             assert_eq!(e.noise_channel("i1"), None);
         }
+    }
+
+    #[test]
+    fn torn_pair_is_refused_and_old_pairs_load() {
+        let (a, b) = (tempfile::tempdir().unwrap(), tempfile::tempdir().unwrap());
+        let d = sample();
+        let (npz, json) = d.write(a.path()).unwrap();
+        let side: Sidecar = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        let bytes = std::fs::read(&npz).unwrap();
+        assert_eq!(
+            side.npz_digest,
+            Some(NpzDigest::new(
+                bytes.len() as u64,
+                crate::data::Fnv1a::of(&bytes)
+            ))
+        );
+        // from the bytes, as from the files
+        let text = std::fs::read(&json).unwrap();
+        assert_eq!(Dataset::from_bytes(&text, &bytes).unwrap(), d);
+        // another run's archive (same shapes, other numbers) beside this sidecar
+        let mut other = sample();
+        other.experiments[0].o[0][5] = 1.25;
+        let (npz_b, _) = other.write(b.path()).unwrap();
+        std::fs::copy(&npz_b, &npz).unwrap();
+        let e = Dataset::read(a.path()).unwrap_err().to_string();
+        assert!(
+            e.contains(&format!(
+                "{}: does not match {}",
+                npz.display(),
+                json.display()
+            )) && e.contains("written by a different run; rerun `occam simulate`"),
+            "{e}"
+        );
+        let e = Dataset::from_bytes(&text, &std::fs::read(&npz_b).unwrap())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("dataset.npz: does not match dataset.json"),
+            "{e}"
+        );
+        // a sidecar written before digests existed: read, and still checked field by field
+        let mut v: serde_json::Value = serde_json::from_slice(&text).unwrap();
+        assert!(v.as_object_mut().unwrap().remove("npz_digest").is_some());
+        std::fs::write(&json, serde_json::to_string_pretty(&v).unwrap()).unwrap();
+        assert_eq!(Dataset::read(a.path()).unwrap(), other);
+        std::fs::write(&npz, &bytes).unwrap();
+        assert_eq!(Dataset::read(a.path()).unwrap(), d);
+        v["experiments"][0]["fs"] = 11.0.into();
+        std::fs::write(&json, serde_json::to_string_pretty(&v).unwrap()).unwrap();
+        let e = Dataset::read(a.path()).unwrap_err().to_string();
+        assert!(e.contains("disagree") && e.contains("fs = 11 Hz"), "{e}");
+        // a malformed digest is named
+        v["npz_digest"] = serde_json::json!({"bytes": "x"});
+        std::fs::write(&json, serde_json::to_string_pretty(&v).unwrap()).unwrap();
+        let e = Dataset::read(a.path()).unwrap_err().to_string();
+        assert!(e.contains("dataset.json") && e.contains("sidecar"), "{e}");
+    }
+
+    #[test]
+    fn sidecar_type_errors_name_the_field() {
+        let text = "{\n  \"experiments\": [\n    {\"name\": \"a\", \"fs\": 1.0, \"n_samples\": 1e300}\n  ]\n}";
+        let e = Dataset::parse_sidecar(Path::new("d.json"), text.as_bytes())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("d.json") && e.contains("(at `n_samples`)"),
+            "{e}"
+        );
+        assert_eq!(
+            json_key_before("{\"a\": 1, \"b\" : x", 1, 15),
+            Some("b".into())
+        );
+        assert_eq!(json_key_before("[1, 2", 1, 5), None);
+        assert_eq!(json_key_before("", 9, 9), None);
+    }
+
+    #[test]
+    fn names_too_long_for_the_archive_are_errors() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut d = sample();
+        d.experiments[0].name = "x".repeat(70_000);
+        let e = d.write(dir.path()).unwrap_err().to_string();
+        assert!(
+            e.contains("experiment name") && e.contains("70000 bytes"),
+            "{e}"
+        );
+        assert!(check_channel_name(&"g".repeat(300)).is_err());
+        assert!(check_channel_name(&"g".repeat(MAX_NAME_LEN)).is_ok());
+    }
+
+    #[test]
+    fn csv_accepts_bom_crlf_and_quotes() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("d.csv");
+        std::fs::write(&p, "\u{feff}\"t\",o1\r\n0,\"1.5\"\r\n0.5, 2 \r\n").unwrap();
+        let t = read_csv(&p).unwrap();
+        assert_eq!(t.names, vec!["t", "o1"]);
+        assert_eq!(t.columns, vec![vec![0.0, 0.5], vec![1.5, 2.0]]);
+        assert_eq!(t.lines, vec![2, 3]);
+        assert_eq!(t.sample_rate().unwrap(), Some(2.0));
+        for (text, want) in [
+            ("t,o1\n0,\"1,5\"\n", "line 2: 3 values for 2 columns"),
+            ("t,o1\n0,\"1.5\n", "line 2, column `o1`: unbalanced"),
+            ("t,o1\r0,1\r", "line 1: a carriage return"),
+            ("t,o1\n0,\u{feff}1\n", "line 2, column `o1`"),
+        ] {
+            let e = parse_csv(&p, text.as_bytes()).unwrap_err().to_string();
+            assert!(e.contains("d.csv") && e.contains(want), "{text:?}: {e}");
+        }
+        let e = parse_csv(&p, b"t,o1\n0,1\n\xff,2\n")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("line 3: not UTF-8"), "{e}");
     }
 
     #[test]

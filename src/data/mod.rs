@@ -4,9 +4,126 @@
 //!
 //! The on-disk dataset format written by `occam simulate` lives in [`crate::dataset`].
 
+pub mod npz;
 pub mod source;
 
 pub use source::DataSource;
+
+/// The memory budget when `OCCAM_MEMORY_BUDGET` is not set: 8 GiB.
+pub const DEFAULT_MEMORY_BUDGET: u64 = 8 << 30;
+
+/// The memory budget for data read from files, in bytes: the environment variable
+/// `OCCAM_MEMORY_BUDGET` (a whole number of bytes, optionally with a suffix `K`, `M`, `G`
+/// for KiB, MiB, GiB), else [`DEFAULT_MEMORY_BUDGET`]. Readers compare the sizes a file
+/// implies with it before allocating anything, so that a damaged or enormous file is an
+/// error naming the file rather than an abort. An unreadable value is an error naming the
+/// variable (never silently the default).
+///
+/// The study loader has its own budget for sizes derived from the study; the two should
+/// become one.
+pub fn memory_budget() -> Result<u64, String> {
+    match std::env::var("OCCAM_MEMORY_BUDGET") {
+        Err(std::env::VarError::NotPresent) => Ok(DEFAULT_MEMORY_BUDGET),
+        Err(e) => Err(format!("OCCAM_MEMORY_BUDGET: {e}")),
+        Ok(v) => parse_budget(&v).ok_or_else(|| {
+            format!(
+                "OCCAM_MEMORY_BUDGET = `{v}`: expected a number of bytes such as `4000000000`, `512M` or `8G`"
+            )
+        }),
+    }
+}
+
+/// [`memory_budget`], falling back to [`DEFAULT_MEMORY_BUDGET`] when the variable cannot be
+/// read (callers that can report errors should use [`memory_budget`]).
+pub fn memory_budget_bytes() -> u64 {
+    memory_budget().unwrap_or(DEFAULT_MEMORY_BUDGET)
+}
+
+/// `123`, `512K`, `64M`, `8G` (binary multiples; an optional `iB`/`B` after the letter).
+fn parse_budget(v: &str) -> Option<u64> {
+    let v = v.trim();
+    let digits = v.find(|c: char| !c.is_ascii_digit()).unwrap_or(v.len());
+    let n: u64 = v[..digits].parse().ok()?;
+    let shift = match v[digits..].trim().to_ascii_uppercase().as_str() {
+        "" | "B" => 0,
+        "K" | "KB" | "KIB" => 10,
+        "M" | "MB" | "MIB" => 20,
+        "G" | "GB" | "GIB" => 30,
+        "T" | "TB" | "TIB" => 40,
+        _ => return None,
+    };
+    n.checked_mul(1u64 << shift).filter(|&b| b > 0)
+}
+
+/// Checks that reading `what` of `file`, which needs `bytes` bytes, fits the memory budget.
+pub(crate) fn check_budget(
+    file: &std::path::Path,
+    what: &str,
+    bytes: u64,
+) -> Result<(), crate::dataset::DataError> {
+    let budget = memory_budget().map_err(|m| crate::dataset::fmt_err(file, m))?;
+    if bytes > budget {
+        return Err(crate::dataset::fmt_err(
+            file,
+            format!(
+                "{what} needs {bytes} bytes, more than the memory budget of {budget} bytes; raise OCCAM_MEMORY_BUDGET if the machine has the memory, or split the data"
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// A 64-bit FNV-1a hash, fed in pieces. It identifies the `dataset.npz` that a `dataset.json`
+/// was written with (not a defence against tampering, only against mixing up two runs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Fnv1a(u64);
+
+impl Default for Fnv1a {
+    fn default() -> Self {
+        Fnv1a(0xcbf2_9ce4_8422_2325)
+    }
+}
+
+impl Fnv1a {
+    /// Feeds `bytes`.
+    pub fn update(&mut self, bytes: &[u8]) {
+        let mut h = self.0;
+        for &b in bytes {
+            h ^= b as u64;
+            h = h.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+        self.0 = h;
+    }
+
+    /// The hash of everything fed so far.
+    pub fn finish(&self) -> u64 {
+        self.0
+    }
+
+    /// The hash of `bytes`.
+    pub fn of(bytes: &[u8]) -> u64 {
+        let mut h = Fnv1a::default();
+        h.update(bytes);
+        h.finish()
+    }
+
+    /// The length and hash of everything `r` yields.
+    pub fn of_reader(mut r: impl std::io::Read) -> std::io::Result<(u64, u64)> {
+        let mut h = Fnv1a::default();
+        let mut buf = vec![0u8; 1 << 16];
+        let mut len = 0u64;
+        loop {
+            let n = match r.read(&mut buf) {
+                Ok(0) => return Ok((len, h.finish())),
+                Ok(n) => n,
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+                Err(e) => return Err(e),
+            };
+            h.update(&buf[..n]);
+            len += n as u64;
+        }
+    }
+}
 
 /// `x` rounded to 10 significant digits, for messages (`0.1`, not `0.10000000000000009`).
 fn sig(x: f64) -> f64 {
@@ -60,6 +177,35 @@ pub fn uniform_rate(t: &[f64], column: &str, at: impl Fn(usize) -> String) -> Re
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn fnv1a_known_values() {
+        // the reference values of the FNV-1a 64-bit test suite
+        assert_eq!(Fnv1a::of(b""), 0xcbf29ce484222325);
+        assert_eq!(Fnv1a::of(b"a"), 0xaf63dc4c8601ec8c);
+        assert_eq!(Fnv1a::of(b"foobar"), 0x85944171f73967e8);
+        let mut h = Fnv1a::default();
+        h.update(b"foo");
+        h.update(b"bar");
+        assert_eq!(h.finish(), 0x85944171f73967e8);
+        let big: Vec<u8> = (0..200_000u32).map(|k| (k * 7 % 251) as u8).collect();
+        assert_eq!(
+            Fnv1a::of_reader(&big[..]).unwrap(),
+            (200_000, Fnv1a::of(&big))
+        );
+    }
+
+    #[test]
+    fn budget_values() {
+        assert_eq!(parse_budget("123"), Some(123));
+        assert_eq!(parse_budget(" 512K "), Some(512 << 10));
+        assert_eq!(parse_budget("64MiB"), Some(64 << 20));
+        assert_eq!(parse_budget("8G"), Some(8 << 30));
+        assert_eq!(parse_budget("2 tb"), Some(2 << 40));
+        for bad in ["", "0", "-1", "1.5G", "G", "8X", "99999999999T"] {
+            assert_eq!(parse_budget(bad), None, "{bad}");
+        }
+    }
 
     #[test]
     fn uniform_rate_accepts_gps_times_and_rejects_gaps() {

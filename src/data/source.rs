@@ -1,8 +1,6 @@
 //! [`DataSource`]: one experiment's data read from a CSV or npz file named in the study.
 
 use crate::dataset::{DataError, ExperimentData, check_channel_name, fmt_err, read_csv};
-use ndarray::Array1;
-use ndarray_npy::NpzReader;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -70,31 +68,31 @@ impl Table {
     }
 
     fn read_npz(file: &Path, wanted: &[&str]) -> Result<Table, DataError> {
-        let f = std::fs::File::open(file).map_err(|source| DataError::Io {
-            file: file.display().to_string(),
-            source,
-        })?;
-        let mut z = NpzReader::new(f)
-            .map_err(|e| fmt_err(file, format!("not a readable npz archive: {e}")))?;
-        let names = z
-            .names()
-            .map_err(|e| fmt_err(file, format!("not a readable npz archive: {e}")))?;
+        let mut z = super::npz::NpzArchive::open(file).map_err(|m| fmt_err(file, m))?;
+        let names = z.names();
         if names.is_empty() {
             return Err(fmt_err(file, "empty archive: it holds no arrays"));
         }
+        // the sizes of the arrays to be read, against the budget, before reading any
+        let (mut total, mut largest) = (0u64, 0u64);
+        let mut seen = Vec::new();
+        for &w in wanted {
+            if names.iter().any(|n| n == w) && !seen.contains(&w) {
+                seen.push(w);
+                let n = z.stored_size(w).map_err(|m| fmt_err(file, m))?;
+                total = total.saturating_add(n);
+                largest = largest.max(n);
+            }
+        }
+        super::check_budget(file, "reading its arrays", total.saturating_add(largest))?;
+        let budget = super::memory_budget_bytes();
         let mut columns = BTreeMap::new();
         let mut first: Option<(String, usize)> = None;
         for &w in wanted {
             if !names.iter().any(|n| n == w) || columns.contains_key(w) {
                 continue;
             }
-            let a: Array1<f64> = z.by_name(w).map_err(|e| {
-                fmt_err(
-                    file,
-                    format!("array `{w}`: cannot read it as a 1-D float64 array: {e}"),
-                )
-            })?;
-            let v = a.to_vec();
+            let v = z.read_f64(w, budget).map_err(|m| fmt_err(file, m))?;
             if v.is_empty() {
                 return Err(fmt_err(file, format!("array `{w}` has no samples")));
             }
@@ -370,6 +368,7 @@ impl DataSource {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use ndarray::Array1;
     use ndarray_npy::NpzWriter;
 
     fn chans(c: &[&str]) -> Vec<String> {
