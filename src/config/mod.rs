@@ -1051,7 +1051,7 @@ impl StudyFile {
                 return Err(bad(
                     field.into(),
                     format!(
-                        "[{}, {}] Hz reaches above the Nyquist frequency {} Hz of experiment `{}` (fs = {fs} Hz): a band must lie inside (0, fs/2]; lower its upper edge",
+                        "[{}, {}] Hz reaches outside (0, {}] Hz, the frequencies up to the Nyquist frequency of experiment `{}` (fs = {fs} Hz): lower its upper edge",
                         band[0],
                         band[1],
                         fs / 2.0,
@@ -1389,14 +1389,23 @@ fn validate_select(
             ),
         ));
     }
+    if s.pt_temperatures != 0 && s.pt_iterations - s.pt_burn_in < 100 {
+        return Err(bad(
+            "select.pt_iterations".into(),
+            format!(
+                "parallel tempering needs at least 100 sweeps after pt_burn_in (got pt_iterations = {}, pt_burn_in = {})",
+                s.pt_iterations, s.pt_burn_in
+            ),
+        ));
+    }
     if s.rj_chains == 0
         || s.rj_chains > 4096
-        || s.rj_burn_in >= s.rj_iterations / s.rj_chains.max(1)
+        || s.rj_iterations / s.rj_chains.max(1) < s.rj_burn_in + 100
     {
         return Err(bad(
             "select.rj_chains".into(),
             format!(
-                "need 1 to 4096 chains, each longer than rj_burn_in (got {} chains of {} iterations, rj_burn_in = {})",
+                "need 1 to 4096 chains, each at least 100 iterations longer than rj_burn_in, i.e. rj_iterations ≥ rj_chains × (rj_burn_in + 100) (got {} chains of {} iterations, rj_burn_in = {})",
                 s.rj_chains,
                 s.rj_iterations / s.rj_chains.max(1),
                 s.rj_burn_in
