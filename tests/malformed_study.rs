@@ -203,10 +203,28 @@ fn corpus() -> Vec<(&'static str, String, &'static str)> {
             "negative fixed delay",
             s(
                 "",
-                "[prior]\ndt1 = { kind = \"uniform\", lo = -1.0, hi = 1.0 }\n[fit]\nfree = [\"w1sq\", \"w2sq\", \"dt2\", \"a_df\", \"a_sus\", \"d21\"]\nfixed = { dt1 = -0.2 }",
+                "[fit]\nfree = [\"w1sq\", \"w2sq\", \"dt2\", \"a_df\", \"a_sus\", \"d21\"]\nfixed = { dt1 = -0.2 }",
                 "",
             ),
             "fit.fixed.dt1",
+        ),
+        (
+            "delay prior below zero",
+            s(
+                "",
+                "[prior]\ntau_df = { kind = \"uniform\", lo = -1.0, hi = 1.0 }\n[[model]]\nkind = \"ltp\"\nname = \"p\"\nthruster = \"delay\"",
+                "",
+            ),
+            "prior.tau_df",
+        ),
+        (
+            "Gaussian prior of a delay",
+            s(
+                "",
+                "[prior]\ndt1 = { kind = \"gaussian\", mu = 0.2, sigma = 0.1 }",
+                "",
+            ),
+            "prior.dt1",
         ),
         (
             "negative start delay",

@@ -322,6 +322,23 @@ impl ModelSet {
                     })?;
                 kinds.push(k);
             }
+            if !matches!(d, ModelDef::User(_)) {
+                for (n, k) in m.param_names().iter().zip(&kinds) {
+                    if !super::DELAY_PARAMS.contains(&n.as_str()) {
+                        continue;
+                    }
+                    let (lo, hi) = k.bounds();
+                    if !(lo >= 0.0 && hi <= super::MAX_DELAY) {
+                        return Err(bad(
+                            format!("prior.{n}"),
+                            format!(
+                                "`{n}` is a delay: its prior must lie in [0, {}] s (got bounds [{lo}, {hi}]); use a uniform or log-uniform box there",
+                                super::MAX_DELAY
+                            ),
+                        ));
+                    }
+                }
+            }
             let p = Prior::new(m.param_names().to_vec(), kinds).map_err(|e| {
                 let field = match &e {
                     crate::prior::PriorError::Invalid { name, .. } => format!("prior.{name}"),
