@@ -240,7 +240,8 @@ fn mutate(s: &str, rng: &mut Xoshiro256PlusPlus) -> String {
                 s.match_indices('"')
                     .collect::<Vec<_>>()
                     .chunks(2)
-                    .filter_map(|c| (c.len() == 2).then(|| (c[0].0, c[1].0 + 1))),
+                    .filter(|c| c.len() == 2)
+                    .map(|c| (c[0].0, c[1].0 + 1)),
             );
             match pick(rng, &spans) {
                 Some(&(a, b)) => {
