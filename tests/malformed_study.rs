@@ -633,3 +633,30 @@ fn messages_say_what_to_change() {
         e.len()
     );
 }
+
+/// A sweep's point studies go through the same checks: a point that implies a huge noise
+/// stretch is refused while the sweep is planned, before anything runs, naming the point and
+/// the field.
+#[test]
+fn a_sweep_point_over_the_budget_is_refused_when_planned() {
+    let text = format!(
+        "{}[sweep]\n[[sweep.axis]]\nkey = \"experiment.a.noise_duration\"\nvalues = [20000.0, 1e12]\n",
+        study("", &select(SELECT_OK, ""), "")
+    );
+    let args = occam::jobs::sweep::SweepArgs {
+        axes: None,
+        realisations: None,
+        truth: None,
+        output: None,
+    };
+    let e = occam::jobs::sweep::Sweep::from_text(&text, "sw.toml", std::path::Path::new("."), args)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("sw.toml")
+            && e.contains("sweep point")
+            && e.contains("experiment[0].noise_duration")
+            && e.contains("memory budget"),
+        "{e}"
+    );
+}
