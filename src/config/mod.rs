@@ -678,8 +678,9 @@ pub const MAX_DELAY: f64 = 1000.0;
 /// overflow the squared, loop-filtered CSD (1e150 made every CSD infinite).
 pub const MAX_ASD: f64 = 1.0;
 
-/// Smallest non-zero source ASD of `[noise]`: 1e-30, fifteen orders below LPF's; below it the
-/// squared level underflows in the CSD arithmetic. Use 0 to switch a source off.
+/// Smallest non-zero source ASD of `[noise]`: 1e-30, fifteen orders below LPF's; below it
+/// `ρ² = |h|²/S` of an injection within [`MAX_AMPLITUDE`] can overflow, and near 1e-154 the
+/// squared level underflows to a singular CSD. Use 0 to switch a source off.
 pub const MIN_ASD: f64 = 1e-30;
 
 /// Largest noise corner frequency (`readout_corner`, `tm_corner`, Hz): 1 kHz, far above any
