@@ -94,11 +94,14 @@ fn the_thruster_pole_beats_the_thruster_delay() {
     assert!((y.map[i] - 0.3).abs() < 0.01, "f_df MAP {}", y.map[i]);
 }
 
-/// Fixed values that make the loop unstable are warned about, naming the model and the pole.
+/// Fixed values that make the loop unstable are refused at load (issue 10), naming the fixed
+/// value, whether or not the prior admits them.
 #[test]
-fn an_unstable_start_point_is_warned_about() {
+fn an_unstable_fixed_value_is_refused_at_load() {
     let text = r#"seed = 1
 output = "unused"
+[prior]
+w1sq = { kind = "uniform", lo = -20.0, hi = 1.0 }
 [fit]
 free = ["a_df"]
 fixed = { w1sq = -10.0, w2sq = -1.9e-6, dt1 = 0.2, dt2 = 0.2, a_sus = 1.08, d21 = 4e-4 }
@@ -106,17 +109,19 @@ fixed = { w1sq = -10.0, w2sq = -1.9e-6, dt1 = 0.2, dt2 = 0.2, a_sus = 1.08, d21 
 name = "inv1"
 design = "tn3045_x1"
 "#;
-    let s = Study::from_toml(text, "u.toml", Path::new(".")).unwrap();
-    let empty = occam::dataset::Dataset {
-        experiments: Vec::new(),
-        seed: None,
-        truth: None,
-        extra: serde_json::Value::Null,
-    };
-    let w = occam::analysis::model_warnings(&s, s.fit_model.model, &empty);
+    let e = Study::from_toml(text, "u.toml", Path::new("."))
+        .unwrap_err()
+        .to_string();
     assert!(
-        w.iter()
-            .any(|w| w.contains("`ltp`") && w.contains("unstable")),
-        "{w:?}"
+        e.contains("u.toml") && e.contains("fit.fixed.w1sq") && e.contains("unstable"),
+        "{e}"
+    );
+    let outside = text.replace("w1sq = { kind = \"uniform\", lo = -20.0, hi = 1.0 }\n", "");
+    let e = Study::from_toml(&outside, "u.toml", Path::new("."))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("fit.fixed.w1sq") && e.contains("outside the prior"),
+        "{e}"
     );
 }

@@ -29,6 +29,7 @@ use crate::experiment::{ExperimentDesign, SineSegment, Waveform};
 use crate::ltp::{Controllers, LtpParams, Masses, NoiseModel, check_stable};
 use crate::prior::PriorKind;
 
+pub mod budget;
 mod models;
 mod sweep;
 pub use models::{BUILTIN_LTP, LtpModelEntry, ModelDef, ModelEntry, ModelSet, ModelSpec};
@@ -91,7 +92,10 @@ pub struct SimulationOptions {
     /// If set, every injection amplitude is scaled by one common factor so that the optimal
     /// SNR ρ_opt = √⟨h|h⟩ of the whole study (all experiments, `snr_band`) equals this.
     pub target_snr: Option<f64>,
-    /// Band (Hz) over which ρ_opt is computed.
+    /// Band (Hz) over which ρ_opt is computed: exactly two numbers `[lo, hi]` with
+    /// `0 < lo < hi ≤` the Nyquist frequency of every simulated experiment. The default
+    /// `[1e-4, 1.0]` is clipped to each experiment's Nyquist frequency instead.
+    #[serde(deserialize_with = "two_numbers")]
     pub snr_band: [f64; 2],
     /// `method = "time"` only: run the discretised loop at `oversample × fs` and keep every
     /// `oversample`-th output sample. 1 is the real 10 Hz loop; its zero-order hold lags by half a
@@ -190,12 +194,7 @@ impl ActuatorOptions {
                     ),
                 ));
             }
-            if !(a.delay.is_finite() && a.delay >= 0.0) {
-                return Err(bad(
-                    &format!("{tm}.delay"),
-                    format!("must be a finite delay ≥ 0 s (got {})", a.delay),
-                ));
-            }
+            check_delay(a.delay).map_err(|m| bad(&format!("{tm}.delay"), m))?;
             if method == Method::Time {
                 let field = if a.pole.is_some() {
                     Some("pole")
@@ -369,7 +368,10 @@ pub struct AnalysisOptions {
     /// A dataset directory written by `occam simulate` (relative to the working directory).
     /// Without it the study is simulated on the fly.
     pub dataset: Option<PathBuf>,
-    /// Fit band (Hz).
+    /// Fit band (Hz): exactly two numbers `[lo, hi]` with `0 < lo < hi ≤` the Nyquist
+    /// frequency of every experiment whose sample rate the study gives. The default
+    /// `[1e-4, 1.0]` is clipped to the data's frequencies instead.
+    #[serde(deserialize_with = "two_numbers")]
     pub band: [f64; 2],
     /// Window applied to data and injections before the DFT.
     pub window: crate::signal::Window,
@@ -651,6 +653,54 @@ impl Study {
     }
 }
 
+/// A band `[lo, hi]` from exactly two numbers: serde's fixed-size arrays take the first two
+/// elements of a longer TOML array and drop the rest silently (a three-number band fitted
+/// 1 % of the intended bins), so the band is read as a list and its length checked.
+fn two_numbers<'de, D: serde::Deserializer<'de>>(d: D) -> Result<[f64; 2], D::Error> {
+    let v: Vec<f64> = Vec::deserialize(d)?;
+    match v[..] {
+        [lo, hi] => Ok([lo, hi]),
+        _ => Err(serde::de::Error::custom(format!(
+            "a band is exactly two numbers [lo, hi] in Hz (got {} numbers: {v:?})",
+            v.len()
+        ))),
+    }
+}
+
+/// Largest delay (s) anywhere in a study: `[truth]` `dt1`, `dt2`, `oms_delay`, actuator and
+/// thruster delays, delay parameters' `fixed` and `start` values and model options. LPF's
+/// delays are tenths of a second; 1000 s is 5000× the guidance delay and at a 5 Hz Nyquist
+/// frequency a phase of 3·10⁴ rad, where `e^{−i2πfτ}` keeps 12 digits (1e300 s keeps none).
+pub const MAX_DELAY: f64 = 1000.0;
+
+/// Largest source ASD of `[noise]` (m/√Hz, m s⁻²/√Hz or N/√Hz): 1, eleven orders above
+/// LPF's read-out and acceleration noise and seven above its thruster noise. Larger levels
+/// overflow the squared, loop-filtered CSD (1e150 made every CSD infinite).
+pub const MAX_ASD: f64 = 1.0;
+
+/// Smallest non-zero source ASD of `[noise]`: 1e-30, fifteen orders below LPF's; below it
+/// `ρ² = |h|²/S` of an injection within [`MAX_AMPLITUDE`] can overflow, and near 1e-154 the
+/// squared level underflows to a singular CSD. Use 0 to switch a source off.
+pub const MIN_ASD: f64 = 1e-30;
+
+/// Largest noise corner frequency (`readout_corner`, `tm_corner`, Hz): 1 kHz, far above any
+/// sample rate of the mission.
+pub const MAX_CORNER: f64 = 1e3;
+
+/// Largest injection amplitude (m on `x1`, `x12`; m s⁻² on `f1`, `f2`, `fsc`), after
+/// `amplitude_scale`: 1e-2, above the 4 mm gap around a test mass and ~10⁷ × LPF's force
+/// injections. Beyond it ρ² and ln L overflow (`amplitude_scale = 1e300` gave ρ = NaN).
+pub const MAX_AMPLITUDE: f64 = 1e-2;
+
+/// Largest `simulation.target_snr`: 10⁶, three orders above LPF's loudest experiments; the
+/// amplitude factor it implies must also keep every amplitude within [`MAX_AMPLITUDE`]
+/// (checked when the study is simulated).
+pub const MAX_TARGET_SNR: f64 = 1e6;
+
+/// Names of the delay parameters (s) of the built-in models (`ltp`, `accel` and tied models
+/// of them): their `fixed` and `start` values must be delays in `[0, MAX_DELAY]`.
+pub const DELAY_PARAMS: [&str; 5] = ["dt1", "dt2", "tau_df", "tau_c1", "tau_c2"];
+
 fn finite_pos(v: f64) -> bool {
     v.is_finite() && v > 0.0
 }
@@ -663,14 +713,48 @@ impl StudyFile {
             field,
             msg,
         };
+        let budget = budget::budget_from_env()
+            .map_err(|m| bad(format!("{} (environment)", budget::BUDGET_ENV), m))?;
         if let Some(n) = self.truth.non_finite() {
             return Err(bad(format!("truth.{n}"), "must be a finite number".into()));
+        }
+        for (n, v) in [("dt1", self.truth.dt1), ("dt2", self.truth.dt2)] {
+            check_delay(v).map_err(|m| bad(format!("truth.{n}"), m))?;
         }
         if let Some((n, v)) = self.noise.invalid_field() {
             return Err(bad(
                 format!("noise.{n}"),
                 format!("must be a finite number ≥ 0 (got {v})"),
             ));
+        }
+        let nz = &self.noise;
+        for (n, v) in [
+            ("readout_o1", nz.readout_o1),
+            ("readout_o12", nz.readout_o12),
+            ("thruster_force", nz.thruster_force),
+            ("tm_accel", nz.tm_accel),
+        ] {
+            if v > MAX_ASD || (v != 0.0 && v < MIN_ASD) {
+                return Err(bad(
+                    format!("noise.{n}"),
+                    format!(
+                        "{v} is not a plausible noise level: a source ASD is 0 (off) or in [{MIN_ASD:e}, {MAX_ASD}] (LPF's are 1e-15 to 1e-7); larger levels overflow the CSD"
+                    ),
+                ));
+            }
+        }
+        for (n, v) in [
+            ("readout_corner", nz.readout_corner),
+            ("tm_corner", nz.tm_corner),
+        ] {
+            if v > MAX_CORNER {
+                return Err(bad(
+                    format!("noise.{n}"),
+                    format!(
+                        "must be a corner frequency ≤ {MAX_CORNER} Hz, or 0 for none (got {v})"
+                    ),
+                ));
+            }
         }
         for (n, v) in [
             ("m1", self.masses.m1),
@@ -684,12 +768,7 @@ impl StudyFile {
                 ));
             }
         }
-        if !(self.oms_delay.is_finite() && self.oms_delay >= 0.0) {
-            return Err(bad(
-                "oms_delay".into(),
-                format!("must be a finite delay ≥ 0 s (got {})", self.oms_delay),
-            ));
-        }
+        check_delay(self.oms_delay).map_err(|m| bad("oms_delay".into(), m))?;
         check_stable(&self.truth, &Controllers::default(), &self.masses)
             .map_err(|e| bad("truth".into(), e.to_string()))?;
         let sim = &self.simulation;
@@ -697,14 +776,14 @@ impl StudyFile {
             use crate::model::ThrusterResponse as R;
             let ok = match t.response {
                 R::None => true,
-                R::Delay => t.value.is_finite() && t.value >= 0.0,
+                R::Delay => t.value.is_finite() && (0.0..=MAX_DELAY).contains(&t.value),
                 R::Pole => finite_pos(t.value),
             };
             if !ok {
                 return Err(bad(
                     "simulation.thruster.value".into(),
                     format!(
-                        "must be a delay ≥ 0 s (response = \"delay\") or a pole frequency > 0 Hz (response = \"pole\"); got {}",
+                        "must be a delay in [0, {MAX_DELAY}] s (response = \"delay\") or a pole frequency > 0 Hz (response = \"pole\"); got {}",
                         t.value
                     ),
                 ));
@@ -718,11 +797,11 @@ impl StudyFile {
         }
         sim.actuators.validate(sim.method, file)?;
         if let Some(t) = sim.target_snr
-            && !finite_pos(t)
+            && !(finite_pos(t) && t <= MAX_TARGET_SNR)
         {
             return Err(bad(
                 "simulation.target_snr".into(),
-                format!("must be a finite SNR > 0 (got {t})"),
+                format!("must be an SNR in (0, {MAX_TARGET_SNR:e}] (got {t})"),
             ));
         }
         if !(1..=1000).contains(&sim.oversample) {
@@ -747,9 +826,11 @@ impl StudyFile {
         let mut experiments = Vec::new();
         let mut data_sources: Vec<(String, crate::data::DataSource)> = Vec::new();
         let mut experiment_names: Vec<String> = Vec::new();
+        let mut data_bytes = 0.0;
         for (k, e) in self.experiment.iter().enumerate() {
             let at = |f: &str| format!("experiment[{k}].{f}");
             if e.name.is_empty()
+                || e.name.chars().count() > budget::MAX_NAME_LEN
                 || !e
                     .name
                     .chars()
@@ -758,8 +839,9 @@ impl StudyFile {
                 return Err(bad(
                     at("name"),
                     format!(
-                        "`{}`: use letters, digits, `_` or `-` (it names arrays in the dataset)",
-                        e.name
+                        "`{}`: use 1 to {} letters, digits, `_` or `-` (it names arrays in the dataset)",
+                        short(&e.name),
+                        budget::MAX_NAME_LEN
                     ),
                 ));
             }
@@ -896,6 +978,10 @@ impl StudyFile {
                     "force injections are supported with method = \"frequency\" only (the discretised loop of method = \"time\" takes guidance injections x1, x12)".into(),
                 ));
             }
+            // sized before anything is rendered (validate_waveforms renders file injections'
+            // checks only; sine lengths are analytic)
+            data_bytes += budget::check_experiment(&d, k, sim, data_bytes, budget, file)?;
+            validate_waveforms(&d, file, &at(""), e.amplitude_scale.is_none())?;
             if let Some(s) = e.amplitude_scale {
                 if !s.is_finite() {
                     return Err(bad(
@@ -903,9 +989,19 @@ impl StudyFile {
                         format!("must be finite (got {s})"),
                     ));
                 }
-                d = d.scaled(s);
+                let scaled = d.scaled(s);
+                if let Some(a) = max_amplitude(&scaled)
+                    && !(a <= MAX_AMPLITUDE)
+                {
+                    return Err(bad(
+                        at("amplitude_scale"),
+                        format!(
+                            "{s} scales the largest injection amplitude to {a:e}, above the plausible {MAX_AMPLITUDE} (m or m s⁻²); lower it"
+                        ),
+                    ));
+                }
+                d = scaled;
             }
-            validate_waveforms(&d, file, &at(""))?;
             experiments.push(d);
         }
         let ltp_defaults = crate::model::LtpModelOptions {
@@ -914,6 +1010,57 @@ impl StudyFile {
             ..Default::default()
         };
         validate_analysis(&self.analysis, file)?;
+        // bands inside (0, Nyquist] of every experiment whose rate is known now (a written band
+        // is an error there, not a silent clip; the defaults are clipped as before)
+        let defaults = (AnalysisOptions::default(), SimulationOptions::default());
+        let rates: Vec<(usize, f64)> = self
+            .experiment
+            .iter()
+            .enumerate()
+            .filter_map(|(k, e)| {
+                experiments
+                    .iter()
+                    .find(|d| d.name == e.name)
+                    .map(|d| d.fs)
+                    .or(e.fs)
+                    .map(|fs| (k, fs))
+            })
+            .collect();
+        let simulated: Vec<(usize, f64)> = rates
+            .iter()
+            .copied()
+            .filter(|(k, _)| self.experiment[*k].data.is_none())
+            .collect();
+        for (field, band, given, list) in [
+            (
+                "analysis.band",
+                self.analysis.band,
+                self.analysis.band != defaults.0.band,
+                &rates,
+            ),
+            (
+                "simulation.snr_band",
+                sim.snr_band,
+                sim.snr_band != defaults.1.snr_band,
+                &simulated,
+            ),
+        ] {
+            if !given {
+                continue;
+            }
+            if let Some((k, fs)) = list.iter().copied().find(|&(_, fs)| !(band[1] <= fs / 2.0)) {
+                return Err(bad(
+                    field.into(),
+                    format!(
+                        "[{}, {}] Hz reaches outside (0, {}] Hz, the frequencies up to the Nyquist frequency of experiment `{}` (fs = {fs} Hz): lower its upper edge",
+                        band[0],
+                        band[1],
+                        fs / 2.0,
+                        short(&self.experiment[k].name)
+                    ),
+                ));
+            }
+        }
         // a log grid over the fit band, where user-defined models must act
         let [blo, bhi] = self.analysis.band;
         let check_fs = self.experiment.iter().find_map(|e| e.fs).unwrap_or(10.0);
@@ -946,12 +1093,24 @@ impl StudyFile {
         }
         .resolve(&models, file, "fit.")?;
         validate_fit(&self.fit, &models, file)?;
+        check_fixed_loop(
+            &self.fit.fixed,
+            &fit_model,
+            &models,
+            &self.truth,
+            &self.masses,
+        )
+        .map_err(|(n, m)| bad(format!("fit.fixed.{n}"), m))?;
         let select_models = validate_select(&self.select, &models, file)?;
+        for (k, (m, sm)) in self.select.model.iter().zip(&select_models).enumerate() {
+            check_fixed_loop(&m.fixed, &sm.spec, &models, &self.truth, &self.masses)
+                .map_err(|(n, e)| bad(format!("select.model[{k}].fixed.{n}"), e))?;
+        }
         if let Some(sw) = &self.sweep {
             let names: Vec<&str> = select_models.iter().map(|m| m.name.as_str()).collect();
             sw.validate(&names, file)?;
         }
-        Ok(Study {
+        let study = Study {
             sweep: self.sweep,
             select: self.select,
             select_models,
@@ -972,8 +1131,59 @@ impl StudyFile {
             experiment_names,
             base_dir: base.to_path_buf(),
             source: file.into(),
-        })
+        };
+        budget::check_study(&study, budget)?;
+        Ok(study)
     }
+}
+
+/// Checks that the fixed values of a sub-model of the closed loop (an `ltp` model or a
+/// `tied` one) leave the loop stable with the other parameters at `[truth]`; the error names
+/// the fixed parameter that alone destabilises it (or the first one, if only their
+/// combination does) and the message.
+fn check_fixed_loop(
+    fixed: &std::collections::BTreeMap<String, f64>,
+    spec: &ModelSpec,
+    models: &ModelSet,
+    truth: &LtpParams,
+    masses: &Masses,
+) -> Result<(), (String, String)> {
+    if !matches!(
+        models.defs[spec.model],
+        ModelDef::Ltp { .. } | ModelDef::Tied(_)
+    ) {
+        return Ok(());
+    }
+    let names = crate::ltp::PARAM_NAMES;
+    let with = |only: Option<&str>| {
+        let mut a = truth.to_array();
+        for (n, &v) in fixed {
+            if only.is_some_and(|o| o != n) {
+                continue;
+            }
+            if let Some(i) = names.iter().position(|p| p == n) {
+                a[i] = v;
+            }
+        }
+        LtpParams::from_array(&a)
+    };
+    let ctrl = Controllers::default();
+    if let Err(e) = check_stable(&with(None), &ctrl, masses) {
+        let culprit = fixed
+            .keys()
+            .filter(|n| names.contains(&n.as_str()))
+            .find(|n| check_stable(&with(Some(n)), &ctrl, masses).is_err())
+            .or_else(|| fixed.keys().find(|n| names.contains(&n.as_str())))
+            .cloned()
+            .unwrap_or_default();
+        return Err((
+            culprit,
+            format!(
+                "these fixed values make the closed loop unstable with the other parameters at [truth]: {e}; a sub-model must describe a working loop"
+            ),
+        ));
+    }
+    Ok(())
 }
 
 fn validate_analysis(a: &AnalysisOptions, file: &str) -> Result<(), ConfigError> {
@@ -1042,10 +1252,36 @@ fn validate_fit(f: &FitOptions, models: &ModelSet, file: &str) -> Result<(), Con
             ),
         ));
     }
-    if f.thin == 0 || f.checkpoint_every == 0 {
+    if f.chains > budget::MAX_CHAINS {
+        return Err(bad(
+            "chains",
+            format!("must be at most {} (got {})", budget::MAX_CHAINS, f.chains),
+        ));
+    }
+    if f.iterations > budget::MAX_ITERATIONS {
+        return Err(bad(
+            "iterations",
+            format!(
+                "must be at most {:e}, beyond which a run does not end (got {})",
+                budget::MAX_ITERATIONS as f64,
+                f.iterations
+            ),
+        ));
+    }
+    if f.thin == 0 || f.thin > f.iterations - f.burn_in {
         return Err(bad(
             "thin",
-            "`thin` and `checkpoint_every` must be ≥ 1".into(),
+            format!(
+                "must be ≥ 1 and keep at least one draw of the {} after the burn-in (got {})",
+                f.iterations - f.burn_in,
+                f.thin
+            ),
+        ));
+    }
+    if f.checkpoint_every == 0 {
+        return Err(bad(
+            "checkpoint_every",
+            "must be ≥ 1 iteration between checkpoints".into(),
         ));
     }
     if !finite_pos(f.proposal_scale) {
@@ -1072,6 +1308,14 @@ fn validate_fit(f: &FitOptions, models: &ModelSet, file: &str) -> Result<(), Con
                     format!("must be finite (got {v})"),
                 ));
             }
+            let delay_of_builtin =
+                DELAY_PARAMS.contains(&n.as_str())
+                    && models.defs.iter().zip(&models.models).any(|(d, m)| {
+                        !matches!(d, ModelDef::User(_)) && m.param_names().contains(n)
+                    });
+            if delay_of_builtin {
+                check_delay(*v).map_err(|m| bad(&format!("start.{n}"), m))?;
+            }
         }
     }
     Ok(())
@@ -1094,6 +1338,27 @@ fn validate_select(
                 "must be smaller than `rj_iterations` (got {} and {})",
                 s.rj_burn_in, s.rj_iterations
             ),
+        ));
+    }
+    for (f, v) in [
+        ("rj_iterations", s.rj_iterations),
+        ("iterations", s.iterations),
+        ("pt_iterations", s.pt_iterations),
+    ] {
+        if v > budget::MAX_ITERATIONS {
+            return Err(bad(
+                format!("select.{f}"),
+                format!(
+                    "must be at most {:e}, beyond which a run does not end (got {v})",
+                    budget::MAX_ITERATIONS as f64
+                ),
+            ));
+        }
+    }
+    if s.chains > budget::MAX_CHAINS {
+        return Err(bad(
+            "select.chains".into(),
+            format!("must be at most {} (got {})", budget::MAX_CHAINS, s.chains),
         ));
     }
     if s.iterations == 0 || s.burn_in >= s.iterations || s.chains == 0 {
@@ -1125,14 +1390,23 @@ fn validate_select(
             ),
         ));
     }
+    if s.pt_temperatures != 0 && s.pt_iterations - s.pt_burn_in < 100 {
+        return Err(bad(
+            "select.pt_iterations".into(),
+            format!(
+                "parallel tempering needs at least 100 sweeps after pt_burn_in (got pt_iterations = {}, pt_burn_in = {})",
+                s.pt_iterations, s.pt_burn_in
+            ),
+        ));
+    }
     if s.rj_chains == 0
         || s.rj_chains > 4096
-        || s.rj_burn_in >= s.rj_iterations / s.rj_chains.max(1)
+        || s.rj_iterations / s.rj_chains.max(1) < s.rj_burn_in + 100
     {
         return Err(bad(
             "select.rj_chains".into(),
             format!(
-                "need 1 to 4096 chains, each longer than rj_burn_in (got {} chains of {} iterations, rj_burn_in = {})",
+                "need 1 to 4096 chains, each at least 100 iterations longer than rj_burn_in, i.e. rj_iterations ≥ rj_chains × (rj_burn_in + 100) (got {} chains of {} iterations, rj_burn_in = {})",
                 s.rj_chains,
                 s.rj_iterations / s.rj_chains.max(1),
                 s.rj_burn_in
@@ -1165,10 +1439,11 @@ fn validate_select(
     let mut out: Vec<SelectModel> = Vec::new();
     for (k, m) in s.model.iter().enumerate() {
         let at = format!("select.model[{k}].");
-        if m.name.is_empty() || out.iter().any(|o| o.name == m.name) {
+        models::check_name(&m.name).map_err(|e| bad(format!("{at}name"), e))?;
+        if out.iter().any(|o| o.name == m.name) {
             return Err(bad(
                 format!("{at}name"),
-                format!("`{}` must be non-empty and unique", m.name),
+                format!("`{}` must be unique", m.name),
             ));
         }
         let spec = ModelEntry {
@@ -1261,7 +1536,58 @@ fn to_waveform(
     })
 }
 
-fn validate_waveforms(d: &ExperimentDesign, file: &str, at: &str) -> Result<(), ConfigError> {
+/// The largest |amplitude| of a design's injections (sine amplitudes and file samples), `None`
+/// without any; NaN if one is NaN.
+fn max_amplitude(d: &ExperimentDesign) -> Option<f64> {
+    let mut out: Option<f64> = None;
+    for w in [&d.x1, &d.x12, &d.f1, &d.f2, &d.fsc] {
+        let vals: Vec<f64> = match w {
+            Waveform::Samples { values } => values.iter().map(|v| v.abs()).collect(),
+            _ => w.segments().iter().map(|s| s.amplitude.abs()).collect(),
+        };
+        for a in vals {
+            out = Some(match out {
+                Some(m) if !(a > m) && !a.is_nan() => m,
+                _ => a,
+            });
+            if a.is_nan() {
+                return Some(a);
+            }
+        }
+    }
+    out
+}
+
+/// Checks a delay (s): finite, ≥ 0 and ≤ [`MAX_DELAY`].
+fn check_delay(v: f64) -> Result<(), String> {
+    if v.is_finite() && (0.0..=MAX_DELAY).contains(&v) {
+        Ok(())
+    } else {
+        Err(format!(
+            "must be a delay ≥ 0 and ≤ {MAX_DELAY} s (got {v}); LPF's delays are tenths of a second"
+        ))
+    }
+}
+
+/// A user string shortened for a message (a 70 000-character name must not fill the screen).
+fn short(s: &str) -> String {
+    const KEEP: usize = 40;
+    if s.chars().count() <= KEEP {
+        s.to_string()
+    } else {
+        let head: String = s.chars().take(KEEP).collect();
+        format!("{head}… ({} characters)", s.chars().count())
+    }
+}
+
+/// Validates the injections of `d`; `bound` also checks every amplitude against
+/// [`MAX_AMPLITUDE`] (the caller checks it after `amplitude_scale` otherwise).
+fn validate_waveforms(
+    d: &ExperimentDesign,
+    file: &str,
+    at: &str,
+    bound: bool,
+) -> Result<(), ConfigError> {
     let nyq = d.fs / 2.0;
     for (ch, w) in [
         ("x1", &d.x1),
@@ -1296,10 +1622,13 @@ fn validate_waveforms(d: &ExperimentDesign, file: &str, at: &str) -> Result<(), 
                     ),
                 ));
             }
-            if !s.amplitude.is_finite() {
+            if !s.amplitude.is_finite() || (bound && s.amplitude.abs() > MAX_AMPLITUDE) {
                 return Err(bad(
                     format!("{seg}.amplitude"),
-                    format!("must be finite (got {})", s.amplitude),
+                    format!(
+                        "must be finite with |amplitude| ≤ {MAX_AMPLITUDE} (m on x1, x12; m s⁻² on f1, f2, fsc), got {}",
+                        s.amplitude
+                    ),
                 ));
             }
             if !finite_pos(s.duration) || 2.0 * s.freq * s.duration < 1.0 {
@@ -1320,6 +1649,18 @@ fn validate_waveforms(d: &ExperimentDesign, file: &str, at: &str) -> Result<(), 
             return Err(bad(
                 String::new(),
                 format!("sample {i} of the injection file is not finite"),
+            ));
+        }
+        if let Waveform::Samples { values } = w
+            && bound
+            && let Some(i) = values.iter().position(|v| v.abs() > MAX_AMPLITUDE)
+        {
+            return Err(bad(
+                String::new(),
+                format!(
+                    "sample {i} of the injection file is {}, above the plausible {MAX_AMPLITUDE} (m or m s⁻²)",
+                    values[i]
+                ),
             ));
         }
     }

@@ -260,10 +260,23 @@ impl ModelSet {
                     ));
                 }
             };
-            if def.name().is_empty() || defs.iter().any(|d: &ModelDef| d.name() == def.name()) {
+            check_name(def.name()).map_err(|m| bad(format!("{at}.name"), m))?;
+            if defs.iter().any(|d: &ModelDef| d.name() == def.name()) {
                 return Err(bad(
                     format!("{at}.name"),
-                    format!("`{}` must be non-empty and unique", def.name()),
+                    format!("`{}` must be unique", def.name()),
+                ));
+            }
+            if let ModelDef::Accel { options, .. } = &def
+                && options.tau_ifo > super::MAX_DELAY
+            {
+                return Err(bad(
+                    format!("{at}.tau_ifo"),
+                    format!(
+                        "must be a delay in [0, {}] s (got {})",
+                        super::MAX_DELAY,
+                        options.tau_ifo
+                    ),
                 ));
             }
             defs.push(def);
@@ -308,6 +321,23 @@ impl ModelSet {
                         )
                     })?;
                 kinds.push(k);
+            }
+            if !matches!(d, ModelDef::User(_)) {
+                for (n, k) in m.param_names().iter().zip(&kinds) {
+                    if !super::DELAY_PARAMS.contains(&n.as_str()) {
+                        continue;
+                    }
+                    let (lo, hi) = k.bounds();
+                    if !(lo >= 0.0 && hi <= super::MAX_DELAY) {
+                        return Err(bad(
+                            format!("prior.{n}"),
+                            format!(
+                                "`{n}` is a delay: its prior must lie in [0, {}] s (got bounds [{lo}, {hi}]); use a uniform or log-uniform box there",
+                                super::MAX_DELAY
+                            ),
+                        ));
+                    }
+                }
             }
             let p = Prior::new(m.param_names().to_vec(), kinds).map_err(|e| {
                 let field = match &e {
@@ -363,6 +393,30 @@ impl ModelSet {
         }
         Ok(set)
     }
+}
+
+/// Checks a model name (`[[model]]`, `[[select.model]]`): 1 to
+/// [`super::budget::MAX_NAME_LEN`] letters, digits or `_ - . +`, because names become keys
+/// and file names of the outputs.
+pub fn check_name(name: &str) -> Result<(), String> {
+    let max = super::budget::MAX_NAME_LEN;
+    if name.is_empty()
+        || name.chars().count() > max
+        || !name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || "_-.+".contains(c))
+    {
+        let shown: String = name.chars().take(40).collect();
+        let more = if name.chars().count() > 40 {
+            format!("… ({} characters)", name.chars().count())
+        } else {
+            String::new()
+        };
+        return Err(format!(
+            "`{shown}{more}`: a name is 1 to {max} letters, digits, `_`, `-`, `.` or `+`"
+        ));
+    }
+    Ok(())
 }
 
 /// A (sub-)model as written: which model, which parameters are free and the values of the
@@ -449,6 +503,21 @@ impl ModelEntry {
                 return Err(bad(
                     format!("{at}fixed.{n}"),
                     format!("must be finite (got {v})"),
+                ));
+            }
+            if !matches!(set.defs[mi], ModelDef::User(_))
+                && super::DELAY_PARAMS.contains(&n.as_str())
+            {
+                super::check_delay(v).map_err(|m| bad(format!("{at}fixed.{n}"), m))?;
+            }
+            let kind = set.priors[mi].kinds()[i];
+            let (lo, hi) = kind.bounds();
+            if !(v >= lo && v <= hi) {
+                return Err(bad(
+                    format!("{at}fixed.{n}"),
+                    format!(
+                        "the fixed value {v} is outside the prior of `{n}` ([{lo}, {hi}]): a fixed parameter must lie where its prior is positive; change the value or widen [prior].{n}"
+                    ),
                 ));
             }
             base[i] = v;

@@ -99,6 +99,10 @@ fn default_channels() -> Vec<String> {
     vec!["x1".into(), "x12".into()]
 }
 
+/// Most candidate frequencies of a `{ from, to, points }` grid: each is scored for each
+/// segment in each pass, so 10 000 is already hours of search.
+pub const MAX_CANDIDATES: usize = 10_000;
+
 /// `[design]`: the budget and the search. Keys:
 /// * `true_model`: the `[[select.model]]` name that generated the data (required);
 /// * `channels`: guidance channels, one experiment each (default `["x1", "x12"]`);
@@ -262,6 +266,16 @@ impl DesignOptions {
                 "candidates",
                 format!(
                     "`{{ from, to, points }}` needs 0 < from ≤ to and points ≥ 1 (got from = {from}, to = {to}, points = {points})"
+                ),
+            ));
+        }
+        if let Candidates::LogGrid { points, .. } = &self.candidates
+            && *points > MAX_CANDIDATES
+        {
+            return Err(bad(
+                "candidates",
+                format!(
+                    "`points` must be at most {MAX_CANDIDATES} (got {points}): every candidate is scored in every pass"
                 ),
             ));
         }

@@ -111,21 +111,37 @@ impl ExperimentDesign {
     /// Names accepted by [`ExperimentDesign::builtin`].
     pub const BUILTINS: [&'static str; 2] = ["tn3045_x1", "tn3045_x12"];
 
-    /// Number of samples of the fit stretch.
+    /// Number of samples of the fit stretch (saturating: a study's sizes are checked against
+    /// the memory budget with [`ExperimentDesign::n_samples_f64`] before this is used to
+    /// allocate).
     pub fn n_samples(&self) -> usize {
-        let pre = (self.pre_pad * self.fs).round() as usize;
-        let post = (self.post_pad * self.fs).round() as usize;
-        let longest = [&self.x1, &self.x12, &self.f1, &self.f2, &self.fsc]
-            .iter()
-            .map(|w| w.len(self.fs))
-            .max()
-            .unwrap_or(0);
-        pre + longest + post
+        to_count(self.n_samples_f64())
     }
 
-    /// Number of samples of the noise-only stretch.
+    /// Number of samples of the noise-only stretch (saturating, as [`Self::n_samples`]).
     pub fn n_noise_samples(&self) -> usize {
-        (self.noise_duration * self.fs).round() as usize
+        to_count(self.n_noise_samples_f64())
+    }
+
+    /// [`Self::n_samples`] in `f64`: the same count, computed so that no input overflows it
+    /// (`pre_pad = 1e308` gives about 1e309 = ∞, which the budget refuses).
+    pub fn n_samples_f64(&self) -> f64 {
+        let longest = [&self.x1, &self.x12, &self.f1, &self.f2, &self.fsc]
+            .iter()
+            .map(|w| w.len_f64(self.fs))
+            .fold(0.0, f64::max);
+        self.pad_samples(self.pre_pad) + longest + self.pad_samples(self.post_pad)
+    }
+
+    /// [`Self::n_noise_samples`] in `f64`.
+    pub fn n_noise_samples_f64(&self) -> f64 {
+        self.pad_samples(self.noise_duration)
+    }
+
+    /// Samples of a quiet stretch of `t` seconds, rounded as `as usize` would (NaN, negative → 0).
+    fn pad_samples(&self, t: f64) -> f64 {
+        let r = (t * self.fs).round();
+        if r > 0.0 { r } else { 0.0 }
     }
 
     /// The commanded injection series `(i1, i12)` over the fit stretch: padding, waveform, padding.
@@ -146,10 +162,12 @@ impl ExperimentDesign {
 
     fn place(&self, w: &Waveform) -> Vec<f64> {
         let n = self.n_samples();
-        let pre = (self.pre_pad * self.fs).round() as usize;
+        let pre = to_count(self.pad_samples(self.pre_pad));
         let mut v = vec![0.0; n];
-        for (k, x) in w.render(self.fs).into_iter().enumerate() {
-            v[pre + k] = x;
+        // n ≥ pre + the waveform's length by construction; zipping keeps absurd (saturated)
+        // sizes from indexing out of bounds
+        for (slot, x) in v.iter_mut().skip(pre).zip(w.render(self.fs)) {
+            *slot = x;
         }
         v
     }
@@ -164,6 +182,15 @@ impl ExperimentDesign {
             fsc: self.fsc.scaled(k),
             ..self.clone()
         }
+    }
+}
+
+/// A non-negative whole `f64` as a `usize`, saturating.
+fn to_count(x: f64) -> usize {
+    if x >= usize::MAX as f64 {
+        usize::MAX
+    } else {
+        x as usize
     }
 }
 
@@ -189,5 +216,19 @@ mod tests {
         let segs = x12.x12.segments();
         assert_eq!(segs[1].amplitude, 1e-6);
         assert!((segs[2].amplitude - 0.25e-6).abs() < 1e-15);
+    }
+
+    /// Absurd pads give saturated counts and an infinite `f64` count, never a wrapped sum.
+    #[test]
+    fn sizes_do_not_overflow() {
+        let mut d = ExperimentDesign::tn3045_x1();
+        assert_eq!(d.n_samples() as f64, d.n_samples_f64());
+        assert_eq!(d.n_noise_samples(), 200_000);
+        d.pre_pad = 1e308;
+        assert!(d.n_samples_f64().is_infinite());
+        assert_eq!(d.n_samples(), usize::MAX);
+        d.pre_pad = f64::NAN;
+        d.post_pad = -5.0;
+        assert_eq!(d.n_samples(), ExperimentDesign::tn3045_x1().x1.len(10.0));
     }
 }

@@ -447,6 +447,29 @@ pub fn simulate(study: &Study) -> Result<Simulation, SimError> {
             ));
         }
         amplitude_factor = target / rho2.sqrt();
+        // the factor must leave every amplitude finite and plausible (a NaN ρ, from an
+        // overflowing ρ², fails here too)
+        let biggest = designs
+            .iter()
+            .flat_map(|d| {
+                [&d.x1, &d.x12, &d.f1, &d.f2, &d.fsc]
+                    .into_iter()
+                    .flat_map(|w| w.segments().iter().map(|s| s.amplitude.abs()))
+            })
+            .fold(0.0, f64::max);
+        if !(amplitude_factor.is_finite()
+            && biggest * amplitude_factor <= crate::config::MAX_AMPLITUDE)
+        {
+            return Err(SimError::Other(
+                "study".into(),
+                format!(
+                    "`simulation.target_snr` = {target} needs the injections scaled by {amplitude_factor:e} (ρ_opt is {:e} before scaling), which makes the largest amplitude {:e}, above the plausible {} (m or m s⁻²): lower target_snr or raise the injections",
+                    rho2.sqrt(),
+                    biggest * amplitude_factor,
+                    crate::config::MAX_AMPLITUDE
+                ),
+            ));
+        }
         designs = designs.iter().map(|d| d.scaled(amplitude_factor)).collect();
     }
     let mut experiments = Vec::new();

@@ -47,14 +47,36 @@ impl Waveform {
         matches!(self, Waveform::None)
     }
 
-    /// Number of samples the waveform occupies at sample rate `fs`.
+    /// Number of samples the waveform occupies at sample rate `fs`, computed without rendering
+    /// it (saturating at `usize::MAX` for absurd durations; see [`Waveform::len_f64`]).
     pub fn len(&self, fs: f64) -> usize {
-        self.render(fs).len()
+        let n = self.len_f64(fs);
+        if n >= usize::MAX as f64 {
+            usize::MAX
+        } else {
+            n as usize
+        }
+    }
+
+    /// Number of samples at `fs` as an `f64`, exact below 2⁵³ and never overflowing: the
+    /// memory budget ([`crate::config::budget`]) sizes a study with it before anything is
+    /// allocated, so a duration of 1e300 s gives 1e301, not a wrapped `usize`.
+    pub fn len_f64(&self, fs: f64) -> f64 {
+        match self {
+            Waveform::None => 0.0,
+            Waveform::Samples { values } => values.len() as f64,
+            Waveform::Sine(s) => segment_len(s, fs),
+            Waveform::SineTrain { segments, gap } => {
+                let gap_n = round_count(gap * fs);
+                segments.iter().map(|s| segment_len(s, fs)).sum::<f64>()
+                    + gap_n * segments.len().saturating_sub(1) as f64
+            }
+        }
     }
 
     /// Whether the waveform has no samples.
     pub fn is_empty(&self, fs: f64) -> bool {
-        self.len(fs) == 0
+        self.len_f64(fs) == 0.0
     }
 
     /// The waveform sampled at `fs`, starting at its first sample.
@@ -64,7 +86,7 @@ impl Waveform {
             Waveform::Samples { values } => values.clone(),
             Waveform::Sine(s) => render_segment(s, fs),
             Waveform::SineTrain { segments, gap } => {
-                let gap_n = (gap * fs).round() as usize;
+                let gap_n = round_count(gap * fs) as usize;
                 let mut out = Vec::new();
                 for (i, s) in segments.iter().enumerate() {
                     if i > 0 {
@@ -106,10 +128,26 @@ impl Waveform {
     }
 }
 
-fn render_segment(s: &SineSegment, fs: f64) -> Vec<f64> {
+/// `x.round()` as a count, the way `as usize` converts it (NaN and negatives give 0), but in
+/// `f64` so that nothing saturates.
+fn round_count(x: f64) -> f64 {
+    let r = x.round();
+    if r > 0.0 { r } else { 0.0 }
+}
+
+/// The last sample index `n` of a segment (it has `n + 1` samples).
+fn segment_last(s: &SineSegment, fs: f64) -> f64 {
     // whole half cycles: sin(2πf t) vanishes at t = m/(2f)
     let half_cycles = (2.0 * s.freq * s.duration).floor();
-    let n = (half_cycles / (2.0 * s.freq) * fs).round() as usize;
+    round_count(half_cycles / (2.0 * s.freq) * fs)
+}
+
+fn segment_len(s: &SineSegment, fs: f64) -> f64 {
+    segment_last(s, fs) + 1.0
+}
+
+fn render_segment(s: &SineSegment, fs: f64) -> Vec<f64> {
+    let n = segment_last(s, fs) as usize;
     (0..=n)
         .map(|k| s.amplitude * (2.0 * PI * s.freq * k as f64 / fs).sin())
         .collect()
@@ -153,8 +191,44 @@ mod tests {
             gap: 10.0,
         };
         assert_eq!(w.len(10.0), 1001 + 100 + 1001);
+        assert_eq!(w.len(10.0), w.render(10.0).len());
         let scaled = w.scaled(0.5).render(10.0);
         let max = scaled.iter().cloned().fold(0.0, f64::max);
         assert!((max - 1.0).abs() < 1e-9);
+    }
+
+    /// The analytic length is the rendered one for odd rates, durations and gaps, and stays
+    /// finite (no render, no overflow) for absurd ones.
+    #[test]
+    fn length_without_rendering() {
+        for (f, d, fs, gap) in [
+            (0.0123, 500.0, 10.0, 0.0),
+            (0.3, 7.7, 3.3, 1.26),
+            (1.0 / 1200.0, 1200.0, 10.0, 120.0),
+            (0.05, 10.0, 1.0, 0.49),
+            (0.05, 10.0, 1.0, 0.5),
+        ] {
+            let s = SineSegment {
+                freq: f,
+                amplitude: 1.0,
+                duration: d,
+            };
+            let one = Waveform::Sine(s);
+            assert_eq!(one.len(fs), one.render(fs).len(), "{f} {d} {fs}");
+            let w = Waveform::SineTrain {
+                segments: vec![s, s, s],
+                gap,
+            };
+            assert_eq!(w.len(fs), w.render(fs).len(), "{f} {d} {fs} {gap}");
+        }
+        let huge = Waveform::Sine(SineSegment {
+            freq: 0.01,
+            amplitude: 1.0,
+            duration: 1e300,
+        });
+        assert!((huge.len_f64(10.0) - 1e301).abs() < 1e287);
+        assert_eq!(huge.len(10.0), usize::MAX);
+        assert_eq!(Waveform::None.len_f64(10.0), 0.0);
+        assert!(Waveform::None.is_empty(10.0));
     }
 }
