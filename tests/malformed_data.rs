@@ -907,5 +907,5 @@ fn command_line_dataset_path_and_budget() {
         .output()
         .unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("OCCAM_MEMORY_BUDGET = `lots`"), "{err}");
+    assert!(err.contains("OCCAM_MEMORY_BUDGET = \"lots\""), "{err}");
 }

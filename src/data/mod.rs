@@ -9,50 +9,20 @@ pub mod source;
 
 pub use source::DataSource;
 
-/// The memory budget when `OCCAM_MEMORY_BUDGET` is not set: 8 GiB.
-pub const DEFAULT_MEMORY_BUDGET: u64 = 8 << 30;
-
-/// The memory budget for data read from files, in bytes: the environment variable
-/// `OCCAM_MEMORY_BUDGET` (a whole number of bytes, optionally with a suffix `K`, `M`, `G`
-/// for KiB, MiB, GiB), else [`DEFAULT_MEMORY_BUDGET`]. Readers compare the sizes a file
-/// implies with it before allocating anything, so that a damaged or enormous file is an
-/// error naming the file rather than an abort. An unreadable value is an error naming the
-/// variable (never silently the default).
-///
-/// The study loader has its own budget for sizes derived from the study; the two should
-/// become one.
+/// The memory budget for data read from files, in bytes: the one budget of the study loader
+/// ([`crate::config::budget::budget_from_env`]: `OCCAM_MEMORY_BUDGET`, else 8 GiB). Readers
+/// compare the sizes a file implies with it before allocating anything, so that a damaged or
+/// enormous file is an error naming the file rather than an abort. An unreadable value is an
+/// error naming the variable (never silently the default).
 pub fn memory_budget() -> Result<u64, String> {
-    match std::env::var("OCCAM_MEMORY_BUDGET") {
-        Err(std::env::VarError::NotPresent) => Ok(DEFAULT_MEMORY_BUDGET),
-        Err(e) => Err(format!("OCCAM_MEMORY_BUDGET: {e}")),
-        Ok(v) => parse_budget(&v).ok_or_else(|| {
-            format!(
-                "OCCAM_MEMORY_BUDGET = `{v}`: expected a number of bytes such as `4000000000`, `512M` or `8G`"
-            )
-        }),
-    }
+    // saturating: a budget above 2⁶⁴ bytes is no limit
+    crate::config::budget::budget_from_env().map(|b| b as u64)
 }
 
-/// [`memory_budget`], falling back to [`DEFAULT_MEMORY_BUDGET`] when the variable cannot be
-/// read (callers that can report errors should use [`memory_budget`]).
+/// [`memory_budget`], or the default budget when the variable cannot be read (for callers
+/// that have already reported that error through [`check_budget`]).
 pub fn memory_budget_bytes() -> u64 {
-    memory_budget().unwrap_or(DEFAULT_MEMORY_BUDGET)
-}
-
-/// `123`, `512K`, `64M`, `8G` (binary multiples; an optional `iB`/`B` after the letter).
-fn parse_budget(v: &str) -> Option<u64> {
-    let v = v.trim();
-    let digits = v.find(|c: char| !c.is_ascii_digit()).unwrap_or(v.len());
-    let n: u64 = v[..digits].parse().ok()?;
-    let shift = match v[digits..].trim().to_ascii_uppercase().as_str() {
-        "" | "B" => 0,
-        "K" | "KB" | "KIB" => 10,
-        "M" | "MB" | "MIB" => 20,
-        "G" | "GB" | "GIB" => 30,
-        "T" | "TB" | "TIB" => 40,
-        _ => return None,
-    };
-    n.checked_mul(1u64 << shift).filter(|&b| b > 0)
+    memory_budget().unwrap_or(crate::config::budget::DEFAULT_BUDGET as u64)
 }
 
 /// Checks that reading `what` of `file`, which needs `bytes` bytes, fits the memory budget.
@@ -193,18 +163,6 @@ mod tests {
             Fnv1a::of_reader(&big[..]).unwrap(),
             (200_000, Fnv1a::of(&big))
         );
-    }
-
-    #[test]
-    fn budget_values() {
-        assert_eq!(parse_budget("123"), Some(123));
-        assert_eq!(parse_budget(" 512K "), Some(512 << 10));
-        assert_eq!(parse_budget("64MiB"), Some(64 << 20));
-        assert_eq!(parse_budget("8G"), Some(8 << 30));
-        assert_eq!(parse_budget("2 tb"), Some(2 << 40));
-        for bad in ["", "0", "-1", "1.5G", "G", "8X", "99999999999T"] {
-            assert_eq!(parse_budget(bad), None, "{bad}");
-        }
     }
 
     #[test]
