@@ -100,7 +100,18 @@ pub fn run(
     let names = exact.model().param_names().to_vec();
     let t0 = Instant::now();
     let start = default_start(study, model);
-    let map = fisher_scoring(exact, &start, free, 1e-3, 200)?;
+    let free_names: Vec<String> = free.iter().map(|&i| names[i].clone()).collect();
+    let value_of = |n: &str| names.iter().position(|p| p == n).map(|i| start[i]);
+    let map = fisher_scoring(exact, &start, free, 1e-3, 200).map_err(|e| match e {
+        crate::likelihood::MapError::Singular {
+            unconstrained,
+            detail,
+        } => FitError::Other(format!(
+            "MAP search: the Fisher matrix is singular: {detail}. {}",
+            fix_hint(&free_names, &unconstrained, &value_of)
+        )),
+        e => FitError::Map(e),
+    })?;
     let mut warnings = model_warnings(study, model.model, &prep.dataset);
     if !map.converged {
         warnings.push(format!(
@@ -108,19 +119,20 @@ pub fn run(
             map.iterations
         ));
     }
-    let at_bound = map.bound_names(&names, free);
+    let at_bound = map.bound_report(&names, exact.prior().kinds(), free);
     if !at_bound.is_empty() {
         warnings.push(format!(
-            "the MAP is on the prior bound of {at_bound:?}: the posterior is cut by the prior there, and the Cramér–Rao σ and the pulls assume an interior maximum; widen the prior if the bound is not physical"
+            "the MAP is on a bound of the prior box: {}. The posterior is cut by the prior there, and the Cramér–Rao σ and the pulls assume an interior maximum",
+            at_bound.join("; ")
         ));
     }
     let fisher = fisher_exact(exact, &map.theta, free);
-    let cr = cramer_rao(&fisher).ok_or_else(|| {
-        FitError::Other(format!(
-            "the Fisher matrix at the MAP is singular: the data do not constrain some of {:?}; fix them or add experiments",
-            free.iter().map(|&i| names[i].as_str()).collect::<Vec<_>>()
-        ))
-    })?;
+    let value_of = |n: &str| names.iter().position(|p| p == n).map(|i| map.theta[i]);
+    let cr = cramer_rao(&fisher)
+        .ok_or_else(|| FitError::Other(singular_message(&fisher, &free_names, "MAP", &value_of)))?;
+    if let Some(w) = near_singular_warning(&fisher, &free_names) {
+        warnings.push(w);
+    }
     let seconds_map = t0.elapsed().as_secs_f64();
     let d = free.len();
     let cov = fisher.clone().cholesky().expect("checked above").inverse()
@@ -215,6 +227,70 @@ pub fn run(
         map_full: map.theta,
         fisher,
     })
+}
+
+/// The error of a singular Fisher matrix at `at` ("MAP"): which parameters the data do not
+/// constrain (its null directions) and what to change ([`fix_hint`]; `value_of` gives the
+/// value to suggest for a parameter).
+pub fn singular_message(
+    fisher: &DMatrix<f64>,
+    free_names: &[String],
+    at: &str,
+    value_of: &dyn Fn(&str) -> Option<f64>,
+) -> String {
+    let (detail, named) = crate::likelihood::describe_unconstrained(fisher, free_names);
+    format!(
+        "the Fisher matrix at the {at} is singular: {detail}. {}",
+        fix_hint(free_names, &named, value_of)
+    )
+}
+
+/// What to change in the study when the parameters `named` (of the free ones, `free_names`)
+/// are unconstrained: the `[fit]` lines that fix them at the values `value_of` suggests, or
+/// an experiment that excites them.
+pub fn fix_hint(
+    free_names: &[String],
+    named: &[String],
+    value_of: &dyn Fn(&str) -> Option<f64>,
+) -> String {
+    let them = if named.len() == 1 { "it" } else { "them" };
+    let keep: Vec<String> = free_names
+        .iter()
+        .filter(|n| !named.contains(n))
+        .map(|n| format!("\"{n}\""))
+        .collect();
+    if keep.is_empty() || named.is_empty() {
+        return format!(
+            "Add an experiment that excites {them}, or fix some of them in [fit] fixed"
+        );
+    }
+    let fixed = named
+        .iter()
+        .map(|n| match value_of(n) {
+            Some(v) => format!("{n} = {}", crate::report::fmt_roundtrip(v)),
+            None => format!("{n} = <value>"),
+        })
+        .collect::<Vec<_>>()
+        .join(", ");
+    format!(
+        "Fix {them}, e.g. [fit] free = [{}] and fixed = {{ {fixed} }} (values of the search; use known values where you have them), or add an experiment that excites {them}",
+        keep.join(", ")
+    )
+}
+
+/// A warning when the Fisher matrix has directions below
+/// [`crate::likelihood::NULL_EIGENVALUE_TOL`] although its Cholesky factorisation succeeded:
+/// the Cramér–Rao σ and the proposal along them are set by rounding, not by the data.
+pub fn near_singular_warning(fisher: &DMatrix<f64>, free_names: &[String]) -> Option<String> {
+    let dirs =
+        crate::likelihood::unconstrained_directions(fisher, crate::likelihood::NULL_EIGENVALUE_TOL);
+    if dirs.is_empty() {
+        return None;
+    }
+    let (detail, _) = crate::likelihood::describe_unconstrained(fisher, free_names);
+    Some(format!(
+        "the Fisher matrix at the MAP is nearly singular: {detail}; their Cramér–Rao σ and the proposal along that direction come from rounding, not from the data: fix one of them ([fit] fixed) or add an experiment that separates them"
+    ))
 }
 
 #[allow(clippy::too_many_arguments)]

@@ -309,7 +309,9 @@ pub fn unconstrained_directions(f: &DMatrix<f64>, rel_tol: f64) -> Vec<NullDirec
 /// form, or a zero / non-finite row): what to name when `f` failed a Cholesky factorisation
 /// although no eigenvalue is below [`NULL_EIGENVALUE_TOL`].
 pub fn weakest_direction(f: &DMatrix<f64>) -> Option<NullDirection> {
-    unconstrained_directions(f, f64::INFINITY).into_iter().next()
+    unconstrained_directions(f, f64::INFINITY)
+        .into_iter()
+        .next()
 }
 
 /// `0.71·a1 − 0.70·f_o1`: a direction's weights with the parameter names.
@@ -330,51 +332,76 @@ pub fn format_direction(d: &NullDirection, names: &[String]) -> String {
 }
 
 /// What the Fisher matrix `f` over the parameters `names` (its rows, in order) leaves
-/// unconstrained, for a message: `` the data do not constrain `a1` (ln L does not depend on
-/// it) and `f_o1` (…) `` or `` … constrain `w1sq`, `w2sq` (null direction 0.71·w1sq − 0.70·w2sq,
-/// relative eigenvalue 3.1e-17) ``. When nothing is below [`NULL_EIGENVALUE_TOL`] (a matrix
-/// that failed a factorisation by rounding) it names the least-constrained direction instead.
-/// The second element is the parameters named, in the order named (for a "fix them" hint).
+/// unconstrained, for a message: `` the data do not constrain `a1`, `f_o1`: ln L does not
+/// depend on `a1`, `f_o1` (zero Fisher columns) `` or `` the data do not constrain `w1sq`,
+/// `w2sq`: null direction 0.71·w1sq − 0.70·w2sq (relative eigenvalue 3.1e-17) ``. When
+/// nothing is below [`NULL_EIGENVALUE_TOL`] (a matrix that failed a factorisation by
+/// rounding) it names the least-constrained direction instead. The second element is the
+/// parameters named, in the order named (for a "fix them" hint).
 pub fn describe_unconstrained(f: &DMatrix<f64>, names: &[String]) -> (String, Vec<String>) {
     let mut dirs = unconstrained_directions(f, NULL_EIGENVALUE_TOL);
     let weakest = dirs.is_empty();
     if weakest {
         dirs.extend(weakest_direction(f));
     }
+    let name = |i: usize| names.get(i).cloned().unwrap_or_else(|| format!("#{i}"));
+    let quoted = |v: &[usize]| {
+        v.iter()
+            .map(|&i| format!("`{}`", name(i)))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
     let mut named: Vec<String> = Vec::new();
-    let mut parts = Vec::new();
     for d in &dirs {
         for &(i, _) in &d.weights {
-            let n = names.get(i).cloned().unwrap_or_else(|| format!("#{i}"));
-            if !named.contains(&n) {
-                named.push(n);
+            if !named.contains(&name(i)) {
+                named.push(name(i));
             }
         }
-        let who = d
-            .weights
-            .iter()
-            .map(|&(i, _)| format!("`{}`", names.get(i).map_or("?", String::as_str)))
-            .collect::<Vec<_>>()
-            .join(", ");
-        parts.push(match d.kind {
-            NullKind::ZeroColumn => format!("{who} (ln L does not depend on it: its Fisher column is zero)"),
-            NullKind::NonFinite => format!("{who} (its Fisher row is not finite)"),
-            NullKind::Degenerate => format!(
-                "{who} (null direction {}, relative eigenvalue {})",
-                format_direction(d, names),
-                crate::report::fmt_short(d.relative_eigenvalue)
-            ),
-        });
     }
+    let of_kind = |k: NullKind| -> Vec<usize> {
+        dirs.iter()
+            .filter(|d| d.kind == k)
+            .map(|d| d.weights[0].0)
+            .collect()
+    };
+    let mut parts = Vec::new();
+    let zero = of_kind(NullKind::ZeroColumn);
+    if !zero.is_empty() {
+        parts.push(format!(
+            "ln L does not depend on {} (zero Fisher column{})",
+            quoted(&zero),
+            if zero.len() == 1 { "" } else { "s" }
+        ));
+    }
+    let bad = of_kind(NullKind::NonFinite);
+    if !bad.is_empty() {
+        parts.push(format!(
+            "the Fisher matrix is not finite in the rows of {}",
+            quoted(&bad)
+        ));
+    }
+    for d in dirs.iter().filter(|d| d.kind == NullKind::Degenerate) {
+        parts.push(format!(
+            "null direction {} (relative eigenvalue {})",
+            format_direction(d, names),
+            crate::report::fmt_short(d.relative_eigenvalue)
+        ));
+    }
+    let all = named
+        .iter()
+        .map(|n| format!("`{n}`"))
+        .collect::<Vec<_>>()
+        .join(", ");
     let text = if parts.is_empty() {
-        "the data constrain every parameter (no null direction found)".to_string()
+        "no parameter to name (the matrix is empty)".to_string()
     } else if weakest {
         format!(
-            "no direction is exactly unconstrained, but the least constrained is {}; it is degenerate to rounding",
+            "no direction is below the relative eigenvalue {NULL_EIGENVALUE_TOL:e}, but the least constrained involves {all}: {}",
             parts[0]
         )
     } else {
-        format!("the data do not constrain {}", parts.join("; nor "))
+        format!("the data do not constrain {all}: {}", parts.join("; "))
     };
     (text, named)
 }
@@ -415,7 +442,7 @@ mod null_tests {
         let (text, named) = describe_unconstrained(&f, &n);
         assert_eq!(named, ["w1sq", "a1"]);
         assert!(
-            text.starts_with("the data do not constrain `w1sq`, `a1` (null direction 0.71·w1sq + 0.71·a1, relative eigenvalue "),
+            text.starts_with("the data do not constrain `w1sq`, `a1`: null direction 0.71·w1sq + 0.71·a1 (relative eigenvalue "),
             "{text}"
         );
         // a well-conditioned matrix has none; its weakest direction is still named on demand
@@ -426,7 +453,10 @@ mod null_tests {
         let c = 0.5 / 2f64.sqrt();
         assert!((weak.relative_eigenvalue - (1.0 - c) / (1.0 + c)).abs() < 1e-12);
         let (text, _) = describe_unconstrained(&ok, &names(&["x", "y"]));
-        assert!(text.contains("least constrained") && text.contains("0.71·x − 0.71·y"), "{text}");
+        assert!(
+            text.contains("least constrained involves `x`, `y`: null direction 0.71·x − 0.71·y"),
+            "{text}"
+        );
     }
 
     #[test]
@@ -435,7 +465,17 @@ mod null_tests {
         let f = DMatrix::from_row_slice(
             3,
             3,
-            &[4e12, 0.0, 0.9 * 2e6 * 3e6, 0.0, 0.0, 0.0, 0.9 * 2e6 * 3e6, 0.0, 9e12],
+            &[
+                4e12,
+                0.0,
+                0.9 * 2e6 * 3e6,
+                0.0,
+                0.0,
+                0.0,
+                0.9 * 2e6 * 3e6,
+                0.0,
+                9e12,
+            ],
         );
         let dirs = unconstrained_directions(&f, NULL_EIGENVALUE_TOL);
         assert_eq!(
@@ -450,7 +490,7 @@ mod null_tests {
         assert_eq!(named, ["a1"]);
         assert_eq!(
             text,
-            "the data do not constrain `a1` (ln L does not depend on it: its Fisher column is zero)"
+            "the data do not constrain `a1`: ln L does not depend on `a1` (zero Fisher column)"
         );
         // every column zero
         let z = DMatrix::<f64>::zeros(2, 2);
@@ -492,7 +532,12 @@ mod null_tests {
     #[test]
     fn a_two_dimensional_null_space_names_every_parameter_in_it() {
         // rank 1 over 3 parameters (all columns proportional) and a fourth independent one
-        let g = [[1.0, 2.0, 0.0], [2.0, 4.0, 0.0], [-1.0, -2.0, 0.0], [0.0, 0.0, 1.0]];
+        let g = [
+            [1.0, 2.0, 0.0],
+            [2.0, 4.0, 0.0],
+            [-1.0, -2.0, 0.0],
+            [0.0, 0.0, 1.0],
+        ];
         let f = DMatrix::from_fn(4, 4, |i, j| (0..3).map(|k| g[i][k] * g[j][k]).sum());
         let dirs = unconstrained_directions(&f, NULL_EIGENVALUE_TOL);
         assert_eq!(dirs.len(), 2, "{dirs:?}");

@@ -47,6 +47,23 @@ pub fn fmt_fixed(x: f64, decimals: usize) -> String {
     }
 }
 
+/// `x` exactly (the shortest string that reads back to the same `f64`), plain between 1e-4
+/// and 1e6 and scientific outside: for values a user copies into a study file (TOML reads
+/// both forms), e.g. `0.8`, `1.963e-7`, `2.5e12`.
+///
+/// ```
+/// use occam::report::fmt_roundtrip;
+/// assert_eq!(fmt_roundtrip(0.8), "0.8");
+/// assert_eq!(fmt_roundtrip(-1.963e-7), "-1.963e-7");
+/// ```
+pub fn fmt_roundtrip(x: f64) -> String {
+    if x == 0.0 || !x.is_finite() || (1e-4..1e6).contains(&x.abs()) {
+        format!("{x}")
+    } else {
+        format!("{x:e}")
+    }
+}
+
 /// A Bayes factor `B = exp(ln_b)` for a table: `{:.4e}` (`1.2346e3`, `1.2000e-13`) while `B`
 /// is a normal `f64`; beyond (`|ln B| ≳ 708`, where `exp` overflows to ∞ or underflows to 0
 /// or a subnormal without precision) the power of ten `10^868.6` (= exp(2000)), never `inf`
@@ -129,5 +146,13 @@ mod tests {
         assert_eq!(fmt_fixed(-1e300, 3), "-1.000e300");
         assert_eq!(fmt_fixed(f64::INFINITY, 4), "∞");
         assert_eq!(fmt_fixed(f64::NAN, 4), "NaN");
+        assert_eq!(fmt_roundtrip(0.8), "0.8");
+        assert_eq!(fmt_roundtrip(1e-4), "0.0001");
+        assert_eq!(fmt_roundtrip(9.99e-5), "9.99e-5");
+        assert_eq!(fmt_roundtrip(2.5e12), "2.5e12");
+        assert_eq!(fmt_roundtrip(-0.0), "-0");
+        for x in [0.1 + 0.2, 1.963e-7, -3.3e300, 123456.789] {
+            assert_eq!(fmt_roundtrip(x).parse::<f64>().unwrap(), x);
+        }
     }
 }
