@@ -86,6 +86,9 @@ pub enum Warning {
     Stuck {
         /// Parameter.
         param: String,
+        /// Whether some chain accepted proposals in the sampling phase (then the steps were
+        /// below the resolution of the value in `f64`).
+        accepted: bool,
     },
     /// R̂ is not finite (∞: every half-chain stayed at one value while the chains disagree,
     /// so the within-chain variance is zero; NaN: the draws overflow), so the convergence of
@@ -118,18 +121,23 @@ impl fmt::Display for Warning {
                 100.0 * range.0,
                 100.0 * range.1,
                 if *rate < range.0 {
-                    "the proposal is too wide; scale the covariance down"
+                    "the proposal is too wide; scale the covariance down (occam fit: lower [fit] proposal_scale)"
                 } else {
-                    "the proposal is too narrow; scale the covariance up"
+                    "the proposal is too narrow; scale the covariance up (occam fit: raise [fit] proposal_scale)"
                 }
             ),
             Warning::NonFinite { chain, count } => write!(
                 f,
                 "chain {chain}: {count} proposals had a non-finite ln L and were rejected; check the likelihood's domain or tighten the prior"
             ),
-            Warning::Stuck { param } => write!(
+            Warning::Stuck { param, accepted } => write!(
                 f,
-                "`{param}` has the same value in every kept sample: the chains did not move (R-hat ∞, written as null in summary.json); the proposal is too wide for the posterior (lower [fit] proposal_scale) or ln L is not finite or flat to rounding around the start; check the start point"
+                "`{param}` has the same value in every kept sample: the chains did not move (R-hat ∞, written as null in summary.json); {}",
+                if *accepted {
+                    "proposals were accepted but did not change it: the proposal's steps are below the resolution of its value in double precision (posterior σ < 1e-16 of the value), i.e. the data constrain it far beyond what the numbers can represent; check the injection amplitudes and noise levels (ρ_opt) of the study"
+                } else {
+                    "no proposal was accepted: the proposal is too wide for the posterior (lower [fit] proposal_scale) or ln L is not finite around the start; check the start point"
+                }
             ),
             Warning::RHatNotFinite {
                 param,
@@ -262,6 +270,7 @@ impl Diagnostics {
             if self.sd[k] == 0.0 {
                 w.push(Warning::Stuck {
                     param: name.clone(),
+                    accepted: self.acceptance.iter().any(|&a| a > 0.0),
                 });
                 continue;
             }
@@ -685,8 +694,16 @@ mod tests {
         let c = chain_set(&[(stuck(1.0), moving(5)), (stuck(1.0), moving(6))], 0);
         let w = c.diagnostics().unwrap().warnings();
         assert!(w.contains(&Warning::Stuck {
-            param: "amp".into()
+            param: "amp".into(),
+            accepted: false
         }));
+        // accepted proposals that did not move it: below the value's resolution
+        let c = chain_set(&[(stuck(1.0), moving(7)), (stuck(1.0), moving(8))], 100);
+        let m = c.diagnostics().unwrap().warnings()[0].to_string();
+        assert!(
+            m.starts_with("`amp` has the same value") && m.contains("resolution"),
+            "{m}"
+        );
         assert!(!w.iter().any(|w| matches!(w, Warning::RHatNotFinite { .. })));
     }
 
