@@ -6,7 +6,7 @@ use crate::config::{LikelihoodKind, Study};
 use crate::density::LogDensity;
 use crate::likelihood::{cramer_rao, fisher_exact, fisher_scoring};
 use crate::nested::SubModel;
-use crate::report::{Table, fmt_pm, fmt_sig};
+use crate::report::{Table, fmt_fixed, fmt_pm, fmt_short, fmt_sig};
 use crate::sampler::{Adapt, Chains, MetropolisHastings, MhSettings, Progress, RunOutcome, Start};
 use nalgebra::DMatrix;
 use ndarray::Array;
@@ -100,7 +100,18 @@ pub fn run(
     let names = exact.model().param_names().to_vec();
     let t0 = Instant::now();
     let start = default_start(study, model);
-    let map = fisher_scoring(exact, &start, free, 1e-3, 200)?;
+    let free_names: Vec<String> = free.iter().map(|&i| names[i].clone()).collect();
+    let value_of = |n: &str| names.iter().position(|p| p == n).map(|i| start[i]);
+    let map = fisher_scoring(exact, &start, free, 1e-3, 200).map_err(|e| match e {
+        crate::likelihood::MapError::Singular {
+            unconstrained,
+            detail,
+        } => FitError::Other(format!(
+            "MAP search: the Fisher matrix is singular: {detail}. {}",
+            fix_hint(&free_names, &unconstrained, &value_of)
+        )),
+        e => FitError::Map(e),
+    })?;
     let mut warnings = model_warnings(study, model.model, &prep.dataset);
     if !map.converged {
         warnings.push(format!(
@@ -108,19 +119,20 @@ pub fn run(
             map.iterations
         ));
     }
-    let at_bound = map.bound_names(&names, free);
+    let at_bound = map.bound_report(&names, exact.prior().kinds(), free);
     if !at_bound.is_empty() {
         warnings.push(format!(
-            "the MAP is on the prior bound of {at_bound:?}: the posterior is cut by the prior there, and the Cramér–Rao σ and the pulls assume an interior maximum; widen the prior if the bound is not physical"
+            "the MAP is on a bound of the prior box: {}. The posterior is cut by the prior there, and the Cramér–Rao σ and the pulls assume an interior maximum",
+            at_bound.join("; ")
         ));
     }
     let fisher = fisher_exact(exact, &map.theta, free);
-    let cr = cramer_rao(&fisher).ok_or_else(|| {
-        FitError::Other(format!(
-            "the Fisher matrix at the MAP is singular: the data do not constrain some of {:?}; fix them or add experiments",
-            free.iter().map(|&i| names[i].as_str()).collect::<Vec<_>>()
-        ))
-    })?;
+    let value_of = |n: &str| names.iter().position(|p| p == n).map(|i| map.theta[i]);
+    let cr = cramer_rao(&fisher)
+        .ok_or_else(|| FitError::Other(singular_message(&fisher, &free_names, "MAP", &value_of)))?;
+    if let Some(w) = near_singular_warning(&fisher, &free_names) {
+        warnings.push(w);
+    }
     let seconds_map = t0.elapsed().as_secs_f64();
     let d = free.len();
     let cov = fisher.clone().cholesky().expect("checked above").inverse()
@@ -209,12 +221,79 @@ pub fn run(
             .map(|i| (0..d).map(|j| fisher[(i, j)]).collect())
             .collect(),
     };
+    let mut summary = summary;
+    let extra = non_finite_warnings(&summary);
+    summary.warnings.extend(extra);
     Ok(FitOutcome {
         summary,
         chains,
         map_full: map.theta,
         fisher,
     })
+}
+
+/// The error of a singular Fisher matrix at `at` ("MAP"): which parameters the data do not
+/// constrain (its null directions) and what to change ([`fix_hint`]; `value_of` gives the
+/// value to suggest for a parameter).
+pub fn singular_message(
+    fisher: &DMatrix<f64>,
+    free_names: &[String],
+    at: &str,
+    value_of: &dyn Fn(&str) -> Option<f64>,
+) -> String {
+    let (detail, named) = crate::likelihood::describe_unconstrained(fisher, free_names);
+    format!(
+        "the Fisher matrix at the {at} is singular: {detail}. {}",
+        fix_hint(free_names, &named, value_of)
+    )
+}
+
+/// What to change in the study when the parameters `named` (of the free ones, `free_names`)
+/// are unconstrained: the `[fit]` lines that fix them at the values `value_of` suggests, or
+/// an experiment that excites them.
+pub fn fix_hint(
+    free_names: &[String],
+    named: &[String],
+    value_of: &dyn Fn(&str) -> Option<f64>,
+) -> String {
+    let them = if named.len() == 1 { "it" } else { "them" };
+    let keep: Vec<String> = free_names
+        .iter()
+        .filter(|n| !named.contains(n))
+        .map(|n| format!("\"{n}\""))
+        .collect();
+    if keep.is_empty() || named.is_empty() {
+        return format!(
+            "Add an experiment that excites {them}, or fix some of them in [fit] fixed"
+        );
+    }
+    let fixed = named
+        .iter()
+        .map(|n| match value_of(n) {
+            Some(v) => format!("{n} = {}", crate::report::fmt_roundtrip(v)),
+            None => format!("{n} = <value>"),
+        })
+        .collect::<Vec<_>>()
+        .join(", ");
+    format!(
+        "Fix {them}, e.g. [fit] free = [{}] and fixed = {{ {fixed} }} (values of the search; use known values where you have them), or add an experiment that excites {them}",
+        keep.join(", ")
+    )
+}
+
+/// A warning when the Fisher matrix has directions below
+/// [`crate::likelihood::NULL_EIGENVALUE_TOL`] although its Cholesky factorisation succeeded:
+/// the Cramér–Rao σ and the proposal along them are set by rounding, not by the data.
+pub fn near_singular_warning(fisher: &DMatrix<f64>, free_names: &[String]) -> Option<String> {
+    let dirs =
+        crate::likelihood::unconstrained_directions(fisher, crate::likelihood::NULL_EIGENVALUE_TOL);
+    if dirs.is_empty() {
+        return None;
+    }
+    let (detail, _) = crate::likelihood::describe_unconstrained(fisher, free_names);
+    Some(format!(
+        "the Fisher matrix at the MAP is nearly singular: {detail}; their Cramér–Rao σ and the proposal along that direction come from rounding, not from the data: fix one of them ([fit] fixed) or add an experiment that separates them"
+    ))
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -255,6 +334,67 @@ fn sample<D: LogDensity>(
     }
 }
 
+/// R-hat for the table: 4 decimals, `∞ (stuck)` when it is infinite (zero within-chain
+/// variance: the chains did not move; `sd` 0: not even between chains), `NaN` when it could
+/// not be computed.
+pub fn fmt_rhat(rhat: f64, sd: f64) -> String {
+    if rhat == f64::INFINITY {
+        if sd == 0.0 {
+            "∞ (stuck, sd 0)".into()
+        } else {
+            "∞ (stuck)".into()
+        }
+    } else {
+        fmt_fixed(rhat, 4)
+    }
+}
+
+/// Warnings for the numbers of `s` that are not finite, which `summary.json` writes as `null`
+/// (JSON has no ∞ or NaN): each names the field and says why it can be so. R-hat is
+/// explained by the chains' diagnostics, and `rho_opt_at_map` is NaN by definition for a
+/// model that reads no noiseless input channel; neither is repeated here.
+pub fn non_finite_warnings(s: &FitSummary) -> Vec<String> {
+    let mut w = Vec::new();
+    let bad = |v: f64| !v.is_finite();
+    if bad(s.map_ln_posterior) {
+        w.push(format!(
+            "map_ln_posterior is {} (written as null in summary.json): ln L + ln π is not finite at the MAP; the likelihood overflows there (amplitudes or noise levels far out of scale?)",
+            fmt_short(s.map_ln_posterior)
+        ));
+    }
+    for r in &s.rows {
+        let fields = [
+            ("mean", r.mean, "the chains' draws overflow"),
+            ("sd", r.sd, "the chains' draws overflow"),
+            (
+                "cramer_rao",
+                r.cramer_rao,
+                "the inverse Fisher matrix has a non-finite or negative diagonal",
+            ),
+            (
+                "pull",
+                r.pull.unwrap_or(0.0),
+                "the chains' sd is 0 (the parameter did not move)",
+            ),
+        ];
+        for (field, v, why) in fields {
+            if bad(v) {
+                w.push(format!(
+                    "`{}`: {field} is {} (written as null in summary.json): {why}",
+                    r.name,
+                    fmt_short(v)
+                ));
+            }
+        }
+    }
+    if s.fisher.iter().flatten().any(|v| bad(*v)) {
+        w.push(
+            "the Fisher matrix has non-finite entries (written as null in summary.json): ln L's derivatives overflow at the MAP".into(),
+        );
+    }
+    w
+}
+
 /// The Table I layout as a text table.
 pub fn table(s: &FitSummary) -> Table {
     let mut t = Table::new([
@@ -273,10 +413,10 @@ pub fn table(s: &FitSummary) -> Table {
             r.truth.map_or("–".into(), |v| fmt_sig(v, 4)),
             fmt_sig(r.map, 6),
             fmt_pm(r.mean, r.sd),
-            fmt_sig(r.cramer_rao, 3),
-            format!("{:.3}", r.sd / r.cramer_rao),
-            format!("{:.4}", r.rhat),
-            format!("{:.0}", r.ess),
+            fmt_short(r.cramer_rao),
+            fmt_fixed(r.sd / r.cramer_rao, 3),
+            fmt_rhat(r.rhat, r.sd),
+            fmt_fixed(r.ess, 0),
         ])
         .expect("row width matches the header");
     }
@@ -367,4 +507,104 @@ pub fn write_chains_npz(chains: &Chains, path: &Path) -> Result<(), FitError> {
         Ok(())
     })
     .map_err(|e| FitError::Other(format!("{}: {e}", path.display())))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn summary(rows: Vec<ParamRow>) -> FitSummary {
+        FitSummary {
+            origin: "test".into(),
+            model: "m".into(),
+            statistic: crate::likelihood::Statistic::Whittle,
+            likelihood: LikelihoodKind::Exact,
+            n_bins: 1,
+            n_coarse_bins: None,
+            rho_opt_at_map: f64::NAN,
+            map_ln_posterior: -1.0,
+            map_iterations: 1,
+            rows,
+            acceptance: vec![0.0],
+            non_finite: vec![0],
+            warnings: vec![],
+            chains: 1,
+            kept_per_chain: 10,
+            seconds_map: 0.0,
+            seconds_mcmc: 0.0,
+            iterations_per_second: 0.0,
+            fisher: vec![vec![1.0]],
+        }
+    }
+
+    fn row(name: &str, sd: f64, rhat: f64, ess: f64) -> ParamRow {
+        ParamRow {
+            name: name.into(),
+            truth: Some(1.0),
+            map: 1.0,
+            mean: 1.0,
+            sd,
+            cramer_rao: 0.1,
+            rhat,
+            ess,
+            pull: Some(0.0 / sd),
+        }
+    }
+
+    #[test]
+    fn the_table_spells_out_stuck_chains_and_huge_numbers() {
+        let s = summary(vec![
+            row("ok", 0.1, 1.0012, 1234.4),
+            row("stuck", 0.3, f64::INFINITY, 2.0),
+            row("flat", 0.0, f64::INFINITY, 0.0),
+            row("huge", 1e300, 1.5, 1e20),
+        ]);
+        let t = table(&s).to_text();
+        let line = |n: &str| t.lines().find(|l| l.starts_with(n)).unwrap().to_string();
+        assert!(
+            line("ok").contains("1.0012") && line("ok").contains("1234"),
+            "{t}"
+        );
+        assert!(line("stuck").contains("∞ (stuck)"), "{t}");
+        assert!(line("flat").contains("∞ (stuck, sd 0)"), "{t}");
+        // σ/CR = 1e301 and ESS = 1e20 in short form
+        assert!(
+            line("huge").contains("1.000e301") && line("huge").contains("1e20"),
+            "{t}"
+        );
+        assert!(!t.contains("inf"), "{t}");
+        assert!(t.lines().all(|l| l.chars().count() < 200), "{t}");
+        // the flat row's pull is NaN (0/0): a warning names it
+        let w = non_finite_warnings(&s);
+        assert!(
+            w.iter()
+                .any(|m| m.starts_with("`flat`: pull is NaN (written as null")),
+            "{w:?}"
+        );
+        assert_eq!(w.len(), 1, "{w:?}");
+    }
+
+    #[test]
+    fn the_fix_hint_lists_the_lines_to_write() {
+        let free: Vec<String> = ["w1sq", "a1", "f_o1"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
+        let named = vec!["a1".to_string(), "f_o1".to_string()];
+        let h = fix_hint(&free, &named, &|n| (n == "a1").then_some(1.05));
+        assert_eq!(
+            h,
+            "Fix them, e.g. [fit] free = [\"w1sq\"] and fixed = { a1 = 1.05, f_o1 = <value> } (values of the search; use known values where you have them), or add an experiment that excites them"
+        );
+        // every free parameter unconstrained: nothing to keep free
+        let h = fix_hint(&named, &named, &|_| None);
+        assert!(h.starts_with("Add an experiment that excites them"), "{h}");
+        // the whole message from a matrix with a zero column
+        let f = DMatrix::from_row_slice(3, 3, &[1.0, 0.0, 0.2, 0.0, 0.0, 0.0, 0.2, 0.0, 1.0]);
+        let m = singular_message(&f, &free, "MAP", &|_| Some(0.5));
+        assert!(
+            m.starts_with("the Fisher matrix at the MAP is singular: the data do not constrain `a1`: ln L does not depend on `a1` (zero Fisher column). Fix it, e.g. [fit] free = [\"w1sq\", \"f_o1\"] and fixed = { a1 = 0.5 }"),
+            "{m}"
+        );
+    }
 }

@@ -70,6 +70,59 @@ impl ScoringResult {
             .map(|(&i, _)| names[i].clone())
             .collect()
     }
+
+    /// Each free parameter on a bound of its prior box: which bound, its value, and the
+    /// `[prior]` entry that widens it, e.g. `` `a1` = 1.3 on the upper bound (hi = 1.3 of
+    /// [prior] a1 = { kind = "uniform", lo = 0.8, hi = 1.3 }: raise hi) ``.
+    pub fn bound_report(
+        &self,
+        names: &[String],
+        kinds: &[PriorKind],
+        free: &[usize],
+    ) -> Vec<String> {
+        free.iter()
+            .zip(&self.at_bound)
+            .filter(|(_, b)| **b)
+            .map(|(&i, _)| describe_bound(&names[i], &kinds[i], self.theta[i]))
+            .collect()
+    }
+}
+
+/// `` `name` = v on the lower bound (lo = … of [prior] name = {…}: lower lo) ``.
+pub fn describe_bound(name: &str, kind: &PriorKind, value: f64) -> String {
+    use crate::report::fmt_roundtrip as r;
+    let (lo, hi) = kind.bounds();
+    let upper = (value - hi).abs() <= (value - lo).abs();
+    let (side, key, verb) = if upper {
+        ("upper", "hi", "raise")
+    } else {
+        ("lower", "lo", "lower")
+    };
+    let bound = if upper { hi } else { lo };
+    let entry = match *kind {
+        PriorKind::Uniform { lo, hi } => {
+            format!("{{ kind = \"uniform\", lo = {}, hi = {} }}", r(lo), r(hi))
+        }
+        PriorKind::LogUniform { lo, hi } => {
+            format!(
+                "{{ kind = \"log_uniform\", lo = {}, hi = {} }}",
+                r(lo),
+                r(hi)
+            )
+        }
+        PriorKind::Gaussian { mu, sigma } => {
+            format!(
+                "{{ kind = \"gaussian\", mu = {}, sigma = {} }}",
+                r(mu),
+                r(sigma)
+            )
+        }
+    };
+    format!(
+        "`{name}` = {} is on the {side} bound ({key} = {} of [prior] {name} = {entry}: {verb} {key} if the bound is not physical)",
+        r(value),
+        r(bound)
+    )
 }
 
 /// Errors of the MAP search.
@@ -77,10 +130,18 @@ impl ScoringResult {
 pub enum MapError {
     #[error("MAP search: the start point is outside the prior (parameter `{0}`)")]
     StartOutsidePrior(String),
+    /// The scoring matrix of the free parameters off their bounds is singular;
+    /// `unconstrained` names the parameters along its null directions
+    /// ([`super::fisher::describe_unconstrained`]), `detail` says how.
     #[error(
-        "MAP search: the Fisher matrix is singular at the current point: the data do not constrain some of {0:?}; fix those parameters or add experiments"
+        "MAP search: the Fisher matrix is singular: {detail}; fix {} (`fixed` of [fit] or of the [[select.model]]) or add an experiment that excites {}",
+        if unconstrained.len() == 1 { "it" } else { "them" },
+        if unconstrained.len() == 1 { "it" } else { "them" }
     )]
-    Singular(Vec<String>),
+    Singular {
+        unconstrained: Vec<String>,
+        detail: String,
+    },
     #[error(
         "MAP search: {what} is not finite at θ = {theta:?} (parameters {params:?}); the model cannot be evaluated there — narrow the prior or start elsewhere"
     )]
@@ -396,7 +457,12 @@ impl Problem {
             let fi = DMatrix::from_fn(m, m, |a, b| f[(inactive[a], inactive[b])]);
             let gi = DVector::from_fn(m, |a, _| g[inactive[a]]);
             let chol = fi.clone().cholesky().ok_or_else(|| {
-                MapError::Singular(inactive.iter().map(|&i| self.names[i].clone()).collect())
+                let names: Vec<String> = inactive.iter().map(|&i| self.names[i].clone()).collect();
+                let (detail, unconstrained) = super::fisher::describe_unconstrained(&fi, &names);
+                MapError::Singular {
+                    unconstrained,
+                    detail,
+                }
             })?;
             let step = chol.solve(&gi);
             let cov = chol.inverse();

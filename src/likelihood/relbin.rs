@@ -101,7 +101,7 @@ pub enum RelBinError {
     Invalid(String),
     /// The measured error stays above the limit after refinement: use the exact likelihood.
     #[error(
-        "relative binning: worst |Δ ln L| = {worst:.3e} over {n_points} validation points exceeds {limit:.3e} with {n_coarse} coarse bins after {refinements} refinements{}; use the exact likelihood instead (or raise max_delta_ln_l)",
+        "relative binning: worst |Δ ln L| = {worst:.3e} over {n_points} validation points exceeds {limit:.3e} with {n_coarse} coarse bins after {refinements} refinements{}; use the exact likelihood instead ([analysis] likelihood = \"exact\" in the study)",
         max_coarse.map_or(String::new(), |c| format!(" (cap {c} coarse bins)"))
     )]
     ToleranceNotMet {

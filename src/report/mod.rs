@@ -25,6 +25,7 @@ mod bars;
 mod corner;
 mod format;
 mod lines;
+mod numbers;
 mod plots;
 pub mod residual_psd;
 mod table;
@@ -39,6 +40,7 @@ pub use bars::model_histogram;
 pub use corner::corner_plot;
 pub use format::{fmt_pm, fmt_sig, kass_raftery, kass_raftery_named};
 pub use lines::{LinePlot, bayes_factor_evolution, line_plot};
+pub use numbers::{fmt_bayes_factor, fmt_fixed, fmt_roundtrip, fmt_short, fmt_short_sig};
 pub use table::Table;
 pub use trace::trace_plot;
 

@@ -86,6 +86,20 @@ pub enum Warning {
     Stuck {
         /// Parameter.
         param: String,
+        /// Whether some chain accepted proposals in the sampling phase (then the steps were
+        /// below the resolution of the value in `f64`).
+        accepted: bool,
+    },
+    /// R̂ is not finite (∞: every half-chain stayed at one value while the chains disagree,
+    /// so the within-chain variance is zero; NaN: the draws overflow), so the convergence of
+    /// the parameter is unknown. `summary.json` writes such an R̂ as `null`.
+    RHatNotFinite {
+        /// Parameter.
+        param: String,
+        /// Its R̂ (∞ or NaN).
+        rhat: f64,
+        /// Whether no chain accepted any proposal in the sampling phase.
+        none_accepted: bool,
     },
 }
 
@@ -107,19 +121,46 @@ impl fmt::Display for Warning {
                 100.0 * range.0,
                 100.0 * range.1,
                 if *rate < range.0 {
-                    "the proposal is too wide; scale the covariance down"
+                    "the proposal is too wide; scale the covariance down (occam fit: lower [fit] proposal_scale)"
                 } else {
-                    "the proposal is too narrow; scale the covariance up"
+                    "the proposal is too narrow; scale the covariance up (occam fit: raise [fit] proposal_scale)"
                 }
             ),
             Warning::NonFinite { chain, count } => write!(
                 f,
                 "chain {chain}: {count} proposals had a non-finite ln L and were rejected; check the likelihood's domain or tighten the prior"
             ),
-            Warning::Stuck { param } => write!(
+            Warning::Stuck { param, accepted } => write!(
                 f,
-                "`{param}` has the same value in every kept sample: the chains did not move; check the proposal covariance and the start point"
+                "`{param}` has the same value in every kept sample: the chains did not move (R-hat ∞, written as null in summary.json); {}",
+                if *accepted {
+                    "proposals were accepted but did not change it: the proposal's steps are below the resolution of its value in double precision (posterior σ < 1e-16 of the value), i.e. the data constrain it far beyond what the numbers can represent; check the injection amplitudes and noise levels (ρ_opt) of the study"
+                } else {
+                    "no proposal was accepted: the proposal is too wide for the posterior (lower [fit] proposal_scale) or ln L is not finite around the start; check the start point"
+                }
             ),
+            Warning::RHatNotFinite {
+                param,
+                rhat,
+                none_accepted,
+            } => {
+                if rhat.is_nan() {
+                    write!(
+                        f,
+                        "R-hat of `{param}` is NaN (written as null in summary.json): its draws are too large to compute variances (they overflow); rescale the parameter or narrow its prior"
+                    )
+                } else {
+                    write!(
+                        f,
+                        "R-hat of `{param}` is ∞ (written as null in summary.json): zero within-chain variance, every chain stayed at one value while the chains disagree: the chains did not move{}",
+                        if *none_accepted {
+                            "; no proposal was accepted in any chain: the proposal is too wide for the posterior (lower [fit] proposal_scale) or ln L is not finite or rounds to the same value around the start (amplitudes so large that ln L ≈ 1e30 changes by less than its rounding)"
+                        } else {
+                            "; the chains accepted some proposals, but not in this parameter's direction: the proposal covariance is wrong along it (check the Fisher matrix warnings) or ln L is not finite around the start"
+                        }
+                    )
+                }
+            }
         }
     }
 }
@@ -193,7 +234,15 @@ impl Diagnostics {
                 .flat_map(|s| s.iter())
                 .map(|x| (x - mean) * (x - mean))
                 .sum();
-            let sd = (ss / (total - 1.0)).sqrt();
+            // a parameter that never moved has sd 0 exactly, whatever the rounding of the
+            // mean of its (equal) draws ([`Warning::Stuck`] tests for 0)
+            let first = refs[0][0];
+            let constant = refs.iter().flat_map(|s| s.iter()).all(|&x| x == first);
+            let sd = if constant {
+                0.0
+            } else {
+                (ss / (total - 1.0)).sqrt()
+            };
             out.mean.push(mean);
             out.sd.push(sd);
             out.mcse.push(if ess_k > 0.0 {
@@ -221,6 +270,15 @@ impl Diagnostics {
             if self.sd[k] == 0.0 {
                 w.push(Warning::Stuck {
                     param: name.clone(),
+                    accepted: self.acceptance.iter().any(|&a| a > 0.0),
+                });
+                continue;
+            }
+            if !self.rhat[k].is_finite() {
+                w.push(Warning::RHatNotFinite {
+                    param: name.clone(),
+                    rhat: self.rhat[k],
+                    none_accepted: self.acceptance.iter().all(|&a| a == 0.0),
                 });
                 continue;
             }
@@ -565,6 +623,88 @@ mod tests {
         let flat = vec![1.0; 100];
         assert_eq!(split_rhat(&[&flat, &flat]).unwrap(), f64::INFINITY);
         assert_eq!(ess(&[&flat, &flat]).unwrap(), 0.0);
+    }
+
+    /// Builds chains of two parameters from per-chain series, with `accepted` of 100
+    /// sampling-phase proposals accepted in every chain.
+    fn chain_set(series: &[(Vec<f64>, Vec<f64>)], accepted: u64) -> Chains {
+        use crate::sampler::chains::{BestPoint, Chain, ChainCounts, PhaseCounts};
+        let chains = series
+            .iter()
+            .map(|(a, b)| Chain {
+                samples: a.iter().zip(b).flat_map(|(x, y)| [*x, *y]).collect(),
+                ln_posterior: vec![-1.0; a.len()],
+                ln_likelihood: vec![-1.0; a.len()],
+                counts: ChainCounts {
+                    burn_in: PhaseCounts::default(),
+                    sampling: PhaseCounts {
+                        proposed: 100,
+                        accepted,
+                        ..Default::default()
+                    },
+                },
+                best: BestPoint {
+                    theta: vec![a[0], b[0]],
+                    ln_posterior: -1.0,
+                    ln_likelihood: -1.0,
+                },
+                proposal_covariance: vec![1.0, 0.0, 0.0, 1.0],
+            })
+            .collect();
+        Chains::new(vec!["amp".into(), "x".into()], chains).unwrap()
+    }
+
+    #[test]
+    fn chains_stuck_at_different_values_give_infinite_rhat_and_say_why() {
+        // `amp` (×1e20) never moves, each chain at its own start; `x` mixes
+        let moving = |seed| ar1(seed, 400, 0.3, 0.0);
+        let stuck = |v: f64| vec![v * 1e20; 400];
+        let c = chain_set(&[(stuck(1.0), moving(1)), (stuck(1.5), moving(2))], 0);
+        let d = c.diagnostics().unwrap();
+        assert_eq!(d.rhat[0], f64::INFINITY);
+        assert!(d.sd[0] > 0.0);
+        assert!(d.rhat[1].is_finite());
+        let w = d.warnings();
+        let msg: Vec<String> = w.iter().map(|w| w.to_string()).collect();
+        assert!(
+            w.contains(&Warning::RHatNotFinite {
+                param: "amp".into(),
+                rhat: f64::INFINITY,
+                none_accepted: true
+            }),
+            "{msg:?}"
+        );
+        let m = msg.iter().find(|m| m.contains("`amp`")).unwrap();
+        assert!(
+            m.contains("is ∞ (written as null in summary.json)")
+                && m.contains("zero within-chain variance")
+                && m.contains("proposal is too wide")
+                && m.contains("proposal_scale"),
+            "{m}"
+        );
+        assert!(
+            !msg.iter().any(|m| m.contains("`x`") && m.contains("∞")),
+            "{msg:?}"
+        );
+        // the same with accepted proposals: the other explanation
+        let c = chain_set(&[(stuck(1.0), moving(3)), (stuck(2.0), moving(4))], 30);
+        let m = c.diagnostics().unwrap().warnings()[0].to_string();
+        assert!(m.contains("not in this parameter's direction"), "{m}");
+        // every chain at the same value: sd = 0, the Stuck warning only
+        let c = chain_set(&[(stuck(1.0), moving(5)), (stuck(1.0), moving(6))], 0);
+        let w = c.diagnostics().unwrap().warnings();
+        assert!(w.contains(&Warning::Stuck {
+            param: "amp".into(),
+            accepted: false
+        }));
+        // accepted proposals that did not move it: below the value's resolution
+        let c = chain_set(&[(stuck(1.0), moving(7)), (stuck(1.0), moving(8))], 100);
+        let m = c.diagnostics().unwrap().warnings()[0].to_string();
+        assert!(
+            m.starts_with("`amp` has the same value") && m.contains("resolution"),
+            "{m}"
+        );
+        assert!(!w.iter().any(|w| matches!(w, Warning::RHatNotFinite { .. })));
     }
 
     #[test]

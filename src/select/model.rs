@@ -243,9 +243,13 @@ pub(super) fn run_model(
         .as_ref()
         .map(|r| r.bound_names(&names, free))
         .unwrap_or_default();
-    if !map_at_bound.is_empty() {
+    if let Ok(r) = &map
+        && !map_at_bound.is_empty()
+    {
         notes.push(format!(
-            "the MAP is on the prior bound of {map_at_bound:?}: the posterior is cut by the prior there"
+            "the MAP is on a bound of the prior box: {}; the posterior is cut by the prior there",
+            r.bound_report(&names, exact.prior().kinds(), free)
+                .join("; ")
         ));
     }
     let base = map_theta.clone().unwrap_or_else(|| start.clone());
@@ -254,14 +258,16 @@ pub(super) fn run_model(
     let f_map = fisher_exact(exact, &base, free);
     let fisher_cov = spd_inverse(&f_map);
     if fisher_cov.is_none() {
+        let (detail, named) = crate::likelihood::describe_unconstrained(&f_map, &free_names);
         notes.push(format!(
-            "the Fisher matrix at the {} is singular: the data do not constrain some of {:?}",
+            "the Fisher matrix at the {} is singular: {detail}; fix {} (`fixed` of this [[select.model]]) or add an experiment that excites {}",
             if map_theta.is_some() {
                 "MAP"
             } else {
                 "start point"
             },
-            free_names
+            named.join(", "),
+            if named.len() == 1 { "it" } else { "them" }
         ));
     }
     let walk_cov = walk_cov(fisher_cov.as_ref(), &prior);

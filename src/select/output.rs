@@ -1,10 +1,11 @@
 //! The Table II layout and the files of a select run.
 
 use super::{EstimateKind, SelectError, SelectSummary};
-use crate::report::Table;
+use crate::report::{Table, fmt_bayes_factor, fmt_fixed};
 use std::path::Path;
 
-/// The Table II layout: one row per estimator, for each pair.
+/// The Table II layout: one row per estimator, for each pair. `B_XY` is a power of ten
+/// (`10^868.6`) where `exp(ln B)` leaves the range of `f64` ([`fmt_bayes_factor`]).
 pub fn table(s: &SelectSummary) -> Table {
     let mut t = Table::new([
         "pair",
@@ -17,10 +18,10 @@ pub fn table(s: &SelectSummary) -> Table {
     ]);
     for p in &s.pairs {
         for e in &p.estimates {
-            let b = e.ln_b.map_or("–".into(), |v| format!("{:.4e}", v.exp()));
-            let lb = e.ln_b.map_or("–".into(), |v| format!("{v:.3}"));
+            let b = e.ln_b.map_or("–".into(), fmt_bayes_factor);
+            let lb = e.ln_b.map_or("–".into(), |v| fmt_fixed(v, 3));
             let se = match (e.kind, e.std_err, e.ln_b) {
-                (_, Some(v), _) => format!("{v:.3}"),
+                (_, Some(v), _) => fmt_fixed(v, 3),
                 (EstimateKind::Systematic, None, Some(_)) => "systematic".into(),
                 (EstimateKind::Criterion, None, Some(_)) => "O(1)".into(),
                 _ => "–".into(),
@@ -128,4 +129,85 @@ fn pair_indices(k: usize, idx: usize) -> (usize, usize) {
         }
     }
     (0, 1)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::select::{JumpStats, PairEstimate, PairResult};
+
+    fn est(method: &str, ln_b: Option<f64>) -> PairEstimate {
+        PairEstimate {
+            method: method.into(),
+            kind: EstimateKind::Statistical,
+            ln_b,
+            std_err: ln_b.map(|_| 1e300),
+            agrees: None,
+            assumes: None,
+            note: None,
+        }
+    }
+
+    #[test]
+    fn the_table_prints_overflowing_bayes_factors_as_powers_of_ten() {
+        let s = SelectSummary {
+            origin: "test".into(),
+            rho_opt_simulated: None,
+            rho_opt: f64::NAN,
+            n_bins: 1,
+            statistic: crate::likelihood::Statistic::Whittle,
+            schwarz_n: 1.0,
+            models: vec![],
+            pairs: vec![PairResult {
+                x: "X".into(),
+                y: "Y".into(),
+                estimates: vec![
+                    est("big", Some(2000.0)),
+                    est("small", Some(-2000.0)),
+                    est("edge", Some(709.8)),
+                    est("plain", Some(-29.9336)),
+                    est("none", None),
+                ],
+                reference: "big".into(),
+                preferred: "X".into(),
+                kass_raftery: String::new(),
+                all_agree: true,
+                systematic_agree: None,
+                jumps: JumpStats {
+                    proposed_x_to_y: 0,
+                    accepted_x_to_y: 0,
+                    proposed_y_to_x: 0,
+                    accepted_y_to_x: 0,
+                    effective_jumps: 0,
+                    expected_jumps: 0.0,
+                    warning: None,
+                },
+            }],
+            posterior_model_probabilities: None,
+            rj: None,
+            rj_note: None,
+            rj_iterations_per_second: 0.0,
+            seconds: 0.0,
+            warnings: vec![],
+            residual_psd: vec![],
+        };
+        let t = table(&s).to_text();
+        let cells = |m: &str| -> Vec<String> {
+            let l = t.lines().find(|l| l.contains(&format!(" {m} "))).unwrap();
+            l.split("  ")
+                .map(str::trim)
+                .filter(|c| !c.is_empty())
+                .map(String::from)
+                .collect()
+        };
+        assert_eq!(
+            cells("big")[2..5],
+            ["10^868.6", "2000.000", "1.000e300"],
+            "{t}"
+        );
+        assert_eq!(cells("small")[2..4], ["10^-868.6", "-2000.000"], "{t}");
+        assert_eq!(cells("edge")[2], "10^308.3", "{t}");
+        assert_eq!(cells("plain")[2], "1.0000e-13", "{t}");
+        assert!(!t.contains("inf") && !t.contains(" 0.0000e0"), "{t}");
+    }
 }

@@ -204,7 +204,7 @@ fn grade(ln_b: Option<f64>, x: &str, y: &str) -> String {
 }
 
 fn opt(v: Option<f64>, prec: usize) -> String {
-    v.map_or("–".into(), |x| format!("{x:.prec$}"))
+    v.map_or("–".into(), |x| crate::report::fmt_fixed(x, prec))
 }
 
 /// The text table: per pair and point, the reference's median ln B with its 16–84 % band,
