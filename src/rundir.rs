@@ -5,8 +5,8 @@
 //! - creates it and proves it writable (a probe file), so an unwritable directory is found
 //!   in a second, not after an hour of sampling;
 //! - takes an exclusive lock on `.occam.lock` (an OS file lock, released by the kernel when
-//!   the process ends, even on `kill -9`), so a second run on the same directory is refused
-//!   instead of interleaving its files with the first;
+//!   the process ends, even on `kill -9`; the file is removed when the run ends), so a second
+//!   run on the same directory is refused instead of interleaving its files with the first;
 //! - removes what a killed run left: temporaries `.<name>.tmp…` and a `.staging` directory.
 //!
 //! The outputs are written into `.staging` and then published: the old `manifest.json` is
@@ -112,35 +112,66 @@ pub fn remove_temporaries(dir: &Path) {
     }
 }
 
+/// Whether the open `file` is the one at `path` now.
+#[cfg(unix)]
+fn same_file(file: &File, path: &Path) -> bool {
+    use std::os::unix::fs::MetadataExt;
+    match (file.metadata(), std::fs::metadata(path)) {
+        (Ok(a), Ok(b)) => a.dev() == b.dev() && a.ino() == b.ino(),
+        _ => false,
+    }
+}
+
+#[cfg(not(unix))]
+fn same_file(_: &File, _: &Path) -> bool {
+    true
+}
+
+impl Drop for RunDir {
+    fn drop(&mut self) {
+        // removed while still locked, so a run that opens it meanwhile sees it vanish
+        // (`same_file`) and starts over on a new one; a killed run leaves it, unlocked
+        #[cfg(unix)]
+        let _ = std::fs::remove_file(self.dir.join(LOCK));
+    }
+}
+
 impl RunDir {
     /// Creates `dir` if needed, locks it, checks that it is writable and removes what a
     /// killed run left behind.
     pub fn open(dir: &Path) -> Result<RunDir, RunDirError> {
         std::fs::create_dir_all(dir).map_err(io(dir, "cannot create it"))?;
         let lock_path = dir.join(LOCK);
-        let lock = std::fs::OpenOptions::new()
-            .create(true)
-            .truncate(false)
-            .read(true)
-            .write(true)
-            .open(&lock_path)
-            .map_err(io(dir, "cannot create the lock file .occam.lock"))?;
-        match lock.try_lock() {
-            Ok(()) => {}
-            Err(std::fs::TryLockError::WouldBlock) => {
-                let holder = std::fs::read_to_string(&lock_path)
-                    .ok()
-                    .and_then(|s| s.trim().parse::<u32>().ok())
-                    .map_or("process unknown".to_string(), |p| format!("process {p}"));
-                return Err(RunDirError::Busy {
-                    dir: dir.to_path_buf(),
-                    holder,
-                });
+        let lock = loop {
+            let lock = std::fs::OpenOptions::new()
+                .create(true)
+                .truncate(false)
+                .read(true)
+                .write(true)
+                .open(&lock_path)
+                .map_err(io(dir, "cannot create the lock file .occam.lock"))?;
+            match lock.try_lock() {
+                Ok(()) => {}
+                Err(std::fs::TryLockError::WouldBlock) => {
+                    let holder = std::fs::read_to_string(&lock_path)
+                        .ok()
+                        .and_then(|s| s.trim().parse::<u32>().ok())
+                        .map_or("process unknown".to_string(), |p| format!("process {p}"));
+                    return Err(RunDirError::Busy {
+                        dir: dir.to_path_buf(),
+                        holder,
+                    });
+                }
+                Err(std::fs::TryLockError::Error(e)) => {
+                    return Err(io(dir, "cannot lock .occam.lock")(e));
+                }
             }
-            Err(std::fs::TryLockError::Error(e)) => {
-                return Err(io(dir, "cannot lock .occam.lock")(e));
+            // the run that held it may have removed the file between our open and our lock
+            // (it removes it when it ends): then we hold a lock on a file nobody else sees
+            if same_file(&lock, &lock_path) {
+                break lock;
             }
-        }
+        };
         // who holds it, for the message of a refused second run
         {
             use std::io::{Seek, Write};
@@ -278,7 +309,8 @@ mod tests {
         std::fs::write(s.join("a.json"), b"new").unwrap();
         assert_eq!(r.publish("fit", &[]).unwrap(), ["a.json"]);
         assert_eq!(std::fs::read(d.join("a.json")).unwrap(), b"new");
-        assert_eq!(names(&d), [".occam.lock", "a.json", "manifest.json"]);
+        drop(r);
+        assert_eq!(names(&d), ["a.json", "manifest.json"]);
     }
 
     #[test]

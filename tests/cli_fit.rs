@@ -3,7 +3,11 @@
 mod common;
 use common::occam;
 
-const SMALL: &str = r#"
+/// The study: its settings and [`common::TWO_EXPERIMENTS`].
+fn small() -> String {
+    format!(
+        "{}{}",
+        r#"
 seed = 8
 output = "out"
 [analysis]
@@ -14,28 +18,15 @@ fixed = { w1sq = -1.3e-6, w2sq = -1.9e-6, dt1 = 0.2, dt2 = 0.2 }
 chains = 2
 iterations = 3000
 burn_in = 1000
-[[experiment]]
-name = "a"
-fs = 1.0
-pre_pad = 200.0
-post_pad = 1500.0
-noise_duration = 8000.0
-x1 = { kind = "sine_train", gap = 20.0, segments = [
-  { freq = 0.002, amplitude = 1e-6, duration = 500.0 },
-  { freq = 0.05, amplitude = 1e-7, duration = 200.0 } ] }
-[[experiment]]
-name = "b"
-fs = 1.0
-pre_pad = 200.0
-post_pad = 1500.0
-noise_duration = 8000.0
-x12 = { kind = "sine", freq = 0.002, amplitude = 1e-6, duration = 500.0 }
-"#;
+"#,
+        common::TWO_EXPERIMENTS
+    )
+}
 
 #[test]
 fn fit_writes_table_chains_and_plots() {
     let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("s.toml"), SMALL).unwrap();
+    std::fs::write(dir.path().join("s.toml"), small()).unwrap();
     let (ok, stdout, stderr) = occam(&["fit", "s.toml", "-q"], dir.path());
     assert!(ok, "{stderr}");
     assert!(
@@ -63,22 +54,22 @@ fn fit_errors_name_the_field() {
     let cases: [(&str, String, &[&str]); 6] = [
         (
             "band outside the data",
-            SMALL.replace("band = [1e-3, 0.4]", "band = [0.6, 0.9]"),
+            small().replace("band = [1e-3, 0.4]", "band = [0.6, 0.9]"),
             &["band", "outside"],
         ),
         (
             "singular noise",
-            SMALL.replace("[analysis]", "[simulation]\nnoise = \"none\"\n[analysis]"),
+            small().replace("[analysis]", "[simulation]\nnoise = \"none\"\n[analysis]"),
             &["singular"],
         ),
         (
             "start outside the prior",
-            SMALL.replace("burn_in = 1000", "burn_in = 1000\nstart = { a_df = 3.0 }"),
+            small().replace("burn_in = 1000", "burn_in = 1000\nstart = { a_df = 3.0 }"),
             &["outside the prior", "a_df"],
         ),
         (
             "zero-volume prior",
-            SMALL.replace(
+            small().replace(
                 "[fit]",
                 "[prior]\na_df = { kind = \"uniform\", lo = 1.0, hi = 1.0 }\n[fit]",
             ),
@@ -86,12 +77,12 @@ fn fit_errors_name_the_field() {
         ),
         (
             "parameter neither free nor fixed",
-            SMALL.replace("dt2 = 0.2 }", "}"),
+            small().replace("dt2 = 0.2 }", "}"),
             &["fit.fixed", "dt2"],
         ),
         (
             "burn-in too long",
-            SMALL.replace("burn_in = 1000", "burn_in = 3000"),
+            small().replace("burn_in = 1000", "burn_in = 3000"),
             &["fit.burn_in"],
         ),
     ];

@@ -74,7 +74,11 @@ fn a_fit_of_tm1_actuators_without_tm1_forces_names_a1_and_f_o1() {
 
 /// The Table I loop's small fit (tests/cli_fit.rs) with `a_sus`'s prior narrowed below the
 /// truth (the default 1.08): the MAP is on the upper bound.
-const BOUND: &str = r#"
+/// The study: its settings and [`common::TWO_EXPERIMENTS`].
+fn bound() -> String {
+    format!(
+        "{}{}",
+        r#"
 seed = 8
 output = "out"
 [analysis]
@@ -87,28 +91,15 @@ fixed = { w1sq = -1.3e-6, w2sq = -1.9e-6, dt1 = 0.2, dt2 = 0.2 }
 chains = 2
 iterations = 1000
 burn_in = 300
-[[experiment]]
-name = "a"
-fs = 1.0
-pre_pad = 200.0
-post_pad = 1500.0
-noise_duration = 8000.0
-x1 = { kind = "sine_train", gap = 20.0, segments = [
-  { freq = 0.002, amplitude = 1e-6, duration = 500.0 },
-  { freq = 0.05, amplitude = 1e-7, duration = 200.0 } ] }
-[[experiment]]
-name = "b"
-fs = 1.0
-pre_pad = 200.0
-post_pad = 1500.0
-noise_duration = 8000.0
-x12 = { kind = "sine", freq = 0.002, amplitude = 1e-6, duration = 500.0 }
-"#;
+"#,
+        common::TWO_EXPERIMENTS
+    )
+}
 
 #[test]
 fn a_map_on_a_prior_bound_names_the_bound_and_the_prior_entry() {
     let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("s.toml"), BOUND).unwrap();
+    std::fs::write(dir.path().join("s.toml"), bound()).unwrap();
     let (ok, _, stderr) = occam(&["fit", "s.toml", "-q"], dir.path());
     assert!(ok, "{stderr}");
     assert!(

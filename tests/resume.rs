@@ -8,7 +8,11 @@ use common::occam;
 use occam::select::{Checkpointing, SelectCheckpoint, run_checkpointed};
 use std::path::Path;
 
-const SMALL: &str = r#"
+/// The study: its settings and [`common::TWO_EXPERIMENTS`].
+fn small() -> String {
+    format!(
+        "{}{}",
+        r#"
 seed = 8
 output = "out"
 [analysis]
@@ -35,23 +39,10 @@ fixed = { w1sq = -1.3e-6, w2sq = -1.9e-6, dt1 = 0.2, dt2 = 0.2 }
 name = "Y"
 free = ["a_df", "a_sus"]
 fixed = { w1sq = -1.3e-6, w2sq = -1.9e-6, dt1 = 0.2, dt2 = 0.2, d21 = 0.0 }
-[[experiment]]
-name = "a"
-fs = 1.0
-pre_pad = 200.0
-post_pad = 1500.0
-noise_duration = 8000.0
-x1 = { kind = "sine_train", gap = 20.0, segments = [
-  { freq = 0.002, amplitude = 1e-6, duration = 500.0 },
-  { freq = 0.05, amplitude = 1e-7, duration = 200.0 } ] }
-[[experiment]]
-name = "b"
-fs = 1.0
-pre_pad = 200.0
-post_pad = 1500.0
-noise_duration = 8000.0
-x12 = { kind = "sine", freq = 0.002, amplitude = 1e-6, duration = 500.0 }
-"#;
+"#,
+        common::TWO_EXPERIMENTS
+    )
+}
 
 /// The summary's numbers: its JSON with every timing field removed.
 fn numbers(v: serde_json::Value) -> serde_json::Value {
@@ -75,7 +66,7 @@ fn summary_numbers(dir: &Path) -> serde_json::Value {
 
 #[test]
 fn select_resumed_after_a_crash_in_the_reversible_jump_stage_equals_an_uninterrupted_run() {
-    let study = occam::config::Study::from_toml(SMALL, "small.toml", Path::new(".")).unwrap();
+    let study = occam::config::Study::from_toml(&small(), "small.toml", Path::new(".")).unwrap();
     let prep = occam::analysis::prepare(&study).unwrap();
     let id = occam::select::identity(&study, &prep.dataset);
     let dir = tempfile::tempdir().unwrap();
@@ -137,7 +128,7 @@ fn select_resumed_after_a_crash_in_the_reversible_jump_stage_equals_an_uninterru
 #[test]
 fn resume_with_nothing_to_resume_is_an_error_for_every_command() {
     let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("s.toml"), SMALL).unwrap();
+    std::fs::write(dir.path().join("s.toml"), small()).unwrap();
     for cmd in ["fit", "select", "sweep"] {
         let (ok, _, err) = occam(&[cmd, "s.toml", "-q", "--resume"], dir.path());
         assert!(!ok, "{cmd}");
@@ -151,7 +142,7 @@ fn resume_with_nothing_to_resume_is_an_error_for_every_command() {
 #[test]
 fn a_busy_or_unusable_directory_is_refused_before_any_work() {
     let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("s.toml"), SMALL).unwrap();
+    std::fs::write(dir.path().join("s.toml"), small()).unwrap();
     let held = occam::rundir::RunDir::open(&dir.path().join("out/select")).unwrap();
     let (ok, _, err) = occam(&["select", "s.toml", "-q"], dir.path());
     assert!(!ok);
@@ -182,7 +173,7 @@ fn a_busy_or_unusable_directory_is_refused_before_any_work() {
 fn select_killed_mid_run_and_resumed_matches_an_uninterrupted_run() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    std::fs::write(d.join("s.toml"), SMALL).unwrap();
+    std::fs::write(d.join("s.toml"), small()).unwrap();
     let (ok, _, err) = occam(&["select", "s.toml", "-q", "-o", "whole"], d);
     assert!(ok, "{err}");
 
@@ -232,7 +223,7 @@ fn select_killed_mid_run_and_resumed_matches_an_uninterrupted_run() {
 fn a_rerun_removes_the_previous_runs_files_it_does_not_write() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    std::fs::write(d.join("s.toml"), SMALL).unwrap();
+    std::fs::write(d.join("s.toml"), small()).unwrap();
     // a directory of an older occam: a figure this run does not draw
     std::fs::create_dir_all(d.join("out/select")).unwrap();
     std::fs::write(d.join("out/select/residual_psd_old.png"), b"stale").unwrap();

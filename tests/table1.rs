@@ -136,7 +136,8 @@ fn a_map_on_a_prior_bound_is_warned_about() {
         o.summary
             .warnings
             .iter()
-            .any(|w| w.contains("prior bound") && w.contains("a_df")),
+            .any(|w| w.contains("bound of the prior box")
+                && w.contains("`a_df` = 0.9 is on the lower bound")),
         "{:?}",
         o.summary.warnings
     );

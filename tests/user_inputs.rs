@@ -85,24 +85,7 @@ iterations = 3000
 burn_in = 1000
 "#;
 
-const DESIGNS: &str = r#"
-[[experiment]]
-name = "a"
-fs = 1.0
-pre_pad = 200.0
-post_pad = 1500.0
-noise_duration = 8000.0
-x1 = { kind = "sine_train", gap = 20.0, segments = [
-  { freq = 0.002, amplitude = 1e-6, duration = 500.0 },
-  { freq = 0.05, amplitude = 1e-7, duration = 200.0 } ] }
-[[experiment]]
-name = "b"
-fs = 1.0
-pre_pad = 200.0
-post_pad = 1500.0
-noise_duration = 8000.0
-x12 = { kind = "sine", freq = 0.002, amplitude = 1e-6, duration = 500.0 }
-"#;
+use common::TWO_EXPERIMENTS as DESIGNS;
 
 /// simulate → CSV files with renamed columns → `occam fit` from the CSVs gives exactly the
 /// table of fitting the simulated dataset.
