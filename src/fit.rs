@@ -197,7 +197,7 @@ pub fn run(
         })
         .collect();
     let total_iter = (f.iterations * f.chains) as f64;
-    let summary = FitSummary {
+    let mut summary = FitSummary {
         origin: prep.origin.clone(),
         model: exact.model().name().to_string(),
         statistic,
@@ -221,7 +221,6 @@ pub fn run(
             .map(|i| (0..d).map(|j| fisher[(i, j)]).collect())
             .collect(),
     };
-    let mut summary = summary;
     let extra = non_finite_warnings(&summary);
     summary.warnings.extend(extra);
     Ok(FitOutcome {

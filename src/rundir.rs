@@ -84,9 +84,10 @@ fn io(dir: &Path, what: &str) -> impl FnOnce(std::io::Error) -> RunDirError {
     move |source| RunDirError::Io { dir, what, source }
 }
 
-/// Whether `name` is a temporary of an atomic write or a checkpoint (`.<name>.tmp…`).
+/// Whether `name` is a temporary of an atomic write (`.<name>.tmp-<pid>`) or of a checkpoint
+/// (`.<name>.tmp`) — and not, say, a user's `.notes.tmpl`.
 fn is_temporary(name: &str) -> bool {
-    name.starts_with('.') && name.contains(".tmp")
+    name.starts_with('.') && (name.ends_with(".tmp") || name.contains(".tmp-"))
 }
 
 /// Whether `name` matches `pattern`, in which one `*` stands for any run of characters.
@@ -364,8 +365,9 @@ mod tests {
         std::fs::create_dir_all(d.join(STAGING)).unwrap();
         std::fs::write(d.join(STAGING).join("half.npz"), b"x").unwrap();
         std::fs::write(d.join("checkpoint.json"), b"kept").unwrap();
+        std::fs::write(d.join(".notes.tmpl"), b"the user's").unwrap();
         let _r = RunDir::open(d).unwrap();
-        assert_eq!(names(d), [".occam.lock", "checkpoint.json"]);
+        assert_eq!(names(d), [".notes.tmpl", ".occam.lock", "checkpoint.json"]);
     }
 
     #[test]

@@ -63,27 +63,27 @@ pub struct SelectCheckpoint {
 /// A hash of what a select run's numbers depend on: the resolved study without its output
 /// directory and file name, and every sample of the data.
 pub fn identity(study: &Study, data: &Dataset) -> String {
-    use crate::jobs::sweep::record::fnv1a;
     let mut v = serde_json::to_value(study).expect("a study serialises");
     if let Some(o) = v.as_object_mut() {
         o.remove("output");
         o.remove("source");
         o.remove("base_dir");
     }
-    let mut bytes = serde_json::to_vec(&v).expect("a study serialises");
+    let mut h = crate::data::Fnv1a::default();
+    h.update(&serde_json::to_vec(&v).expect("a study serialises"));
     for e in &data.experiments {
-        bytes.extend_from_slice(e.name.as_bytes());
-        bytes.extend_from_slice(&e.fs.to_bits().to_le_bytes());
+        h.update(e.name.as_bytes());
+        h.update(&e.fs.to_bits().to_le_bytes());
         let named = e.extra.iter().chain(&e.noise_extra);
         let fixed = e.o.iter().chain(&e.i).chain(&e.noise);
         for s in fixed.chain(named.map(|(_, s)| s)) {
-            bytes.extend_from_slice(&(s.len() as u64).to_le_bytes());
+            h.update(&(s.len() as u64).to_le_bytes());
             for x in s {
-                bytes.extend_from_slice(&x.to_bits().to_le_bytes());
+                h.update(&x.to_bits().to_le_bytes());
             }
         }
     }
-    format!("{:016x}", fnv1a(&bytes))
+    format!("{:016x}", h.finish())
 }
 
 fn io_err(path: &Path, what: &str, e: impl std::fmt::Display) -> SelectError {

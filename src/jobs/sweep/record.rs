@@ -7,9 +7,7 @@ use std::path::{Path, PathBuf};
 
 /// FNV-1a, 64 bits: a stable hash (unlike `std`'s) for file names and study identities.
 pub fn fnv1a(bytes: &[u8]) -> u64 {
-    bytes.iter().fold(0xcbf2_9ce4_8422_2325, |h, &b| {
-        (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3)
-    })
+    crate::data::Fnv1a::of(bytes)
 }
 
 /// What identifies a task: the base study (hash of the file without `output` and `[sweep]`),
