@@ -142,6 +142,23 @@ impl RunDir {
     /// killed run left behind.
     pub fn open(dir: &Path) -> Result<RunDir, RunDirError> {
         std::fs::create_dir_all(dir).map_err(io(dir, "cannot create it"))?;
+        let run = Self::lock(dir)?;
+        let probe = dir.join(PROBE);
+        std::fs::write(&probe, b"").map_err(io(dir, "it is not writable"))?;
+        let _ = std::fs::remove_file(&probe);
+        remove_temporaries(dir);
+        let staging = dir.join(STAGING);
+        if staging.exists() {
+            std::fs::remove_dir_all(&staging)
+                .map_err(io(dir, "cannot remove a killed run's .staging directory"))?;
+        }
+        Ok(run)
+    }
+
+    /// Locks an existing run directory and nothing else: no directory is created and nothing
+    /// a killed run left is removed, for a command that adds one file to a finished run
+    /// (`occam report`) without being a new run of it.
+    pub fn lock(dir: &Path) -> Result<RunDir, RunDirError> {
         let lock_path = dir.join(LOCK);
         let lock = loop {
             let lock = std::fs::OpenOptions::new()
@@ -180,15 +197,6 @@ impl RunDir {
             let _ = f.set_len(0);
             let _ = f.seek(std::io::SeekFrom::Start(0));
             let _ = writeln!(f, "{}", std::process::id());
-        }
-        let probe = dir.join(PROBE);
-        std::fs::write(&probe, b"").map_err(io(dir, "it is not writable"))?;
-        let _ = std::fs::remove_file(&probe);
-        remove_temporaries(dir);
-        let staging = dir.join(STAGING);
-        if staging.exists() {
-            std::fs::remove_dir_all(&staging)
-                .map_err(io(dir, "cannot remove a killed run's .staging directory"))?;
         }
         Ok(RunDir {
             dir: dir.to_path_buf(),
@@ -276,6 +284,36 @@ impl RunDir {
     }
 }
 
+impl RunDir {
+    /// Adds `name`, a file already in place in the directory, to the finished run's
+    /// `manifest.json` (or updates its size), so that the command's next run removes it with
+    /// the rest of the old outputs. Returns false, changing nothing, when the directory has
+    /// no readable manifest (a run that predates manifests, or one interrupted while
+    /// publishing: a manifest written now would vouch for files of unknown origin).
+    pub fn record(&self, name: &str) -> Result<bool, RunDirError> {
+        let Some(mut m) = Manifest::read(&self.dir) else {
+            return Ok(false);
+        };
+        let bytes = std::fs::metadata(self.dir.join(name))
+            .map_err(io(&self.dir, &format!("cannot read {name}")))?
+            .len();
+        match m.files.iter_mut().find(|f| f.name == name) {
+            Some(f) => f.bytes = bytes,
+            None => {
+                m.files.push(ManifestEntry {
+                    name: name.into(),
+                    bytes,
+                });
+                m.files.sort_by(|a, b| a.name.cmp(&b.name));
+            }
+        }
+        let json = serde_json::to_string_pretty(&m).expect("manifest serialises") + "\n";
+        crate::atomic::write_bytes(&self.dir.join(MANIFEST), json.as_bytes())
+            .map_err(io(&self.dir, "cannot write manifest.json"))?;
+        Ok(true)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -330,6 +368,47 @@ mod tests {
         assert!(!d.join("residual_psd_inv1.png").exists());
         assert!(d.join("summary.json").exists());
         assert!(d.join("notes.txt").exists());
+    }
+
+    #[test]
+    fn lock_only_keeps_what_a_run_left_and_record_adds_to_the_manifest() {
+        let tmp = tempfile::tempdir().unwrap();
+        let d = tmp.path();
+        {
+            let r = RunDir::open(d).unwrap();
+            let s = r.staging().unwrap();
+            std::fs::write(s.join("a.json"), b"1").unwrap();
+            r.publish("fit", &[]).unwrap();
+        }
+        std::fs::write(d.join(".a.json.tmp-99"), b"x").unwrap();
+        std::fs::create_dir_all(d.join(STAGING)).unwrap();
+        let r = RunDir::lock(d).unwrap();
+        assert!(RunDir::lock(d).is_err(), "a second holder must be refused");
+        assert!(d.join(".a.json.tmp-99").exists() && d.join(STAGING).exists());
+        std::fs::write(d.join("report.html"), b"four").unwrap();
+        assert!(r.record("report.html").unwrap());
+        std::fs::write(d.join("report.html"), b"seven").unwrap();
+        assert!(r.record("report.html").unwrap());
+        let m = Manifest::read(d).unwrap();
+        let names: Vec<&str> = m.files.iter().map(|f| f.name.as_str()).collect();
+        assert_eq!(names, ["a.json", "report.html"]);
+        assert_eq!(m.files[1].bytes, 5);
+        assert_eq!(m.command, "fit");
+        drop(r);
+        // the next run of the command does not write it: it goes as a stale output
+        let r = RunDir::open(d).unwrap();
+        let s = r.staging().unwrap();
+        std::fs::write(s.join("a.json"), b"2").unwrap();
+        r.publish("fit", &[]).unwrap();
+        assert!(!d.join("report.html").exists());
+        // without a manifest nothing is recorded
+        std::fs::remove_file(d.join(MANIFEST)).unwrap();
+        std::fs::write(d.join("report.html"), b"x").unwrap();
+        assert!(!r.record("report.html").unwrap());
+        assert!(!d.join(MANIFEST).exists());
+        // a directory that does not exist is not created by a lock
+        assert!(RunDir::lock(&d.join("missing")).is_err());
+        assert!(!d.join("missing").exists());
     }
 
     #[test]

@@ -31,10 +31,12 @@ use crate::prior::PriorKind;
 
 pub mod budget;
 mod models;
+mod resolved;
 mod sweep;
 pub use models::{BUILTIN_LTP, LtpModelEntry, ModelDef, ModelEntry, ModelSet, ModelSpec};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
+pub use resolved::resolved_toml;
 pub use sweep::{MAX_POINTS, MAX_REALISATIONS, Spacing, SweepAxis, SweepOptions};
 
 /// A configuration problem, naming the file and the field.
@@ -628,6 +630,10 @@ pub struct Study {
     pub design: Option<crate::design::DesignOptions>,
     /// The file it came from (for messages).
     pub source: String,
+    /// The study file as parsed, serde's defaults filled in ([`resolved_toml`]); not part of
+    /// the study's identity (checkpoints hash the serialised study).
+    #[serde(skip)]
+    pub file: StudyFile,
 }
 
 impl Study {
@@ -708,6 +714,7 @@ fn finite_pos(v: f64) -> bool {
 impl StudyFile {
     /// Validates every field and resolves designs.
     pub fn resolve(self, file: &str, base: &Path) -> Result<Study, ConfigError> {
+        let as_parsed = self.clone();
         let bad = |field: String, msg: String| ConfigError::Invalid {
             file: file.into(),
             field,
@@ -1131,6 +1138,7 @@ impl StudyFile {
             experiment_names,
             base_dir: base.to_path_buf(),
             source: file.into(),
+            file: as_parsed,
         };
         budget::check_study(&study, budget)?;
         Ok(study)
