@@ -17,6 +17,7 @@ pub mod evidence;
 pub mod experiment;
 pub mod fit;
 pub mod hermitian;
+pub mod html;
 pub mod jobs;
 pub mod likelihood;
 pub mod lti;

@@ -72,6 +72,15 @@ enum Command {
         #[arg(short, long)]
         quiet: bool,
     },
+    /// Write a self-contained HTML page of a fit, select or sweep run: tables, figures,
+    /// diagnostics, warnings and the resolved study (default RUN_DIR/report.html).
+    Report {
+        /// The run directory (the one a fit, select or sweep wrote).
+        run_dir: PathBuf,
+        /// The HTML file to write (default: RUN_DIR/report.html).
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+    },
     /// Choose the injections that best separate the `[[select.model]]` models under the
     /// `[design]` budget; writes design.toml (a runnable study), baseline.toml and design.json.
     Design {
@@ -108,6 +117,11 @@ fn main() {
         } => select(study, output, resume, quiet),
         Command::Demo { output, quiet } => demo(output, quiet),
         Command::Sweep(cli) => sweep(cli),
+        Command::Report { run_dir, output } => {
+            occam::html::write_report(&run_dir, output.as_deref())
+                .map(|p| println!("wrote {}", p.display()))
+                .map_err(Into::into)
+        }
         Command::Design {
             study,
             output,

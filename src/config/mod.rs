@@ -34,9 +34,9 @@ mod models;
 mod resolved;
 mod sweep;
 pub use models::{BUILTIN_LTP, LtpModelEntry, ModelDef, ModelEntry, ModelSet, ModelSpec};
+pub use resolved::resolved_toml;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
-pub use resolved::resolved_toml;
 pub use sweep::{MAX_POINTS, MAX_REALISATIONS, Spacing, SweepAxis, SweepOptions};
 
 /// A configuration problem, naming the file and the field.

@@ -61,7 +61,10 @@ mod tests {
         let study = load(text);
         let resolved = resolved_toml(&study).unwrap();
         let again = load(&resolved);
-        assert!(again == study, "the resolved study loads to another study:\n{resolved}");
+        assert!(
+            again == study,
+            "the resolved study loads to another study:\n{resolved}"
+        );
         // writing it again changes nothing
         assert_eq!(resolved_toml(&again).unwrap(), resolved);
     }
@@ -83,7 +86,13 @@ x1 = { kind = "sine", freq = 0.01, amplitude = 1e-6, duration = 300.0 }
         round_trip(MINIMAL);
         let r = resolved_toml(&load(MINIMAL)).unwrap();
         // defaults the file did not write are now explicit
-        for key in ["[analysis]", "welch_averages", "[select]", "rj_iterations", "[truth]"] {
+        for key in [
+            "[analysis]",
+            "welch_averages",
+            "[select]",
+            "rj_iterations",
+            "[truth]",
+        ] {
             assert!(r.contains(key), "{key} missing:\n{r}");
         }
         assert!(r.contains("# Relative paths are relative to: /base"), "{r}");
