@@ -6,7 +6,7 @@ use serde_json::Value;
 
 /// R̂ above this is flagged: the threshold of the fit's own warning
 /// (`sampler::diagnostics`, Vehtari et al. 2021).
-const RHAT_MAX: f64 = 1.01;
+pub(super) const RHAT_MAX: f64 = 1.01;
 
 /// Facts, warnings and diagnostics of a fit summary.
 pub fn parts(s: &Value) -> Parts {

@@ -99,7 +99,7 @@ fn models(s: &Value) -> String {
         .map(|m| {
             let rhat = at(m, "mcmc_max_rhat").and_then(Value::as_f64);
             let rhat = match rhat {
-                Some(x) if x <= 1.01 => sig(x),
+                Some(x) if x <= super::fit::RHAT_MAX => sig(x),
                 Some(x) => bad(sig(x)),
                 None => cell(at(m, "mcmc_max_rhat")),
             };
