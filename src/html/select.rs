@@ -299,7 +299,7 @@ pub fn parts(s: &Value) -> Parts {
     ];
     p.warnings.collect(s, "summary.json");
     if let Some(n) = at(s, "rj_note").and_then(Value::as_str) {
-        p.warnings.add(n, "summary.json.rj_note");
+        p.warnings.add(n, "summary.json (rj_note)");
     }
     p.diagnostics = pairs(s) + &models(s) + &reversible_jump(s);
     p

@@ -59,13 +59,14 @@ impl Warnings {
                     } else {
                         format!("{place}.{k}")
                     };
+                    // a warning's place is the object that holds it
                     match (k.as_str(), x) {
                         ("warnings", Value::Array(a)) => {
                             for w in a.iter().filter_map(Value::as_str) {
-                                self.add(w, &here);
+                                self.add(w, place);
                             }
                         }
-                        ("warning", Value::String(s)) => self.add(s, &here),
+                        ("warning", Value::String(s)) => self.add(s, place),
                         _ => self.collect(x, &here),
                     }
                 }
@@ -104,11 +105,11 @@ mod tests {
             "models": [{"warnings": ["new one", 3]}]
         });
         let mut w = Warnings::default();
-        w.collect(&v, "");
+        w.collect(&v, "s");
         assert_eq!(w.len(), 3);
         assert_eq!(w.0[0].text, "X/Y: only 0 accepted jumps");
-        assert_eq!(w.0[0].places, ["warnings", "pairs[0].jumps.warning"]);
-        assert_eq!(w.0[2].places, ["models[0].warnings"]);
+        assert_eq!(w.0[0].places, ["s", "s.pairs[0].jumps"]);
+        assert_eq!(w.0[2].places, ["s.models[0]"]);
         // found the other way round: the fuller text wins and keeps both places
         let mut w = Warnings::default();
         w.add("only 0 jumps", "deep");
