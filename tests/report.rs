@@ -143,7 +143,7 @@ fn well_formed(html: &str) -> Result<(), String> {
                         .take_while(|c| !c.is_whitespace() && *c != '/')
                         .collect();
                     if !name.starts_with(|c: char| c.is_ascii_alphabetic()) {
-                        return Err(format!("a stray `<` at byte {i}: {:?}", &inner[..]));
+                        return Err(format!("a stray `<` at byte {i}: {:?}", inner));
                     }
                     if !inner.ends_with('/') {
                         stack.push(name);

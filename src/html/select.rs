@@ -158,7 +158,7 @@ fn models(s: &Value) -> String {
                     )
                 };
                 let swaps = numbers(at(m, "tempering.swap_acceptance"));
-                let swap_html = if swaps.iter().any(|&x| x == 0.0) {
+                let swap_html = if swaps.contains(&0.0) {
                     bad(range(&swaps))
                 } else {
                     range(&swaps)
