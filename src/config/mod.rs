@@ -31,6 +31,8 @@ use crate::prior::PriorKind;
 
 pub mod budget;
 mod models;
+#[cfg(test)]
+mod reference;
 mod sweep;
 pub use models::{BUILTIN_LTP, LtpModelEntry, ModelDef, ModelEntry, ModelSet, ModelSpec};
 use serde::{Deserialize, Serialize};
