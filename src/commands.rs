@@ -118,6 +118,7 @@ pub fn fit(
     };
     let outcome = crate::fit::run(study, &prep, out, Some(&observer), resume)?;
     crate::fit::write_outputs(&outcome, &run.staging()?)?;
+    crate::config::write_resolved(study, &run.staging()?)?;
     let written = run.publish("fit", crate::fit::LEGACY_OUTPUTS)?;
     Ok(Fitted {
         outcome,
@@ -182,6 +183,7 @@ pub fn select(
     };
     let summary = crate::select::run_observed(study, &prep, on_rj, work, Some(ckpt))?;
     crate::select::write_outputs(&summary, &run.staging()?)?;
+    crate::config::write_resolved(study, &run.staging()?)?;
     let written = run.publish("select", crate::select::LEGACY_OUTPUTS)?;
     Ok(Selected { summary, written })
 }

@@ -433,6 +433,8 @@ pub const LEGACY_OUTPUTS: &[&str] = &[
     "trace.svg",
     "corner.png",
     "corner.svg",
+    // `occam report` records its page in the manifest; in an older directory only this finds it
+    "report.html",
 ];
 
 /// Writes `summary.json`, `table.txt`, `table.md`, `chains.npz` and the trace and corner plots

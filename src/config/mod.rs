@@ -36,7 +36,7 @@ mod reference;
 mod resolved;
 mod sweep;
 pub use models::{BUILTIN_LTP, LtpModelEntry, ModelDef, ModelEntry, ModelSet, ModelSpec};
-pub use resolved::resolved_toml;
+pub use resolved::{RESOLVED_FILE, resolved_toml, write_resolved};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 pub use sweep::{MAX_POINTS, MAX_REALISATIONS, Spacing, SweepAxis, SweepOptions};

@@ -4,6 +4,18 @@
 
 use super::{ConfigError, Study};
 
+/// The file a run directory keeps its resolved study in.
+pub const RESOLVED_FILE: &str = "study.resolved.toml";
+
+/// Writes [`resolved_toml`] of `study` into `dir` as [`RESOLVED_FILE`], atomically.
+pub fn write_resolved(study: &Study, dir: &std::path::Path) -> anyhow::Result<()> {
+    use anyhow::Context;
+    let text = resolved_toml(study)?;
+    let p = dir.join(RESOLVED_FILE);
+    crate::atomic::write_bytes(&p, text.as_bytes())
+        .with_context(|| format!("cannot write {}", p.display()))
+}
+
 /// The study as TOML, every key that has a default written out, loadable with
 /// [`Study::from_toml`] (relative paths against the original study's directory, named in the
 /// header comment) to the same study. Keys whose default depends on the model (`[fit] free`,

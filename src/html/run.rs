@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 pub const MAX_INLINE_BYTES: u64 = 32 << 20;
 
 /// The file `fit`, `select` and `sweep` write with the resolved study.
-pub const RESOLVED_STUDY: &str = "study.resolved.toml";
+pub const RESOLVED_STUDY: &str = crate::config::RESOLVED_FILE;
 
 /// Which command wrote the run.
 #[derive(Debug, Clone, PartialEq, Eq)]

@@ -61,6 +61,8 @@ pub struct Sweep {
     pub models: Vec<String>,
     /// What the user should know before the sweep runs.
     pub warnings: Vec<String>,
+    /// The base study, resolved ([`crate::config::resolved_toml`]), for the run directory.
+    pub resolved: String,
 }
 
 /// The numbers of a finished sweep.
@@ -96,6 +98,7 @@ impl Sweep {
         args: SweepArgs,
     ) -> anyhow::Result<Sweep> {
         let study = Study::from_toml(text, file, base_dir)?;
+        let resolved = crate::config::resolved_toml(&study)?;
         if study.select_models.len() < 2 {
             bail!(
                 "{file}: a sweep compares models: give at least two [[select.model]] tables (see examples/design-snr.toml)"
@@ -173,6 +176,7 @@ impl Sweep {
             seed: study.seed,
             out: args.output.unwrap_or_else(|| study.output.join("sweep")),
             models,
+            resolved,
         };
         for p in 0..sweep.grid.len() {
             sweep.study_at(p, 0)?;

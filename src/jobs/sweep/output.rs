@@ -17,6 +17,8 @@ pub const LEGACY_OUTPUTS: &[&str] = &[
     "ln_b_vs_*.svg",
     "ln_b_map*.png",
     "ln_b_map*.svg",
+    // `occam report` records its page in the manifest; in an older directory only this finds it
+    "report.html",
 ];
 
 /// Writes the sweep's outputs into the staging area of the run directory `run` and publishes
@@ -45,6 +47,10 @@ pub fn write_outputs(sweep: &Sweep, res: &SweepResult, dir: &Path) -> anyhow::Re
     files.push(p);
     let p = out.join("table.txt");
     crate::atomic::write_bytes(&p, table(sweep, res).as_bytes())
+        .with_context(|| format!("writing {}", p.display()))?;
+    files.push(p);
+    let p = out.join(crate::config::RESOLVED_FILE);
+    crate::atomic::write_bytes(&p, sweep.resolved.as_bytes())
         .with_context(|| format!("writing {}", p.display()))?;
     files.push(p);
     files.extend(super::plots::write_plots(sweep, res, out)?);
