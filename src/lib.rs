@@ -8,6 +8,7 @@
 
 pub mod analysis;
 pub mod atomic;
+pub mod commands;
 pub mod config;
 pub mod data;
 pub mod dataset;
@@ -24,6 +25,7 @@ pub mod ltp;
 pub mod model;
 pub mod nested;
 pub mod prior;
+pub mod progress;
 pub mod report;
 pub mod rundir;
 pub mod sampler;

@@ -2,9 +2,12 @@
 
 use anyhow::{Context, Result};
 use clap::{Parser, Subcommand};
+use occam::commands::Work;
 use occam::config::Study;
+use occam::progress::Bar;
 use occam::rundir::RunDir;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::Instant;
 
 #[derive(Parser)]
@@ -27,6 +30,8 @@ enum Command {
         /// Output directory (overrides `output` in the study file).
         #[arg(short, long)]
         output: Option<PathBuf>,
+        #[command(flatten)]
+        run: RunFlags,
     },
     /// Fit the study's `[fit]` model by MCMC: Table I layout, chains, plots, summary.json.
     Fit {
@@ -38,9 +43,8 @@ enum Command {
         /// Continue from the checkpoint in the output directory (an error when there is none).
         #[arg(long)]
         resume: bool,
-        /// No progress bar.
-        #[arg(short, long)]
-        quiet: bool,
+        #[command(flatten)]
+        run: RunFlags,
     },
     /// The paper's guidance-delay investigation (7- against 5-parameter model, data with
     /// Δt1 = Δt2 = 0) in its competitive and non-competitive regimes, from built-in studies.
@@ -48,9 +52,8 @@ enum Command {
         /// Output directory.
         #[arg(short, long, default_value = "runs/demo")]
         output: PathBuf,
-        /// No progress bar.
-        #[arg(short, long)]
-        quiet: bool,
+        #[command(flatten)]
+        run: RunFlags,
     },
     /// Model selection over a grid of study keys (`[sweep]` or `--axis`) with noise
     /// realisations per point: ln B of every estimator, its band over realisations, how often
@@ -68,9 +71,8 @@ enum Command {
         /// finished stages are not recomputed and the numbers equal an uninterrupted run's.
         #[arg(long)]
         resume: bool,
-        /// No progress bar.
-        #[arg(short, long)]
-        quiet: bool,
+        #[command(flatten)]
+        run: RunFlags,
     },
     /// Choose the injections that best separate the `[[select.model]]` models under the
     /// `[design]` budget; writes design.toml (a runnable study), baseline.toml and design.json.
@@ -84,37 +86,71 @@ enum Command {
         /// (without a number: `[design] realisations`).
         #[arg(long, num_args = 0..=1)]
         validate: Option<Option<usize>>,
+        /// Worker threads (default: one per core). The numbers do not depend on it.
+        #[arg(long, default_value_t = 0)]
+        threads: usize,
     },
 }
 
-/// What `simulate` wrote before `manifest.json` existed (see [`RunDir::publish`]).
-const LEGACY_SIMULATE: &[&str] = &["dataset.npz", "dataset.json"];
+/// Options every long-running command takes.
+#[derive(clap::Args, Clone, Copy)]
+struct RunFlags {
+    /// No progress bar.
+    #[arg(short, long)]
+    quiet: bool,
+    /// Worker threads (default: one per core). The numbers do not depend on it.
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+}
+
+impl RunFlags {
+    /// Sizes the thread pool the samplers use.
+    fn apply(&self) -> Result<()> {
+        if self.threads > 0 {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(self.threads)
+                .build_global()
+                .context("--threads: cannot start the thread pool")?;
+        }
+        Ok(())
+    }
+}
 
 fn main() {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Simulate { study, output } => simulate(study, output),
+        Command::Simulate { study, output, run } => {
+            run.apply().and_then(|_| simulate(study, output, run))
+        }
         Command::Fit {
             study,
             output,
             resume,
-            quiet,
-        } => fit(study, output, resume, quiet),
+            run,
+        } => run.apply().and_then(|_| fit(study, output, resume, run)),
         Command::Select {
             study,
             output,
             resume,
-            quiet,
-        } => select(study, output, resume, quiet),
-        Command::Demo { output, quiet } => demo(output, quiet),
+            run,
+        } => run.apply().and_then(|_| select(study, output, resume, run)),
+        Command::Demo { output, run } => run.apply().and_then(|_| demo(output, run)),
         Command::Sweep(cli) => sweep(cli),
         Command::Design {
             study,
             output,
             validate,
-        } => occam::design::run_cli(&study, output, validate)
-            .map(|r| println!("{}", occam::design::table(&r)))
-            .map_err(Into::into),
+            threads,
+        } => RunFlags {
+            quiet: false,
+            threads,
+        }
+        .apply()
+        .and_then(|_| {
+            let r = occam::design::run_cli(&study, output, validate)?;
+            println!("{}", occam::design::table(&r));
+            Ok(())
+        }),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");
@@ -122,15 +158,17 @@ fn main() {
     }
 }
 
-fn simulate(path: PathBuf, output: Option<PathBuf>) -> Result<()> {
+fn simulate(path: PathBuf, output: Option<PathBuf>, flags: RunFlags) -> Result<()> {
     let t0 = Instant::now();
     let study = Study::load(&path)?;
     let out = output.unwrap_or_else(|| study.output.clone());
-    let run = RunDir::open(&out)?;
-    let sim = occam::experiment::simulate(&study)
-        .with_context(|| format!("simulating {}", path.display()))?;
-    sim.dataset.write(&run.staging()?)?;
-    let written = run.publish("simulate", LEGACY_SIMULATE)?;
+    let work = Arc::new(Work::default());
+    let bar = Bar::start(work.clone(), "experiments", flags.quiet);
+    let done = occam::commands::simulate(&study, &out, Some(&work))?;
+    if let Some(b) = bar {
+        b.finish();
+    }
+    let (sim, written) = (done.sim, done.written);
     println!(
         "{:<14} {:>10} {:>10} {:>12}",
         "experiment", "samples", "noise", "rho_opt"
@@ -158,70 +196,21 @@ fn listing(dir: &Path, names: &[String]) -> String {
     format!("{}/{{{}}}", dir.display(), names.join(", "))
 }
 
-/// A progress bar over all chains' iterations, drawn only on a terminal.
-fn progress_bar(total: u64, quiet: bool) -> Option<indicatif::ProgressBar> {
-    use std::io::IsTerminal;
-    if quiet || !std::io::stderr().is_terminal() {
-        return None;
-    }
-    let pb = indicatif::ProgressBar::new(total);
-    pb.set_style(
-        indicatif::ProgressStyle::with_template(
-            "{bar:40} {pos}/{len} iterations  {per_sec}  eta {eta}  {msg}",
-        )
-        .expect("valid template"),
-    );
-    Some(pb)
-}
-
-fn fit(path: PathBuf, output: Option<PathBuf>, resume: bool, quiet: bool) -> Result<()> {
+fn fit(path: PathBuf, output: Option<PathBuf>, resume: bool, flags: RunFlags) -> Result<()> {
     let t0 = Instant::now();
     let study = Study::load(&path)?;
     let out = output.unwrap_or_else(|| study.output.join("fit"));
-    let run = RunDir::open(&out)?;
-    if resume {
-        let ckpt = out.join("checkpoint.json");
-        if !ckpt.exists() {
-            anyhow::bail!(
-                "--resume: there is nothing to resume in {}: it has no checkpoint.json; run without --resume",
-                out.display()
-            );
-        }
-        let (done, total) = occam::sampler::checkpoint_progress(&ckpt)?;
-        println!(
-            "resuming from {}: iterations done per chain {done:?} of {total}",
-            ckpt.display()
-        );
-    }
-    let prep = occam::analysis::prepare(&study)
-        .with_context(|| format!("preparing the data of {}", path.display()))?;
-    println!(
-        "data: {} ({} experiments, {} bins in band)",
-        prep.origin,
-        prep.dataset.experiments.len(),
-        prep.likelihood.n_bins()
-    );
-    let total = (study.fit.iterations * study.fit.chains) as u64;
-    let pb = progress_bar(total, quiet);
-    let counts: Vec<std::sync::atomic::AtomicU64> =
-        (0..study.fit.chains).map(|_| Default::default()).collect();
-    let observer = |p: &occam::sampler::Progress| {
-        if let Some(pb) = &pb {
-            counts[p.chain].store(p.iteration as u64, std::sync::atomic::Ordering::Relaxed);
-            let done: u64 = counts
-                .iter()
-                .map(|c| c.load(std::sync::atomic::Ordering::Relaxed))
-                .sum();
-            pb.set_position(done);
-            pb.set_message(format!("acceptance {:.2}", p.acceptance));
-        }
+    let work = Arc::new(Work::default());
+    let bar = Bar::start(work.clone(), "iterations", flags.quiet);
+    let say = |line: &str| match &bar {
+        Some(b) => b.bar().println(line),
+        None => println!("{line}"),
     };
-    let outcome = occam::fit::run(&study, &prep, &out, Some(&observer), resume)?;
-    if let Some(pb) = pb {
-        pb.finish_and_clear();
+    let fitted = occam::commands::fit(&study, &out, resume, &say, Some(&work))?;
+    if let Some(b) = bar {
+        b.finish();
     }
-    occam::fit::write_outputs(&outcome, &run.staging()?)?;
-    let written = run.publish("fit", occam::fit::LEGACY_OUTPUTS)?;
+    let (outcome, written) = (fitted.outcome, fitted.written);
     let s = &outcome.summary;
     println!("{}", occam::fit::table(s));
     println!(
@@ -259,61 +248,30 @@ fn fit(path: PathBuf, output: Option<PathBuf>, resume: bool, quiet: bool) -> Res
     Ok(())
 }
 
-fn select(path: PathBuf, output: Option<PathBuf>, resume: bool, quiet: bool) -> Result<()> {
+fn select(path: PathBuf, output: Option<PathBuf>, resume: bool, flags: RunFlags) -> Result<()> {
     let study = Study::load(&path)?;
     let out = output.unwrap_or_else(|| study.output.join("select"));
-    run_select(&study, &out, resume, quiet)
+    run_select(&study, &out, resume, flags.quiet)
 }
 
 fn run_select(study: &Study, out: &std::path::Path, resume: bool, quiet: bool) -> Result<()> {
     let t0 = Instant::now();
-    let run = RunDir::open(out)?;
-    let ckpt_path = out.join(occam::select::CHECKPOINT_FILE);
-    if resume && !ckpt_path.exists() {
-        anyhow::bail!(
-            "--resume: there is nothing to resume in {}: it has no {}; run without --resume",
-            out.display(),
-            occam::select::CHECKPOINT_FILE
-        );
-    }
-    let prep = occam::analysis::prepare(study)
-        .with_context(|| format!("preparing the data of {}", study.source))?;
-    let identity = occam::select::identity(study, &prep.dataset);
-    let state = if resume {
-        let c = occam::select::SelectCheckpoint::read(&ckpt_path, &identity)?;
-        let names: Vec<String> = study.select_models.iter().map(|m| m.name.clone()).collect();
-        println!(
-            "resuming from {}: {}",
-            ckpt_path.display(),
-            c.describe(&names)
-        );
-        c
-    } else {
-        occam::select::SelectCheckpoint::new(identity)
+    let work = Arc::new(Work::default());
+    let bar = Bar::start(work.clone(), "ln L evaluations", quiet);
+    let say = |line: &str| match &bar {
+        Some(b) => b.bar().println(line),
+        None => println!("{line}"),
     };
-    println!(
-        "data: {} ({} experiments, {} bins in band)",
-        prep.origin,
-        prep.dataset.experiments.len(),
-        prep.likelihood.n_bins()
-    );
-    let pb = progress_bar(study.select.rj_iterations as u64, quiet);
-    let mut cb = |p: &occam::evidence::RjProgress<'_>| {
-        if let Some(pb) = &pb {
-            pb.set_position(p.iteration as u64);
-            pb.set_message(format!("visits {:?}", p.visits));
+    let mut on_rj = |p: &occam::evidence::RjProgress<'_>| {
+        if let Some(b) = &bar {
+            b.bar().set_message(format!("RJ visits {:?}", p.visits));
         }
     };
-    let ckpt = occam::select::Checkpointing {
-        path: &ckpt_path,
-        state,
-    };
-    let s = occam::select::run_checkpointed(study, &prep, Some(&mut cb), Some(ckpt))?;
-    if let Some(pb) = pb {
-        pb.finish_and_clear();
+    let done = occam::commands::select(study, out, resume, &say, Some(&work), Some(&mut on_rj))?;
+    if let Some(b) = bar {
+        b.finish();
     }
-    occam::select::write_outputs(&s, &run.staging()?)?;
-    let written = run.publish("select", occam::select::LEGACY_OUTPUTS)?;
+    let (s, written) = (done.summary, done.written);
     println!("{}", occam::select::table(&s));
     let yes_no = |b: bool| if b { "yes" } else { "no" };
     for p in &s.pairs {
@@ -397,13 +355,13 @@ const DEMO_STUDIES: [(&str, &str); 2] = [
     ),
 ];
 
-fn demo(output: PathBuf, quiet: bool) -> Result<()> {
+fn demo(output: PathBuf, flags: RunFlags) -> Result<()> {
     let t0 = Instant::now();
     for (name, text) in DEMO_STUDIES {
         let label = format!("built-in study `{name}` (examples/guidance-delays*.toml)");
         let study = Study::from_toml(text, &label, std::path::Path::new("."))?;
         println!("\n=== guidance delays, {name} regime ===");
-        run_select(&study, &output.join(name), false, quiet)?;
+        run_select(&study, &output.join(name), false, flags.quiet)?;
     }
     println!("\ndemo took {:.1} s", t0.elapsed().as_secs_f64());
     Ok(())
@@ -438,7 +396,7 @@ struct SweepCli {
     /// sweep. (Finished tasks are reused with or without it.)
     #[arg(long)]
     resume: bool,
-    /// No per-task lines.
+    /// No progress bar and no per-task lines.
     #[arg(short, long)]
     quiet: bool,
 }
@@ -504,7 +462,19 @@ fn sweep(cli: SweepCli) -> Result<()> {
             sweep.out.display()
         );
     }
-    let Some(res) = sweep.run(exec.as_ref(), !cli.quiet)? else {
+    let work = Arc::new(Work::default());
+    let bar = (exec.is_root() && !exec.is_distributed())
+        .then(|| Bar::start(work.clone(), "tasks", cli.quiet))
+        .flatten();
+    let say = |line: &str| match &bar {
+        Some(b) => b.bar().println(line),
+        None => println!("{line}"),
+    };
+    let res = sweep.run_observed(exec.as_ref(), (!cli.quiet).then_some(&say), Some(&work))?;
+    if let Some(b) = bar {
+        b.finish();
+    }
+    let Some(res) = res else {
         return Ok(());
     };
     print!("{}", occam::jobs::sweep::output::table(&sweep, &res));

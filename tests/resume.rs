@@ -8,61 +8,7 @@ use common::occam;
 use occam::select::{Checkpointing, SelectCheckpoint, run_checkpointed};
 use std::path::Path;
 
-/// The study: its settings and [`common::TWO_EXPERIMENTS`].
-fn small() -> String {
-    format!(
-        "{}{}",
-        r#"
-seed = 8
-output = "out"
-[analysis]
-band = [1e-3, 0.4]
-[fit]
-free = ["a_df", "a_sus", "d21"]
-fixed = { w1sq = -1.3e-6, w2sq = -1.9e-6, dt1 = 0.2, dt2 = 0.2 }
-chains = 2
-iterations = 2000
-burn_in = 500
-[select]
-rj_iterations = 6000
-rj_burn_in = 500
-iterations = 2000
-burn_in = 500
-pt_temperatures = 6
-pt_iterations = 1500
-pt_burn_in = 300
-[[select.model]]
-name = "X"
-free = ["a_df", "a_sus", "d21"]
-fixed = { w1sq = -1.3e-6, w2sq = -1.9e-6, dt1 = 0.2, dt2 = 0.2 }
-[[select.model]]
-name = "Y"
-free = ["a_df", "a_sus"]
-fixed = { w1sq = -1.3e-6, w2sq = -1.9e-6, dt1 = 0.2, dt2 = 0.2, d21 = 0.0 }
-"#,
-        common::TWO_EXPERIMENTS
-    )
-}
-
-/// The summary's numbers: its JSON with every timing field removed.
-fn numbers(v: serde_json::Value) -> serde_json::Value {
-    use serde_json::Value;
-    match v {
-        Value::Object(m) => Value::Object(
-            m.into_iter()
-                .filter(|(k, _)| !(k.starts_with("seconds") || k.ends_with("per_second")))
-                .map(|(k, x)| (k, numbers(x)))
-                .collect(),
-        ),
-        Value::Array(a) => Value::Array(a.into_iter().map(numbers).collect()),
-        x => x,
-    }
-}
-
-fn summary_numbers(dir: &Path) -> serde_json::Value {
-    let text = std::fs::read_to_string(dir.join("summary.json")).unwrap();
-    numbers(serde_json::from_str(&text).unwrap())
-}
+use common::{numbers, small, summary_numbers};
 
 #[test]
 fn select_resumed_after_a_crash_in_the_reversible_jump_stage_equals_an_uninterrupted_run() {

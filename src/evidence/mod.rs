@@ -45,6 +45,7 @@ pub use robust::{McdOptions, MveOptions, RobustCovariance, RobustMethod, mcd, mv
 pub use schwarz::{schwarz_ln_b, schwarz_ln_z};
 pub use tempering::{
     SteppingStoneEstimate, TemperingOptions, TemperingResult, ThermodynamicEstimate, run_tempering,
+    run_tempering_observed,
 };
 
 /// Which estimator produced a number.

@@ -338,6 +338,18 @@ pub fn run_tempering(
     cov: &DMatrix<f64>,
     opts: &TemperingOptions,
 ) -> Result<TemperingResult, EvidenceError> {
+    run_tempering_observed(target, start, cov, opts, &|| {})
+}
+
+/// [`run_tempering`], calling `on_sweep` after every sweep of the ladder (a progress bar's
+/// hook; it cannot change the numbers).
+pub fn run_tempering_observed(
+    target: &dyn LogDensity,
+    start: &[f64],
+    cov: &DMatrix<f64>,
+    opts: &TemperingOptions,
+    on_sweep: &(dyn Fn() + Sync),
+) -> Result<TemperingResult, EvidenceError> {
     validate(opts)?;
     let prior = target.prior();
     let d = target.dim();
@@ -529,6 +541,7 @@ pub fn run_tempering(
                 }
             }
         }
+        on_sweep();
     }
 
     let batch = opts

@@ -8,6 +8,6 @@ mod waveform;
 pub use design::{ExperimentDesign, FORCE_CHANNELS, ladder_freqs};
 pub use simulate::{
     SimError, Simulation, System, TELEMETRY_CHANNELS, delayed_injections, optimal_snr, simulate,
-    stream,
+    simulate_observed, stream,
 };
 pub use waveform::{SineSegment, Waveform};

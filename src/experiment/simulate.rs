@@ -425,6 +425,14 @@ pub fn stream(seed: u64, index: u64) -> Xoshiro256PlusPlus {
 /// noise-only stretch. Experiment `j` draws its fit noise from stream `2j` and its noise-only
 /// stretch from stream `2j + 1` of the study seed.
 pub fn simulate(study: &Study) -> Result<Simulation, SimError> {
+    simulate_observed(study, None)
+}
+
+/// [`simulate`], counting finished experiments into `work` (for a progress bar).
+pub fn simulate_observed(
+    study: &Study,
+    work: Option<&crate::commands::Work>,
+) -> Result<Simulation, SimError> {
     if study.experiments.is_empty() {
         return Err(SimError::Other(
             "study".into(),
@@ -474,7 +482,15 @@ pub fn simulate(study: &Study) -> Result<Simulation, SimError> {
     }
     let mut experiments = Vec::new();
     let mut snr = Vec::new();
+    if let Some(w) = work {
+        w.start(designs.len() as u64);
+    }
     for (j, d) in designs.iter().enumerate() {
+        if let Some(w) = work
+            && j > 0
+        {
+            w.done.store(j as u64, std::sync::atomic::Ordering::Relaxed);
+        }
         snr.push(optimal_snr(&sys, d, opts.snr_band)?);
         let err = |e| SimError::Signal(d.name.clone(), e);
         let n = d.n_samples();

@@ -24,6 +24,12 @@ pub trait Executor: Sync {
 
     /// Number of workers (threads or ranks).
     fn workers(&self) -> usize;
+
+    /// Whether tasks also run in other processes (then this one cannot count them all, and
+    /// draws no progress bar).
+    fn is_distributed(&self) -> bool {
+        false
+    }
 }
 
 /// Tasks on the threads of this process (rayon), `threads` of them (0: rayon's default).

@@ -242,6 +242,10 @@ impl Executor for Mpi {
     fn workers(&self) -> usize {
         self.size as usize * self.threads.workers()
     }
+
+    fn is_distributed(&self) -> bool {
+        self.size > 1
+    }
 }
 
 fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {

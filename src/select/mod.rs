@@ -214,8 +214,38 @@ pub fn run_checkpointed(
     study: &Study,
     prep: &Prepared,
     progress: Option<&mut dyn FnMut(&crate::evidence::RjProgress<'_>)>,
+    ckpt: Option<Checkpointing<'_>>,
+) -> Result<SelectSummary, SelectError> {
+    run_observed(study, prep, progress, None, ckpt)
+}
+
+/// Likelihood evaluations a select run of `study` makes, as [`run_observed`] counts them:
+/// per model its Metropolis–Hastings chains and its tempering ladder (every rung each sweep),
+/// then the reversible-jump iterations.
+pub fn work_units(study: &Study) -> u64 {
+    let s = &study.select;
+    let per_model = s.chains * s.iterations + s.pt_temperatures * s.pt_iterations;
+    (study.select_models.len() * per_model + s.rj_iterations) as u64
+}
+
+/// [`run_checkpointed`], counting its work ([`work_units`]) into `work` as it goes, so that a
+/// progress bar can follow every stage, not only the reversible jump.
+pub fn run_observed(
+    study: &Study,
+    prep: &Prepared,
+    mut progress: Option<&mut dyn FnMut(&crate::evidence::RjProgress<'_>)>,
+    work: Option<&crate::commands::Work>,
     mut ckpt: Option<Checkpointing<'_>>,
 ) -> Result<SelectSummary, SelectError> {
+    use std::sync::atomic::Ordering;
+    if let Some(w) = work {
+        w.start(work_units(study));
+    }
+    let add = |n: usize| {
+        if let Some(w) = work {
+            w.done.fetch_add(n as u64, Ordering::Relaxed);
+        }
+    };
     let t0 = Instant::now();
     let sel = &study.select;
     if study.select_models.len() < 2 {
@@ -261,6 +291,7 @@ pub fn run_checkpointed(
             None => model::run_model(study, exact, m, seed.wrapping_add(k as u64), n_sbic),
         }
         .map_err(err)?;
+        add(sel.chains * sel.iterations);
         if let Some(c) = ckpt.as_mut()
             && c.state.models.len() == k
         {
@@ -268,14 +299,17 @@ pub fn run_checkpointed(
             c.state.write(c.path)?;
         }
         if !tempered {
-            model::temper(study, exact, &mut r).map_err(err)?;
+            model::temper(study, exact, &mut r, &|| add(sel.pt_temperatures)).map_err(err)?;
             if let Some(c) = ckpt.as_mut() {
                 c.state.models[k] = checkpoint::ModelStage::of(&r, true);
                 c.state.write(c.path)?;
             }
+        } else {
+            add(sel.pt_temperatures * sel.pt_iterations);
         }
         runs.push(r);
     }
+    let rj_base = work.map_or(0, |w| w.done.load(Ordering::Relaxed));
     // reversible jump over all models, each on its own sampled likelihood
     let targets: Vec<&dyn LogDensity> = runs
         .iter()
@@ -327,7 +361,16 @@ pub fn run_checkpointed(
         Some(s) => (s.rj, s.note, s.rate),
         None => {
             let t_rj = Instant::now();
-            let (rj, note) = match run_rjmcmc(&rj_models, &opts, progress) {
+            let mut observe = |p: &crate::evidence::RjProgress<'_>| {
+                if let Some(w) = work {
+                    w.done
+                        .store(rj_base + p.iteration as u64, Ordering::Relaxed);
+                }
+                if let Some(f) = progress.as_mut() {
+                    f(p);
+                }
+            };
+            let (rj, note) = match run_rjmcmc(&rj_models, &opts, Some(&mut observe)) {
                 Ok(r) => (Some(r), None),
                 Err(e) => (
                     None,

@@ -12,7 +12,7 @@ use crate::config::{JumpProposal, LikelihoodKind, ModelSpec, SelectModel, Study}
 use crate::density::LogDensity;
 use crate::evidence::{
     LaplaceOptions, McdOptions, MveOptions, RobustMethod, TemperingOptions, laplace_fisher,
-    laplace_metropolis, run_tempering, schwarz_ln_z,
+    laplace_metropolis, run_tempering_observed, schwarz_ln_z,
 };
 use crate::likelihood::{
     Likelihood, RelBinLikelihood, Statistic, fisher_exact, fisher_scoring,
@@ -489,7 +489,13 @@ pub(super) fn run_model(
 /// The parallel-tempering stage of a model (thermodynamic integration and stepping-stone),
 /// run after [`run_model`]: a stage of its own so that a checkpoint can hold a model whose
 /// tempering, the longest part, has not run yet.
-pub(super) fn temper(study: &Study, exact: &Likelihood, run: &mut ModelRun) -> Result<(), String> {
+/// `on_sweep` is called after every sweep of the ladder (for progress).
+pub(super) fn temper(
+    study: &Study,
+    exact: &Likelihood,
+    run: &mut ModelRun,
+    on_sweep: &(dyn Fn() + Sync),
+) -> Result<(), String> {
     let free = &run.spec.free;
     let target: &dyn LogDensity = match &run.sampled {
         Sampled::RelBin(rb) => rb.as_ref(),
@@ -505,6 +511,7 @@ pub(super) fn temper(study: &Study, exact: &Likelihood, run: &mut ModelRun) -> R
         &run.tempering_start,
         &run.jump_cov,
         run.seed,
+        on_sweep,
     );
     run.outcome.thermodynamic = thermodynamic;
     run.outcome.stepping_stone = stepping_stone;
@@ -551,6 +558,7 @@ fn tempering(
     start: &[f64],
     cov: &DMatrix<f64>,
     seed: u64,
+    on_sweep: &(dyn Fn() + Sync),
 ) -> (Evidence, Evidence, Option<TemperingDiagnostics>) {
     let sel = &study.select;
     if sel.pt_temperatures == 0 {
@@ -569,7 +577,7 @@ fn tempering(
         ..Default::default()
     };
     let t0 = std::time::Instant::now();
-    match run_tempering(target, start, cov, &opts) {
+    match run_tempering_observed(target, start, cov, &opts, on_sweep) {
         Ok(r) => {
             let approx_err =
                 exact.map(|e| ladder_approximation_error(&r.betas, &r.rung_samples, target, e));

@@ -38,3 +38,63 @@ post_pad = 1500.0
 noise_duration = 8000.0
 x12 = { kind = "sine", freq = 0.002, amplitude = 1e-6, duration = 500.0 }
 "#;
+
+/// A small two-model select study (with a `[fit]`) on [`TWO_EXPERIMENTS`].
+#[allow(dead_code)]
+pub fn small() -> String {
+    format!(
+        "{}{}",
+        r#"
+seed = 8
+output = "out"
+[analysis]
+band = [1e-3, 0.4]
+[fit]
+free = ["a_df", "a_sus", "d21"]
+fixed = { w1sq = -1.3e-6, w2sq = -1.9e-6, dt1 = 0.2, dt2 = 0.2 }
+chains = 2
+iterations = 2000
+burn_in = 500
+[select]
+rj_iterations = 6000
+rj_burn_in = 500
+iterations = 2000
+burn_in = 500
+pt_temperatures = 6
+pt_iterations = 1500
+pt_burn_in = 300
+[[select.model]]
+name = "X"
+free = ["a_df", "a_sus", "d21"]
+fixed = { w1sq = -1.3e-6, w2sq = -1.9e-6, dt1 = 0.2, dt2 = 0.2 }
+[[select.model]]
+name = "Y"
+free = ["a_df", "a_sus"]
+fixed = { w1sq = -1.3e-6, w2sq = -1.9e-6, dt1 = 0.2, dt2 = 0.2, d21 = 0.0 }
+"#,
+        TWO_EXPERIMENTS
+    )
+}
+
+#[allow(dead_code)]
+/// The summary's numbers: its JSON with every timing field removed.
+pub fn numbers(v: serde_json::Value) -> serde_json::Value {
+    use serde_json::Value;
+    match v {
+        Value::Object(m) => Value::Object(
+            m.into_iter()
+                .filter(|(k, _)| !(k.starts_with("seconds") || k.ends_with("per_second")))
+                .map(|(k, x)| (k, numbers(x)))
+                .collect(),
+        ),
+        Value::Array(a) => Value::Array(a.into_iter().map(numbers).collect()),
+        x => x,
+    }
+}
+
+#[allow(dead_code)]
+/// A run directory's `summary.json` without its timing fields.
+pub fn summary_numbers(dir: &Path) -> serde_json::Value {
+    let text = std::fs::read_to_string(dir.join("summary.json")).unwrap();
+    numbers(serde_json::from_str(&text).unwrap())
+}

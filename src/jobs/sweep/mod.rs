@@ -250,6 +250,18 @@ impl Sweep {
     /// point's statistics. Returns `None` on the processes that are not the root.
     /// `log` prints one line per finished task.
     pub fn run(&self, exec: &dyn Executor, log: bool) -> anyhow::Result<Option<SweepResult>> {
+        let print = |line: &str| println!("{line}");
+        self.run_observed(exec, log.then_some(&print), None)
+    }
+
+    /// [`Sweep::run`], handing its lines (one per finished task) to `log` and counting the
+    /// tasks this process finishes into `work` (its total: the tasks left to compute).
+    pub fn run_observed(
+        &self,
+        exec: &dyn Executor,
+        log: Option<&(dyn Fn(&str) + Sync)>,
+        work: Option<&crate::commands::Work>,
+    ) -> anyhow::Result<Option<SweepResult>> {
         let t0 = Instant::now();
         let n = self.task_count();
         let mut stored: Vec<Option<TaskRecord>> = vec![None; n];
@@ -278,16 +290,21 @@ impl Sweep {
                     todo.push(t);
                 }
             }
-            if log && todo.len() < n {
-                println!(
+            if let Some(log) = log
+                && todo.len() < n
+            {
+                log(&format!(
                     "reusing {} of {n} finished tasks from {}",
                     n - todo.len(),
                     tasks.display()
-                );
+                ));
             }
         }
         let root = exec.is_root();
         let done = AtomicUsize::new(if root { n - todo.len() } else { 0 });
+        if let Some(w) = work {
+            w.start(todo.len() as u64);
+        }
         let task = |t: usize| -> anyhow::Result<Vec<u8>> {
             let ts = Instant::now();
             let rec = self.run_task(t);
@@ -295,7 +312,10 @@ impl Sweep {
             let path = rec.id.path(&self.out);
             crate::atomic::write_bytes(&path, &bytes)
                 .with_context(|| format!("writing {}", path.display()))?;
-            if log {
+            if let Some(w) = work {
+                w.done.fetch_add(1, Ordering::Relaxed);
+            }
+            if let Some(log) = log {
                 let k = done.fetch_add(1, Ordering::Relaxed) + 1;
                 // only the root knows how many tasks were left: other ranks count their own
                 let k = if root {
@@ -314,12 +334,12 @@ impl Sweep {
                         .unwrap_or_default(),
                     (None, e) => format!("failed: {}", e.as_deref().unwrap_or("")),
                 };
-                println!(
+                log(&format!(
                     "[{k}] {} r={}: {what} ({:.1} s)",
                     self.grid.label(t / self.realisations),
                     t % self.realisations,
                     ts.elapsed().as_secs_f64()
-                );
+                ));
             }
             Ok(bytes)
         };
