@@ -169,6 +169,7 @@ class SimulateResult:
         self.dataset = dataset
         self.metadata = metadata
         self.files = files
+        self.log = []
 
     @classmethod
     def read(cls, output):
@@ -194,6 +195,7 @@ class FitResult:
         self.summary = summary
         self.chains = chains
         self.files = files
+        self.log = []
 
     @classmethod
     def read(cls, output):
@@ -235,6 +237,7 @@ class SelectResult:
         self.models = models
         self.rj = rj
         self.files = files
+        self.log = []
 
     @classmethod
     def read(cls, output):

@@ -2,6 +2,7 @@
 //! for Python samplers and the jobs of the command line, sharing the library's code paths.
 //! The Python package (python/occam/) wraps it with documentation and numpy conversions.
 
+mod jobs;
 mod likelihood;
 
 use pyo3::prelude::*;
@@ -24,5 +25,8 @@ fn _occam(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("OccamError", m.py().get_type::<OccamError>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<likelihood::PyLikelihood>()?;
+    m.add_function(wrap_pyfunction!(jobs::simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(jobs::fit, m)?)?;
+    m.add_function(wrap_pyfunction!(jobs::select, m)?)?;
     Ok(())
 }
