@@ -85,10 +85,10 @@ class Chains:
 
     def to_arviz(self, attrs=None):
         """``arviz.InferenceData``: posterior with one variable per parameter, dims
-        ``(chain, draw)``; sample_stats ``lp`` (ln posterior), ``log_likelihood`` (ln L) and
+        ``(chain, draw)``; sample_stats ``lp`` (ln posterior), ``ln_likelihood`` (ln L) and
         ``accepted`` (when stored)."""
         posterior = {n: self.samples[:, :, i] for i, n in enumerate(self.param_names)}
-        stats = {"lp": self.ln_posterior, "log_likelihood": self.ln_likelihood}
+        stats = {"lp": self.ln_posterior, "ln_likelihood": self.ln_likelihood}
         if self.accepted is not None:
             stats["accepted"] = self.accepted.astype(bool)
         return _az_from_dict(posterior=posterior, sample_stats=stats, attrs=attrs or {})
@@ -141,7 +141,7 @@ class RjChain:
         """``arviz.InferenceData`` of the model-index chain: posterior ``model_index`` and, per
         model, ``is_<model>`` (1.0 in that model, else 0.0: its mean is the model's
         posterior probability from the visits, with ArviZ's ESS and MCSE); sample_stats
-        ``log_likelihood``. The parameters (NaN outside their models) stay in ``samples``."""
+        ``ln_likelihood``. The parameters (NaN outside their models) stay in ``samples``."""
         posterior = {"model_index": self.model_index}
         for k, n in enumerate(self.model_names):
             posterior[f"is_{n}"] = (self.model_index == k).astype(np.float64)
@@ -149,7 +149,7 @@ class RjChain:
         a["model_names"] = list(self.model_names)
         a["thin"] = self.thin
         return _az_from_dict(
-            posterior=posterior, sample_stats={"log_likelihood": self.ln_likelihood}, attrs=a
+            posterior=posterior, sample_stats={"ln_likelihood": self.ln_likelihood}, attrs=a
         )
 
     def __repr__(self):
