@@ -1,6 +1,7 @@
 """`occam.Likelihood`: a study's likelihood for samplers written in Python."""
 
 import os
+from statistics import NormalDist
 
 import numpy as np
 
@@ -27,13 +28,14 @@ class Likelihood:
     count). Wrong shapes and non-finite values raise ``ValueError``.
     """
 
-    __slots__ = ("_native",)
+    __slots__ = ("_native", "_args")
 
-    def __init__(self, native):
+    def __init__(self, native, args=None):
         """Use `Likelihood.from_study`."""
         if not isinstance(native, _occam._Likelihood):
             raise TypeError("use occam.Likelihood.from_study(path, model=None)")
         self._native = native
+        self._args = args
 
     @classmethod
     def from_study(cls, path, model=None):
@@ -44,7 +46,14 @@ class Likelihood:
         the command line's message for a study that cannot be read or data that cannot be
         prepared.
         """
-        return cls(_occam._Likelihood.from_study(os.fspath(path), model))
+        native = _occam._Likelihood.from_study(os.fspath(path), model)
+        return cls(native, (os.path.abspath(os.fspath(path)), model))
+
+    def __reduce__(self):
+        # a pickled likelihood is rebuilt from its study in the receiving process (the data
+        # are simulated again from the same seed, or read again): what a multiprocessing pool
+        # of emcee or dynesty needs
+        return (type(self).from_study, self._args)
 
     def ln_likelihood(self, theta):
         """``ln L(θ)`` (natural log, the study's ``[analysis] statistic``)."""
@@ -66,6 +75,36 @@ class Likelihood:
         command line's MAP search uses.
         """
         return self._native.fisher(_points(theta))
+
+    def prior_transform(self, u):
+        """Maps the unit cube to the prior (nested samplers: dynesty, nautilus, UltraNest).
+
+        ``u`` in ``[0, 1]``, one point (1-D) or one row per point (2-D): each coordinate
+        through its prior's inverse CDF (uniform ``lo + u (hi − lo)``, log-uniform
+        ``lo (hi/lo)^u``, Gaussian ``mu + sigma Φ⁻¹(u)``).
+        """
+        u = np.array(u, dtype=np.float64)
+        if u.ndim not in (1, 2) or u.shape[-1] != self.ndim:
+            raise ValueError(
+                f"u must have shape ({self.ndim},) or (n, {self.ndim}); got {u.shape}"
+            )
+        if not np.all((u >= 0) & (u <= 1)):
+            raise ValueError("u must lie in [0, 1] (and not be NaN)")
+        out = np.empty_like(u)
+        for k, p in enumerate(self.priors):
+            x = u[..., k]
+            if p["kind"] == "uniform":
+                out[..., k] = p["lo"] + x * (p["hi"] - p["lo"])
+            elif p["kind"] == "log_uniform":
+                out[..., k] = p["lo"] * (p["hi"] / p["lo"]) ** x
+            else:
+                inv = NormalDist(p["mu"], p["sigma"]).inv_cdf
+                # Φ⁻¹(0) and Φ⁻¹(1) are ∓∞
+                out[..., k] = np.vectorize(
+                    lambda v: -np.inf if v == 0 else np.inf if v == 1 else inv(v),
+                    otypes=[np.float64],
+                )(x)
+        return out
 
     @property
     def param_names(self):

@@ -1,6 +1,7 @@
 """occam.Likelihood against the command line's own numbers, and its handling of bad input."""
 
 import json
+from statistics import NormalDist
 
 import numpy as np
 import pytest
@@ -142,3 +143,48 @@ def test_repr_names_the_model(lik):
     r = repr(lik)
     assert r.startswith("occam.Likelihood(study=") and "model='ltp'" in r and "n_bins=" in r
     assert lik.n_bins > 0 and lik.statistic == "whittle" and lik.parent_model == "ltp"
+
+
+def test_pickles_by_rebuilding_from_the_study(lik):
+    import pickle
+
+    again = pickle.loads(pickle.dumps(lik))
+    assert again.param_names == lik.param_names and again.model == lik.model
+    assert again.ln_likelihood(lik.reference) == lik.ln_likelihood(lik.reference)
+    sel = occam.Likelihood.from_study(SMALL, model="full")
+    assert pickle.loads(pickle.dumps(sel)).param_names == sel.param_names
+
+
+def test_prior_transform_of_each_kind(tmp_path):
+    study = tmp_path / "priors.toml"
+    study.write_text(
+        SMALL.read_text().replace(
+            "[analysis]\n",
+            '[prior]\nw1sq = { kind = "gaussian", mu = -1.3e-6, sigma = 1e-7 }\n'
+            'a_df = { kind = "log_uniform", lo = 0.5, hi = 2.0 }\n\n[analysis]\n',
+            1,
+        )
+    )
+    lik = occam.Likelihood.from_study(study)
+    assert [p["kind"] for p in lik.priors] == ["gaussian", "uniform", "log_uniform", "uniform", "uniform"]
+    b = lik.prior_bounds
+    assert b[0, 0] == -np.inf and b[0, 1] == np.inf and list(b[2]) == [0.5, 2.0]
+    phi1 = 0.8413447460685429  # Φ(1)
+    x = lik.prior_transform([phi1, 0.25, 0.5, 0.0, 1.0])
+    np.testing.assert_allclose(x, [-1.2e-6, -2.5e-6, 1.0, 0.5, 1e-3], rtol=1e-9)
+    many = lik.prior_transform(np.array([[0.5, 0.5, 0.0, 0.5, 0.5], [0.0, 1.0, 1.0, 0.5, 0.5]]))
+    assert many[0, 0] == -1.3e-6 and many[1, 0] == -np.inf and many[1, 2] == 2.0
+    # the transform's image has the prior's density: ln π of log-uniform at 1 is −ln ln 4
+    lp = lik.ln_prior(x)
+    want = (
+        np.log(NormalDist(-1.3e-6, 1e-7).pdf(-1.2e-6))
+        - np.log(1e-5)  # w2sq: uniform box of width 1e-5
+        - np.log(np.log(4.0))  # a_df: log-uniform on [0.5, 2] at 1
+        - np.log(1.0)  # a_sus: [0.5, 1.5]
+        - np.log(2e-3)  # d21: [-1e-3, 1e-3]
+    )
+    assert lp == pytest.approx(want, rel=1e-12)
+    with pytest.raises(ValueError, match=r"u must lie in \[0, 1\]"):
+        lik.prior_transform([1.5, 0.5, 0.5, 0.5, 0.5])
+    with pytest.raises(ValueError, match=r"u must have shape \(5,\)"):
+        lik.prior_transform([0.5])
