@@ -284,6 +284,11 @@ fn corpus() -> Vec<(&'static str, String, &'static str)> {
             "experiment[0].x12",
         ),
         (
+            "a key beside kind = none (silently ignored before)",
+            s("", "", "x12 = { kind = \"none\", amplitude = 1e-6 }"),
+            "amplitude",
+        ),
+        (
             "huge oversampling",
             s("", "[simulation]\nmethod = \"time\"\noversample = 1000", ""),
             "simulation.oversample",

@@ -31,6 +31,8 @@ use crate::prior::PriorKind;
 
 pub mod budget;
 mod models;
+#[cfg(test)]
+mod reference;
 mod sweep;
 pub use models::{BUILTIN_LTP, LtpModelEntry, ModelDef, ModelEntry, ModelSet, ModelSpec};
 use serde::{Deserialize, Serialize};
@@ -285,7 +287,9 @@ impl Default for SimulationOptions {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum InjectionEntry {
-    None,
+    /// No injection. A struct variant, not a unit one: serde lets a unit variant of a tagged
+    /// enum ignore every other key, so `{ kind = "none", amplitude = 1e-6 }` was accepted.
+    None {},
     SineTrain {
         segments: Vec<SineSegment>,
         #[serde(default)]
@@ -1485,7 +1489,7 @@ fn to_waveform(
     field: &str,
 ) -> Result<Waveform, ConfigError> {
     Ok(match e {
-        InjectionEntry::None => Waveform::None,
+        InjectionEntry::None {} => Waveform::None,
         InjectionEntry::SineTrain { segments, gap } => Waveform::SineTrain {
             segments: segments.clone(),
             gap: *gap,
