@@ -1,0 +1,281 @@
+"""Result objects of `occam.simulate`, `occam.fit` and `occam.select`: the run directory read
+back into numpy arrays and dicts (readable again later with ``FitResult.read(dir)`` etc.)."""
+
+import json
+import os
+from pathlib import Path
+
+import numpy as np
+
+
+def _load_npz(path):
+    """Every array of an ``.npz`` (no pickles: occam writes none)."""
+    with np.load(path, allow_pickle=False) as z:
+        return {k: z[k] for k in z.files}
+
+
+def _read_json(path):
+    with open(path, encoding="utf-8") as f:
+        return json.load(f)
+
+
+def _files(output):
+    """The files the run published (``manifest.json``), or ``[]`` for an older directory."""
+    m = Path(output) / "manifest.json"
+    if not m.exists():
+        return []
+    files = _read_json(m).get("files", [])
+    return [f["name"] if isinstance(f, dict) else f for f in files]
+
+
+def _az_from_dict(**groups):
+    """``arviz.from_dict`` across its two signatures (keyword groups before arviz 1.0, one
+    dict of groups after)."""
+    import inspect
+
+    import arviz as az
+
+    attrs = groups.pop("attrs", None)
+    if "posterior" in inspect.signature(az.from_dict).parameters:
+        return az.from_dict(**groups, attrs=attrs)
+    return az.from_dict(groups, attrs=attrs)
+
+
+class Chains:
+    """Metropolis–Hastings chains as ``chains.npz`` stores them (kept draws only).
+
+    ``samples`` ``[chains, draws, params]``, ``ln_posterior`` and ``ln_likelihood``
+    ``[chains, draws]``, ``param_names`` (list), ``accepted`` ``[chains, draws]`` bool (whether
+    the state moved at that draw; ``None`` for files written before occam stored it).
+    """
+
+    def __init__(self, samples, ln_posterior, ln_likelihood, param_names, accepted=None):
+        self.samples = samples
+        self.ln_posterior = ln_posterior
+        self.ln_likelihood = ln_likelihood
+        self.param_names = list(param_names)
+        self.accepted = accepted
+
+    @classmethod
+    def read(cls, path, param_names=None):
+        """Reads a ``chains.npz``; ``param_names`` is needed only for files without names."""
+        z = _load_npz(path)
+        for k in ("samples", "ln_posterior", "ln_likelihood"):
+            if k not in z:
+                raise ValueError(f"{path}: no array `{k}`: not a chains file of occam")
+        names = [str(n) for n in z["param_names"]] if "param_names" in z else param_names
+        if names is None:
+            raise ValueError(
+                f"{path}: the file has no `param_names` (written before occam stored them); "
+                "pass param_names"
+            )
+        if len(names) != z["samples"].shape[-1]:
+            raise ValueError(
+                f"{path}: {len(names)} parameter names for {z['samples'].shape[-1]} columns"
+            )
+        return cls(z["samples"], z["ln_posterior"], z["ln_likelihood"], names, z.get("accepted"))
+
+    @property
+    def n_chains(self):
+        return self.samples.shape[0]
+
+    @property
+    def n_draws(self):
+        return self.samples.shape[1]
+
+    def to_arviz(self, attrs=None):
+        """``arviz.InferenceData``: posterior with one variable per parameter, dims
+        ``(chain, draw)``; sample_stats ``lp`` (ln posterior), ``ln_likelihood`` (ln L) and
+        ``accepted`` (when stored)."""
+        posterior = {n: self.samples[:, :, i] for i, n in enumerate(self.param_names)}
+        stats = {"lp": self.ln_posterior, "ln_likelihood": self.ln_likelihood}
+        if self.accepted is not None:
+            stats["accepted"] = self.accepted.astype(bool)
+        return _az_from_dict(posterior=posterior, sample_stats=stats, attrs=attrs or {})
+
+    def __repr__(self):
+        return (
+            f"occam.Chains({self.n_chains} chains × {self.n_draws} draws, "
+            f"params={self.param_names!r})"
+        )
+
+
+class RjChain:
+    """The reversible-jump chain of ``select`` (``rj_chain.npz``), post burn-in.
+
+    ``model_index`` ``[chains, draws]`` (into ``model_names``), ``samples``
+    ``[chains, draws, params]`` over ``param_names`` (the union of the models' parameters; NaN
+    where the current model has no such parameter), ``ln_likelihood`` ``[chains, draws]``,
+    ``thin`` (every ``thin``-th iteration is stored).
+    """
+
+    def __init__(self, model_index, model_names, param_names, samples, ln_likelihood, thin):
+        self.model_index = model_index
+        self.model_names = list(model_names)
+        self.param_names = list(param_names)
+        self.samples = samples
+        self.ln_likelihood = ln_likelihood
+        self.thin = thin
+
+    @classmethod
+    def read(cls, path):
+        z = _load_npz(path)
+        for k in ("model_index", "model_names", "param_names", "samples", "ln_likelihood"):
+            if k not in z:
+                raise ValueError(f"{path}: no array `{k}`: not an RJ chain file of occam")
+        thin = int(np.asarray(z["thin"]).reshape(-1)[0]) if "thin" in z else 1
+        return cls(
+            z["model_index"],
+            [str(n) for n in z["model_names"]],
+            [str(n) for n in z["param_names"]],
+            z["samples"],
+            z["ln_likelihood"],
+            thin,
+        )
+
+    def visits(self):
+        """Stored draws per model (× ``thin`` ≈ the iterations ``summary.json`` counts)."""
+        return np.bincount(self.model_index.reshape(-1), minlength=len(self.model_names))
+
+    def to_arviz(self, attrs=None):
+        """``arviz.InferenceData`` of the model-index chain: posterior ``model_index`` and, per
+        model, ``is_<model>`` (1.0 in that model, else 0.0: its mean is the model's
+        posterior probability from the visits, with ArviZ's ESS and MCSE); sample_stats
+        ``ln_likelihood``. The parameters (NaN outside their models) stay in ``samples``."""
+        posterior = {"model_index": self.model_index}
+        for k, n in enumerate(self.model_names):
+            posterior[f"is_{n}"] = (self.model_index == k).astype(np.float64)
+        a = dict(attrs or {})
+        a["model_names"] = list(self.model_names)
+        a["thin"] = self.thin
+        return _az_from_dict(
+            posterior=posterior, sample_stats={"ln_likelihood": self.ln_likelihood}, attrs=a
+        )
+
+    def __repr__(self):
+        return (
+            f"occam.RjChain({self.model_index.shape[0]} chains × {self.model_index.shape[1]} "
+            f"draws, models={self.model_names!r}, thin={self.thin})"
+        )
+
+
+class SimulateResult:
+    """What ``occam.simulate`` wrote: ``output`` (the directory), ``dataset`` (the arrays of
+    ``dataset.npz`` by name: ``<experiment>.o1``, …, ``truth``), ``metadata``
+    (``dataset.json``), ``files`` (the published files)."""
+
+    def __init__(self, output, dataset, metadata, files):
+        self.output = Path(output)
+        self.dataset = dataset
+        self.metadata = metadata
+        self.files = files
+        self.log = []
+
+    @classmethod
+    def read(cls, output):
+        out = Path(os.fspath(output))
+        return cls(
+            out,
+            _load_npz(out / "dataset.npz"),
+            _read_json(out / "dataset.json"),
+            _files(out),
+        )
+
+    def __repr__(self):
+        return f"occam.SimulateResult(output={str(self.output)!r})"
+
+
+class FitResult:
+    """What ``occam.fit`` wrote: ``summary`` (``summary.json`` as a dict), ``output``, the
+    chains (``samples``, ``ln_posterior``, ``ln_likelihood``, ``param_names``, ``accepted``;
+    also as ``chains``), ``files``."""
+
+    def __init__(self, output, summary, chains, files):
+        self.output = Path(output)
+        self.summary = summary
+        self.chains = chains
+        self.files = files
+        self.log = []
+
+    @classmethod
+    def read(cls, output):
+        """Reads a fit run directory."""
+        out = Path(os.fspath(output))
+        summary = _read_json(out / "summary.json")
+        names = [r["name"] for r in summary.get("rows", [])]
+        return cls(out, summary, Chains.read(out / "chains.npz", names), _files(out))
+
+    samples = property(lambda self: self.chains.samples)
+    ln_posterior = property(lambda self: self.chains.ln_posterior)
+    ln_likelihood = property(lambda self: self.chains.ln_likelihood)
+    param_names = property(lambda self: self.chains.param_names)
+    accepted = property(lambda self: self.chains.accepted)
+
+    def to_arviz(self):
+        """``arviz.InferenceData`` of the chains (see ``Chains.to_arviz``); ``attrs`` hold the
+        model, the statistic and the likelihood the chains ran on."""
+        s = self.summary
+        attrs = {k: s[k] for k in ("model", "statistic", "likelihood") if k in s}
+        attrs["occam_output"] = str(self.output)
+        return self.chains.to_arviz(attrs)
+
+    def __repr__(self):
+        return (
+            f"occam.FitResult(output={str(self.output)!r}, model={self.summary.get('model')!r}, "
+            f"{self.chains!r})"
+        )
+
+
+class SelectResult:
+    """What ``occam.select`` wrote: ``summary`` (``summary.json``), ``output``, ``models``
+    (dict model name → ``Chains``: each model's in-model chains, ``chains_<model>.npz``), ``rj``
+    (``RjChain``, ``None`` when the reversible-jump run did not run), ``files``."""
+
+    def __init__(self, output, summary, models, rj, files):
+        self.output = Path(output)
+        self.summary = summary
+        self.models = models
+        self.rj = rj
+        self.files = files
+        self.log = []
+
+    @classmethod
+    def read(cls, output):
+        """Reads a select run directory."""
+        out = Path(os.fspath(output))
+        summary = _read_json(out / "summary.json")
+        models = {}
+        for m in summary.get("models", []):
+            p = out / f"chains_{m['name']}.npz"
+            if p.exists():
+                models[m["name"]] = Chains.read(p, m.get("free"))
+        rj = RjChain.read(out / "rj_chain.npz") if (out / "rj_chain.npz").exists() else None
+        return cls(out, summary, models, rj, _files(out))
+
+    @property
+    def model_names(self):
+        return [m["name"] for m in self.summary.get("models", [])]
+
+    def to_arviz(self, model=None):
+        """``arviz.InferenceData``: ``model=None`` gives the reversible-jump chain
+        (``RjChain.to_arviz``: ``model_index`` and ``is_<model>``); a model name gives that
+        model's in-model chains (``Chains.to_arviz``)."""
+        if model is None:
+            if self.rj is None:
+                raise ValueError(
+                    f"{self.output}: no reversible-jump chain (rj_chain.npz): "
+                    f"{self.summary.get('rj_note') or 'not written by this occam version'}"
+                )
+            return self.rj.to_arviz({"occam_output": str(self.output)})
+        if model not in self.models:
+            raise ValueError(
+                f"{self.output}: no chains of model `{model}`; the models with chains are "
+                f"{list(self.models)}"
+            )
+        return self.models[model].to_arviz({"model": model, "occam_output": str(self.output)})
+
+    def __repr__(self):
+        return (
+            f"occam.SelectResult(output={str(self.output)!r}, models={self.model_names!r}, "
+            f"rj={'yes' if self.rj is not None else 'no'})"
+        )
