@@ -117,8 +117,10 @@ pub fn fit(
         }
     };
     let outcome = crate::fit::run(study, &prep, out, Some(&observer), resume)?;
-    crate::fit::write_outputs(&outcome, &run.staging()?)?;
-    crate::config::write_resolved(study, &run.staging()?)?;
+    // one staging directory: asking for it again starts it afresh
+    let staged = run.staging()?;
+    crate::fit::write_outputs(&outcome, &staged)?;
+    crate::config::write_resolved(study, &staged)?;
     let written = run.publish("fit", crate::fit::LEGACY_OUTPUTS)?;
     Ok(Fitted {
         outcome,
@@ -182,8 +184,10 @@ pub fn select(
         state,
     };
     let summary = crate::select::run_observed(study, &prep, on_rj, work, Some(ckpt))?;
-    crate::select::write_outputs(&summary, &run.staging()?)?;
-    crate::config::write_resolved(study, &run.staging()?)?;
+    // one staging directory: asking for it again starts it afresh
+    let staged = run.staging()?;
+    crate::select::write_outputs(&summary, &staged)?;
+    crate::config::write_resolved(study, &staged)?;
     let written = run.publish("select", crate::select::LEGACY_OUTPUTS)?;
     Ok(Selected { summary, written })
 }
