@@ -482,17 +482,35 @@ pub fn chains_arrays(chains: &Chains) -> Vec<crate::data::npz_write::NpyArray> {
     use crate::data::npz_write::{NpyArray, NpyData};
     let (m, n, d) = (chains.chains().len(), chains.n_kept(), chains.dim());
     let cat = |f: &dyn Fn(&crate::sampler::Chain) -> &[f64]| -> Vec<f64> {
-        chains.chains().iter().flat_map(|c| f(c).iter().copied()).collect()
+        chains
+            .chains()
+            .iter()
+            .flat_map(|c| f(c).iter().copied())
+            .collect()
     };
     vec![
         NpyArray::new("samples", &[m, n, d], NpyData::F64(cat(&|c| &c.samples))),
-        NpyArray::new("ln_posterior", &[m, n], NpyData::F64(cat(&|c| &c.ln_posterior))),
-        NpyArray::new("ln_likelihood", &[m, n], NpyData::F64(cat(&|c| &c.ln_likelihood))),
+        NpyArray::new(
+            "ln_posterior",
+            &[m, n],
+            NpyData::F64(cat(&|c| &c.ln_posterior)),
+        ),
+        NpyArray::new(
+            "ln_likelihood",
+            &[m, n],
+            NpyData::F64(cat(&|c| &c.ln_likelihood)),
+        ),
         NpyArray::new("param_names", &[d], NpyData::Str(chains.names().to_vec())),
         NpyArray::new(
             "accepted",
             &[m, n],
-            NpyData::Bool(chains.chains().iter().flat_map(|c| c.accepted.iter().copied()).collect()),
+            NpyData::Bool(
+                chains
+                    .chains()
+                    .iter()
+                    .flat_map(|c| c.accepted.iter().copied())
+                    .collect(),
+            ),
         ),
     ]
 }

@@ -41,8 +41,8 @@ pub use bars::model_histogram;
 pub use corner::corner_plot;
 pub use format::{fmt_pm, fmt_sig, kass_raftery, kass_raftery_named};
 pub use lines::{LinePlot, bayes_factor_evolution, line_plot};
-pub use running::{RunningSeries, running_bayes_factor};
 pub use numbers::{fmt_bayes_factor, fmt_fixed, fmt_roundtrip, fmt_short, fmt_short_sig};
+pub use running::{RunningSeries, running_bayes_factor};
 pub use table::Table;
 pub use trace::trace_plot;
 

@@ -123,12 +123,19 @@ mod tests {
             series("visit ratio (Y never visited)", vec![(1.0, None)]),
             series(
                 "bridge",
-                vec![(1.0, Some((1.0, f64::NAN))), (2.0, Some((1.5, 0.2))), (3.0, None)],
+                vec![
+                    (1.0, Some((1.0, f64::NAN))),
+                    (2.0, Some((1.5, 0.2))),
+                    (3.0, None),
+                ],
             ),
         ];
         assert!(running_bayes_factor(dir.path(), "bf", "t", &s).unwrap());
         let svg = std::fs::read_to_string(dir.path().join("bf.svg")).unwrap();
-        assert!(svg.contains("never visited"), "the legend names the absent curve");
+        assert!(
+            svg.contains("never visited"),
+            "the legend names the absent curve"
+        );
         // a band of σ NaN is drawn as a point (zero width), not refused
         let b = s[1].band();
         assert_eq!((b.lo[0], b.hi[0]), (1.0, 1.0));

@@ -318,6 +318,31 @@ mod tests {
     }
 
     #[test]
+    fn backfilled_flags_follow_the_moves() {
+        // 4 draws of 2 parameters: moves into draws 2 and 3, not 1
+        let s = [0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 2.0];
+        assert_eq!(backfill_accepted(&s, 2, 2), [false, false, true, true]);
+        // one more acceptance than the later moves: the first draw's
+        assert_eq!(backfill_accepted(&s, 2, 3), [true, false, true, true]);
+        assert!(backfill_accepted(&[], 2, 5).is_empty());
+        assert_eq!(backfill_accepted(&[1.0], 1, 0), [false]);
+        // a serialisation without flags gets them on reading
+        let names = vec!["a".to_string()];
+        let mut c = chain(3, 1, 0.0);
+        c.accepted.clear();
+        c.counts.sampling.accepted = 3;
+        let json = serde_json::to_string(&Chains {
+            names: names.clone(),
+            chains: vec![c],
+        })
+        .unwrap()
+        .replace(",\"accepted\":[]", "");
+        assert!(!json.contains("\"accepted\":["));
+        let back: Chains = serde_json::from_str(&json).unwrap();
+        assert_eq!(back.chains()[0].accepted, [true, true, true]);
+    }
+
+    #[test]
     fn shapes_are_checked_on_construction_and_deserialisation() {
         let names = vec!["a".to_string(), "b".to_string()];
         let ok = Chains::new(names.clone(), vec![chain(3, 2, 0.0), chain(3, 2, 0.5)]).unwrap();

@@ -125,10 +125,18 @@ pub fn rj_chain_arrays(d: &crate::evidence::RjDraws) -> Vec<crate::data::npz_wri
     let (c, n, p) = (d.n_chains, d.n_draws, d.param_names.len());
     vec![
         NpyArray::new("model_index", &[c, n], NpyData::I64(d.model_index.clone())),
-        NpyArray::new("model_names", &[d.model_names.len()], NpyData::Str(d.model_names.clone())),
+        NpyArray::new(
+            "model_names",
+            &[d.model_names.len()],
+            NpyData::Str(d.model_names.clone()),
+        ),
         NpyArray::new("param_names", &[p], NpyData::Str(d.param_names.clone())),
         NpyArray::new("samples", &[c, n, p], NpyData::F64(d.samples.clone())),
-        NpyArray::new("ln_likelihood", &[c, n], NpyData::F64(d.ln_likelihood.clone())),
+        NpyArray::new(
+            "ln_likelihood",
+            &[c, n],
+            NpyData::F64(d.ln_likelihood.clone()),
+        ),
         NpyArray::new("thin", &[], NpyData::I64(vec![d.thin as i64])),
     ]
 }
@@ -170,7 +178,10 @@ pub fn fig2(rj: &crate::evidence::RjResult) -> Vec<Fig2> {
         let visit_name = if unvisited.is_empty() {
             "visit ratio".to_string()
         } else {
-            format!("visit ratio (absent: {} never visited)", unvisited.join(", "))
+            format!(
+                "visit ratio (absent: {} never visited)",
+                unvisited.join(", ")
+            )
         };
         let series = vec![
             RunningSeries {
@@ -284,6 +295,7 @@ mod tests {
             seconds: 0.0,
             warnings: vec![],
             residual_psd: vec![],
+            model_chains: vec![],
         };
         let t = table(&s).to_text();
         let cells = |m: &str| -> Vec<String> {

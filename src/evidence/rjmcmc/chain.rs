@@ -464,8 +464,7 @@ impl Chain {
             if let Some(cols) = &sh.columns {
                 self.draw_model.push(k as i64);
                 let row = self.draw_theta.len();
-                self.draw_theta
-                    .resize(row + sh.n_columns, f64::NAN);
+                self.draw_theta.resize(row + sh.n_columns, f64::NAN);
                 for (&c, &x) in cols[k].iter().zip(&self.cur) {
                     self.draw_theta[row + c] = x;
                 }

@@ -1,7 +1,9 @@
 //! Bayes-factor estimators from the chains' streaming sums, and their errors.
 
 use super::chain::{Chain, Layout, Sums};
-use super::{EvidenceError, LnB, MAX_RUNNING_POINTS, Method, RjPair, RjRunningPair, RjRunningPoint};
+use super::{
+    EvidenceError, LnB, MAX_RUNNING_POINTS, Method, RjPair, RjRunningPair, RjRunningPoint,
+};
 
 /// `ln(eᵃ + eᵇ)`, exact for `−∞` arguments.
 #[inline]
@@ -412,7 +414,11 @@ pub(super) fn running_points(
             }
             added += 1;
         }
-        if b * n_chains < 2 || out.last().is_some_and(|p: &RjRunningPoint| p.iteration == at(b)) {
+        if b * n_chains < 2
+            || out
+                .last()
+                .is_some_and(|p: &RjRunningPoint| p.iteration == at(b))
+        {
             continue;
         }
         let pool = Pool {

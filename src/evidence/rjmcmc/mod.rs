@@ -801,9 +801,18 @@ pub fn run_rjmcmc(
         n_chains,
         n_draws: n_post,
         thin: 1,
-        model_index: chains.iter().flat_map(|c| c.draw_model.iter().copied()).collect(),
-        samples: chains.iter().flat_map(|c| c.draw_theta.iter().copied()).collect(),
-        ln_likelihood: chains.iter().flat_map(|c| c.draw_ln_l.iter().copied()).collect(),
+        model_index: chains
+            .iter()
+            .flat_map(|c| c.draw_model.iter().copied())
+            .collect(),
+        samples: chains
+            .iter()
+            .flat_map(|c| c.draw_theta.iter().copied())
+            .collect(),
+        ln_likelihood: chains
+            .iter()
+            .flat_map(|c| c.draw_ln_l.iter().copied())
+            .collect(),
     });
     Ok(RjResult {
         model_names: models.iter().map(|m| m.name.clone()).collect(),
