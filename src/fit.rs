@@ -9,8 +9,6 @@ use crate::nested::SubModel;
 use crate::report::{Table, fmt_fixed, fmt_pm, fmt_short, fmt_sig};
 use crate::sampler::{Adapt, Chains, MetropolisHastings, MhSettings, Progress, RunOutcome, Start};
 use nalgebra::DMatrix;
-use ndarray::Array;
-use ndarray_npy::NpzWriter;
 use serde::Serialize;
 use std::path::Path;
 use std::time::Instant;
@@ -472,42 +470,51 @@ pub fn write_outputs(o: &FitOutcome, out: &Path) -> Result<(), FitError> {
     Ok(())
 }
 
-/// Chains as `.npz`: `samples` (chains × kept × parameters), `ln_posterior` and
-/// `ln_likelihood` (chains × kept); parameter names are in `summary.json`.
+/// Writes a run's chains as `chains.npz` (see [`chains_arrays`]), atomically.
 pub fn write_chains_npz(chains: &Chains, path: &Path) -> Result<(), FitError> {
-    let m = chains.chains().len();
-    let n = chains.n_kept();
-    let d = chains.dim();
-    let flat: Vec<f64> = chains
-        .chains()
-        .iter()
-        .flat_map(|c| c.samples.iter().copied())
-        .collect();
-    let lp: Vec<f64> = chains
-        .chains()
-        .iter()
-        .flat_map(|c| c.ln_posterior.iter().copied())
-        .collect();
-    let ll: Vec<f64> = chains
-        .chains()
-        .iter()
-        .flat_map(|c| c.ln_likelihood.iter().copied())
-        .collect();
-    crate::atomic::write_with(path, |w| {
-        let to_io = |e: ndarray_npy::WriteNpzError| std::io::Error::other(e.to_string());
-        let mut z = NpzWriter::new(w);
-        let shape =
-            |v: Vec<f64>, s: &[usize]| Array::from_shape_vec(s.to_vec(), v).expect("shape matches");
-        z.add_array("samples", &shape(flat, &[m, n, d]))
-            .map_err(to_io)?;
-        z.add_array("ln_posterior", &shape(lp, &[m, n]))
-            .map_err(to_io)?;
-        z.add_array("ln_likelihood", &shape(ll, &[m, n]))
-            .map_err(to_io)?;
-        z.finish().map_err(to_io)?;
-        Ok(())
-    })
-    .map_err(|e| FitError::Other(format!("{}: {e}", path.display())))
+    crate::data::npz_write::write_npz_file(path, &chains_arrays(chains))
+        .map_err(|e| FitError::Other(format!("{}: {e}", path.display())))
+}
+
+/// The arrays of a `chains.npz`: `samples` (chains × kept × parameters), `ln_posterior` and
+/// `ln_likelihood` (chains × kept), `param_names` (parameters; the order of the last axis of
+/// `samples`) and `accepted` (chains × kept: a proposal was accepted since the previous kept
+/// draw — with `thin` = 1 exactly this draw's proposal, with thinning "the state moved").
+pub fn chains_arrays(chains: &Chains) -> Vec<crate::data::npz_write::NpyArray> {
+    use crate::data::npz_write::{NpyArray, NpyData};
+    let (m, n, d) = (chains.chains().len(), chains.n_kept(), chains.dim());
+    let cat = |f: &dyn Fn(&crate::sampler::Chain) -> &[f64]| -> Vec<f64> {
+        chains
+            .chains()
+            .iter()
+            .flat_map(|c| f(c).iter().copied())
+            .collect()
+    };
+    vec![
+        NpyArray::new("samples", &[m, n, d], NpyData::F64(cat(&|c| &c.samples))),
+        NpyArray::new(
+            "ln_posterior",
+            &[m, n],
+            NpyData::F64(cat(&|c| &c.ln_posterior)),
+        ),
+        NpyArray::new(
+            "ln_likelihood",
+            &[m, n],
+            NpyData::F64(cat(&|c| &c.ln_likelihood)),
+        ),
+        NpyArray::new("param_names", &[d], NpyData::Str(chains.names().to_vec())),
+        NpyArray::new(
+            "accepted",
+            &[m, n],
+            NpyData::Bool(
+                chains
+                    .chains()
+                    .iter()
+                    .flat_map(|c| c.accepted.iter().copied())
+                    .collect(),
+            ),
+        ),
+    ]
 }
 
 #[cfg(test)]

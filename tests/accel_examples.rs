@@ -78,6 +78,42 @@ fn asymmetry_family_picks_the_symmetric_model_then_the_asymmetric_one() {
     let visits = &sym.rj.as_ref().unwrap().visits;
     eprintln!("symmetric actuators: visits {visits:?}");
     assert_eq!(winner(&sym), "sym");
+    // the files of a many-model run: one Fig. 2 per pair (or a warning saying why not), each
+    // model's chains, the jump chain over the union of the parameters
+    let dir = tempfile::tempdir().unwrap();
+    occam::select::write_outputs(&sym, dir.path()).unwrap();
+    assert!(!dir.path().join("bayes_factor.svg").exists());
+    for p in &sym.pairs {
+        let drawn = dir
+            .path()
+            .join(format!("bayes_factor_{}_{}.svg", p.x, p.y))
+            .exists();
+        let warned = sym
+            .warnings
+            .iter()
+            .any(|w| w.starts_with(&format!("{}/{}: no Fig. 2", p.x, p.y)));
+        assert!(
+            drawn != warned,
+            "{}/{}: drawn {drawn}, warned {warned}",
+            p.x,
+            p.y
+        );
+    }
+    let mut z = occam::data::npz::NpzArchive::open(&dir.path().join("rj_chain.npz")).unwrap();
+    let (shape, names) = z.read_array("model_names", u64::MAX).unwrap();
+    assert_eq!(shape, [sym.models.len() as u64]);
+    let want: Vec<String> = sym.models.iter().map(|m| m.name.clone()).collect();
+    assert_eq!(names, occam::data::npz::NpyValues::Str(want));
+    let (shape, _) = z.read_array("samples", u64::MAX).unwrap();
+    let widest = sym.models.iter().map(|m| m.free.len()).max().unwrap() as u64;
+    assert!(shape[2] >= widest, "{shape:?}");
+    for m in &sym.models {
+        let f = dir.path().join(occam::select::chains_file(&m.name));
+        let mut z = occam::data::npz::NpzArchive::open(&f).unwrap();
+        let (shape, names) = z.read_array("param_names", u64::MAX).unwrap();
+        assert_eq!(shape, [m.free.len() as u64], "{}", m.name);
+        assert_eq!(names, occam::data::npz::NpyValues::Str(m.free.clone()));
+    }
     let k = sym.models.iter().position(|m| m.name == "sym").unwrap();
     assert_eq!(sym.models[k].free.len(), 5);
     assert_eq!(

@@ -59,6 +59,35 @@ fn select_resumed_after_a_crash_in_the_reversible_jump_stage_equals_an_uninterru
     let again = run_checkpointed(&study, &prep, None, Some(c)).unwrap();
     assert!(numbers(serde_json::to_value(&again).unwrap()) == a);
 
+    // the sample files too, byte for byte, whether the jump run was redone or read back
+    let files = |s: &occam::select::SelectSummary, name: &str| {
+        let out = dir.path().join(name);
+        occam::select::write_outputs(s, &out).unwrap();
+        ["chains_X.npz", "chains_Y.npz", "rj_chain.npz"]
+            .map(|f| std::fs::read(out.join(f)).unwrap_or_else(|e| panic!("{f}: {e}")))
+    };
+    let w = files(&whole, "whole");
+    assert!(
+        w == files(&resumed, "resumed"),
+        "resumed sample files differ"
+    );
+    assert!(w == files(&again, "again"), "sample files read back differ");
+
+    // a checkpoint of the previous version (no chains saved) is refused with the way out
+    let mut v: ciborium::Value = ciborium::from_reader(std::fs::File::open(&ck).unwrap()).unwrap();
+    for (k, val) in v.as_map_mut().unwrap() {
+        if k.as_text() == Some("version") {
+            *val = ciborium::Value::Integer(1.into());
+        }
+    }
+    let old = dir.path().join("old.cbor");
+    ciborium::into_writer(&v, std::fs::File::create(&old).unwrap()).unwrap();
+    let e = SelectCheckpoint::read(&old, &id).unwrap_err().to_string();
+    assert!(
+        e.contains("earlier occam") && e.contains("run without --resume"),
+        "{e}"
+    );
+
     // a checkpoint of other data is refused
     let mut other = prep.dataset.clone();
     other.experiments[0].o[0][3] += 1e-12;
@@ -145,7 +174,13 @@ fn select_killed_mid_run_and_resumed_matches_an_uninterrupted_run() {
     assert!(ok, "{err}");
     assert!(out.contains("resuming from"), "{out}");
     assert!(summary_numbers(&d.join("whole")) == summary_numbers(&d.join("cut")));
-    for f in ["table.txt", "residual_psd.npz"] {
+    for f in [
+        "table.txt",
+        "residual_psd.npz",
+        "chains_X.npz",
+        "chains_Y.npz",
+        "rj_chain.npz",
+    ] {
         assert_eq!(
             std::fs::read(d.join("whole").join(f)).unwrap(),
             std::fs::read(d.join("cut").join(f)).unwrap(),
@@ -173,10 +208,13 @@ fn a_rerun_removes_the_previous_runs_files_it_does_not_write() {
     // a directory of an older occam: a figure this run does not draw
     std::fs::create_dir_all(d.join("out/select")).unwrap();
     std::fs::write(d.join("out/select/residual_psd_old.png"), b"stale").unwrap();
+    std::fs::write(d.join("out/select/chains_Gone.npz"), b"stale").unwrap();
     std::fs::write(d.join("out/select/my-notes.txt"), b"the user's").unwrap();
     let (ok, out, err) = occam(&["select", "s.toml", "-q"], d);
     assert!(ok, "{err}");
     assert!(!d.join("out/select/residual_psd_old.png").exists());
+    assert!(!d.join("out/select/chains_Gone.npz").exists());
+    assert!(d.join("out/select/rj_chain.npz").exists());
     assert!(d.join("out/select/my-notes.txt").exists());
     // the files it says it wrote are exactly those on disk, listed in the manifest
     let line = out.lines().find(|l| l.starts_with("wrote ")).unwrap();

@@ -62,6 +62,15 @@ fn high_snr_regime_rj_never_enters_x_but_bridge_and_laplace_are_finite() {
         out.rj.as_ref().unwrap().visits
     );
     assert!(ln_b(p, "RJMCMC visits").is_none());
+    // Fig. 2 is drawn all the same, its legend saying which curve is absent and why
+    let dir = tempfile::tempdir().unwrap();
+    occam::select::write_outputs(&out, dir.path()).unwrap();
+    let svg = std::fs::read_to_string(dir.path().join("bayes_factor.svg")).unwrap();
+    assert!(svg.contains("X never visited"));
+    let rj = out.rj.as_ref().unwrap();
+    let last = &rj.running.last().unwrap().pairs[0];
+    assert_eq!(last.bridge, rj.pairs[0].bridge);
+    assert!(rj.running.iter().all(|pt| pt.pairs[0].visits.is_none()));
     let bridge = ln_b(p, "RJMCMC bridge").unwrap();
     let lf = ln_b(p, "Laplace-Fisher box").unwrap();
     assert!(bridge < -10.0, "bridge ln B = {bridge}");

@@ -27,7 +27,7 @@
 //! * `fit`: `chains × iterations / thin × (D + 2)` (samples, `ln L`, `ln π`);
 //! * `select`: per model, `chains × iterations × (D + 2)` for the Metropolis–Hastings runs and
 //!   `pt_temperatures × pt_iterations × (D + 2)` for parallel tempering, plus the
-//!   reversible-jump trace `rj_iterations × (D_max + 2)`;
+//!   reversible-jump draws `rj_iterations × (P + 2)` (`P`: the union of the models' parameters);
 //! * `sweep`: each point's study is checked as a `select` (the check runs on every point study
 //!   when the sweep is planned), plus [`SWEEP_RECORD_BYTES`] per task;
 //! * `design`: each candidate design is a simulated study with `channels` experiments of
@@ -279,7 +279,26 @@ pub fn estimate(study: &Study) -> MemoryEstimate {
         }
     }
     if !study.select_models.is_empty() {
-        select += stored(1.0, s.rj_iterations as f64, d_max);
+        // the jump chain's kept draws (`rj_chain.npz`): a row over the union of the models'
+        // parameter names, plus the model index and ln L
+        let mut union: Vec<&str> = Vec::new();
+        let mut unnamed = 0;
+        for m in &study.select_models {
+            let names = study
+                .models
+                .models
+                .get(m.spec.model)
+                .map(|x| x.param_names());
+            for &i in &m.spec.free {
+                match names.and_then(|n| n.get(i)) {
+                    Some(n) if !union.contains(&n.as_str()) => union.push(n),
+                    Some(_) => {}
+                    None => unnamed += 1,
+                }
+            }
+        }
+        let width = (union.len() + unnamed).max(d_max);
+        select += stored(1.0, s.rj_iterations as f64, width);
     }
     let tasks = study.sweep.as_ref().map_or(0.0, |sw| {
         let points: f64 = sw

@@ -5,6 +5,7 @@
 //! The on-disk dataset format written by `occam simulate` lives in [`crate::dataset`].
 
 pub mod npz;
+pub mod npz_write;
 pub mod source;
 
 pub use source::DataSource;

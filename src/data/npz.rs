@@ -111,6 +111,112 @@ impl<R: Read + Seek> NpzArchive<R> {
         drop(f);
         parse_npy(&bytes).map_err(|m| format!("array `{name}`: {m}"))
     }
+    /// Reads array `name` of any shape as one of the dtypes occam writes ([`NpyValues`]):
+    /// `(shape, values in C order)`. The stored size must fit in `budget` bytes.
+    pub fn read_array(&mut self, name: &str, budget: u64) -> Result<(Vec<u64>, NpyValues), String> {
+        let size = self.stored_size(name)?;
+        if size > budget {
+            return Err(format!(
+                "array `{name}` takes {size} bytes, more than the memory budget of {budget} bytes (raise OCCAM_MEMORY_BUDGET)"
+            ));
+        }
+        let i = self.index(name).expect("stored_size found it");
+        let mut f = self
+            .zip
+            .by_index(i)
+            .map_err(|e| format!("array `{name}`: cannot open the archive entry: {e}"))?;
+        let mut bytes = Vec::with_capacity(size as usize);
+        (&mut f)
+            .take(size)
+            .read_to_end(&mut bytes)
+            .map_err(|e| format!("array `{name}`: cannot read the archive entry: {e}"))?;
+        drop(f);
+        parse_npy_array(&bytes).map_err(|m| format!("array `{name}`: {m}"))
+    }
+}
+
+/// The values of an array read by [`NpzArchive::read_array`].
+#[derive(Debug, Clone, PartialEq)]
+pub enum NpyValues {
+    /// `<f8`.
+    F64(Vec<f64>),
+    /// `<i8`.
+    I64(Vec<i64>),
+    /// `|b1`.
+    Bool(Vec<bool>),
+    /// `<U{n}`, trailing NULs removed (numpy's reading of them).
+    Str(Vec<String>),
+}
+
+/// The header and data of a `.npy` file: `(descr, shape, data)`.
+fn split_npy(b: &[u8]) -> Result<(Header, &[u8]), String> {
+    const MAGIC: &[u8] = b"\x93NUMPY";
+    if b.len() < 10 || &b[..6] != MAGIC {
+        return Err("not an .npy array (no `\\x93NUMPY` magic)".into());
+    }
+    let (hlen, start) = match b[6] {
+        1 => (u16::from_le_bytes([b[8], b[9]]) as usize, 10usize),
+        2 | 3 if b.len() >= 12 => (u32::from_le_bytes([b[8], b[9], b[10], b[11]]) as usize, 12),
+        v => return Err(format!("unsupported .npy format version {v}")),
+    };
+    let end = start
+        .checked_add(hlen)
+        .filter(|&e| e <= b.len())
+        .ok_or_else(|| format!("truncated: the header declares {hlen} bytes"))?;
+    let header =
+        std::str::from_utf8(&b[start..end]).map_err(|_| "the header is not text".to_string())?;
+    Ok((parse_header(header)?, &b[end..]))
+}
+
+/// Decodes a whole little-endian `.npy` file of float64, int64, bool or `<U` strings, any
+/// shape (C order).
+pub fn parse_npy_array(b: &[u8]) -> Result<(Vec<u64>, NpyValues), String> {
+    let (h, data) = split_npy(b)?;
+    let n = h
+        .shape
+        .iter()
+        .try_fold(1u64, |a, &d| a.checked_mul(d))
+        .ok_or("the shape's size overflows")?;
+    let item: u64 = match h.descr.as_str() {
+        "<f8" | "<i8" => 8,
+        "|b1" => 1,
+        d => match d.strip_prefix("<U").and_then(|w| w.parse::<u64>().ok()) {
+            Some(w) if w > 0 => 4 * w,
+            _ => return Err(format!("dtype `{d}` is not one of <f8, <i8, |b1, <U")),
+        },
+    };
+    if n.checked_mul(item) != Some(data.len() as u64) {
+        return Err(format!(
+            "the header declares {n} values of {item} bytes but {} bytes of data follow",
+            data.len()
+        ));
+    }
+    let w8 = |c: &[u8]| -> [u8; 8] { c.try_into().expect("chunks of 8") };
+    let v = match h.descr.as_str() {
+        "<f8" => NpyValues::F64(
+            data.chunks_exact(8)
+                .map(|c| f64::from_le_bytes(w8(c)))
+                .collect(),
+        ),
+        "<i8" => NpyValues::I64(
+            data.chunks_exact(8)
+                .map(|c| i64::from_le_bytes(w8(c)))
+                .collect(),
+        ),
+        "|b1" => NpyValues::Bool(data.iter().map(|&x| x != 0).collect()),
+        _ => NpyValues::Str(
+            data.chunks_exact(item as usize)
+                .map(|c| {
+                    c.chunks_exact(4)
+                        .map(|u| u32::from_le_bytes(u.try_into().expect("chunks of 4")))
+                        .take_while(|&u| u != 0)
+                        .map(|u| char::from_u32(u).ok_or(format!("{u:#x} is not a character")))
+                        .collect::<Result<String, String>>()
+                })
+                .collect::<Result<_, _>>()?,
+        ),
+    };
+    Ok((h.shape, v))
 }
 
 /// Decodes a whole `.npy` file holding a 1-D (or 0-d) float64 array.

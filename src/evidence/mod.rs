@@ -38,8 +38,8 @@ pub use laplace::{
 pub use linear_gaussian::{LinearGaussian, RandomPrior, RandomProblem, RandomSpec};
 pub use mvn::{MvnOptions, MvnProbability, mvn_rectangle};
 pub use rjmcmc::{
-    JumpRule, MIN_EFFECTIVE_JUMPS, ProposalShape, RjModel, RjOptions, RjPair, RjProgress, RjResult,
-    run_rjmcmc,
+    JumpRule, MAX_RUNNING_POINTS, MIN_EFFECTIVE_JUMPS, ProposalShape, RjDraws, RjModel, RjOptions,
+    RjPair, RjProgress, RjResult, RjRunningPair, RjRunningPoint, run_rjmcmc, union_columns,
 };
 pub use robust::{McdOptions, MveOptions, RobustCovariance, RobustMethod, mcd, mve};
 pub use schwarz::{schwarz_ln_b, schwarz_ln_z};

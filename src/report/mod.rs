@@ -28,6 +28,7 @@ mod lines;
 mod numbers;
 mod plots;
 pub mod residual_psd;
+mod running;
 mod table;
 #[cfg(test)]
 mod tests;
@@ -41,6 +42,7 @@ pub use corner::corner_plot;
 pub use format::{fmt_pm, fmt_sig, kass_raftery, kass_raftery_named};
 pub use lines::{LinePlot, bayes_factor_evolution, line_plot};
 pub use numbers::{fmt_bayes_factor, fmt_fixed, fmt_roundtrip, fmt_short, fmt_short_sig};
+pub use running::{RunningSeries, running_bayes_factor};
 pub use table::Table;
 pub use trace::trace_plot;
 

@@ -65,6 +65,14 @@ pub(crate) struct ChainState {
     kept_ln_post: Vec<f64>,
     #[serde(with = "super::bits::vec")]
     kept_ln_like: Vec<f64>,
+    /// Per kept draw: a proposal was accepted since the previous kept draw (the draw's own
+    /// proposal when `thin` = 1). Absent from checkpoints of older versions: see
+    /// [`ChainState::upgrade`].
+    #[serde(default)]
+    kept_accepted: Vec<bool>,
+    /// A proposal was accepted in the current thinning window (since the last kept draw).
+    #[serde(default)]
+    moved: bool,
     #[serde(with = "super::bits::vec")]
     best_theta: Vec<f64>,
     #[serde(with = "super::bits::scalar")]
@@ -186,6 +194,8 @@ impl ChainState {
             samples: Vec::new(),
             kept_ln_post: Vec::new(),
             kept_ln_like: Vec::new(),
+            kept_accepted: Vec::new(),
+            moved: false,
             x_new: Vec::new(),
         };
         s.prepare(settings);
@@ -207,6 +217,7 @@ impl ChainState {
             self.samples.reserve_exact((total - have) * d);
             self.kept_ln_post.reserve_exact(total - have);
             self.kept_ln_like.reserve_exact(total - have);
+            self.kept_accepted.reserve_exact(total - have);
         }
     }
 
@@ -229,7 +240,11 @@ impl ChainState {
                 self.index
             ));
         }
-        if n != kept || self.kept_ln_like.len() != n || self.samples.len() != n * dim {
+        if n != kept
+            || self.kept_ln_like.len() != n
+            || self.kept_accepted.len() != n
+            || self.samples.len() != n * dim
+        {
             return Err(format!(
                 "chain {} holds {n} kept samples after {} iterations, expected {kept}",
                 self.index, self.iter
@@ -244,6 +259,24 @@ impl ChainState {
             ));
         }
         Ok(())
+    }
+
+    /// Fills in the acceptance flags of a checkpoint written before they were recorded (a
+    /// state with kept draws but no flags): see [`super::chains::backfill_accepted`]; the
+    /// current window's flag is whether θ left the last kept draw (or, before the first, whether
+    /// any sampling proposal was accepted). Does nothing to a current checkpoint.
+    pub(crate) fn upgrade(&mut self) {
+        let d = self.x.len();
+        let n = self.kept_ln_post.len();
+        if self.kept_accepted.len() == n || d == 0 || self.samples.len() != n * d {
+            return;
+        }
+        self.kept_accepted =
+            super::chains::backfill_accepted(&self.samples, d, self.counts.sampling.accepted);
+        self.moved = match self.samples.len().checked_sub(d) {
+            Some(last) => self.samples[last..] != self.x[..],
+            None => self.counts.sampling.accepted > 0,
+        };
     }
 
     /// Dimension of θ.
@@ -322,10 +355,16 @@ impl ChainState {
                     state.update_cholesky(s, cfg.ridge, self.proposal.cholesky_mut());
                 }
             }
-            if n > settings.burn_in && (n - settings.burn_in).is_multiple_of(settings.thin) {
-                self.samples.extend_from_slice(&self.x);
-                self.kept_ln_post.push(self.ln_post);
-                self.kept_ln_like.push(self.ln_like);
+            if n > settings.burn_in {
+                // a new thinning window starts after each kept draw
+                let opens = (n - settings.burn_in - 1).is_multiple_of(settings.thin);
+                self.moved = accepted || (self.moved && !opens);
+                if (n - settings.burn_in).is_multiple_of(settings.thin) {
+                    self.samples.extend_from_slice(&self.x);
+                    self.kept_ln_post.push(self.ln_post);
+                    self.kept_ln_like.push(self.ln_like);
+                    self.kept_accepted.push(self.moved);
+                }
             }
             self.iter = n;
             if let Some(obs) = observer
@@ -359,6 +398,7 @@ impl ChainState {
             samples: self.samples,
             ln_posterior: self.kept_ln_post,
             ln_likelihood: self.kept_ln_like,
+            accepted: self.kept_accepted,
             counts: self.counts,
             best: BestPoint {
                 theta: self.best_theta,

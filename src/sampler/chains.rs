@@ -60,6 +60,12 @@ pub struct Chain {
     pub ln_posterior: Vec<f64>,
     /// `ln L` of each kept sample.
     pub ln_likelihood: Vec<f64>,
+    /// Per kept sample: a proposal was accepted since the previous kept sample — with
+    /// `thin` = 1 exactly "this iteration's proposal was accepted"; with thinning, "the state
+    /// moved since the previous kept sample". Serialisations of older versions lack it; they
+    /// get [`backfill_accepted`].
+    #[serde(default)]
+    pub accepted: Vec<bool>,
     /// Proposal outcomes.
     pub counts: ChainCounts,
     /// Highest-posterior point this chain evaluated, burn-in and rejected proposals included:
@@ -89,9 +95,34 @@ struct RawChains {
 
 impl TryFrom<RawChains> for Chains {
     type Error = SamplerError;
-    fn try_from(r: RawChains) -> Result<Self, SamplerError> {
+    fn try_from(mut r: RawChains) -> Result<Self, SamplerError> {
+        let d = r.names.len();
+        for ch in &mut r.chains {
+            if ch.accepted.is_empty() && d > 0 && ch.samples.len() % d == 0 {
+                ch.accepted = backfill_accepted(&ch.samples, d, ch.counts.sampling.accepted);
+            }
+        }
         Chains::new(r.names, r.chains)
     }
+}
+
+/// The acceptance flags of kept samples stored without them (by an older version): sample
+/// `i ≥ 1` is flagged when it differs from sample `i − 1` (the state moved: exact, as a
+/// continuous proposal never lands on the current state); sample 0 when the sampling phase
+/// accepted more proposals (`sampling_accepted`) than the later flags account for — exact when
+/// every sampling iteration was kept (`thin` = 1), and with thinning an upper bound (a later
+/// window may hold several acceptances).
+pub(crate) fn backfill_accepted(samples: &[f64], d: usize, sampling_accepted: u64) -> Vec<bool> {
+    let rows: Vec<&[f64]> = samples.chunks_exact(d).collect();
+    let mut flags: Vec<bool> = Vec::with_capacity(rows.len());
+    if rows.is_empty() {
+        return flags;
+    }
+    flags.push(false);
+    flags.extend(rows.windows(2).map(|w| w[0] != w[1]));
+    let later = flags.iter().filter(|&&f| f).count() as u64;
+    flags[0] = sampling_accepted > later;
+    flags
 }
 
 /// Where the highest-posterior kept sample is.
@@ -129,15 +160,17 @@ impl Chains {
         for (c, ch) in chains.iter().enumerate() {
             if ch.ln_posterior.len() != n
                 || ch.ln_likelihood.len() != n
+                || ch.accepted.len() != n
                 || ch.samples.len() != n * d
                 || ch.best.theta.len() != d
                 || ch.proposal_covariance.len() != d * d
             {
                 return bad(format!(
-                    "chain {c} has {} sample values, {} ln posteriors, {} ln likelihoods, a best point of {} and a proposal covariance of {} entries; expected {}, {n}, {n}, {d} and {} for {n} samples of {d} parameters",
+                    "chain {c} has {} sample values, {} ln posteriors, {} ln likelihoods, {} acceptance flags, a best point of {} and a proposal covariance of {} entries; expected {}, {n}, {n}, {n}, {d} and {} for {n} samples of {d} parameters",
                     ch.samples.len(),
                     ch.ln_posterior.len(),
                     ch.ln_likelihood.len(),
+                    ch.accepted.len(),
                     ch.best.theta.len(),
                     ch.proposal_covariance.len(),
                     n * d,
@@ -273,6 +306,7 @@ mod tests {
             samples: (0..n * d).map(|k| offset + k as f64).collect(),
             ln_posterior: (0..n).map(|k| -(k as f64) - offset).collect(),
             ln_likelihood: vec![-1.0; n],
+            accepted: vec![true; n],
             counts: ChainCounts::default(),
             best: BestPoint {
                 theta: vec![offset; d],
@@ -281,6 +315,31 @@ mod tests {
             },
             proposal_covariance: vec![1.0; d * d],
         }
+    }
+
+    #[test]
+    fn backfilled_flags_follow_the_moves() {
+        // 4 draws of 2 parameters: moves into draws 2 and 3, not 1
+        let s = [0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 2.0];
+        assert_eq!(backfill_accepted(&s, 2, 2), [false, false, true, true]);
+        // one more acceptance than the later moves: the first draw's
+        assert_eq!(backfill_accepted(&s, 2, 3), [true, false, true, true]);
+        assert!(backfill_accepted(&[], 2, 5).is_empty());
+        assert_eq!(backfill_accepted(&[1.0], 1, 0), [false]);
+        // a serialisation without flags gets them on reading
+        let names = vec!["a".to_string()];
+        let mut c = chain(3, 1, 0.0);
+        c.accepted.clear();
+        c.counts.sampling.accepted = 3;
+        let json = serde_json::to_string(&Chains {
+            names: names.clone(),
+            chains: vec![c],
+        })
+        .unwrap()
+        .replace(",\"accepted\":[]", "");
+        assert!(!json.contains("\"accepted\":["));
+        let back: Chains = serde_json::from_str(&json).unwrap();
+        assert_eq!(back.chains()[0].accepted, [true, true, true]);
     }
 
     #[test]

@@ -110,6 +110,10 @@ pub(crate) fn read(path: &Path) -> Result<Checkpoint, SamplerError> {
             ),
         ));
     }
+    let mut ckpt = ckpt;
+    for ch in &mut ckpt.chains {
+        ch.upgrade();
+    }
     Ok(ckpt)
 }
 

@@ -635,6 +635,7 @@ mod tests {
                 samples: a.iter().zip(b).flat_map(|(x, y)| [*x, *y]).collect(),
                 ln_posterior: vec![-1.0; a.len()],
                 ln_likelihood: vec![-1.0; a.len()],
+                accepted: vec![true; a.len()],
                 counts: ChainCounts {
                     burn_in: PhaseCounts::default(),
                     sampling: PhaseCounts {

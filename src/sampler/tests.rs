@@ -217,6 +217,7 @@ fn bits(ch: &Chains) -> Vec<u64> {
         v.extend(c.samples.iter().map(|x| x.to_bits()));
         v.extend(c.ln_posterior.iter().map(|x| x.to_bits()));
         v.extend(c.ln_likelihood.iter().map(|x| x.to_bits()));
+        v.extend(c.accepted.iter().map(|&a| a as u64));
         v.extend(c.best.theta.iter().map(|x| x.to_bits()));
         v.extend(c.proposal_covariance.iter().map(|x| x.to_bits()));
         v.push(c.best.ln_posterior.to_bits());
@@ -322,6 +323,90 @@ fn resume_ends_with_exactly_the_uninterrupted_chains() {
         .into_chains()
         .unwrap();
     assert_eq!(bits(&extended), bits(&run(&t, &cov, longer, &start)));
+}
+
+/// The acceptance flags: with `thin` = 1 they count exactly the accepted sampling proposals;
+/// with thinning a flag says the state moved since the previous kept draw.
+#[test]
+fn acceptance_flags_match_the_counts_and_the_moves() {
+    let t = GaussianTarget::correlated(3, 1e3, 61);
+    let cov = optimal_cov(&t);
+    let start = Start::Around {
+        centre: t.mu.clone(),
+        spread: 3.0,
+    };
+    let plain = run(
+        &t,
+        &cov,
+        MhSettings {
+            thin: 1,
+            ..full_settings()
+        },
+        &start,
+    );
+    for c in plain.chains() {
+        let n = c.accepted.iter().filter(|&&a| a).count() as u64;
+        assert_eq!(n, c.counts.sampling.accepted);
+        assert!(n > 0 && n < c.accepted.len() as u64, "{n}");
+    }
+    let thinned = run(&t, &cov, full_settings(), &start);
+    let d = thinned.dim();
+    for c in thinned.chains() {
+        assert_eq!(c.accepted.len(), c.ln_posterior.len());
+        for i in 1..c.accepted.len() {
+            let moved = c.samples[i * d..(i + 1) * d] != c.samples[(i - 1) * d..i * d];
+            assert_eq!(c.accepted[i], moved, "draw {i}");
+        }
+    }
+}
+
+/// Killed inside a thinning window of the sampling phase, a run resumes with the same flags;
+/// a checkpoint of an older version (no flags) resumes with the flags rebuilt from the moves
+/// (the first kept draw's an upper bound with thinning).
+#[test]
+fn resumed_and_upgraded_checkpoints_keep_the_flags() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("mh.json");
+    let t = GaussianTarget::correlated(3, 1e3, 52);
+    let cov = optimal_cov(&t);
+    let start = Start::Around {
+        centre: t.mu.clone(),
+        spread: 3.0,
+    };
+    let reference = run(&t, &cov, full_settings(), &start);
+    // 2 000 iterations: 500 into sampling, in the middle of a window of 3
+    let stop = |done: usize| done >= 2_000;
+    let outcome = MetropolisHastings::new(&t, &cov, full_settings())
+        .unwrap()
+        .checkpoint(&path)
+        .stop_when(&stop)
+        .run(&start)
+        .unwrap();
+    assert_eq!(outcome, RunOutcome::Stopped { iterations: 2_000 });
+    let saved = std::fs::read_to_string(&path).unwrap();
+    let resume = |p: &std::path::Path| {
+        MetropolisHastings::new(&t, &cov, full_settings())
+            .unwrap()
+            .resume(p)
+            .unwrap()
+            .into_chains()
+            .unwrap()
+    };
+    assert_eq!(bits(&resume(&path)), bits(&reference));
+    // the same checkpoint as an older version wrote it
+    let mut v: serde_json::Value = serde_json::from_str(&saved).unwrap();
+    for ch in v["chains"].as_array_mut().unwrap() {
+        let o = ch.as_object_mut().unwrap();
+        assert!(o.remove("kept_accepted").is_some() && o.remove("moved").is_some());
+    }
+    let old = dir.path().join("old.json");
+    std::fs::write(&old, serde_json::to_string(&v).unwrap()).unwrap();
+    let upgraded = resume(&old);
+    for (u, r) in upgraded.chains().iter().zip(reference.chains()) {
+        assert_eq!(u.samples, r.samples);
+        assert_eq!(u.accepted[1..], r.accepted[1..]);
+        assert!(u.accepted[0] >= r.accepted[0]);
+    }
 }
 
 #[test]

@@ -23,7 +23,9 @@ use std::path::Path;
 /// The checkpoint's file name inside the run directory.
 pub const FILE: &str = "checkpoint.cbor";
 const FORMAT: &str = "occam-select-checkpoint";
-const VERSION: u32 = 1;
+/// 2: the in-model chains and the jump chain's draws are saved too (for the sample files);
+/// a version-1 checkpoint is refused (rerun without `--resume`).
+const VERSION: u32 = 2;
 
 /// One model's finished stage: what the reversible-jump run and the tables need from it.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -39,6 +41,9 @@ pub(super) struct ModelStage {
     pub seed: u64,
     /// Whether the tempering stage is in `outcome` too.
     pub tempered: bool,
+    /// The in-model chains (`None` when they did not run).
+    #[serde(default)]
+    pub chains: Option<crate::sampler::Chains>,
 }
 
 /// The finished reversible-jump stage.
@@ -48,6 +53,9 @@ pub(super) struct RjStage {
     pub note: Option<String>,
     /// Iterations per second of the run that computed it.
     pub rate: f64,
+    /// The jump chains' draws (kept out of `rj`, whose serialisation skips them).
+    #[serde(default)]
+    pub draws: Option<crate::evidence::RjDraws>,
 }
 
 /// The saved stages of one select run.
@@ -107,6 +115,16 @@ impl SelectCheckpoint {
         let f = std::fs::File::open(path).map_err(|e| io_err(path, "cannot open", e))?;
         let c: SelectCheckpoint = ciborium::from_reader(std::io::BufReader::new(f))
             .map_err(|e| io_err(path, "not a readable occam select checkpoint", e))?;
+        if c.format == FORMAT && c.version < VERSION {
+            return Err(io_err(
+                path,
+                "checkpoint of an earlier occam",
+                format!(
+                    "version {} holds no chains for the sample files (chains_<model>.npz, rj_chain.npz); run without --resume to start afresh",
+                    c.version
+                ),
+            ));
+        }
         if c.format != FORMAT || c.version != VERSION {
             return Err(io_err(
                 path,
@@ -183,6 +201,7 @@ impl ModelStage {
             tempering_start: run.tempering_start.clone(),
             seed: run.seed,
             tempered,
+            chains: run.chains.clone(),
         }
     }
 
@@ -221,6 +240,7 @@ impl ModelStage {
             jump_cov: DMatrix::from_column_slice(d, d, &self.jump_cov),
             tempering_start: self.tempering_start,
             seed: self.seed,
+            chains: self.chains,
         })
     }
 }

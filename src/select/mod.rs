@@ -14,7 +14,9 @@ mod pair;
 
 pub use checkpoint::{FILE as CHECKPOINT_FILE, SelectCheckpoint, identity};
 
-pub use output::{LEGACY_OUTPUTS, table, write_outputs};
+pub use output::{
+    Fig2, LEGACY_OUTPUTS, chains_file, fig2, fig2_warnings, rj_chain_arrays, table, write_outputs,
+};
 pub use pair::{EstimateKind, JumpStats, PairEstimate, PairResult};
 
 use crate::analysis::{Prepared, likelihood_of, model_warnings, truth_of};
@@ -186,6 +188,10 @@ pub struct SelectSummary {
     /// plotted, not into `summary.json`.
     #[serde(skip)]
     pub residual_psd: Vec<(String, Vec<crate::likelihood::residual_psd::ResidualPsd>)>,
+    /// Each model's in-model chains (`None` where they did not run), written to
+    /// `chains_<model>.npz`, not into `summary.json`.
+    #[serde(skip)]
+    pub model_chains: Vec<(String, Option<crate::sampler::Chains>)>,
 }
 
 /// Runs every estimator on the study's `[[select.model]]` list. Each competing model is a
@@ -354,11 +360,18 @@ pub fn run_observed(
         jump_scale: sel.jump_scale,
         n_chains: sel.rj_chains,
         defensive: sel.defensive,
+        keep_draws: true,
         ..Default::default()
     };
     let saved_rj = ckpt.as_ref().and_then(|c| c.state.rj.clone());
     let (rj, rj_note, rj_rate) = match saved_rj {
-        Some(s) => (s.rj, s.note, s.rate),
+        Some(s) => {
+            let mut rj = s.rj;
+            if let Some(r) = rj.as_mut() {
+                r.draws = s.draws;
+            }
+            (rj, s.note, s.rate)
+        }
         None => {
             let t_rj = Instant::now();
             let mut observe = |p: &crate::evidence::RjProgress<'_>| {
@@ -370,7 +383,7 @@ pub fn run_observed(
                     f(p);
                 }
             };
-            let (rj, note) = match run_rjmcmc(&rj_models, &opts, Some(&mut observe)) {
+            let (mut rj, note) = match run_rjmcmc(&rj_models, &opts, Some(&mut observe)) {
                 Ok(r) => (Some(r), None),
                 Err(e) => (
                     None,
@@ -379,17 +392,29 @@ pub fn run_observed(
             };
             let rate = sel.rj_iterations as f64 / t_rj.elapsed().as_secs_f64();
             if let Some(c) = ckpt.as_mut() {
+                // the draws move into the checkpoint for writing and back out (no copy)
+                let draws = rj.as_mut().and_then(|r| r.draws.take());
                 c.state.rj = Some(checkpoint::RjStage {
                     rj: rj.clone(),
                     note: note.clone(),
                     rate,
+                    draws,
                 });
-                c.state.write(c.path)?;
+                let written = c.state.write(c.path);
+                if let (Some(r), Some(stage)) = (rj.as_mut(), c.state.rj.as_mut()) {
+                    r.draws = stage.draws.take();
+                }
+                written?;
             }
             (rj, note, rate)
         }
     };
-    let models: Vec<ModelOutcome> = runs.into_iter().map(|r| r.outcome).collect();
+    let mut model_chains = Vec::with_capacity(runs.len());
+    let mut models: Vec<ModelOutcome> = Vec::with_capacity(runs.len());
+    for r in runs {
+        model_chains.push((r.outcome.name.clone(), r.chains));
+        models.push(r.outcome);
+    }
     let mut pairs = Vec::new();
     for x in 0..models.len() {
         for y in x + 1..models.len() {
@@ -404,6 +429,7 @@ pub fn run_observed(
         warnings.extend(m.notes.iter().map(|n| format!("model `{}`: {n}", m.name)));
     }
     warnings.extend(rj_note.clone());
+    warnings.extend(rj.as_ref().map(output::fig2_warnings).unwrap_or_default());
     for p in &pairs {
         if let Some(w) = &p.jumps.warning {
             warnings.push(format!("{}/{}: {w}", p.x, p.y));
@@ -442,5 +468,6 @@ pub fn run_observed(
         seconds: t0.elapsed().as_secs_f64(),
         warnings,
         residual_psd,
+        model_chains,
     })
 }

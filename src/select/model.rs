@@ -47,6 +47,9 @@ pub(super) struct ModelRun {
     /// Where the tempering stage ([`temper`]) starts (free parameters) and the model's seed.
     pub tempering_start: Vec<f64>,
     pub seed: u64,
+    /// The in-model Metropolis–Hastings chains (free parameters), for `chains_<model>.npz`;
+    /// `None` when they did not run.
+    pub chains: Option<Chains>,
 }
 
 fn free_vec(th: &[f64], free: &[usize]) -> Vec<f64> {
@@ -483,6 +486,7 @@ pub(super) fn run_model(
         jump_cov,
         tempering_start,
         seed,
+        chains,
     })
 }
 

@@ -65,8 +65,14 @@ pub const LEGACY_OUTPUTS: &[&str] = &[
     "residual_psd_*.svg",
     "bayes_factor.png",
     "bayes_factor.svg",
+    "bayes_factor_*.png",
+    "bayes_factor_*.svg",
+    "chains_*.npz",
+    "rj_chain.npz",
     "model_visits.png",
     "model_visits.svg",
+    // `occam report` records its page in the manifest; in an older directory only this finds it
+    "report.html",
 ];
 
 /// Writes `summary.json`, `table.txt`, `table.md`, the evolution of B (`bayes_factor`) and the
@@ -83,34 +89,22 @@ pub fn write_outputs(s: &SelectSummary, out: &Path) -> Result<(), SelectError> {
     let p = out.join("table.md");
     crate::atomic::write_bytes(&p, t.to_markdown().as_bytes()).map_err(|e| io(&p, e))?;
     crate::report::residual_psd::write(out, &s.residual_psd)?;
+    for (name, chains) in &s.model_chains {
+        if let Some(c) = chains {
+            let p = out.join(chains_file(name));
+            crate::data::npz_write::write_npz_file(&p, &crate::fit::chains_arrays(c))
+                .map_err(|e| io(&p, e))?;
+        }
+    }
     let Some(rj) = &s.rj else {
         return Ok(());
     };
-    let series: Vec<(String, Vec<(f64, f64)>)> = s
-        .pairs
-        .iter()
-        .enumerate()
-        .map(|(i, p)| {
-            let (x, y) = pair_indices(s.models.len(), i);
-            let pts = rj
-                .ln_b_trace(x, y)
-                .into_iter()
-                .map(|(it, v)| (it as f64, v.map_or(f64::NAN, f64::exp)))
-                .collect();
-            (format!("B {}/{}", p.x, p.y), pts)
-        })
-        .collect();
-    if series
-        .iter()
-        .any(|(_, v)| v.iter().any(|p| p.1.is_finite()))
-    {
-        crate::report::bayes_factor_evolution(
-            out,
-            "bayes_factor",
-            &series,
-            true,
-            "B_XY (visit ratio)",
-        )?;
+    if let Some(d) = &rj.draws {
+        let p = out.join("rj_chain.npz");
+        crate::data::npz_write::write_npz_file(&p, &rj_chain_arrays(d)).map_err(|e| io(&p, e))?;
+    }
+    for fig in fig2(rj) {
+        crate::report::running_bayes_factor(out, &fig.stem, &fig.title, &fig.series)?;
     }
     let labels: Vec<String> = s.models.iter().map(|m| m.name.clone()).collect();
     let counts: Vec<f64> = rj.visits.iter().map(|&v| v as f64).collect();
@@ -118,17 +112,130 @@ pub fn write_outputs(s: &SelectSummary, out: &Path) -> Result<(), SelectError> {
     Ok(())
 }
 
-fn pair_indices(k: usize, idx: usize) -> (usize, usize) {
-    let mut n = 0;
-    for x in 0..k {
-        for y in x + 1..k {
-            if n == idx {
-                return (x, y);
-            }
-            n += 1;
+/// The file of model `name`'s in-model chains. Model names are 1–64 of `[A-Za-z0-9_.+-]`
+/// ([`crate::config::check_name`]), so the name goes in as it is.
+pub fn chains_file(name: &str) -> String {
+    format!("chains_{name}.npz")
+}
+
+/// The arrays of `rj_chain.npz`: `model_index` (chains × draws, into `model_names`),
+/// `model_names`, `param_names` (the union of the models' parameters), `samples` (chains ×
+/// draws × parameters, NaN where the current model has no such parameter), `ln_likelihood`
+/// (chains × draws) and `thin` (0-d: every `thin`-th post-burn-in iteration is kept).
+pub fn rj_chain_arrays(d: &crate::evidence::RjDraws) -> Vec<crate::data::npz_write::NpyArray> {
+    use crate::data::npz_write::{NpyArray, NpyData};
+    let (c, n, p) = (d.n_chains, d.n_draws, d.param_names.len());
+    vec![
+        NpyArray::new("model_index", &[c, n], NpyData::I64(d.model_index.clone())),
+        NpyArray::new(
+            "model_names",
+            &[d.model_names.len()],
+            NpyData::Str(d.model_names.clone()),
+        ),
+        NpyArray::new("param_names", &[p], NpyData::Str(d.param_names.clone())),
+        NpyArray::new("samples", &[c, n, p], NpyData::F64(d.samples.clone())),
+        NpyArray::new(
+            "ln_likelihood",
+            &[c, n],
+            NpyData::F64(d.ln_likelihood.clone()),
+        ),
+        NpyArray::new("thin", &[], NpyData::I64(vec![d.thin as i64])),
+    ]
+}
+
+/// One Fig. 2 panel: the running estimates of one pair.
+pub struct Fig2 {
+    /// `bayes_factor` with two models, `bayes_factor_<X>_<Y>` per pair with more.
+    pub stem: String,
+    pub title: String,
+    pub series: Vec<crate::report::RunningSeries>,
+}
+
+/// The Fig. 2 plots of a run: per pair `k < l` its three running estimators. A pair whose
+/// estimators have no finite value anywhere is left out (see [`fig2_warnings`]).
+pub fn fig2(rj: &crate::evidence::RjResult) -> Vec<Fig2> {
+    use crate::report::RunningSeries;
+    let names = &rj.model_names;
+    let k = names.len();
+    let mut out = Vec::new();
+    for (i, p) in rj.pairs.iter().enumerate() {
+        let (x, y) = (&names[p.k], &names[p.l]);
+        let unvisited: Vec<&str> = [p.k, p.l]
+            .iter()
+            .filter(|&&m| rj.visits[m] == 0)
+            .map(|&m| names[m].as_str())
+            .collect();
+        let pick = |f: &dyn Fn(&crate::evidence::RjRunningPair) -> Option<crate::evidence::LnB>| {
+            rj.running
+                .iter()
+                .map(|pt| {
+                    let v = pt.pairs.get(i).and_then(f);
+                    (
+                        pt.iteration as f64,
+                        v.map(|b| (b.ln_b, b.std_err.unwrap_or(f64::NAN))),
+                    )
+                })
+                .collect::<Vec<_>>()
+        };
+        let visit_name = if unvisited.is_empty() {
+            "visit ratio".to_string()
+        } else {
+            format!(
+                "visit ratio (absent: {} never visited)",
+                unvisited.join(", ")
+            )
+        };
+        let series = vec![
+            RunningSeries {
+                name: visit_name,
+                points: pick(&|q| q.visits),
+            },
+            RunningSeries {
+                name: "Rao-Blackwell".into(),
+                points: pick(&|q| q.rao_blackwell),
+            },
+            RunningSeries {
+                name: "bridge".into(),
+                points: pick(&|q| q.bridge),
+            },
+        ];
+        if !series.iter().any(RunningSeries::has_value) {
+            continue;
         }
+        let mut title = format!("ln B_{x}/{y} along the reversible-jump run");
+        if !unvisited.is_empty() {
+            title += &format!(" ({} never visited)", unvisited.join(", "));
+        }
+        out.push(Fig2 {
+            stem: if k == 2 {
+                "bayes_factor".into()
+            } else {
+                format!("bayes_factor_{x}_{y}")
+            },
+            title,
+            series,
+        });
     }
-    (0, 1)
+    out
+}
+
+/// Why a pair has no Fig. 2: none of its jump-chain estimators has a value.
+pub fn fig2_warnings(rj: &crate::evidence::RjResult) -> Vec<String> {
+    let drawn: Vec<String> = fig2(rj).into_iter().map(|f| f.title).collect();
+    rj.pairs
+        .iter()
+        .filter(|p| {
+            let (x, y) = (&rj.model_names[p.k], &rj.model_names[p.l]);
+            let t = format!("ln B_{x}/{y} along");
+            !drawn.iter().any(|d| d.starts_with(&t))
+        })
+        .map(|p| {
+            format!(
+                "{}/{}: no Fig. 2 (bayes_factor): no reversible-jump estimator (visit ratio, Rao-Blackwell, bridge) has a value at any point of the run",
+                rj.model_names[p.k], rj.model_names[p.l]
+            )
+        })
+        .collect()
 }
 
 #[cfg(test)]
@@ -190,6 +297,7 @@ mod tests {
             seconds: 0.0,
             warnings: vec![],
             residual_psd: vec![],
+            model_chains: vec![],
         };
         let t = table(&s).to_text();
         let cells = |m: &str| -> Vec<String> {

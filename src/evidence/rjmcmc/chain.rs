@@ -5,7 +5,8 @@
 //! and per regeneration cycle (entries into the reference model; for the regenerative
 //! variance), plus, during the short pilot phase only, the bridge's raw `ln ρ` values (the
 //! bridge's terms depend on a constant that the pilot fixes; they are replayed into the sums
-//! once it is known). Memory is `O(√N + cycles cap + pilot)` per chain.
+//! once it is known). Memory is `O(√N + cycles cap + pilot)` per chain, plus the post-burn-in
+//! draws themselves (model, parameters, `ln L`) when [`Shared::columns`] asks for them.
 
 use super::estimate::{Grid, lae};
 use super::{Prepared, ProposalShape, RjTracePoint};
@@ -121,6 +122,11 @@ pub(super) struct Shared<'a> {
     pub start_model: usize,
     pub layout: Layout,
     pub grid: Option<Grid>,
+    /// Per model, the column of each of its parameters among the union of all models'
+    /// parameters; `None`: no draws are kept.
+    pub columns: Option<Vec<Vec<usize>>>,
+    /// Width of a kept draw's parameter row (the union's size).
+    pub n_columns: usize,
 }
 
 impl Shared<'_> {
@@ -167,6 +173,8 @@ pub(super) struct Chain {
     cur: Vec<f64>,
     lp: f64,
     lpi: f64,
+    /// `ln L` of the current state (`lp − lpi` without the rounding).
+    ll: f64,
     lq: f64,
     lg: f64,
     prop: Vec<f64>,
@@ -189,7 +197,8 @@ pub(super) struct Chain {
     pub likelihood_calls: u64,
     last_visited: Option<usize>,
     seg: Sums,
-    batch_start: usize,
+    /// Post-burn-in iterations before the first batch.
+    pub batch_start: usize,
     pub batches: Vec<Sums>,
     pub cycles: Vec<Sums>,
     cycle_no: u64,
@@ -199,6 +208,16 @@ pub(super) struct Chain {
     pilot_flushed: usize,
     pub pilot_done: bool,
     pub trace: Vec<RjTracePoint>,
+    /// The stretch of post-burn-in iterations before the first batch (`batch_start` of them),
+    /// which only the regeneration units hold otherwise; the running estimates need it.
+    pub head: Sums,
+    /// Post-burn-in sojourns per model at the end of each batch (cumulative).
+    pub batch_sojourns: Vec<Vec<u64>>,
+    /// Kept post-burn-in draws: model index, parameters (row of `n_columns`, NaN where the
+    /// model has no such parameter) and `ln L`.
+    pub draw_model: Vec<i64>,
+    pub draw_theta: Vec<f64>,
+    pub draw_ln_l: Vec<f64>,
 }
 
 /// The random stream of chain `j`: `Xoshiro256PlusPlus::seed_from_u64(seed)` advanced by `j`
@@ -222,12 +241,14 @@ impl Chain {
         let mut cur = vec![0.0; max_dim];
         cur[..d].copy_from_slice(&m.center);
         let lpi = m.target.prior().ln_pdf(&cur[..d]);
-        let lp = lpi + m.target.ln_likelihood(&cur[..d]);
+        let ll = m.target.ln_likelihood(&cur[..d]);
+        let lp = lpi + ll;
         let mut scratch = vec![0.0; max_dim];
         let (lq, lg) = sh.ln_q(m, &cur[..d], lpi, &mut scratch);
         let n_post = sh.n_iter - sh.burn_in;
         let n_batches = n_post / sh.batch;
         let l = &sh.layout;
+        let kept = if sh.columns.is_some() { n_post } else { 0 };
         Chain {
             rng: chain_rng(seed, j),
             t: 0,
@@ -235,6 +256,7 @@ impl Chain {
             cur,
             lp,
             lpi,
+            ll,
             lq,
             lg,
             prop: vec![0.0; max_dim],
@@ -260,6 +282,11 @@ impl Chain {
             pilot_flushed: 0,
             pilot_done: false,
             trace: Vec::new(),
+            head: Sums::new(l),
+            batch_sojourns: Vec::with_capacity(n_batches),
+            draw_model: Vec::with_capacity(kept),
+            draw_theta: Vec::with_capacity(kept * sh.n_columns),
+            draw_ln_l: Vec::with_capacity(kept),
         }
     }
 
@@ -295,11 +322,12 @@ impl Chain {
                             .sum::<f64>();
                 }
                 let lpi_new = m.target.prior().ln_pdf(&self.prop[..d]);
-                let lp_new = if lpi_new == f64::NEG_INFINITY {
-                    f64::NEG_INFINITY
+                let (lp_new, ll_new) = if lpi_new == f64::NEG_INFINITY {
+                    (f64::NEG_INFINITY, f64::NEG_INFINITY)
                 } else {
                     self.likelihood_calls += 1;
-                    lpi_new + m.target.ln_likelihood(&self.prop[..d])
+                    let ll = m.target.ln_likelihood(&self.prop[..d]);
+                    (lpi_new + ll, ll)
                 };
                 self.rw_tried[k] += 1;
                 if lp_new.is_nan() || lp_new == f64::INFINITY {
@@ -308,6 +336,7 @@ impl Chain {
                     self.cur[..d].copy_from_slice(&self.prop[..d]);
                     self.lp = lp_new;
                     self.lpi = lpi_new;
+                    self.ll = ll_new;
                     (self.lq, self.lg) = sh.ln_q(m, &self.cur[..d], lpi_new, &mut self.scratch);
                     self.rw_accepted[k] += 1;
                 }
@@ -351,9 +380,14 @@ impl Chain {
             self.proposed[k][kn] += 1;
             let lpi_new = m.target.prior().ln_pdf(&self.prop[..dn]);
             let inside = lpi_new > f64::NEG_INFINITY;
-            let mut lp_new = if inside {
+            let ll_new = if inside {
                 self.likelihood_calls += 1;
-                lpi_new + m.target.ln_likelihood(&self.prop[..dn])
+                m.target.ln_likelihood(&self.prop[..dn])
+            } else {
+                f64::NEG_INFINITY
+            };
+            let mut lp_new = if inside {
+                lpi_new + ll_new
             } else {
                 f64::NEG_INFINITY
             };
@@ -402,6 +436,7 @@ impl Chain {
                 self.cur[..dn].copy_from_slice(&self.prop[..dn]);
                 self.lp = lp_new;
                 self.lpi = lpi_new;
+                self.ll = ll_new;
                 self.lq = lq_new;
                 self.lg = lg_new;
             }
@@ -426,11 +461,23 @@ impl Chain {
             }
             self.visits[k] += 1;
             self.seg.counts[sh.layout.visits(k)] += 1.0;
+            if let Some(cols) = &sh.columns {
+                self.draw_model.push(k as i64);
+                let row = self.draw_theta.len();
+                self.draw_theta.resize(row + sh.n_columns, f64::NAN);
+                for (&c, &x) in cols[k].iter().zip(&self.cur) {
+                    self.draw_theta[row + c] = x;
+                }
+                self.draw_ln_l.push(self.ll);
+            }
             let done = t_post + 1;
-            if done == self.batch_start
-                || (done > self.batch_start && (done - self.batch_start).is_multiple_of(sh.batch))
-            {
+            let batch_end =
+                done > self.batch_start && (done - self.batch_start).is_multiple_of(sh.batch);
+            if done == self.batch_start || batch_end {
                 self.flush(sh, t_post);
+            }
+            if batch_end {
+                self.batch_sojourns.push(self.sojourns.clone());
             }
             if done.is_multiple_of(sh.trace_every) || t + 1 == sh.n_iter {
                 self.trace.push(RjTracePoint {
@@ -489,6 +536,8 @@ impl Chain {
             if let Some(b) = self.batches.get_mut(bi) {
                 b.add(&self.seg);
             }
+        } else {
+            self.head.add(&self.seg);
         }
         let ci = (self.cycle_no >> self.level) as usize;
         self.cycles[ci].add(&self.seg);
@@ -527,12 +576,15 @@ impl Chain {
                 add_bridge_terms(&mut self.seg, l, grid, sh, from, to, r.ln_rho);
                 continue;
             }
-            if r.t_post >= self.batch_start
-                && let Some(b) = self
+            if r.t_post >= self.batch_start {
+                if let Some(b) = self
                     .batches
                     .get_mut((r.t_post - self.batch_start) / sh.batch)
-            {
-                add_bridge_terms(b, l, grid, sh, from, to, r.ln_rho);
+                {
+                    add_bridge_terms(b, l, grid, sh, from, to, r.ln_rho);
+                }
+            } else {
+                add_bridge_terms(&mut self.head, l, grid, sh, from, to, r.ln_rho);
             }
             let ci = (r.cycle >> self.level) as usize;
             add_bridge_terms(&mut self.cycles[ci], l, grid, sh, from, to, r.ln_rho);

@@ -1,7 +1,9 @@
 //! Bayes-factor estimators from the chains' streaming sums, and their errors.
 
 use super::chain::{Chain, Layout, Sums};
-use super::{EvidenceError, LnB, Method};
+use super::{
+    EvidenceError, LnB, MAX_RUNNING_POINTS, Method, RjPair, RjRunningPair, RjRunningPoint,
+};
 
 /// `ln(eᵃ + eᵇ)`, exact for `−∞` arguments.
 #[inline]
@@ -375,4 +377,101 @@ pub(super) fn check_chains(chains: &[Chain]) -> Result<(), EvidenceError> {
         ));
     }
     Ok(())
+}
+
+/// The visit-ratio, Rao-Blackwell and bridge estimates of one pair.
+pub(super) type PairEstimates = (Option<LnB>, Option<LnB>, Option<LnB>);
+
+/// The estimates along the run ([`super::RjResult::running`]): at up to
+/// [`MAX_RUNNING_POINTS`] prefixes of `b` batches (evenly spread, each pooling every chain's
+/// head stretch and first `b` batches, errors from those batch means), then the whole run
+/// (`final_pairs`, the pooled result itself). A prefix of fewer than 2 batches in all has no
+/// error and is skipped.
+pub(super) fn running_points(
+    chains: &[Chain],
+    layout: Layout,
+    batch: usize,
+    burn_in: usize,
+    final_pairs: &[RjPair],
+    estimates: &dyn Fn(&Pool<'_>, &Sojourns<'_>, usize, usize) -> PairEstimates,
+) -> Vec<RjRunningPoint> {
+    let n_chains = chains.len();
+    let k = layout.k;
+    let nb = chains[0].batches.len();
+    let at = |b: usize| (burn_in + chains[0].batch_start + b * batch) * n_chains;
+    let points = MAX_RUNNING_POINTS.min(nb);
+    let mut total = Sums::new(&layout);
+    for c in chains {
+        total.add(&c.head);
+    }
+    let mut added = 0;
+    let mut out = Vec::with_capacity(points);
+    for j in 1..points {
+        let b = (j * nb).div_ceil(points);
+        while added < b {
+            for c in chains {
+                total.add(&c.batches[added]);
+            }
+            added += 1;
+        }
+        if b * n_chains < 2
+            || out
+                .last()
+                .is_some_and(|p: &RjRunningPoint| p.iteration == at(b))
+        {
+            continue;
+        }
+        let pool = Pool {
+            layout,
+            n: total.n(&layout),
+            total: total.clone(),
+            batches: chains.iter().flat_map(|c| c.batches[..b].iter()).collect(),
+            cycles: Vec::new(),
+            batch,
+        };
+        let mut sojourns = vec![0u64; k];
+        for c in chains {
+            for (s, cs) in sojourns.iter_mut().zip(&c.batch_sojourns[b - 1]) {
+                *s += cs;
+            }
+        }
+        let visits: Vec<u64> = (0..k)
+            .map(|m| total.counts[layout.visits(m)] as u64)
+            .collect();
+        let soj = Sojourns {
+            sojourns: &sojourns,
+            visits: &visits,
+        };
+        let mut pairs = Vec::new();
+        for a in 0..k {
+            for l in a + 1..k {
+                let (visits, rao_blackwell, bridge) = estimates(&pool, &soj, a, l);
+                pairs.push(RjRunningPair {
+                    k: a,
+                    l,
+                    visits,
+                    rao_blackwell,
+                    bridge,
+                });
+            }
+        }
+        out.push(RjRunningPoint {
+            iteration: at(b),
+            pairs,
+        });
+    }
+    out.push(RjRunningPoint {
+        iteration: at(nb),
+        pairs: final_pairs
+            .iter()
+            .map(|p| RjRunningPair {
+                k: p.k,
+                l: p.l,
+                visits: p.visits,
+                rao_blackwell: p.rao_blackwell,
+                bridge: p.bridge,
+            })
+            .collect(),
+    });
+    out
 }

@@ -234,6 +234,9 @@ pub struct RjOptions {
     pub start_model: usize,
     /// QMC settings of the Gaussian proposals' box masses.
     pub box_mass: MvnOptions,
+    /// Keep every post-burn-in draw (model, parameters, `ln L`) in [`RjResult::draws`]:
+    /// `N − chains·burn_in` rows of `P + 2` numbers, `P` the union of the models' parameters.
+    pub keep_draws: bool,
 }
 
 impl Default for RjOptions {
@@ -253,6 +256,7 @@ impl Default for RjOptions {
             batch_size: None,
             start_model: 0,
             box_mass: MvnOptions::default(),
+            keep_draws: false,
         }
     }
 }
@@ -332,6 +336,72 @@ pub struct RjTracePoint {
     pub visits: Vec<u64>,
 }
 
+/// The three jump-chain estimates of one pair at one point of the run.
+#[derive(Debug, Clone, PartialEq, Serialize, serde::Deserialize)]
+pub struct RjRunningPair {
+    /// First model.
+    pub k: usize,
+    /// Second model.
+    pub l: usize,
+    /// Visit ratio (`None` while either model is unvisited).
+    pub visits: Option<LnB>,
+    /// Rao-Blackwell (mean acceptance probabilities).
+    pub rao_blackwell: Option<LnB>,
+    /// Bridge.
+    pub bridge: Option<LnB>,
+}
+
+/// Every pair's estimates from the first part of the run (the evolution of B, Fig. 2).
+#[derive(Debug, Clone, PartialEq, Serialize, serde::Deserialize)]
+pub struct RjRunningPoint {
+    /// Iterations done (including burn-in), summed over the chains.
+    pub iteration: usize,
+    /// One entry per pair `k < l`, in the order of [`RjResult::pairs`].
+    pub pairs: Vec<RjRunningPair>,
+}
+
+/// The kept post-burn-in draws of every jump chain (`keep_draws`), chain-major.
+#[derive(Debug, Clone, PartialEq, Serialize, serde::Deserialize)]
+pub struct RjDraws {
+    /// Model names (what `model_index` indexes).
+    pub model_names: Vec<String>,
+    /// The union of the models' parameter names, in first-seen order (model by model).
+    pub param_names: Vec<String>,
+    /// Chains.
+    pub n_chains: usize,
+    /// Draws per chain.
+    pub n_draws: usize,
+    /// Every `thin`-th post-burn-in iteration is kept (1: all).
+    pub thin: usize,
+    /// `[chain][draw]`: the model the chain is in.
+    pub model_index: Vec<i64>,
+    /// `[chain][draw][param]`: its parameters, NaN where the model has no such parameter.
+    pub samples: Vec<f64>,
+    /// `[chain][draw]`: `ln L` of the state.
+    pub ln_likelihood: Vec<f64>,
+}
+
+/// The union of the models' parameter names (first-seen order) and, per model, the column of
+/// each of its parameters in it.
+pub fn union_columns(names: &[&[String]]) -> (Vec<String>, Vec<Vec<usize>>) {
+    let mut all: Vec<String> = Vec::new();
+    let cols = names
+        .iter()
+        .map(|ns| {
+            ns.iter()
+                .map(|n| match all.iter().position(|a| a == n) {
+                    Some(i) => i,
+                    None => {
+                        all.push(n.clone());
+                        all.len() - 1
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    (all, cols)
+}
+
 /// Output of [`run_rjmcmc`].
 #[derive(Debug, Clone, PartialEq, Serialize, serde::Deserialize)]
 pub struct RjResult {
@@ -375,7 +445,20 @@ pub struct RjResult {
     pub pairs: Vec<RjPair>,
     /// Visit counts along the run (for the evolution of B).
     pub trace: Vec<RjTracePoint>,
+    /// Every estimator along the run, at most [`MAX_RUNNING_POINTS`] points; the last is the
+    /// whole run (equal to `pairs`). Point `b` pools the first `b` batches of every chain (and
+    /// the stretch before them), its errors from the batch means alone: the regeneration units
+    /// that the final errors also use are not resolved in time.
+    #[serde(default)]
+    pub running: Vec<RjRunningPoint>,
+    /// The post-burn-in draws, when [`RjOptions::keep_draws`] asked for them. Not serialised
+    /// (they go to `rj_chain.npz`, not to `summary.json`).
+    #[serde(skip)]
+    pub draws: Option<RjDraws>,
 }
+
+/// Most points of [`RjResult::running`].
+pub const MAX_RUNNING_POINTS: usize = 200;
 
 impl RjResult {
     /// The estimates for `ln B_kl` (either order).
@@ -547,6 +630,8 @@ pub fn run_rjmcmc(
         g: GRID_OFFSETS.len(),
     };
     let pilot = n_post.min(PILOT_ITERS);
+    let model_params: Vec<&[String]> = models.iter().map(|m| m.target.prior().names()).collect();
+    let (param_names, columns) = union_columns(&model_params);
     let mut shared = Shared {
         prepared,
         shape: opts.proposal,
@@ -563,6 +648,8 @@ pub fn run_rjmcmc(
         start_model: opts.start_model,
         layout,
         grid: None,
+        columns: opts.keep_draws.then(|| columns.clone()),
+        n_columns: param_names.len(),
     };
     let mut chains: Vec<Chain> = (0..n_chains)
         .map(|j| Chain::new(&shared, j, opts.seed))
@@ -655,6 +742,22 @@ pub fn run_rjmcmc(
         sojourns: &sojourns,
         visits: &visits,
     };
+    // the three estimates of a pair from a pool of sums: one code path for the final numbers
+    // and for every running point
+    let estimates = |pool: &Pool<'_>, soj: &Sojourns<'_>, a: usize, b: usize| {
+        (
+            estimate::visit_estimate(pool, a, b, &prior_p, soj),
+            estimate::acceptance_estimate(pool, a, b, shared.ln_ratio[a][b]),
+            estimate::bridge_estimate(
+                pool,
+                grid,
+                a,
+                b,
+                [(ln_box[a], ln_box_se[a]), (ln_box[b], ln_box_se[b])],
+                [ln_box_g_se[a], ln_box_g_se[b]],
+            ),
+        )
+    };
     let mut pairs = Vec::new();
     for a in 0..k_models {
         for b in a + 1..k_models {
@@ -667,19 +770,13 @@ pub fn run_rjmcmc(
                     models[a].name, models[b].name
                 )
             });
+            let (visits, rao_blackwell, bridge) = estimates(&pool, &soj, a, b);
             pairs.push(RjPair {
                 k: a,
                 l: b,
-                visits: estimate::visit_estimate(&pool, a, b, &prior_p, &soj),
-                rao_blackwell: estimate::acceptance_estimate(&pool, a, b, shared.ln_ratio[a][b]),
-                bridge: estimate::bridge_estimate(
-                    &pool,
-                    grid,
-                    a,
-                    b,
-                    [(ln_box[a], ln_box_se[a]), (ln_box[b], ln_box_se[b])],
-                    [ln_box_g_se[a], ln_box_g_se[b]],
-                ),
+                visits,
+                rao_blackwell,
+                bridge,
                 proposals_k_to_l: pool.total.counts[layout.prop(a, b)] as u64,
                 proposals_l_to_k: pool.total.counts[layout.prop(b, a)] as u64,
                 accepted_k_to_l: accepted_post[a][b],
@@ -690,6 +787,33 @@ pub fn run_rjmcmc(
             });
         }
     }
+    let running = estimate::running_points(
+        &chains,
+        layout,
+        batch,
+        opts.burn_in,
+        &pairs,
+        &|pool, soj, a, b| estimates(pool, soj, a, b),
+    );
+    let draws = opts.keep_draws.then(|| RjDraws {
+        model_names: models.iter().map(|m| m.name.clone()).collect(),
+        param_names: param_names.clone(),
+        n_chains,
+        n_draws: n_post,
+        thin: 1,
+        model_index: chains
+            .iter()
+            .flat_map(|c| c.draw_model.iter().copied())
+            .collect(),
+        samples: chains
+            .iter()
+            .flat_map(|c| c.draw_theta.iter().copied())
+            .collect(),
+        ln_likelihood: chains
+            .iter()
+            .flat_map(|c| c.draw_ln_l.iter().copied())
+            .collect(),
+    });
     Ok(RjResult {
         model_names: models.iter().map(|m| m.name.clone()).collect(),
         n_iter: per_chain * n_chains,
@@ -714,6 +838,8 @@ pub fn run_rjmcmc(
         ln_box_mass_std_err: ln_box_se,
         pairs,
         trace,
+        running,
+        draws,
     })
 }
 

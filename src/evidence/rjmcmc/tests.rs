@@ -512,3 +512,138 @@ fn sojourn_floor_matches_a_two_state_markov_chain() {
     // sampling error of a variance from 400 draws: ~7 %
     assert!((var / floor - 1.0).abs() < 0.25, "var {var} floor {floor}");
 }
+
+/// The running estimates end at the final numbers (the same pooled sums), their iterations
+/// grow to the run's end, and the kept draws agree with the visit counts, the models' columns
+/// and `ln L`; keeping them changes no number.
+#[test]
+fn running_estimates_and_draws_of_three_models() {
+    let lg = LinearGaussian::random(&RandomSpec {
+        n_data: 30,
+        dim: 3,
+        snr: 4.0,
+        n_absent: 1,
+        sigma: 1.0,
+        prior: RandomPrior::Uniform { lo: -3.0, hi: 3.0 },
+        seed: 2,
+    })
+    .unwrap()
+    .model;
+    let m3 = SubModel::new(&lg, vec![0, 1, 2], vec![0.0; 3]).unwrap();
+    let m2 = SubModel::new(&lg, vec![0, 1], vec![0.0; 3]).unwrap();
+    let m1 = SubModel::new(&lg, vec![0], vec![0.0; 3]).unwrap();
+    let models = [
+        rj_model(&lg, "3", &m3, &[0, 1, 2]),
+        rj_model(&lg, "2", &m2, &[0, 1]),
+        rj_model(&lg, "1", &m1, &[0]),
+    ];
+    let opts = RjOptions {
+        n_iter: 8_000,
+        burn_in: 100,
+        seed: 9,
+        keep_draws: true,
+        ..RjOptions::default()
+    };
+    let a = run_rjmcmc(&models, &opts, None).unwrap();
+    let last = a.running.last().unwrap();
+    assert_eq!(last.iteration, 8_000);
+    assert_eq!(last.pairs.len(), 3);
+    for (q, p) in last.pairs.iter().zip(&a.pairs) {
+        assert_eq!((q.k, q.l), (p.k, p.l));
+        assert_eq!(q.visits, p.visits);
+        assert_eq!(q.rao_blackwell, p.rao_blackwell);
+        assert_eq!(q.bridge, p.bridge);
+    }
+    // 3 900 post-burn-in iterations per chain: 62 batches of 62, so 62 points
+    assert_eq!(a.running.len(), 62);
+    assert!(
+        a.running
+            .windows(2)
+            .all(|w| w[0].iteration < w[1].iteration)
+    );
+    let first = &a.running[0].pairs[0];
+    assert!(
+        first.visits.unwrap().std_err.unwrap() > last.pairs[0].visits.unwrap().std_err.unwrap()
+    );
+    // the draws
+    let d = a.draws.as_ref().unwrap();
+    assert_eq!((d.n_chains, d.n_draws, d.thin), (2, 3_900, 1));
+    assert_eq!(
+        d.param_names,
+        ["theta0", "theta1", "theta2"].map(String::from)
+    );
+    let mut counts = [0u64; 3];
+    for (i, &m) in d.model_index.iter().enumerate() {
+        counts[m as usize] += 1;
+        let row = &d.samples[3 * i..3 * i + 3];
+        let dim = 3 - m as usize;
+        assert!(row[..dim].iter().all(|x| x.is_finite()), "{row:?}");
+        assert!(row[dim..].iter().all(|x| x.is_nan()), "{row:?}");
+        let target = [&m3, &m2, &m1][m as usize];
+        assert_eq!(d.ln_likelihood[i], target.ln_likelihood(&row[..dim]));
+    }
+    assert_eq!(counts.to_vec(), a.visits);
+    let b = run_rjmcmc(
+        &models,
+        &RjOptions {
+            keep_draws: false,
+            ..opts
+        },
+        None,
+    )
+    .unwrap();
+    assert!(b.draws.is_none());
+    assert_eq!(RjResult { draws: None, ..a }, b);
+}
+
+/// A model never visited: every running visit ratio is absent (null in JSON, not NaN), while
+/// Rao-Blackwell and the bridge have values; one chain still gives running errors.
+#[test]
+fn running_estimates_when_a_model_is_never_visited_with_one_chain() {
+    let lg = problem(40.0, 0, 7, 20.0);
+    let full = SubModel::new(&lg, vec![0, 1], vec![0.0; 2]).unwrap();
+    let small = SubModel::new(&lg, vec![0], vec![0.0; 2]).unwrap();
+    let models = [
+        rj_model(&lg, "full", &full, &[0, 1]),
+        rj_model(&lg, "small", &small, &[0]),
+    ];
+    let opts = RjOptions {
+        n_iter: 10_000,
+        n_chains: 1,
+        ..RjOptions::default()
+    };
+    let res = run_rjmcmc(&models, &opts, None).unwrap();
+    assert_eq!(res.visits[1], 0);
+    assert!(res.running.len() > 10);
+    for pt in &res.running {
+        let p = &pt.pairs[0];
+        assert!(p.visits.is_none());
+        let (rb, br) = (p.rao_blackwell.unwrap(), p.bridge.unwrap());
+        assert!(
+            rb.ln_b.is_finite() && rb.std_err.unwrap().is_finite(),
+            "{pt:?}"
+        );
+        assert!(
+            br.ln_b.is_finite() && br.std_err.unwrap().is_finite(),
+            "{pt:?}"
+        );
+    }
+    let json = serde_json::to_string(&res.running[0]).unwrap();
+    assert!(
+        json.contains("\"visits\":null") && !json.contains("NaN"),
+        "{json}"
+    );
+    assert_eq!(
+        res.running.last().unwrap().pairs[0].bridge,
+        res.pairs[0].bridge
+    );
+}
+
+#[test]
+fn union_of_parameter_names_in_first_seen_order() {
+    let s = |v: &[&str]| v.iter().map(|x| x.to_string()).collect::<Vec<_>>();
+    let (a, b, c) = (s(&["a", "b"]), s(&["c", "b"]), s(&[]));
+    let (names, cols) = union_columns(&[&a, &b, &c]);
+    assert_eq!(names, s(&["a", "b", "c"]));
+    assert_eq!(cols, vec![vec![0, 1], vec![2, 1], vec![]]);
+}
