@@ -1235,9 +1235,9 @@ mod tests {
                 "opacity=\"0.2",
             ],
         );
-        assert_eq!((w, h), (BAND_W, BAND_H));
-
         let fig = BandFigure::new(dir.path(), "snr", &plot(&series)).unwrap();
+        let rows = fig.legend_rows.len() as u32;
+        assert_eq!((w, h), (BAND_W, BAND_H + LEGEND_ROW * (rows - 1)));
         let (buf, _) = pixels(&fig);
         assert!(distinct(&buf) > 50, "only {} colours", distinct(&buf));
         for i in 0..3 {

@@ -260,7 +260,8 @@ impl CornerFigure {
             .iter()
             .filter(|s| s.iter().any(|v| !v.is_finite()))
             .count();
-        let mut header = format!("{} samples", samples.len());
+        let n = samples.len();
+        let mut header = format!("{n} sample{}", if n == 1 { "" } else { "s" });
         if bad > 0 {
             header.push_str(&format!(" ({bad} with non-finite values left out)"));
         }
