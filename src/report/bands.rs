@@ -233,7 +233,9 @@ const BAND_W: u32 = style::COLUMN_PX;
 const BAND_H: u32 = 540;
 const LEGEND_ROW: u32 = LEGEND_PX + 10;
 /// Legend swatch: band patch with the line pattern and marker across it.
-const SWATCH_W: u32 = 40;
+const SWATCH_W: u32 = 36;
+/// Space between legend entries.
+const ENTRY_GAP: u32 = 18;
 
 struct PreparedBand {
     name: String,
@@ -446,7 +448,7 @@ impl BandFigure {
 
 /// Width of a legend entry: swatch, gap, name, gap to the next entry.
 fn legend_entry_width(name: &str) -> u32 {
-    SWATCH_W + 8 + text_width(name, LEGEND_PX) + 26
+    SWATCH_W + 8 + text_width(name, LEGEND_PX) + ENTRY_GAP
 }
 
 /// Greedy line breaking of the legend entries into rows at most `width` pixels wide.
@@ -510,10 +512,10 @@ impl Figure for BandFigure {
                     let (tw, _) = legend
                         .estimate_text_size(&self.series[i].name, &font(LEGEND_PX))
                         .unwrap_or((text_width(&self.series[i].name, LEGEND_PX), 0));
-                    (SWATCH_W + 8 + tw + 26) as i32
+                    (SWATCH_W + 8 + tw + ENTRY_GAP) as i32
                 })
                 .collect();
-            let total: i32 = widths.iter().sum::<i32>() - 26;
+            let total: i32 = widths.iter().sum::<i32>() - ENTRY_GAP as i32;
             let (lw, _) = legend.dim_in_pixel();
             let mut x0 = ((lw as i32 - total) / 2).max(4);
             let yc = (LEGEND_ROW * r as u32 + LEGEND_ROW / 2 + 2) as i32;

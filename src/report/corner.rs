@@ -90,8 +90,8 @@ pub fn draw_corner(dir: &Path, stem: &str, plot: &CornerPlot<'_>) -> Result<(), 
 
 /// Room for tick labels and the rotated title of the left column.
 const LEFT: u32 = 2 * style::TICK_PX + 3 * style::TICK_PX;
-/// Room for tick labels and the title of the bottom row.
-const BOTTOM: u32 = style::TICK_PX * 3 + 12;
+/// Room for tick labels and the two-line title of the bottom row.
+const BOTTOM: u32 = style::TICK_PX + 2 * (style::LABEL_PX + 4) + 24;
 const RIGHT: u32 = 24;
 /// The two-line quantile title above each marginal.
 const DIAG_TITLE: u32 = 2 * (style::TICK_PX + 5) + 4;
@@ -296,6 +296,36 @@ impl CornerFigure {
         self.axes[p].desc_unit(&self.names[p], &self.units[p])
     }
 
+    /// The title under a bottom-row panel in two lines, the quantity and its scale and unit
+    /// (`w1sq + 1.3×10⁻⁶` over `[10⁻¹⁰ s⁻²]`), so neighbouring columns' titles never collide.
+    fn draw_x_title<DB: DrawingBackend>(
+        &self,
+        area: &DrawingArea<DB, Shift>,
+        ch: &ChartContext<'_, DB, super::plots::Coords>,
+        (p, y_lo): (usize, f64),
+    ) -> DrawResult<DB> {
+        let x = &self.axes[p];
+        let d = self.desc(p);
+        let lines: Vec<&str> = match d.find(" [") {
+            Some(k) => vec![&d[..k], &d[k + 1..]],
+            None => vec![d.as_str()],
+        };
+        let (x0, yb) = ch.backend_coord(&(x.lo, y_lo));
+        let (x1, _) = ch.backend_coord(&(x.hi, y_lo));
+        let (bx, by) = area.get_base_pixel();
+        let cx = (x0 + x1) / 2 - bx;
+        let top = yb - by + style::TICK_PX as i32 + 14;
+        let st = text(style::LABEL_PX).pos(Pos::new(HPos::Center, VPos::Top));
+        for (k, line) in lines.iter().enumerate() {
+            area.draw_text(
+                line,
+                &st,
+                (cx, top + k as i32 * (style::LABEL_PX as i32 + 4)),
+            )?;
+        }
+        Ok(())
+    }
+
     /// Legend entries: (label, what to draw).
     fn legend(&self) -> Vec<(&'static str, Mark)> {
         let mut l = vec![
@@ -342,12 +372,15 @@ impl CornerFigure {
         let y_area = if first_col { LEFT } else { 0 };
         let mut ch = chart(&area, (x, &y), (x_area, y_area), None)?;
         let labels = MeshText {
-            x_title: last_row.then(|| self.desc(p)),
+            x_title: None,
             y_title: None,
             x_labels: last_row,
             y_labels: false,
         };
         mesh(&mut ch, (x, &y), &labels, style::TICK_PX)?;
+        if last_row {
+            self.draw_x_title(&area, &ch, (p, 0.0))?;
+        }
         let w = (x.hi - x.lo) / h.len() as f64;
         let c = style::colour(0);
         let fill = style::tint(c, 0.35).filled();
@@ -406,12 +439,15 @@ impl CornerFigure {
         let y_area = if first_col { LEFT } else { 0 };
         let mut ch = chart(area, (x, y), (x_area, y_area), None)?;
         let labels = MeshText {
-            x_title: last_row.then(|| self.desc(j)),
+            x_title: None,
             y_title: first_col.then(|| self.desc(i)),
             x_labels: last_row,
             y_labels: first_col,
         };
         mesh(&mut ch, (x, y), &labels, style::TICK_PX)?;
+        if last_row {
+            self.draw_x_title(area, &ch, (j, y.lo))?;
+        }
         let pair = &self.pairs[i][j];
         let nb = self.bins2;
         let (wx, wy) = ((x.hi - x.lo) / nb as f64, (y.hi - y.lo) / nb as f64);

@@ -69,6 +69,13 @@ pub(crate) fn colour(i: usize) -> RGBColor {
     OKABE_ITO[i % OKABE_ITO.len()]
 }
 
+/// Colour of chain `i` in a plot that also marks the truth: the palette without the truth's
+/// vermillion and the MAP's black, so neither mark is mistaken for a chain (period 5).
+pub(crate) fn chain_colour(i: usize) -> RGBColor {
+    const CHAINS: [usize; 5] = [0, 2, 3, 4, 5];
+    OKABE_ITO[CHAINS[i % CHAINS.len()]]
+}
+
 /// Dash pattern `(dash, gap)` in pixels for series `i`; `None` is a solid line. Period 4.
 pub(crate) fn dash(i: usize) -> Option<(u32, u32)> {
     match i % 4 {
@@ -229,6 +236,17 @@ mod tests {
         assert_eq!(dash(0), None);
         assert_eq!(marker(1), vec![(-5, -5), (5, -5), (5, 5), (-5, 5)]);
         assert_ne!((TRUTH, None), (MAP, Some(MAP_DASH)));
+    }
+
+    #[test]
+    fn chain_colours_avoid_the_truth_and_map_marks() {
+        for i in 0..20 {
+            assert_ne!(chain_colour(i), TRUTH);
+            assert_ne!(chain_colour(i), MAP);
+        }
+        assert_eq!(chain_colour(0), colour(0));
+        assert_eq!(chain_colour(1), colour(2));
+        assert_eq!(chain_colour(5), chain_colour(0));
     }
 
     #[test]

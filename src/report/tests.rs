@@ -137,7 +137,14 @@ fn corner_plot_handles_constant_and_nan_columns() {
         .collect();
     let n = names(&["a", "b", "c"]);
     corner_plot(dir.path(), "corner", &n, &samples, Some(&[0.0, 0.5, 0.0])).unwrap();
-    let (w, h) = check_outputs(dir.path(), "corner", &["300 samples (43 with non-finite values left out)", "c [10⁻⁶]"]);
+    let (w, h) = check_outputs(
+        dir.path(),
+        "corner",
+        &[
+            "300 samples (43 with non-finite values left out)",
+            "c [10⁻⁶]",
+        ],
+    );
     assert!(w > 3 * 130 && h > 3 * 130, "{w}×{h}");
 }
 
@@ -325,11 +332,20 @@ fn draw_trace_with_ln_posterior_and_burn_in() {
     let dir = tempfile::tempdir().unwrap();
     let chain: Vec<Vec<f64>> = (0..400)
         .map(|i| {
-            let w = if i == 17 { f64::NAN } else { -1.3e-6 + 2e-8 * (i as f64 * 0.2).sin() };
+            let w = if i == 17 {
+                f64::NAN
+            } else {
+                -1.3e-6 + 2e-8 * (i as f64 * 0.2).sin()
+            };
             vec![w, 0.2]
         })
         .collect();
-    let lp = vec![chain.iter().map(|s| -1e15 * (s[0] + 1.3e-6).powi(2)).collect::<Vec<_>>()];
+    let lp = vec![
+        chain
+            .iter()
+            .map(|s| -1e15 * (s[0] + 1.3e-6).powi(2))
+            .collect::<Vec<_>>(),
+    ];
     let (n, u) = (names(&["w1sq", "dt1"]), names(&["s⁻²", "s"]));
     draw_trace(
         dir.path(),
@@ -484,5 +500,9 @@ fn band_plot_single_point_single_realisation() {
         },
     )
     .unwrap();
-    check_outputs(dir.path(), "one", &["RJMCMC", "bridge", "strong", "<polygon"]);
+    check_outputs(
+        dir.path(),
+        "one",
+        &["RJMCMC", "bridge", "strong", "<polygon"],
+    );
 }

@@ -69,7 +69,7 @@ pub fn trace_plot(
 
 /// Writes `<dir>/<stem>.png` and `.svg`: one panel per parameter, stacked and sharing the
 /// iteration axis, under a panel of the ln posterior when given; one colour per chain (the
-/// legend above names them), the true value as a vermillion line, and with
+/// legend above names them, never vermillion or black), the true value as a vermillion line, and with
 /// [`TracePlot::iterations`] the burn-in shaded and its end marked by a dashed line.
 ///
 /// Each panel has its own vertical scale; its caption is the axis title with the unit, which
@@ -372,7 +372,7 @@ impl Figure for TraceFigure {
                 match chain {
                     Some(c) => head.draw(&PathElement::new(
                         line,
-                        style::colour(*c).stroke_width(style::LINE_PX),
+                        style::chain_colour(*c).stroke_width(style::LINE_PX),
                     ))?,
                     None => head.draw(&PathElement::new(
                         line,
@@ -440,7 +440,7 @@ impl Figure for TraceFigure {
                 }
             }
             for (c, chain) in panel.lines.iter().enumerate() {
-                let colour = style::colour(c).stroke_width(stroke);
+                let colour = style::chain_colour(c).stroke_width(stroke);
                 for seg in chain {
                     ch.draw_series(LineSeries::new(seg.iter().copied(), colour))?;
                 }
