@@ -70,9 +70,10 @@ pub(crate) fn colour(i: usize) -> RGBColor {
 }
 
 /// Colour of chain `i` in a plot that also marks the truth: the palette without the truth's
-/// vermillion and the MAP's black, so neither mark is mistaken for a chain (period 5).
+/// vermillion and the MAP's black, so neither mark is mistaken for a chain, and with the
+/// orange (close to vermillion) last (period 5).
 pub(crate) fn chain_colour(i: usize) -> RGBColor {
-    const CHAINS: [usize; 5] = [0, 2, 3, 4, 5];
+    const CHAINS: [usize; 5] = [0, 2, 3, 5, 4];
     OKABE_ITO[CHAINS[i % CHAINS.len()]]
 }
 
