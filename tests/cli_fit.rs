@@ -56,7 +56,10 @@ fn fit_writes_table_chains_and_plots() {
         .map(|r| r["unit"].as_str().unwrap())
         .collect();
     assert_eq!(units, ["", "", ""]);
-    assert_eq!((s["burn_in"].as_u64(), s["thin"].as_u64()), (Some(1000), Some(1)));
+    assert_eq!(
+        (s["burn_in"].as_u64(), s["thin"].as_u64()),
+        (Some(1000), Some(1))
+    );
     let svg = std::fs::read_to_string(dir.path().join("out/fit/trace.svg")).unwrap();
     assert!(svg.contains("burn-in 1000") && svg.contains("ln posterior"));
     let svg = std::fs::read_to_string(dir.path().join("out/fit/corner.svg")).unwrap();

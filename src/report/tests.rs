@@ -347,13 +347,14 @@ fn draw_trace_with_ln_posterior_and_burn_in() {
             .collect::<Vec<_>>(),
     ];
     let (n, u) = (names(&["w1sq", "dt1"]), names(&["s⁻²", "s"]));
+    let chains = vec![chain];
     draw_trace(
         dir.path(),
         "trace",
         &TracePlot {
             names: &n,
             units: &u,
-            chains: &[chain.clone()],
+            chains: &chains,
             ln_posterior: &lp,
             truth: Some(&[-1.3e-6, f64::NAN]),
             iterations: Some((2000, 5)),
@@ -380,7 +381,7 @@ fn draw_trace_with_ln_posterior_and_burn_in() {
             &TracePlot {
                 names: &n,
                 units,
-                chains: &[chain.clone()],
+                chains: &chains,
                 ln_posterior: lp,
                 iterations: it,
                 ..Default::default()
