@@ -34,6 +34,8 @@ pub enum FitError {
 #[derive(Debug, Clone, Serialize)]
 pub struct ParamRow {
     pub name: String,
+    /// SI unit of the parameter (`"s⁻²"`, `"s"`, `"Hz"`); empty when dimensionless or unknown.
+    pub unit: String,
     pub truth: Option<f64>,
     pub map: f64,
     pub mean: f64,
@@ -67,6 +69,11 @@ pub struct FitSummary {
     pub warnings: Vec<String>,
     pub chains: usize,
     pub kept_per_chain: usize,
+    /// Iterations per chain before the first kept draw (`[fit] burn_in`); they are not stored.
+    pub burn_in: usize,
+    /// One draw kept every `thin` iterations after the burn-in: kept draw `k` (from 0) is
+    /// iteration `burn_in + (k + 1)·thin`.
+    pub thin: usize,
     pub seconds_map: f64,
     pub seconds_mcmc: f64,
     pub iterations_per_second: f64,
@@ -176,6 +183,7 @@ pub fn run(
     let diag = chains.diagnostics()?;
     warnings.extend(diag.warnings().iter().map(|w| w.to_string()));
     let truth = truth_of(study, model.model, &prep.dataset);
+    let units = exact.model().param_units();
     let rows = free
         .iter()
         .enumerate()
@@ -183,6 +191,7 @@ pub fn run(
             let tr = truth.as_ref().and_then(|t| t[i]);
             ParamRow {
                 name: names[i].clone(),
+                unit: units.get(i).cloned().unwrap_or_default(),
                 truth: tr,
                 map: map.theta[i],
                 mean: diag.mean[k],
@@ -212,6 +221,8 @@ pub fn run(
         warnings,
         chains: f.chains,
         kept_per_chain: chains.n_kept(),
+        burn_in: f.burn_in,
+        thin: f.thin,
         seconds_map,
         seconds_mcmc,
         iterations_per_second: total_iter / seconds_mcmc,
@@ -456,17 +467,62 @@ pub fn write_outputs(o: &FitOutcome, out: &Path) -> Result<(), FitError> {
         .iter()
         .map(|c| c.samples.chunks(names.len()).map(|s| s.to_vec()).collect())
         .collect();
-    let truth: Option<Vec<f64>> = o
-        .summary
-        .rows
+    // NaN marks a parameter whose true value is unknown; the plots leave it unmarked.
+    let truth: Option<Vec<f64>> = o.summary.rows.iter().any(|r| r.truth.is_some()).then(|| {
+        o.summary
+            .rows
+            .iter()
+            .map(|r| r.truth.unwrap_or(f64::NAN))
+            .collect()
+    });
+    // Units by name: the chains hold the free parameters, the rows say what each one is.
+    let units: Vec<String> = names
         .iter()
-        .map(|r| r.truth)
-        .collect::<Option<Vec<f64>>>();
-    crate::report::trace_plot(out, "trace", &names, &per_chain, truth.as_deref())?;
+        .map(|n| {
+            o.summary
+                .rows
+                .iter()
+                .find(|r| &r.name == n)
+                .map(|r| r.unit.clone())
+                .unwrap_or_default()
+        })
+        .collect();
+    let ln_posterior: Vec<Vec<f64>> = o
+        .chains
+        .chains()
+        .iter()
+        .map(|c| c.ln_posterior.clone())
+        .collect();
+    crate::report::draw_trace(
+        out,
+        "trace",
+        &crate::report::TracePlot {
+            names: &names,
+            units: &units,
+            chains: &per_chain,
+            ln_posterior: &ln_posterior,
+            truth: truth.as_deref(),
+            iterations: Some((o.summary.burn_in, o.summary.thin)),
+        },
+    )?;
+    let map: Option<Vec<f64>> = names
+        .iter()
+        .map(|n| o.summary.rows.iter().find(|r| &r.name == n).map(|r| r.map))
+        .collect();
     let pooled: Vec<Vec<f64>> = per_chain.iter().flatten().cloned().collect();
     let step = (pooled.len() / 20_000).max(1);
     let thinned: Vec<Vec<f64>> = pooled.into_iter().step_by(step).collect();
-    crate::report::corner_plot(out, "corner", &names, &thinned, truth.as_deref())?;
+    crate::report::draw_corner(
+        out,
+        "corner",
+        &crate::report::CornerPlot {
+            names: &names,
+            units: &units,
+            samples: &thinned,
+            truth: truth.as_deref(),
+            map: map.as_deref(),
+        },
+    )?;
     Ok(())
 }
 
@@ -538,6 +594,8 @@ mod tests {
             warnings: vec![],
             chains: 1,
             kept_per_chain: 10,
+            burn_in: 5,
+            thin: 1,
             seconds_map: 0.0,
             seconds_mcmc: 0.0,
             iterations_per_second: 0.0,
@@ -548,6 +606,7 @@ mod tests {
     fn row(name: &str, sd: f64, rhat: f64, ess: f64) -> ParamRow {
         ParamRow {
             name: name.into(),
+            unit: String::new(),
             truth: Some(1.0),
             map: 1.0,
             mean: 1.0,

@@ -47,6 +47,23 @@ fn fit_writes_table_chains_and_plots() {
     )
     .unwrap();
     assert_eq!(s["rows"].as_array().unwrap().len(), 3);
+    // Units of the built-in model (gains and cross-talk are dimensionless), and where the kept
+    // draws start.
+    let units: Vec<&str> = s["rows"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|r| r["unit"].as_str().unwrap())
+        .collect();
+    assert_eq!(units, ["", "", ""]);
+    assert_eq!(
+        (s["burn_in"].as_u64(), s["thin"].as_u64()),
+        (Some(1000), Some(1))
+    );
+    let svg = std::fs::read_to_string(dir.path().join("out/fit/trace.svg")).unwrap();
+    assert!(svg.contains("burn-in 1000") && svg.contains("ln posterior"));
+    let svg = std::fs::read_to_string(dir.path().join("out/fit/corner.svg")).unwrap();
+    assert!(svg.contains("1σ (39 %)") && svg.contains("MAP"));
 }
 
 #[test]

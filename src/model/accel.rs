@@ -235,6 +235,22 @@ impl Model for AccelModel {
         &self.names
     }
 
+    /// ω² in s⁻², actuator poles in Hz, actuator delays in s; the gains are dimensionless.
+    fn param_units(&self) -> Vec<String> {
+        self.names
+            .iter()
+            .map(|n| {
+                match n.as_str() {
+                    "w1sq" | "w2sq" => "s⁻²",
+                    "f_o1" | "f_o2" => "Hz",
+                    "tau_c1" | "tau_c2" => "s",
+                    _ => "",
+                }
+                .to_string()
+            })
+            .collect()
+    }
+
     fn data_channels(&self) -> &[String] {
         &self.data
     }
@@ -306,6 +322,10 @@ mod tests {
         assert_eq!(
             model(false, false).param_names(),
             ["w1sq", "w2sq", "a1", "a2"]
+        );
+        assert_eq!(
+            model(true, true).param_units(),
+            ["s⁻²", "s⁻²", "", "", "Hz", "Hz", "s", "s"]
         );
         assert_eq!(
             model(true, true).param_names(),

@@ -296,6 +296,23 @@ impl Model for LtpModel {
         &self.names
     }
 
+    /// ω² in s⁻², delays in s, the thruster pole in Hz; gains and the cross-talk `d21` are
+    /// dimensionless (ltp-model.md §3.2).
+    fn param_units(&self) -> Vec<String> {
+        self.names
+            .iter()
+            .map(|n| {
+                match n.as_str() {
+                    "w1sq" | "w2sq" => "s⁻²",
+                    "dt1" | "dt2" | "tau_df" => "s",
+                    "f_df" => "Hz",
+                    _ => "",
+                }
+                .to_string()
+            })
+            .collect()
+    }
+
     fn data_channels(&self) -> &[String] {
         &self.data
     }
@@ -620,5 +637,35 @@ mod tests {
         let o: LtpModelOptions = toml::from_str("oms_delay = 0.3").unwrap();
         assert_eq!(o.response, LoopResponse::Continuous);
         assert!(toml::from_str::<LtpModelOptions>("response = \"zoh\"").is_err());
+    }
+}
+
+#[cfg(test)]
+mod unit_tests {
+    use super::*;
+
+    #[test]
+    fn parameters_carry_si_units() {
+        let m = LtpModel::new("ltp", LtpModelOptions::default());
+        assert_eq!(
+            m.param_units(),
+            ["s⁻²", "s⁻²", "s", "s", "", "", ""],
+            "{:?}",
+            m.param_names()
+        );
+        for (t, unit) in [
+            (ThrusterResponse::Delay, "s"),
+            (ThrusterResponse::Pole, "Hz"),
+        ] {
+            let m = LtpModel::new(
+                "ltp",
+                LtpModelOptions {
+                    thruster: t,
+                    ..Default::default()
+                },
+            );
+            assert_eq!(m.param_units().len(), m.param_names().len());
+            assert_eq!(m.param_units()[7], unit);
+        }
     }
 }

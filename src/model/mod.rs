@@ -132,6 +132,13 @@ pub trait Model: Send + Sync + std::fmt::Debug {
     /// Parameter names, in the order of θ.
     fn param_names(&self) -> &[String];
 
+    /// SI unit of each parameter, in the order of θ, for axis labels and tables: `"s⁻²"`,
+    /// `"s"`, `"Hz"`; an empty string for a dimensionless parameter or an unknown unit. The
+    /// default knows no units, so models written before units existed keep working.
+    fn param_units(&self) -> Vec<String> {
+        vec![String::new(); self.param_names().len()]
+    }
+
     /// Data channels `d_c` the model reads (columns of `M`), at most [`MAX_CHANNELS`].
     fn data_channels(&self) -> &[String];
 

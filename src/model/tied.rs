@@ -136,6 +136,20 @@ impl Model for TiedModel {
         &self.names
     }
 
+    /// The parent's unit of each kept parameter.
+    fn param_units(&self) -> Vec<String> {
+        let (pn, pu) = (self.parent.param_names(), self.parent.param_units());
+        self.names
+            .iter()
+            .map(|n| {
+                pn.iter()
+                    .position(|p| p == n)
+                    .and_then(|i| pu.get(i).cloned())
+                    .unwrap_or_default()
+            })
+            .collect()
+    }
+
     fn data_channels(&self) -> &[String] {
         self.parent.data_channels()
     }
@@ -241,6 +255,7 @@ mod tests {
             t.param_names(),
             ["w1sq", "w2sq", "a1", "f_o1", "tau_c1", "tau_c2"]
         );
+        assert_eq!(t.param_units(), ["s⁻²", "s⁻²", "", "Hz", "s", "s"]);
         let th = [-1.3e-6, -1.9e-6, 1.02, 1.963, 0.01, 0.03];
         let full = [-1.3e-6, -1.9e-6, 1.02, 1.02, 1.963, 1.963, 0.01, 0.03];
         assert_eq!(t.expand(&th), full);

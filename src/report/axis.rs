@@ -237,6 +237,35 @@ impl Axis {
         }
     }
 
+    /// The axis title for a quantity called `name` measured in `unit` (empty: none), the
+    /// scale in brackets: `w1sq [10⁻⁶ s⁻²]`, `w1sq + 1.3×10⁻⁶ [10⁻¹⁰ s⁻²]` (ticks show
+    /// `(w1sq + 1.3×10⁻⁶ s⁻²)/(10⁻¹⁰ s⁻²)`), `dt1 [s]`, `a_df`, `d21 [10⁻⁴]`.
+    pub fn desc_unit(&self, name: &str, unit: &str) -> String {
+        let (shifted, exp) = match self.kind {
+            Kind::Linear {
+                offset,
+                offset_digits,
+                exp,
+                ..
+            } => {
+                if offset == 0.0 {
+                    (name.to_string(), exp)
+                } else {
+                    let sign = if offset < 0.0 { '+' } else { '−' };
+                    let off = fmt_axis_number(offset.abs(), offset_digits.max(1));
+                    (format!("{name} {sign} {off}"), exp)
+                }
+            }
+            Kind::Log10 { .. } => (name.to_string(), 0),
+        };
+        match (exp, unit.is_empty()) {
+            (0, true) => shifted,
+            (0, false) => format!("{shifted} [{unit}]"),
+            (e, true) => format!("{shifted} [10{}]", superscript(e)),
+            (e, false) => format!("{shifted} [10{} {unit}]", superscript(e)),
+        }
+    }
+
     /// The axis title for a quantity called `name`, stating any offset and power of ten.
     pub fn desc(&self, name: &str) -> String {
         match self.kind {
@@ -347,6 +376,20 @@ mod tests {
         assert_eq!(a.desc("ω₁²"), "(ω₁² + 1.300×10⁻⁶) / 10⁻¹⁰");
         // Every tick lies in the visible range.
         assert!(a.ticks.iter().all(|t| (a.lo..=a.hi).contains(t)));
+    }
+
+    #[test]
+    fn unit_titles_put_scale_and_unit_in_brackets() {
+        let a = Axis::linear(0.0, 3e-6, 5);
+        assert_eq!(a.desc_unit("w1sq", "s⁻²"), "w1sq [10⁻⁶ s⁻²]");
+        assert_eq!(a.desc_unit("d21", ""), "d21 [10⁻⁶]");
+        let b = Axis::linear(0.2, 0.9, 5);
+        assert_eq!(b.desc_unit("dt1", "s"), "dt1 [s]");
+        assert_eq!(b.desc_unit("a_df", ""), "a_df");
+        let c = Axis::linear(-1.29998e-6 - 4e-10, -1.29998e-6 + 4e-10, 5);
+        assert_eq!(c.desc_unit("w1sq", "s⁻²"), "w1sq + 1.300×10⁻⁶ [10⁻¹⁰ s⁻²]");
+        let d = Axis::log10(-2.0, 1.0, 5);
+        assert_eq!(d.desc_unit("f", "Hz"), "f [Hz]");
     }
 
     #[test]

@@ -9,7 +9,8 @@
 use super::ReportError;
 use super::axis::Axis;
 use super::format::fmt_sig;
-use super::plots::{DrawResult, Figure, MeshText, Ticked, bad_input, chart, colour, mesh, render};
+use super::plots::{DrawResult, Figure, MeshText, Ticked, bad_input, chart, mesh, render};
+use super::style::{self, ZONES, colour, dash, marker as marker_shape};
 use plotters::coord::Shift;
 use plotters::element::DashedPathElement;
 use plotters::prelude::*;
@@ -177,15 +178,15 @@ pub fn heat_map(dir: &Path, stem: &str, map: &HeatMap<'_>) -> Result<(), ReportE
 // ---------------------------------------------------------------------------------------------
 // Shared style
 
-/// Type sizes (px) chosen so that an 800 px figure scaled to a 3.4 in column prints its tick
-/// labels at about 5.5 pt and titles at 6–7 pt.
-const TITLE_PX: u32 = 23;
-const DESC_PX: u32 = 20;
-const TICK_PX: u32 = 18;
-const LEGEND_PX: u32 = 18;
-const NOTE_PX: u32 = 15;
+/// Type sizes (px) from the common style: a [`style::COLUMN_PX`] figure scaled to a 3.4 in
+/// column prints every text at 8 pt or more.
+const TITLE_PX: u32 = style::TITLE_PX;
+const DESC_PX: u32 = style::LABEL_PX;
+const TICK_PX: u32 = style::TICK_PX;
+const LEGEND_PX: u32 = style::LEGEND_PX;
+const NOTE_PX: u32 = style::NOTE_PX;
 /// Median line width (px).
-const LINE_W: u32 = 3;
+const LINE_W: u32 = style::THIN_PX;
 
 fn font(size: u32) -> TextStyle<'static> {
     super::plots::text(size)
@@ -205,47 +206,6 @@ fn y_area(labels: impl IntoIterator<Item = String>) -> u32 {
         .max()
         .unwrap_or(10);
     widest + 16 + DESC_PX + 12
-}
-
-/// Marker outline for series `i` (pixels around the point): circle, square, triangle,
-/// diamond, inverted triangle, four-pointed star, then again.
-fn marker_shape(i: usize) -> Vec<(i32, i32)> {
-    match i % 6 {
-        0 => (0..16)
-            .map(|k| {
-                let a = k as f64 * std::f64::consts::TAU / 16.0;
-                (
-                    (5.5 * a.cos()).round() as i32,
-                    (5.5 * a.sin()).round() as i32,
-                )
-            })
-            .collect(),
-        1 => vec![(-5, -5), (5, -5), (5, 5), (-5, 5)],
-        2 => vec![(0, -7), (6, 4), (-6, 4)],
-        3 => vec![(0, -7), (7, 0), (0, 7), (-7, 0)],
-        4 => vec![(0, 7), (6, -4), (-6, -4)],
-        _ => vec![
-            (0, -8),
-            (2, -2),
-            (8, 0),
-            (2, 2),
-            (0, 8),
-            (-2, 2),
-            (-8, 0),
-            (-2, -2),
-        ],
-    }
-}
-
-/// Dash pattern `(dash, gap)` in pixels for series `i`; `None` is a solid line. Cycles with
-/// period 4 while markers cycle with period 6, so the first 12 series differ in both.
-fn dash(i: usize) -> Option<(u32, u32)> {
-    match i % 4 {
-        0 => None,
-        1 => Some((12, 6)),
-        2 => Some((3, 5)),
-        _ => Some((20, 5)),
-    }
 }
 
 /// Splits a sequence at the `None`s into runs of consecutive values.
@@ -269,21 +229,13 @@ fn finite(v: f64) -> Option<f64> {
 // ---------------------------------------------------------------------------------------------
 // Band plot
 
-const BAND_W: u32 = 800;
-const BAND_H: u32 = 560;
-const LEGEND_ROW: u32 = 28;
+const BAND_W: u32 = style::COLUMN_PX;
+const BAND_H: u32 = 540;
+const LEGEND_ROW: u32 = LEGEND_PX + 10;
 /// Legend swatch: band patch with the line pattern and marker across it.
-const SWATCH_W: u32 = 40;
-
-/// Kass & Raftery (1995) grades in |ln B|: upper edge, label, shade. The weaker the grade the
-/// darker the grey, so the eye goes to where the verdict is in doubt and a sweep that is
-/// decisive over most of its range keeps a white background.
-const ZONES: [(f64, &str, RGBColor); 4] = [
-    (1.0, "bare mention", RGBColor(222, 222, 222)),
-    (3.0, "positive", RGBColor(234, 234, 234)),
-    (5.0, "strong", RGBColor(245, 245, 245)),
-    (f64::INFINITY, "very strong", RGBColor(255, 255, 255)),
-];
+const SWATCH_W: u32 = 36;
+/// Space between legend entries.
+const ENTRY_GAP: u32 = 18;
 
 struct PreparedBand {
     name: String,
@@ -479,7 +431,7 @@ impl BandFigure {
         } else {
             Vec::new()
         };
-        let legend_rows = legend_rows(&prepared, BAND_W - 40);
+        let legend_rows = legend_rows(&prepared, BAND_W - 16);
         Ok(BandFigure {
             title: plot.title.to_string(),
             x_title: plot.x_label.to_string(),
@@ -494,9 +446,13 @@ impl BandFigure {
     }
 }
 
-/// Width of a legend entry: swatch, gap, name, gap to the next entry.
+/// Width of a legend entry: swatch, gap, name, gap to the next entry. Names are mostly lower
+/// case, about 0.5 em per character in DejaVu Sans (measured: "Thermodynamic integration" is
+/// 272 px at 23 px), so 0.52 em packs the rows without overflowing them; the drawing itself
+/// measures each name.
 fn legend_entry_width(name: &str) -> u32 {
-    SWATCH_W + 8 + text_width(name, LEGEND_PX) + 26
+    let text = (name.chars().count() as f64 * 0.52 * LEGEND_PX as f64).ceil() as u32;
+    SWATCH_W + 8 + text + ENTRY_GAP
 }
 
 /// Greedy line breaking of the legend entries into rows at most `width` pixels wide.
@@ -560,10 +516,10 @@ impl Figure for BandFigure {
                     let (tw, _) = legend
                         .estimate_text_size(&self.series[i].name, &font(LEGEND_PX))
                         .unwrap_or((text_width(&self.series[i].name, LEGEND_PX), 0));
-                    (SWATCH_W + 8 + tw + 26) as i32
+                    (SWATCH_W + 8 + tw + ENTRY_GAP) as i32
                 })
                 .collect();
-            let total: i32 = widths.iter().sum::<i32>() - 26;
+            let total: i32 = widths.iter().sum::<i32>() - ENTRY_GAP as i32;
             let (lw, _) = legend.dim_in_pixel();
             let mut x0 = ((lw as i32 - total) / 2).max(4);
             let yc = (LEGEND_ROW * r as u32 + LEGEND_ROW / 2 + 2) as i32;
@@ -596,7 +552,7 @@ impl Figure for BandFigure {
         if self.zero_line {
             ch.draw_series([PathElement::new(
                 [(self.x.lo, 0.0), (self.x.hi, 0.0)],
-                RGBColor(70, 70, 70).stroke_width(1),
+                style::REFERENCE.stroke_width(style::HAIR_PX),
             )])?;
         }
         self.draw_zone_labels(&ch, root)?;
@@ -696,7 +652,7 @@ impl BandFigure {
             ch.backend_coord(&(self.x.lo, 0.0)).0,
             ch.backend_coord(&(self.x.hi, 0.0)).0,
         );
-        let style = font(NOTE_PX).color(&RGBColor(95, 95, 95));
+        let style = font(NOTE_PX).color(&style::MUTED);
         for z in &self.zones {
             // The zone around zero is labelled in its taller half, clear of the zero line.
             let (lo, hi) = if z.lo < 0.0 && z.hi > 0.0 {
@@ -746,42 +702,13 @@ impl BandFigure {
 // ---------------------------------------------------------------------------------------------
 // Heat map
 
-const MAP_W: u32 = 800;
-const MAP_H: u32 = 640;
+const MAP_W: u32 = style::COLUMN_PX;
+const MAP_H: u32 = 600;
 /// Width of the colour-bar column (strip, ticks, labels, title).
 const BAR_COL: u32 = 150;
 /// Width of the colour strip itself.
 const STRIP_PX: u32 = 26;
-const NAN_FILL: RGBColor = RGBColor(175, 175, 175);
-const NAN_HATCH: RGBColor = RGBColor(95, 95, 95);
-
-/// ColorBrewer RdBu (11 classes), red (negative) to blue (positive).
-const RDBU: [(u8, u8, u8); 11] = [
-    (103, 0, 31),
-    (178, 24, 43),
-    (214, 96, 77),
-    (244, 165, 130),
-    (253, 219, 199),
-    (247, 247, 247),
-    (209, 229, 240),
-    (146, 197, 222),
-    (67, 147, 195),
-    (33, 102, 172),
-    (5, 48, 97),
-];
-
-/// Matplotlib's viridis sampled at ninths of its range.
-const VIRIDIS: [(u8, u8, u8); 9] = [
-    (68, 1, 84),
-    (72, 40, 120),
-    (62, 74, 137),
-    (49, 104, 142),
-    (38, 130, 142),
-    (31, 158, 137),
-    (53, 183, 121),
-    (109, 205, 89),
-    (253, 231, 37),
-];
+use style::{NAN_FILL, NAN_HATCH, RDBU, VIRIDIS};
 
 /// Piecewise-linear interpolation of `anchors` (evenly spaced) at `u` ∈ [0, 1] (clamped).
 fn interpolate(anchors: &[(u8, u8, u8)], u: f64) -> RGBColor {
@@ -1148,7 +1075,7 @@ impl Figure for MapFigure {
             .y_label_formatter(&fy)
             .label_style(font(TICK_PX))
             .axis_desc_style(font(DESC_PX))
-            .axis_style(RGBColor(90, 90, 90))
+            .axis_style(style::AXIS)
             .x_desc(self.x.desc(&self.x_title))
             .y_desc(self.y.desc(&self.y_title));
         m.draw()?;
@@ -1189,7 +1116,7 @@ impl Figure for MapFigure {
             .y_label_formatter(&label_of)
             .label_style(font(TICK_PX))
             .axis_desc_style(font(DESC_PX))
-            .axis_style(RGBColor(90, 90, 90))
+            .axis_style(style::AXIS)
             .y_desc(&self.bar_desc)
             .draw()?;
 
@@ -1314,9 +1241,9 @@ mod tests {
                 "opacity=\"0.2",
             ],
         );
-        assert_eq!((w, h), (BAND_W, BAND_H));
-
         let fig = BandFigure::new(dir.path(), "snr", &plot(&series)).unwrap();
+        let rows = fig.legend_rows.len() as u32;
+        assert_eq!((w, h), (BAND_W, BAND_H + LEGEND_ROW * (rows - 1)));
         let (buf, _) = pixels(&fig);
         assert!(distinct(&buf) > 50, "only {} colours", distinct(&buf));
         for i in 0..3 {
@@ -1571,7 +1498,7 @@ mod tests {
                 .iter()
                 .map(|&i| legend_entry_width(&fig.series[i].name))
                 .sum();
-            assert!(row.len() == 1 || w <= BAND_W - 40, "row {row:?} is {w} px");
+            assert!(row.len() == 1 || w <= BAND_W - 16, "row {row:?} is {w} px");
         }
         band_plot(dir.path(), "w", &plot(&series)).unwrap();
         let (_, h) = check_outputs(dir.path(), "w", &["estimator number 6"]);

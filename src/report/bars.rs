@@ -3,7 +3,8 @@
 use super::ReportError;
 use super::axis::Axis;
 use super::format::fmt_sig;
-use super::plots::{DrawResult, Figure, bad_input, chart, colour, render, text, y_label_area};
+use super::plots::{DrawResult, Figure, bad_input, chart, render, text, y_label_area};
+use super::style;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::FontTransform;
@@ -36,10 +37,10 @@ pub fn model_histogram(
     render(dir, stem, &fig)
 }
 
-const HEIGHT: u32 = 520;
+const HEIGHT: u32 = 480;
 const LABEL_LIMIT: usize = 25;
-/// DejaVu Sans at 14 px: about 8 px per character.
-const CHAR_PX: u32 = 8;
+/// DejaVu Sans at the tick size: about 0.6 em per character.
+const CHAR_PX: u32 = style::TICK_PX * 6 / 10;
 
 struct BarFigure {
     labels: Vec<String>,
@@ -96,7 +97,7 @@ impl BarFigure {
         y.lo = 0.0;
         y.ticks.retain(|t| *t >= 0.0);
         let n = counts.len() as u32;
-        let width = (n * 70 + 160).clamp(640, 2400);
+        let width = (n * 70 + 160).clamp(style::COLUMN_PX, 2400);
         let slot = (width - 160) / n;
         let longest = labels.iter().map(|l| l.chars().count()).max().unwrap_or(0) as u32;
         Ok(BarFigure {
@@ -133,7 +134,9 @@ impl Figure for BarFigure {
             fmt_sig(self.total, 6)
         };
         let title = format!("Model visits ({total} in total)");
-        let area = root.titled(&title, text(18))?.margin(5, 10, 10, 20);
+        let area = root
+            .titled(&title, text(style::TITLE_PX))?
+            .margin(5, 10, 10, 20);
         let n = self.fractions.len();
         let mut x = Axis::linear(0.0, 1.0, 1);
         x.lo = -0.5;
@@ -146,9 +149,9 @@ impl Figure for BarFigure {
             .max()
             .unwrap_or(0) as u32;
         let x_area = if self.vertical_labels {
-            longest * CHAR_PX + 45
+            longest * CHAR_PX + style::LABEL_PX + 30
         } else {
-            50
+            style::TICK_PX + style::LABEL_PX + 20
         };
         let mut ch = chart(
             &area,
@@ -170,32 +173,35 @@ impl Figure for BarFigure {
             .disable_x_mesh()
             .x_label_formatter(&label_of)
             .y_label_formatter(&y_label)
-            .label_style(text(14))
-            .axis_desc_style(text(16))
-            .bold_line_style(RGBColor(230, 230, 230))
-            .axis_style(RGBColor(90, 90, 90))
+            .label_style(text(style::TICK_PX))
+            .axis_desc_style(text(style::LABEL_PX))
+            .bold_line_style(style::GRID)
+            .axis_style(style::AXIS)
             .x_desc("model")
             .y_desc(self.y.desc("fraction of visits"))
             .draw()?;
-        let fill = colour(0).filled();
+        let fill = style::colour(0).filled();
         ch.draw_series(self.fractions.iter().enumerate().map(|(k, &f)| {
             let k = k as f64;
             Rectangle::new([(k - 0.38, 0.0), (k + 0.38, f)], fill)
         }))?;
         if self.vertical_labels {
-            let style = text(14)
+            let st = text(style::TICK_PX)
                 .transform(FontTransform::Rotate90)
                 .pos(Pos::new(HPos::Left, VPos::Center));
             for (k, label) in self.labels.iter().enumerate() {
                 let (px, py) = ch.backend_coord(&(k as f64, self.y.lo));
-                root.draw_text(label, &style, (px, py + 10))?;
+                root.draw_text(label, &st, (px, py + 10))?;
             }
         }
         if n <= LABEL_LIMIT {
-            let style = text(13).pos(Pos::new(HPos::Center, VPos::Bottom));
-            ch.draw_series(self.fractions.iter().enumerate().map(|(k, &f)| {
-                Text::new(trim_zeros(fmt_sig(f, 3)), (k as f64, f), style.clone())
-            }))?;
+            let st = text(style::NOTE_PX).pos(Pos::new(HPos::Center, VPos::Bottom));
+            ch.draw_series(
+                self.fractions
+                    .iter()
+                    .enumerate()
+                    .map(|(k, &f)| Text::new(trim_zeros(fmt_sig(f, 3)), (k as f64, f), st.clone())),
+            )?;
         }
         Ok(())
     }

@@ -4,9 +4,11 @@
 use super::ReportError;
 use super::axis::{Axis, decimate, segments};
 use super::plots::{
-    DrawResult, Figure, MeshText, bad_input, chart, colour, mesh, render, text, y_label_area,
+    DrawResult, Figure, MeshText, bad_input, chart, mesh, render, text, y_label_area,
 };
+use super::style::{self, colour, dash, marker};
 use plotters::coord::Shift;
+use plotters::element::DashedPathElement;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::path::Path;
@@ -98,11 +100,11 @@ pub fn bayes_factor_evolution(
     render(dir, stem, &fig)
 }
 
-const WIDTH: u32 = 900;
-const HEIGHT: u32 = 560;
+const WIDTH: u32 = style::COLUMN_PX;
+const HEIGHT: u32 = 500;
 /// Series up to this many points get point markers.
 const MARKER_LIMIT: usize = 60;
-/// Series up to this many points are drawn 2 px wide, longer ones 1 px.
+/// Series up to this many points are drawn [`style::LINE_PX`] wide, longer ones a hairline.
 const THICK_LIMIT: usize = 300;
 
 struct Prepared {
@@ -254,7 +256,11 @@ impl LineFigure {
                     markers: pts.len() <= MARKER_LIMIT,
                     // Wide polylines get mitred joins without a limit in plotters' bitmap
                     // backend, so sharp spikes in dense noisy data would shoot past the axes.
-                    stroke: if pts.len() <= THICK_LIMIT { 2 } else { 1 },
+                    stroke: if pts.len() <= THICK_LIMIT {
+                        style::LINE_PX
+                    } else {
+                        style::HAIR_PX
+                    },
                 }
             })
             .collect();
@@ -301,41 +307,69 @@ impl Figure for LineFigure {
         let area = if self.title.is_empty() {
             root.margin(15, 10, 10, 25)
         } else {
-            root.titled(&self.title, text(20))?.margin(5, 10, 10, 25)
+            root.titled(&self.title, text(style::TITLE_PX))?
+                .margin(5, 10, 10, 25)
         };
         let axes = (&self.x, &self.y);
-        let mut ch = chart(&area, axes, (50, y_label_area(&self.y, true)), None)?;
+        let mut ch = chart(
+            &area,
+            axes,
+            (
+                style::TICK_PX + style::LABEL_PX + 24,
+                y_label_area(&self.y, true),
+            ),
+            None,
+        )?;
         let labels = MeshText {
             x_title: Some(self.x.desc(&self.x_title)),
             y_title: Some(self.y.desc(&self.y_title)),
             x_labels: true,
             y_labels: true,
         };
-        mesh(&mut ch, axes, &labels, 14)?;
+        mesh(&mut ch, axes, &labels, style::TICK_PX)?;
         if let Some((r, label)) = self.reference {
-            let grey = RGBColor(60, 60, 60);
+            let grey = style::REFERENCE;
             ch.draw_series(DashedLineSeries::new(
                 [(self.x.lo, r), (self.x.hi, r)],
                 8,
                 5,
-                grey.stroke_width(1),
+                grey.stroke_width(style::HAIR_PX),
             ))?;
-            let style = text(13)
+            let st = text(style::NOTE_PX)
                 .color(&grey)
                 .pos(Pos::new(HPos::Left, VPos::Bottom));
             let at = self.x.lo + 0.01 * (self.x.hi - self.x.lo);
-            ch.draw_series([Text::new(label, (at, r), style)])?;
+            ch.draw_series([Text::new(label, (at, r), st)])?;
         }
         for (i, s) in self.series.iter().enumerate() {
             let c = colour(i);
             for &(x, lo, mid, hi) in &s.bars {
-                ch.draw_series([ErrorBar::new_vertical(x, lo, mid, hi, c.stroke_width(1), 8)])?;
+                ch.draw_series([ErrorBar::new_vertical(
+                    x,
+                    lo,
+                    mid,
+                    hi,
+                    c.stroke_width(style::HAIR_PX),
+                    8,
+                )])?;
             }
             for seg in &s.segments {
-                ch.draw_series(LineSeries::new(
-                    seg.iter().copied(),
-                    c.stroke_width(s.stroke),
-                ))?;
+                match dash(i) {
+                    None => {
+                        ch.draw_series(LineSeries::new(
+                            seg.iter().copied(),
+                            c.stroke_width(s.stroke),
+                        ))?;
+                    }
+                    Some((d, g)) => {
+                        ch.draw_series(DashedLineSeries::new(
+                            seg.iter().copied(),
+                            d,
+                            g,
+                            c.stroke_width(s.stroke),
+                        ))?;
+                    }
+                }
             }
             // A point cut off by NaNs on both sides has no line, so it always gets a marker;
             // the legend entry hangs on this (possibly empty) series.
@@ -345,20 +379,32 @@ impl Figure for LineFigure {
                 .filter(|g| s.markers || g.len() == 1)
                 .flatten()
                 .copied();
-            let a = ch.draw_series(pts.map(|p| Circle::new(p, 3, c.filled())))?;
+            let shape = marker(i);
+            let a = ch.draw_series(
+                pts.map(|p| EmptyElement::at(p) + Polygon::new(shape.clone(), c.filled())),
+            )?;
             if self.legend {
                 let w = s.stroke;
+                let with_marker = s.markers;
+                // One element type for every series: a solid line is a dash longer than the
+                // swatch, and a series without markers gets an invisible one.
                 a.label(s.name.clone()).legend(move |(x, y)| {
-                    PathElement::new([(x, y), (x + 20, y)], c.stroke_width(w))
+                    let (d, g) = dash(i).unwrap_or((1000, 1));
+                    let alpha = if with_marker { 1.0 } else { 0.0 };
+                    let shape: Vec<(i32, i32)> =
+                        marker(i).into_iter().map(|(a, b)| (a + 9, b)).collect();
+                    EmptyElement::at((x, y))
+                        + DashedPathElement::new(vec![(-4, 0), (22, 0)], d, g, c.stroke_width(w))
+                        + Polygon::new(shape, c.mix(alpha).filled())
                 });
             }
         }
         if self.legend {
             ch.configure_series_labels()
                 .position(self.legend_position())
-                .label_font(text(14))
-                .background_style(WHITE.mix(0.85))
-                .border_style(RGBColor(160, 160, 160))
+                .label_font(text(style::LEGEND_PX))
+                .background_style(style::BACKGROUND.mix(0.85))
+                .border_style(style::FRAME)
                 .draw()?;
         }
         Ok(())

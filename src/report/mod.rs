@@ -1,7 +1,8 @@
 //! Reports: plots (PNG and SVG) and text tables from plain numbers.
 //!
 //! This module knows nothing about samplers or models: callers hand it names, sample arrays
-//! and `(x, y)` series. Every plot is written twice, `<stem>.png` and `<stem>.svg`, each
+//! and `(x, y)` series. Every figure takes its palette, line widths, markers and type sizes
+//! from one style (Okabe–Ito colours, text ≥ 8 pt at print width; see `style.rs`). Every plot is written twice, `<stem>.png` and `<stem>.svg`, each
 //! atomically (rendered to a hidden temporary file in the same directory, then renamed), so
 //! an interrupted run never leaves a half-drawn figure behind.
 //!
@@ -22,6 +23,7 @@
 mod axis;
 mod bands;
 mod bars;
+mod contour;
 mod corner;
 mod format;
 mod lines;
@@ -29,6 +31,7 @@ mod numbers;
 mod plots;
 pub mod residual_psd;
 mod running;
+mod style;
 mod table;
 #[cfg(test)]
 mod tests;
@@ -38,13 +41,13 @@ use std::path::PathBuf;
 
 pub use bands::{BandPlot, BandSeries, HeatMap, band_plot, heat_map};
 pub use bars::model_histogram;
-pub use corner::corner_plot;
+pub use corner::{CornerPlot, corner_plot, draw_corner};
 pub use format::{fmt_pm, fmt_sig, kass_raftery, kass_raftery_named};
 pub use lines::{LinePlot, bayes_factor_evolution, line_plot};
 pub use numbers::{fmt_bayes_factor, fmt_fixed, fmt_roundtrip, fmt_short, fmt_short_sig};
 pub use running::{RunningSeries, running_bayes_factor};
 pub use table::Table;
-pub use trace::trace_plot;
+pub use trace::{TracePlot, draw_trace, trace_plot};
 
 /// What went wrong while writing a report.
 #[derive(Debug, thiserror::Error)]

@@ -1,8 +1,9 @@
 //! Shared plotting machinery: the embedded font, rendering one figure to both PNG and SVG
-//! atomically, colours and input-error helpers.
+//! atomically, and input-error helpers (colours and sizes are in [`super::style`]).
 
 use super::ReportError;
 use super::axis::Axis;
+use super::style;
 use crate::atomic;
 use plotters::coord::Shift;
 use plotters::coord::ranged1d::{DefaultFormatting, KeyPointHint, Ranged};
@@ -127,7 +128,7 @@ fn render_png<F: Figure>(dir: &Path, stem: &str, fig: &F) -> Result<(), ReportEr
     let result = (|| {
         {
             let root = BitMapBackend::new(&tmp, fig.size()).into_drawing_area();
-            root.fill(&WHITE).map_err(draw_err(&file))?;
+            root.fill(&style::BACKGROUND).map_err(draw_err(&file))?;
             fig.draw(&root).map_err(draw_err(&file))?;
             root.present().map_err(draw_err(&file))?;
         }
@@ -151,28 +152,11 @@ fn render_svg<F: Figure>(dir: &Path, stem: &str, fig: &F) -> Result<(), ReportEr
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, fig.size()).into_drawing_area();
-        root.fill(&WHITE).map_err(draw_err(&file))?;
+        root.fill(&style::BACKGROUND).map_err(draw_err(&file))?;
         fig.draw(&root).map_err(draw_err(&file))?;
         root.present().map_err(draw_err(&file))?;
     }
     atomic::write_bytes(&file, svg.as_bytes()).map_err(|source| ReportError::Io { file, source })
-}
-
-/// Colour-blind-friendly categorical palette (Okabe–Ito, then Tableau), cycled.
-pub(crate) fn colour(i: usize) -> RGBColor {
-    const P: [RGBColor; 10] = [
-        RGBColor(0, 114, 178),
-        RGBColor(213, 94, 0),
-        RGBColor(0, 158, 115),
-        RGBColor(204, 121, 167),
-        RGBColor(230, 159, 0),
-        RGBColor(86, 180, 233),
-        RGBColor(120, 120, 120),
-        RGBColor(148, 103, 189),
-        RGBColor(140, 86, 75),
-        RGBColor(188, 189, 34),
-    ];
-    P[i % P.len()]
 }
 
 /// Text style of the given pixel size in the embedded font.
@@ -223,8 +207,8 @@ impl Ranged for Ticked {
 /// Chart coordinates with ticks chosen by [`Axis`].
 pub(crate) type Coords = Cartesian2d<Ticked, Ticked>;
 
-/// Pixel width needed for the tick labels of a vertical axis (DejaVu Sans at 14 px averages
-/// about 8 px per character), plus room for the rotated axis title.
+/// Pixel width needed for the tick labels of a vertical axis (DejaVu Sans averages about
+/// 0.6 em per character), plus room for the rotated axis title.
 pub(crate) fn y_label_area(y: &Axis, with_title: bool) -> u32 {
     let chars = y
         .ticks
@@ -232,7 +216,9 @@ pub(crate) fn y_label_area(y: &Axis, with_title: bool) -> u32 {
         .map(|&t| y.label(t).chars().count())
         .max()
         .unwrap_or(1);
-    chars as u32 * 8 + 14 + if with_title { 28 } else { 0 }
+    (chars as f64 * 0.6 * style::TICK_PX as f64).ceil() as u32
+        + 16
+        + if with_title { style::LABEL_PX + 12 } else { 0 }
 }
 
 /// Builds a chart on `area` spanning the two axes, with an optional caption above it.
@@ -289,8 +275,8 @@ pub(crate) fn mesh<DB: DrawingBackend>(
         .y_label_formatter(&fy)
         .label_style(text(label_size))
         .axis_desc_style(text(label_size + 2))
-        .bold_line_style(RGBColor(230, 230, 230))
-        .axis_style(RGBColor(90, 90, 90));
+        .bold_line_style(style::GRID)
+        .axis_style(style::AXIS);
     if let Some(d) = &t.x_title {
         m.x_desc(d.as_str());
     }

@@ -132,9 +132,10 @@ pub fn write_plots(sweep: &Sweep, res: &SweepResult, dir: &Path) -> anyhow::Resu
             }
             clip_systematic(&mut series, |n| kind_of(n) == EstimateKind::Statistical);
             let stem = format!("ln_b_vs_{}{suffix}", stem_of(&axes[0].key));
+            let n = sweep.realisations;
             let title = format!(
-                "{y_label}: median and 16–84 % over {} realisation(s)",
-                sweep.realisations
+                "median and 16–84 % of {n} realisation{}",
+                if n == 1 { "" } else { "s" }
             );
             band_plot(
                 dir,
