@@ -7,40 +7,9 @@ mod common;
 use common::occam;
 use std::path::Path;
 
-/// Fit and select settings of the runs (a few seconds each) and [`common::TWO_EXPERIMENTS`].
+/// Fit and select settings of the runs (a few seconds each): the shared small study.
 fn study() -> String {
-    format!(
-        "{}{}",
-        r#"
-seed = 8
-output = "out"
-[analysis]
-band = [1e-3, 0.4]
-[fit]
-free = ["a_df", "a_sus", "d21"]
-fixed = { w1sq = -1.3e-6, w2sq = -1.9e-6, dt1 = 0.2, dt2 = 0.2 }
-chains = 2
-iterations = 2000
-burn_in = 500
-[select]
-rj_iterations = 6000
-rj_burn_in = 500
-iterations = 2000
-burn_in = 500
-pt_temperatures = 6
-pt_iterations = 1500
-pt_burn_in = 300
-[[select.model]]
-name = "X"
-free = ["a_df", "a_sus", "d21"]
-fixed = { w1sq = -1.3e-6, w2sq = -1.9e-6, dt1 = 0.2, dt2 = 0.2 }
-[[select.model]]
-name = "Y"
-free = ["a_df", "a_sus"]
-fixed = { w1sq = -1.3e-6, w2sq = -1.9e-6, dt1 = 0.2, dt2 = 0.2, d21 = 0.0 }
-"#,
-        common::TWO_EXPERIMENTS
-    )
+    common::small()
 }
 
 /// A 1-D sweep of two points and two realisations (about a second).
