@@ -91,10 +91,27 @@ impl<R: Read + Seek> NpzArchive<R> {
     /// Reads array `name` as a 1-D float64 series (a 0-d array gives one sample). The stored
     /// size must fit in `budget` bytes. Errors name the array and say what is wrong with it.
     pub fn read_f64(&mut self, name: &str, budget: u64) -> Result<Vec<f64>, String> {
+        let bytes = self.entry(
+            name,
+            budget,
+            " (raise OCCAM_MEMORY_BUDGET, or shorten the series)",
+        )?;
+        parse_npy(&bytes).map_err(|m| format!("array `{name}`: {m}"))
+    }
+
+    /// Reads array `name` of any shape as one of the dtypes occam writes ([`NpyValues`]):
+    /// `(shape, values in C order)`. The stored size must fit in `budget` bytes.
+    pub fn read_array(&mut self, name: &str, budget: u64) -> Result<(Vec<u64>, NpyValues), String> {
+        let bytes = self.entry(name, budget, " (raise OCCAM_MEMORY_BUDGET)")?;
+        parse_npy_array(&bytes).map_err(|m| format!("array `{name}`: {m}"))
+    }
+
+    /// The stored bytes of array `name`, refused beyond `budget` (`fix` ends that message).
+    fn entry(&mut self, name: &str, budget: u64, fix: &str) -> Result<Vec<u8>, String> {
         let size = self.stored_size(name)?;
         if size > budget {
             return Err(format!(
-                "array `{name}` takes {size} bytes, more than the memory budget of {budget} bytes (raise OCCAM_MEMORY_BUDGET, or shorten the series)"
+                "array `{name}` takes {size} bytes, more than the memory budget of {budget} bytes{fix}"
             ));
         }
         let i = self.index(name).expect("stored_size found it");
@@ -108,30 +125,7 @@ impl<R: Read + Seek> NpzArchive<R> {
             .take(size)
             .read_to_end(&mut bytes)
             .map_err(|e| format!("array `{name}`: cannot read the archive entry: {e}"))?;
-        drop(f);
-        parse_npy(&bytes).map_err(|m| format!("array `{name}`: {m}"))
-    }
-    /// Reads array `name` of any shape as one of the dtypes occam writes ([`NpyValues`]):
-    /// `(shape, values in C order)`. The stored size must fit in `budget` bytes.
-    pub fn read_array(&mut self, name: &str, budget: u64) -> Result<(Vec<u64>, NpyValues), String> {
-        let size = self.stored_size(name)?;
-        if size > budget {
-            return Err(format!(
-                "array `{name}` takes {size} bytes, more than the memory budget of {budget} bytes (raise OCCAM_MEMORY_BUDGET)"
-            ));
-        }
-        let i = self.index(name).expect("stored_size found it");
-        let mut f = self
-            .zip
-            .by_index(i)
-            .map_err(|e| format!("array `{name}`: cannot open the archive entry: {e}"))?;
-        let mut bytes = Vec::with_capacity(size as usize);
-        (&mut f)
-            .take(size)
-            .read_to_end(&mut bytes)
-            .map_err(|e| format!("array `{name}`: cannot read the archive entry: {e}"))?;
-        drop(f);
-        parse_npy_array(&bytes).map_err(|m| format!("array `{name}`: {m}"))
+        Ok(bytes)
     }
 }
 
