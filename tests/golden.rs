@@ -1,0 +1,389 @@
+//! Golden outputs: fresh runs of every example study (and `occam demo`) compared with the
+//! outputs recorded in `tests/golden/`, exactly — every number bit for bit.
+//!
+//! What is compared, per output file (checkpoints and sweep task files are internal and left
+//! out):
+//! * JSON (`summary.json`, `sweep.json`, `design.json`, `dataset.json`, `manifest.json`): the
+//!   parsed document with the wall-clock fields removed (`seconds`, `seconds_*`,
+//!   `*_per_second`, and the byte counts of `manifest.json`, which follow them). serde_json
+//!   writes the shortest string that round-trips an f64, so equal text is equal bits.
+//! * text (`table.txt`, `table.md`, `*.toml`): the whole text.
+//! * everything else (`.npz` samples and datasets, `.png`, `.svg`): the SHA-256 of the bytes.
+//!
+//! The default set runs in CI: the short studies in full, the long ones (the sweeps and the
+//! design search) in a reduced form (fewer points and realisations). `OCCAM_GOLDEN=full` runs
+//! every study in full, `occam demo` and the deterministic Rust examples too (about ten minutes
+//! on two cores) — before a refactor is called done. `OCCAM_BLESS=1` records instead of
+//! comparing; a changed golden is a changed number and needs its own commit and reason.
+
+mod common;
+
+use serde_json::{Map, Value};
+use sha2::{Digest, Sha256};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// One recorded run: a command line (`{out}` is the output directory, `{study}` the study file,
+/// rewritten with `edits` when there are any).
+struct Case {
+    name: &'static str,
+    study: &'static str,
+    args: &'static [&'static str],
+    /// Dotted study keys set to TOML values before the run (the reduced forms).
+    edits: &'static [(&'static str, &'static str)],
+    /// Only with `OCCAM_GOLDEN=full`.
+    full_only: bool,
+}
+
+const fn case(name: &'static str, study: &'static str, args: &'static [&'static str]) -> Case {
+    Case {
+        name,
+        study,
+        args,
+        edits: &[],
+        full_only: false,
+    }
+}
+
+const fn full(name: &'static str, study: &'static str, args: &'static [&'static str]) -> Case {
+    Case {
+        full_only: true,
+        ..case(name, study, args)
+    }
+}
+
+const CASES: &[Case] = &[
+    case("simulate-tn3045", "tn3045", &["simulate", "{study}"]),
+    case("simulate-tn3045-snr", "tn3045-snr", &["simulate", "{study}"]),
+    case("fit-tn3045", "tn3045", &["fit", "{study}"]),
+    case(
+        "fit-user-model-closed-loop",
+        "user-model-closed-loop",
+        &["fit", "{study}"],
+    ),
+    case(
+        "fit-accel-delay-vs-pole",
+        "accel-delay-vs-pole",
+        &["fit", "{study}"],
+    ),
+    case("fit-accel-asymmetry", "accel-asymmetry", &["fit", "{study}"]),
+    case(
+        "fit-thruster-response",
+        "thruster-response",
+        &["fit", "{study}"],
+    ),
+    case(
+        "select-guidance-delays",
+        "guidance-delays",
+        &["select", "{study}"],
+    ),
+    case(
+        "select-guidance-delays-high-snr",
+        "guidance-delays-high-snr",
+        &["select", "{study}"],
+    ),
+    case(
+        "select-guidance-delays-low-snr",
+        "guidance-delays-low-snr",
+        &["select", "{study}"],
+    ),
+    case(
+        "select-accel-delay-vs-pole",
+        "accel-delay-vs-pole",
+        &["select", "{study}"],
+    ),
+    case(
+        "select-thruster-response",
+        "thruster-response",
+        &["select", "{study}"],
+    ),
+    case(
+        "select-accel-asymmetry",
+        "accel-asymmetry",
+        &["select", "{study}"],
+    ),
+    // reduced forms of the long studies
+    case(
+        "sweep-design-snr-reduced",
+        "design-snr",
+        &[
+            "sweep",
+            "{study}",
+            "--realisations",
+            "2",
+            "--axis",
+            "simulation.target_snr=10,1000",
+        ],
+    ),
+    case(
+        "sweep-design-frequency-reduced",
+        "design-frequency",
+        &[
+            "sweep",
+            "{study}",
+            "--realisations",
+            "2",
+            "--axis",
+            "experiment.scan.x1.freq=0.001,0.05",
+        ],
+    ),
+    Case {
+        edits: &[
+            ("design.candidates", "{ from = 8.4e-4, to = 5.3e-2, points = 4 }"),
+            ("design.segments", "3"),
+            ("design.max_passes", "1"),
+        ],
+        ..case("design-optimise-reduced", "design-optimise", &["design", "{study}"])
+    },
+    // in full
+    full("sweep-design-snr", "design-snr", &["sweep", "{study}"]),
+    full(
+        "sweep-design-frequency",
+        "design-frequency",
+        &["sweep", "{study}"],
+    ),
+    full(
+        "sweep-accel-asymmetry",
+        "accel-asymmetry",
+        &["sweep", "{study}"],
+    ),
+    full(
+        "design-optimise",
+        "design-optimise",
+        &["design", "{study}"],
+    ),
+    full("demo", "", &["demo"]),
+];
+
+fn full_mode() -> bool {
+    std::env::var("OCCAM_GOLDEN").is_ok_and(|v| v == "full")
+}
+
+fn bless() -> bool {
+    std::env::var("OCCAM_BLESS").is_ok_and(|v| v == "1")
+}
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// Sets `dotted.key = value` in a TOML table (creating tables on the way).
+fn set_key(table: &mut toml::Table, key: &str, value: &str) {
+    let (head, last) = match key.rsplit_once('.') {
+        Some((h, l)) => (Some(h), l),
+        None => (None, key),
+    };
+    let mut t = table;
+    if let Some(h) = head {
+        for part in h.split('.') {
+            t = t
+                .entry(part)
+                .or_insert_with(|| toml::Value::Table(toml::Table::new()))
+                .as_table_mut()
+                .unwrap_or_else(|| panic!("`{part}` of `{key}` is not a table"));
+        }
+    }
+    let parsed: toml::Table = toml::from_str(&format!("v = {value}")).unwrap();
+    t.insert(last.to_string(), parsed["v"].clone());
+}
+
+/// Runs a case into `dir/out` and returns the normalised record of its outputs.
+fn run_case(c: &Case, dir: &Path) -> BTreeMap<String, Value> {
+    let out = dir.join("out");
+    let study = if c.study.is_empty() {
+        PathBuf::new()
+    } else {
+        // relative to the project: the path is part of the outputs (`origin`, `# From:`)
+        let path = PathBuf::from("examples").join(format!("{}.toml", c.study));
+        if c.edits.is_empty() {
+            path
+        } else {
+            let text = std::fs::read_to_string(root().join(&path)).unwrap();
+            let mut t: toml::Table = toml::from_str(&text).unwrap();
+            for (k, v) in c.edits {
+                set_key(&mut t, k, v);
+            }
+            let p = dir.join(format!("{}.toml", c.study));
+            std::fs::write(&p, toml::to_string(&t).unwrap()).unwrap();
+            p
+        }
+    };
+    let mut args: Vec<String> = c
+        .args
+        .iter()
+        .map(|a| a.replace("{study}", &study.to_string_lossy()))
+        .collect();
+    args.extend(["-o".into(), out.to_string_lossy().into_owned()]);
+    if c.args[0] != "design" {
+        args.push("-q".into());
+    }
+    let argv: Vec<&str> = args.iter().map(String::as_str).collect();
+    let (ok, stdout, stderr) = common::occam(&argv, &root());
+    assert!(ok, "{}: occam {argv:?} failed\n{stdout}\n{stderr}", c.name);
+    let mut rec = BTreeMap::new();
+    collect(&out, &out, &dir.to_string_lossy(), &mut rec);
+    rec
+}
+
+/// Records every output file under `dir`; the temporary directory's name becomes `{tmp}`.
+fn collect(base: &Path, dir: &Path, tmp: &str, rec: &mut BTreeMap<String, Value>) {
+    let mut entries: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    entries.sort();
+    for p in entries {
+        let name = p.file_name().unwrap().to_string_lossy().into_owned();
+        if p.is_dir() {
+            if name != "tasks" {
+                collect(base, &p, tmp, rec);
+            }
+            continue;
+        }
+        if name.starts_with("checkpoint") || name.starts_with('.') {
+            continue;
+        }
+        let rel = p.strip_prefix(base).unwrap().to_string_lossy().into_owned();
+        let raw = std::fs::read(&p).unwrap();
+        let ext = p.extension().map(|e| e.to_string_lossy().into_owned());
+        let v = match ext.as_deref() {
+            Some("json") => {
+                let text = String::from_utf8(raw).unwrap().replace(tmp, "{tmp}");
+                let mut j: Value = serde_json::from_str(&text)
+                    .unwrap_or_else(|e| panic!("{rel} is not JSON: {e}"));
+                strip_clock(&mut j, name == "manifest.json");
+                j
+            }
+            Some("txt" | "md" | "toml") => {
+                Value::String(String::from_utf8(raw).unwrap().replace(tmp, "{tmp}"))
+            }
+            _ => Value::String(format!("sha256:{:x}", Sha256::digest(&raw))),
+        };
+        rec.insert(rel, v);
+    }
+}
+
+/// Removes the wall-clock fields (and a manifest's byte counts, which follow their digits).
+fn strip_clock(v: &mut Value, manifest: bool) {
+    match v {
+        Value::Object(m) => {
+            let drop: Vec<String> = m
+                .keys()
+                .filter(|k| {
+                    *k == "seconds"
+                        || k.starts_with("seconds_")
+                        || k.ends_with("_per_second")
+                        || (manifest && *k == "bytes")
+                })
+                .cloned()
+                .collect();
+            for k in drop {
+                m.remove(&k);
+            }
+            for x in m.values_mut() {
+                strip_clock(x, manifest);
+            }
+        }
+        Value::Array(a) => a.iter_mut().for_each(|x| strip_clock(x, manifest)),
+        _ => {}
+    }
+}
+
+/// The first place two JSON documents differ, as a path.
+fn first_difference(a: &Value, b: &Value, at: &str) -> Option<String> {
+    match (a, b) {
+        (Value::Object(x), Value::Object(y)) => {
+            let keys: std::collections::BTreeSet<&String> = x.keys().chain(y.keys()).collect();
+            keys.into_iter().find_map(|k| match (x.get(k), y.get(k)) {
+                (Some(p), Some(q)) => first_difference(p, q, &format!("{at}.{k}")),
+                (p, q) => Some(format!("{at}.{k}: {p:?} against {q:?}")),
+            })
+        }
+        (Value::Array(x), Value::Array(y)) if x.len() == y.len() => x
+            .iter()
+            .zip(y)
+            .enumerate()
+            .find_map(|(i, (p, q))| first_difference(p, q, &format!("{at}[{i}]"))),
+        (Value::String(x), Value::String(y)) if x != y => {
+            let line = x.lines().zip(y.lines()).position(|(p, q)| p != q);
+            Some(match line {
+                Some(i) => format!(
+                    "{at} line {}: `{}` against `{}`",
+                    i + 1,
+                    x.lines().nth(i).unwrap(),
+                    y.lines().nth(i).unwrap()
+                ),
+                None => format!("{at}: differing text (lengths {} and {})", x.len(), y.len()),
+            })
+        }
+        _ => (a != b).then(|| format!("{at}: {a} against {b}")),
+    }
+}
+
+fn check(c: &Case) {
+    if c.full_only && !full_mode() {
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let got = Value::Object(run_case(c, tmp.path()).into_iter().collect::<Map<_, _>>());
+    let path = root().join("tests/golden").join(format!("{}.json", c.name));
+    if bless() {
+        std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+        std::fs::write(&path, serde_json::to_string_pretty(&got).unwrap() + "\n").unwrap();
+        return;
+    }
+    let want: Value = serde_json::from_str(
+        &std::fs::read_to_string(&path)
+            .unwrap_or_else(|e| panic!("{}: {e} (record with OCCAM_BLESS=1)", path.display())),
+    )
+    .unwrap();
+    if let Some(d) = first_difference(&got, &want, c.name) {
+        panic!(
+            "{}: the fresh run differs from {} (fresh against golden) at {d}",
+            c.name,
+            path.display()
+        );
+    }
+}
+
+/// Every case has a test of its own (below), so that they run side by side.
+macro_rules! golden_tests {
+    ($($f:ident => $name:literal),* $(,)?) => {
+        $(#[test]
+        fn $f() {
+            check(CASES.iter().find(|c| c.name == $name).expect("a case of that name"));
+        })*
+
+        #[test]
+        fn every_case_has_a_test() {
+            let tested = [$($name),*];
+            for c in CASES {
+                assert!(tested.contains(&c.name), "case {} has no test", c.name);
+            }
+        }
+    };
+}
+
+golden_tests! {
+    simulate_tn3045 => "simulate-tn3045",
+    simulate_tn3045_snr => "simulate-tn3045-snr",
+    fit_tn3045 => "fit-tn3045",
+    fit_user_model_closed_loop => "fit-user-model-closed-loop",
+    fit_accel_delay_vs_pole => "fit-accel-delay-vs-pole",
+    fit_accel_asymmetry => "fit-accel-asymmetry",
+    fit_thruster_response => "fit-thruster-response",
+    select_guidance_delays => "select-guidance-delays",
+    select_guidance_delays_high_snr => "select-guidance-delays-high-snr",
+    select_guidance_delays_low_snr => "select-guidance-delays-low-snr",
+    select_accel_delay_vs_pole => "select-accel-delay-vs-pole",
+    select_thruster_response => "select-thruster-response",
+    select_accel_asymmetry => "select-accel-asymmetry",
+    sweep_design_snr_reduced => "sweep-design-snr-reduced",
+    sweep_design_frequency_reduced => "sweep-design-frequency-reduced",
+    design_optimise_reduced => "design-optimise-reduced",
+    sweep_design_snr => "sweep-design-snr",
+    sweep_design_frequency => "sweep-design-frequency",
+    sweep_accel_asymmetry => "sweep-accel-asymmetry",
+    design_optimise => "design-optimise",
+    demo => "demo",
+}
