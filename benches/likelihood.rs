@@ -12,7 +12,7 @@ mod peer_npz;
 use nalgebra::DMatrix;
 use ndarray_npy::NpzWriter;
 use occam::config::Study;
-use occam::experiment::{System, simulate};
+use occam::experiment::simulate;
 use occam::likelihood::{
     ExperimentSpectra, Likelihood, NoiseSource, RelBinLikelihood, SpectraOptions, fisher_exact,
 };
@@ -133,8 +133,8 @@ fn main() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let study =
         Study::load(&root.join("examples/tn3045.toml")).expect("examples/tn3045.toml loads");
-    let sim = simulate(&study).expect("simulate");
-    let sys = System::of(&study);
+    let sim = simulate(&study.simulation_plan()).expect("simulate");
+    let sys = study.system();
     let csd = |f: f64| sys.noise_csd(f);
     let opts = SpectraOptions {
         noise: NoiseSource::Welch,
@@ -299,8 +299,8 @@ fn rj_rate() {
     study.select.rj_iterations = 200_000;
     study.select.iterations = 4_000;
     study.select.burn_in = 1_000;
-    let prep = occam::analysis::prepare(&study).expect("prepare");
-    let s = occam::select::run(&study, &prep, None).expect("select");
+    let prep = occam::jobs::prepare::prepare(&study).expect("prepare");
+    let s = occam::jobs::select::run(&study, &prep, None).expect("select");
     let rate = s.rj_iterations_per_second;
     println!();
     println!(
@@ -319,10 +319,11 @@ fn user_model_rate() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let study = Study::load(&root.join("examples/user-model-closed-loop.toml"))
         .expect("examples/user-model-closed-loop.toml");
-    let prep = occam::analysis::prepare(&study).expect("prepare");
+    let prep = occam::jobs::prepare::prepare(&study).expect("prepare");
     let user = &prep.likelihood;
     let ltp = study.models.index("ltp").expect("the built-in model");
-    let builtin = occam::analysis::likelihood_of(&study, ltp, &prep.dataset).expect("likelihood");
+    let builtin =
+        occam::jobs::prepare::likelihood_of(&study, ltp, &prep.dataset).expect("likelihood");
     let th = study.truth.to_array();
     let rb_user = RelBinLikelihood::new(user, &th, &Default::default()).unwrap();
     let rb_builtin = RelBinLikelihood::new(&builtin, &th, &Default::default()).unwrap();

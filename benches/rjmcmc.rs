@@ -9,10 +9,10 @@
 //! projected wall time of 10⁸ iterations. `RJ_BENCH_ITERS` sets the iterations per measurement
 //! (default 200 000).
 
-use occam::analysis::{default_start, likelihood_of, prepare, relbin_of};
 use occam::config::Study;
 use occam::density::LogDensity;
 use occam::evidence::{RjModel, RjOptions, run_rjmcmc};
+use occam::jobs::prepare::{default_start, likelihood_of, prepare, relbin_of};
 use occam::likelihood::{fisher_exact, fisher_scoring};
 use occam::nested::SubModel;
 use std::path::Path;

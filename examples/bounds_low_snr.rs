@@ -5,8 +5,8 @@
 //!
 //!   cargo run --release --example bounds_low_snr -- 5 60
 
-use occam::analysis::{default_start, likelihood_of, load_data, relbin_of};
 use occam::config::Study;
+use occam::jobs::prepare::{default_start, likelihood_of, load_data, relbin_of};
 use occam::likelihood::{fisher_scoring, fisher_scoring_unbounded};
 use std::path::Path;
 

@@ -37,10 +37,10 @@ fn main() {
             .iter()
             .map(|c| c.iter().map(|&(f, a)| (f, k * a)).collect())
             .collect();
-        let proxy = occam::design::asimov_score(&study, &plan, plan.experiments(&segs))
+        let proxy = occam::jobs::design::asimov_score(&study, &plan, plan.experiments(&segs))
             .expect("proxy")
             .ln_b;
-        let v = occam::design::validate(&study, &plan, "v", &segs, r).expect("validate");
+        let v = occam::jobs::design::validate(&study, &plan, "v", &segs, r).expect("validate");
         let (mean, se) = (v.mean.unwrap(), v.std_err.unwrap());
         println!(
             "{k:>8} {proxy:>9.3} {mean:>8.3} ± {se:<6.3} {:>8.3}",

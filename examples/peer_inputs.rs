@@ -15,8 +15,8 @@ mod peer_npz;
 
 use ndarray::Array1;
 use ndarray_npy::NpzWriter;
-use occam::analysis::{likelihood_of, load_data};
 use occam::config::{ModelDef, Study};
+use occam::jobs::prepare::{likelihood_of, load_data};
 use occam::ltp::{N_PARAMS, PARAM_NAMES};
 use occam::model::{LoopResponse, ThrusterResponse};
 use occam::prior::PriorKind;

@@ -12,7 +12,7 @@ use std::time::Instant;
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let mut study = Study::load(&root.join("examples/tn3045.toml"))?;
-    let prep = occam::analysis::prepare(&study)?;
+    let prep = occam::jobs::prepare::prepare(&study)?;
     let mi = study.fit_model.model;
     let th = study.truth.to_array();
     for stat in [
@@ -21,7 +21,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         Statistic::LogPeriodogram,
     ] {
         study.analysis.statistic = stat;
-        let lik = occam::analysis::likelihood_of(&study, mi, &prep.dataset)?;
+        let lik = occam::jobs::prepare::likelihood_of(&study, mi, &prep.dataset)?;
         let mut x = th;
         let mut s = 0.0;
         // warm-up (and the log-periodogram's thread-local buffers)

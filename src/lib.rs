@@ -6,17 +6,12 @@
 //! `Y[k] = Σ_n y[n] e^{−2πikn/N}` (unnormalised) at `f_k = k fs/N`; likelihoods are natural
 //! logs (`ln L`, never χ²).
 
-pub mod analysis;
 pub mod atomic;
-pub mod commands;
 pub mod config;
 pub mod data;
-pub mod dataset;
 pub mod density;
-pub mod design;
 pub mod evidence;
 pub mod experiment;
-pub mod fit;
 pub mod hermitian;
 pub mod html;
 pub mod jobs;
@@ -25,10 +20,8 @@ pub mod lti;
 pub mod ltp;
 pub mod model;
 pub mod nested;
+pub mod numfmt;
 pub mod prior;
-pub mod progress;
 pub mod report;
-pub mod rundir;
 pub mod sampler;
-pub mod select;
 pub mod signal;

@@ -1,11 +1,11 @@
 //! The `occam` command line.
 
-use anyhow::{Context, Result};
+use anyhow::{Context as _, Result};
 use clap::{Parser, Subcommand};
-use occam::commands::Work;
 use occam::config::Study;
-use occam::progress::Bar;
-use occam::rundir::RunDir;
+use occam::data::rundir::RunDir;
+use occam::jobs::progress::{Bar, Work};
+use occam::jobs::{Context, execute};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
@@ -146,9 +146,8 @@ fn main() {
         Command::Demo { output, run } => run.apply().and_then(|_| demo(output, run)),
         Command::Sweep(cli) => sweep(cli),
         Command::Report { run_dir, output } => {
-            occam::html::write_report(&run_dir, output.as_deref())
+            occam::jobs::report::run(&run_dir, output.as_deref())
                 .map(|p| println!("wrote {}", p.display()))
-                .map_err(Into::into)
         }
         Command::Design {
             study,
@@ -161,8 +160,8 @@ fn main() {
         }
         .apply()
         .and_then(|_| {
-            let r = occam::design::run_cli(&study, output, validate)?;
-            println!("{}", occam::design::table(&r));
+            let r = occam::jobs::design::run_cli(&study, output, validate)?;
+            println!("{}", occam::jobs::design::table(&r));
             Ok(())
         }),
     };
@@ -178,11 +177,15 @@ fn simulate(path: PathBuf, output: Option<PathBuf>, flags: RunFlags) -> Result<(
     let out = output.unwrap_or_else(|| study.output.clone());
     let work = Arc::new(Work::default());
     let bar = Bar::start(work.clone(), "experiments", flags.quiet);
-    let done = occam::commands::simulate(&study, &out, Some(&work))?;
+    let ctx = Context {
+        work: Some(&work),
+        ..Context::quiet(&out, false)
+    };
+    let done = execute(&mut occam::jobs::simulate::Simulate { study: &study }, &ctx)?;
     if let Some(b) = bar {
         b.finish();
     }
-    let (sim, written) = (done.sim, done.written);
+    let (sim, written) = (done.outcome, done.written);
     println!(
         "{:<14} {:>10} {:>10} {:>12}",
         "experiment", "samples", "noise", "rho_opt"
@@ -220,13 +223,19 @@ fn fit(path: PathBuf, output: Option<PathBuf>, resume: bool, flags: RunFlags) ->
         Some(b) => b.bar().println(line),
         None => println!("{line}"),
     };
-    let fitted = occam::commands::fit(&study, &out, resume, &say, Some(&work))?;
+    let ctx = Context {
+        out: &out,
+        resume,
+        log: &say,
+        work: Some(&work),
+    };
+    let done = execute(&mut occam::jobs::fit::Fit { study: &study }, &ctx)?;
     if let Some(b) = bar {
         b.finish();
     }
-    let (outcome, written) = (fitted.outcome, fitted.written);
+    let (outcome, written) = (done.outcome.outcome, done.written);
     let s = &outcome.summary;
-    println!("{}", occam::fit::table(s));
+    println!("{}", occam::jobs::fit::table(s));
     println!(
         "rho_opt at MAP = {}; MAP found in {} Fisher-scoring iterations ({:.2} s)",
         if s.rho_opt_at_map.is_finite() {
@@ -281,75 +290,22 @@ fn run_select(study: &Study, out: &std::path::Path, resume: bool, quiet: bool) -
             b.bar().set_message(format!("RJ visits {:?}", p.visits));
         }
     };
-    let done = occam::commands::select(study, out, resume, &say, Some(&work), Some(&mut on_rj))?;
+    let ctx = Context {
+        out,
+        resume,
+        log: &say,
+        work: Some(&work),
+    };
+    let mut job = occam::jobs::select::Select {
+        study,
+        on_rj: Some(&mut on_rj),
+    };
+    let done = execute(&mut job, &ctx)?;
     if let Some(b) = bar {
         b.finish();
     }
-    let (s, written) = (done.summary, done.written);
-    println!("{}", occam::select::table(&s));
-    let yes_no = |b: bool| if b { "yes" } else { "no" };
-    for p in &s.pairs {
-        println!(
-            "{}/{}: reference {}; preferred model {} ({}); statistical estimators agree within errors: {}; Laplace estimates within 1 nat: {}",
-            p.x,
-            p.y,
-            p.reference,
-            p.preferred,
-            p.kass_raftery,
-            yes_no(p.all_agree),
-            p.systematic_agree.map_or("–", yes_no)
-        );
-    }
-    for p in &s.pairs {
-        let j = &p.jumps;
-        let rate = |a: u64, n: u64| {
-            if n == 0 {
-                "–".to_string()
-            } else {
-                format!("{:.3}", a as f64 / n as f64)
-            }
-        };
-        println!(
-            "jumps {x}→{y}: {} of {} accepted ({}); {y}→{x}: {} of {} ({})",
-            j.accepted_x_to_y,
-            j.proposed_x_to_y,
-            rate(j.accepted_x_to_y, j.proposed_x_to_y),
-            j.accepted_y_to_x,
-            j.proposed_y_to_x,
-            rate(j.accepted_y_to_x, j.proposed_y_to_x),
-            x = p.x,
-            y = p.y,
-        );
-    }
-    if let Some(pp) = &s.posterior_model_probabilities {
-        let parts: Vec<String> = s
-            .models
-            .iter()
-            .zip(pp)
-            .map(|(m, p)| format!("{} {p:.4}", m.name))
-            .collect();
-        println!("posterior model probabilities: {}", parts.join(", "));
-    }
-    let rj = match &s.rj {
-        Some(rj) => format!(
-            "RJ visits {:?} over {} iterations in {} chains ({:.0} iterations/s)",
-            rj.visits, rj.n_iter, rj.n_chains, s.rj_iterations_per_second
-        ),
-        None => "no RJ run".into(),
-    };
-    let rho = |r: f64| {
-        if r.is_finite() {
-            format!("{r:.4e}")
-        } else {
-            "–".into()
-        }
-    };
-    println!(
-        "rho_opt = {} (simulation noise model), {} (analysis noise estimate); {rj}",
-        s.rho_opt_simulated.map_or("–".into(), rho),
-        rho(s.rho_opt),
-    );
-    println!("ln L statistic: {}", s.statistic.name());
+    let (s, written) = (done.outcome, done.written);
+    println!("{}", occam::jobs::select::console(&s));
     for w in &s.warnings {
         eprintln!("warning: {w}");
     }
@@ -358,22 +314,9 @@ fn run_select(study: &Study, out: &std::path::Path, resume: bool, quiet: bool) -
     Ok(())
 }
 
-const DEMO_STUDIES: [(&str, &str); 2] = [
-    (
-        "competitive",
-        include_str!("../examples/guidance-delays.toml"),
-    ),
-    (
-        "high-snr",
-        include_str!("../examples/guidance-delays-high-snr.toml"),
-    ),
-];
-
 fn demo(output: PathBuf, flags: RunFlags) -> Result<()> {
     let t0 = Instant::now();
-    for (name, text) in DEMO_STUDIES {
-        let label = format!("built-in study `{name}` (examples/guidance-delays*.toml)");
-        let study = Study::from_toml(text, &label, std::path::Path::new("."))?;
+    for (name, study) in occam::jobs::demo::studies()? {
         println!("\n=== guidance delays, {name} regime ===");
         run_select(&study, &output.join(name), false, flags.quiet)?;
     }

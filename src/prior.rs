@@ -35,6 +35,22 @@ pub enum PriorError {
 }
 
 impl PriorKind {
+    /// The centre of the prior: box midpoint, Gaussian mean, geometric mean of a
+    /// log-uniform box.
+    ///
+    /// ```
+    /// use occam::prior::PriorKind;
+    /// assert_eq!(PriorKind::Uniform { lo: 0.0, hi: 2.0 }.centre(), 1.0);
+    /// assert_eq!(PriorKind::LogUniform { lo: 1.0, hi: 100.0 }.centre(), 10.0);
+    /// ```
+    pub fn centre(&self) -> f64 {
+        match *self {
+            PriorKind::Uniform { lo, hi } => 0.5 * (lo + hi),
+            PriorKind::Gaussian { mu, .. } => mu,
+            PriorKind::LogUniform { lo, hi } => (lo * hi).sqrt(),
+        }
+    }
+
     fn validate(&self, name: &str) -> Result<(), PriorError> {
         let bad = |what: String| {
             Err(PriorError::Invalid {
@@ -137,7 +153,50 @@ pub struct Prior {
     kinds: Vec<PriorKind>,
 }
 
+/// Why [`Prior::ln_pdf_extended`] has no value.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ExtendedError {
+    /// θ has `got` components, not the prior's dimension.
+    Dimension { got: usize },
+    /// A component is NaN or infinite.
+    NonFinite { name: String, x: f64 },
+    /// A log-uniform component at θ ≤ 0, where its formula is undefined.
+    LogUniformAtNonPositive { name: String, x: f64 },
+}
+
 impl Prior {
+    /// `ln π(θ)` with uniform and log-uniform densities continued beyond their bounds by
+    /// their formula (constant, and `−ln θ − ln ln(b/a)`): the smooth function a Laplace
+    /// expansion, and an optimiser looking for the unconstrained maximum, work with.
+    pub fn ln_pdf_extended(&self, theta: &[f64]) -> Result<f64, ExtendedError> {
+        if theta.len() != self.dim() {
+            return Err(ExtendedError::Dimension { got: theta.len() });
+        }
+        let mut s = 0.0;
+        for ((k, &x), name) in self.kinds().iter().zip(theta).zip(self.names()) {
+            if !x.is_finite() {
+                return Err(ExtendedError::NonFinite {
+                    name: name.clone(),
+                    x,
+                });
+            }
+            s += match *k {
+                PriorKind::Uniform { lo, hi } => -(hi - lo).ln(),
+                PriorKind::Gaussian { .. } => k.ln_pdf(x),
+                PriorKind::LogUniform { lo, hi } => {
+                    if x <= 0.0 {
+                        return Err(ExtendedError::LogUniformAtNonPositive {
+                            name: name.clone(),
+                            x,
+                        });
+                    }
+                    -x.ln() - (hi / lo).ln().ln()
+                }
+            };
+        }
+        Ok(s)
+    }
+
     /// Validates every component: finite, non-empty supports, positive widths.
     pub fn new(names: Vec<String>, kinds: Vec<PriorKind>) -> Result<Self, PriorError> {
         if names.len() != kinds.len() {

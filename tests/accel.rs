@@ -2,9 +2,9 @@
 //! simulated data, recovery and coverage of the acceleration-domain fit, and its agreement with
 //! the closed-loop analysis of the same experiments.
 
-use occam::analysis::{likelihood_of, load_data, truth_of};
 use occam::config::Study;
 use occam::experiment::simulate;
+use occam::jobs::prepare::{likelihood_of, load_data, truth_of};
 use occam::likelihood::{cramer_rao, fisher_exact, fisher_scoring};
 use occam::ltp::a12::{a12_kinematic, filter, fpsder_error};
 use occam::model::accel::{AccelOptions, Derivative};
@@ -60,9 +60,9 @@ fn applied(g: &[f64], fs: f64, act: impl Fn(f64) -> num_complex::Complex64) -> V
 #[test]
 fn a12_from_noiseless_read_outs_is_the_applied_force() {
     let s = study("none", 1, "");
-    let sim = simulate(&s).unwrap();
+    let sim = simulate(&s.simulation_plan()).unwrap();
     let e = &sim.dataset.experiments[0];
-    let sys = occam::experiment::System::of(&s);
+    let sys = s.system();
     let fs = e.fs;
     let g1 = e.channel("g1").unwrap();
     let g2 = e.channel("g2").unwrap();
@@ -124,9 +124,9 @@ fn a12_from_noiseless_read_outs_is_the_applied_force() {
 #[test]
 fn model_residual_vanishes_at_the_truth_on_noiseless_data() {
     let s = study("none", 1, "");
-    let mut sim = simulate(&s).unwrap();
+    let mut sim = simulate(&s.simulation_plan()).unwrap();
     // the residual noise comes from a noisy twin's noise-only stretch
-    let noisy = simulate(&study("circular", 1, "")).unwrap();
+    let noisy = simulate(&study("circular", 1, "").simulation_plan()).unwrap();
     let (e, n) = (
         &mut sim.dataset.experiments[0],
         &noisy.dataset.experiments[0],
@@ -273,7 +273,7 @@ fixed = { dt1 = 0.2, dt2 = 0.2, a_df = 0.82, d21 = 4e-4 }
 /// closed loop.
 #[test]
 fn a_short_noise_stretch_is_warned_about() {
-    use occam::analysis::model_warnings;
+    use occam::jobs::prepare::model_warnings;
     let long = study("circular", 5, "");
     let (data, _) = load_data(&long).unwrap();
     assert!(model_warnings(&long, long.fit_model.model, &data).is_empty());
@@ -298,7 +298,7 @@ fn a_short_noise_stretch_is_warned_about() {
 /// model their response); the acceleration domain is not.
 #[test]
 fn closed_loop_on_force_injections_is_warned_about() {
-    use occam::analysis::model_warnings;
+    use occam::jobs::prepare::model_warnings;
     let s = study("circular", 6, "");
     let (data, _) = load_data(&s).unwrap();
     let ltp = s.models.index("ltp").unwrap();

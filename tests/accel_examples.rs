@@ -2,10 +2,10 @@
 //! outcome: the actuators have a pole, not a delay; symmetric actuators select the symmetric
 //! five-parameter model and A1 ≠ A2 the asymmetric one decisively.
 
-use occam::analysis::{likelihood_of, prepare, truth_of};
 use occam::config::Study;
+use occam::jobs::prepare::{likelihood_of, prepare, truth_of};
+use occam::jobs::select::{PairResult, SelectSummary, run};
 use occam::likelihood::{cramer_rao, fisher_exact, fisher_scoring};
-use occam::select::{PairResult, SelectSummary, run};
 use std::path::Path;
 
 fn reference(p: &PairResult) -> f64 {
@@ -81,7 +81,7 @@ fn asymmetry_family_picks_the_symmetric_model_then_the_asymmetric_one() {
     // the files of a many-model run: one Fig. 2 per pair (or a warning saying why not), each
     // model's chains, the jump chain over the union of the parameters
     let dir = tempfile::tempdir().unwrap();
-    occam::select::write_outputs(&sym, dir.path()).unwrap();
+    occam::jobs::select::write_outputs(&sym, dir.path()).unwrap();
     assert!(!dir.path().join("bayes_factor.svg").exists());
     for p in &sym.pairs {
         let drawn = dir
@@ -108,7 +108,7 @@ fn asymmetry_family_picks_the_symmetric_model_then_the_asymmetric_one() {
     let widest = sym.models.iter().map(|m| m.free.len()).max().unwrap() as u64;
     assert!(shape[2] >= widest, "{shape:?}");
     for m in &sym.models {
-        let f = dir.path().join(occam::select::chains_file(&m.name));
+        let f = dir.path().join(occam::jobs::select::chains_file(&m.name));
         let mut z = occam::data::npz::NpzArchive::open(&f).unwrap();
         let (shape, names) = z.read_array("param_names", u64::MAX).unwrap();
         assert_eq!(shape, [m.free.len() as u64], "{}", m.name);

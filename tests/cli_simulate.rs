@@ -1,6 +1,6 @@
 //! End-to-end tests of `occam simulate`: outputs, determinism and errors on bad input.
 
-use occam::dataset::Dataset;
+use occam::data::dataset::Dataset;
 mod common;
 use common::occam;
 

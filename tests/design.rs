@@ -42,7 +42,7 @@ fn design_writes_a_runnable_study_that_beats_the_baseline() {
     let path = dir.path().join("study.toml");
     std::fs::write(&path, STUDY).unwrap();
     let out = dir.path().join("out");
-    let r = occam::design::run_cli(&path, Some(out.clone()), None).unwrap();
+    let r = occam::jobs::design::run_cli(&path, Some(out.clone()), None).unwrap();
     assert!(r.chosen.proxy.ln_b >= r.baseline.proxy.ln_b);
     assert!(r.chosen.proxy.ln_b >= r.start.proxy.ln_b);
     // every candidate was tried in every slot it could take
@@ -74,10 +74,10 @@ fn proxy_ranks_designs_like_full_model_selection() {
     let mut rows = Vec::new();
     for a in [1e-8_f64, 3e-7] {
         let segs = vec![vec![(1.3e-3, a), (5.3e-3, a)]];
-        let proxy = occam::design::asimov_score(&study, &plan, plan.experiments(&segs))
+        let proxy = occam::jobs::design::asimov_score(&study, &plan, plan.experiments(&segs))
             .unwrap()
             .ln_b;
-        let v = occam::design::validate(&study, &plan, "t", &segs, 6).unwrap();
+        let v = occam::jobs::design::validate(&study, &plan, "t", &segs, 6).unwrap();
         let (m, se) = (v.mean.unwrap(), v.std_err.unwrap());
         assert!(
             (proxy - m).abs() < 4.0 * se + 1.0,

@@ -4,7 +4,7 @@
 
 mod common;
 use occam::data::DataSource;
-use occam::dataset::{Dataset, ExperimentData};
+use occam::data::dataset::{Dataset, ExperimentData};
 use std::collections::BTreeMap;
 use std::io::Write as _;
 

@@ -1,8 +1,8 @@
 //! Models other than the plain continuous closed loop, end to end: the discrete-time loop on
 //! data from the time-domain simulator, and the two thruster-response models of K14 §IV.A.
 
-use occam::analysis::{prepare, truth_of};
 use occam::config::Study;
+use occam::jobs::prepare::{prepare, truth_of};
 use occam::likelihood::{cramer_rao, fisher_exact, fisher_scoring};
 use std::path::Path;
 
@@ -64,7 +64,7 @@ fn the_discrete_response_fits_time_domain_data_without_bias() {
     assert!(worst > 20.0, "continuous model: worst pull {worst:.1}σ");
     let s = time_domain_study("continuous");
     let prep = prepare(&s).unwrap();
-    let w = occam::analysis::model_warnings(&s, s.fit_model.model, &prep.dataset);
+    let w = occam::jobs::prepare::model_warnings(&s, s.fit_model.model, &prep.dataset);
     assert!(
         w.iter().any(|w| w.contains("response = \"discrete\"")),
         "{w:?}"
@@ -81,7 +81,7 @@ fn the_thruster_pole_beats_the_thruster_delay() {
     s.select.iterations = 3_000;
     s.select.burn_in = 1_000;
     let prep = prepare(&s).unwrap();
-    let out = occam::select::run(&s, &prep, None).unwrap();
+    let out = occam::jobs::select::run(&s, &prep, None).unwrap();
     let p = &out.pairs[0];
     assert_eq!(p.preferred, "Y");
     for e in &p.estimates {

@@ -4,7 +4,7 @@
 //! well-formed archive), 200 000 cases, each read inside `catch_unwind`. Every outcome must be `Ok` or `Err`:
 //! zero panics. Prints the counts and the time.
 
-use occam::dataset::{Dataset, ExperimentData, parse_csv};
+use occam::data::dataset::{Dataset, ExperimentData, parse_csv};
 use serde_json::Value;
 use std::io::Write as _;
 use std::panic::{AssertUnwindSafe, catch_unwind};
@@ -393,7 +393,7 @@ fn mutated_datasets_and_csv_files_never_panic() {
             || {
                 parse_csv(csv_path, &m).and_then(|t| {
                     t.sample_rate()
-                        .map_err(|e| occam::dataset::DataError::Names { msg: e })
+                        .map_err(|e| occam::data::dataset::DataError::Names { msg: e })
                 })
             },
         );

@@ -2,7 +2,7 @@
 //! a Welch estimate of a long stretch matches S11, S22, Re S12 and Im S12.
 
 use occam::config::Study;
-use occam::experiment::{System, stream};
+use occam::experiment::stream;
 use occam::signal::{SynthMode, WelchConfig, Window, synth_two_channel, welch_csd2};
 use std::path::Path;
 
@@ -20,7 +20,7 @@ fn welch_estimate_of_synthesised_noise_matches_the_model_csd() {
         Path::new("."),
     )
     .unwrap();
-    let sys = System::of(&study);
+    let sys = study.system();
     let fs = 10.0;
     let n = 1 << 21;
     let mut rng = stream(77, 0);

@@ -406,7 +406,7 @@ fn non_runs_old_runs_busy_runs_and_other_destinations() {
     assert!(read(&run.join("summary.json")).starts_with('{'));
 
     // a run that is being written: refused, nothing written
-    let held = occam::rundir::RunDir::lock(&run).unwrap();
+    let held = occam::data::rundir::RunDir::lock(&run).unwrap();
     let e = occam::html::write_report(&run, None)
         .unwrap_err()
         .to_string();

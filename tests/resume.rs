@@ -5,7 +5,7 @@
 
 mod common;
 use common::occam;
-use occam::select::{Checkpointing, SelectCheckpoint, run_checkpointed};
+use occam::jobs::select::{Checkpointing, SelectCheckpoint, run_checkpointed};
 use std::path::Path;
 
 use common::{numbers, small, summary_numbers};
@@ -13,12 +13,12 @@ use common::{numbers, small, summary_numbers};
 #[test]
 fn select_resumed_after_a_crash_in_the_reversible_jump_stage_equals_an_uninterrupted_run() {
     let study = occam::config::Study::from_toml(&small(), "small.toml", Path::new(".")).unwrap();
-    let prep = occam::analysis::prepare(&study).unwrap();
-    let id = occam::select::identity(&study, &prep.dataset);
+    let prep = occam::jobs::prepare::prepare(&study).unwrap();
+    let id = occam::jobs::select::identity(&study, &prep.dataset);
     let dir = tempfile::tempdir().unwrap();
     let ck = dir.path().join("checkpoint.cbor");
 
-    let whole = occam::select::run(&study, &prep, None).unwrap();
+    let whole = occam::jobs::select::run(&study, &prep, None).unwrap();
 
     // a crash part-way through the reversible-jump run: both model stages are saved
     let crash = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
@@ -60,9 +60,9 @@ fn select_resumed_after_a_crash_in_the_reversible_jump_stage_equals_an_uninterru
     assert!(numbers(serde_json::to_value(&again).unwrap()) == a);
 
     // the sample files too, byte for byte, whether the jump run was redone or read back
-    let files = |s: &occam::select::SelectSummary, name: &str| {
+    let files = |s: &occam::jobs::select::SelectSummary, name: &str| {
         let out = dir.path().join(name);
-        occam::select::write_outputs(s, &out).unwrap();
+        occam::jobs::select::write_outputs(s, &out).unwrap();
         ["chains_X.npz", "chains_Y.npz", "rj_chain.npz"]
             .map(|f| std::fs::read(out.join(f)).unwrap_or_else(|e| panic!("{f}: {e}")))
     };
@@ -91,7 +91,7 @@ fn select_resumed_after_a_crash_in_the_reversible_jump_stage_equals_an_uninterru
     // a checkpoint of other data is refused
     let mut other = prep.dataset.clone();
     other.experiments[0].o[0][3] += 1e-12;
-    let e = SelectCheckpoint::read(&ck, &occam::select::identity(&study, &other))
+    let e = SelectCheckpoint::read(&ck, &occam::jobs::select::identity(&study, &other))
         .unwrap_err()
         .to_string();
     assert!(
@@ -118,7 +118,7 @@ fn resume_with_nothing_to_resume_is_an_error_for_every_command() {
 fn a_busy_or_unusable_directory_is_refused_before_any_work() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("s.toml"), small()).unwrap();
-    let held = occam::rundir::RunDir::open(&dir.path().join("out/select")).unwrap();
+    let held = occam::data::rundir::RunDir::open(&dir.path().join("out/select")).unwrap();
     let (ok, _, err) = occam(&["select", "s.toml", "-q"], dir.path());
     assert!(!ok);
     assert!(
@@ -159,7 +159,7 @@ fn select_killed_mid_run_and_resumed_matches_an_uninterrupted_run() {
         .stderr(std::process::Stdio::null())
         .spawn()
         .unwrap();
-    let ck = d.join("cut").join(occam::select::CHECKPOINT_FILE);
+    let ck = d.join("cut").join(occam::jobs::select::CHECKPOINT_FILE);
     let t0 = std::time::Instant::now();
     while !ck.exists() && t0.elapsed().as_secs() < 120 {
         if child.try_wait().unwrap().is_some() {
@@ -187,7 +187,8 @@ fn select_killed_mid_run_and_resumed_matches_an_uninterrupted_run() {
             "{f}"
         );
     }
-    let m = occam::rundir::Manifest::read(&d.join("cut")).expect("a finished run has a manifest");
+    let m =
+        occam::data::rundir::Manifest::read(&d.join("cut")).expect("a finished run has a manifest");
     for f in &m.files {
         assert!(d.join("cut").join(&f.name).exists(), "{}", f.name);
     }
@@ -218,7 +219,7 @@ fn a_rerun_removes_the_previous_runs_files_it_does_not_write() {
     assert!(d.join("out/select/my-notes.txt").exists());
     // the files it says it wrote are exactly those on disk, listed in the manifest
     let line = out.lines().find(|l| l.starts_with("wrote ")).unwrap();
-    let m = occam::rundir::Manifest::read(&d.join("out/select")).unwrap();
+    let m = occam::data::rundir::Manifest::read(&d.join("out/select")).unwrap();
     for f in &m.files {
         assert!(line.contains(&f.name), "{line} lacks {}", f.name);
         assert!(d.join("out/select").join(&f.name).exists());

@@ -1,9 +1,9 @@
 //! The paper's guidance-delay study in both regimes (the qualitative outcomes of K14 Table II
-//! and Fig. 2), through `occam::select` with shortened runs.
+//! and Fig. 2), through `occam::jobs::select` with shortened runs.
 
-use occam::analysis::prepare;
 use occam::config::Study;
-use occam::select::{PairResult, run};
+use occam::jobs::prepare::prepare;
+use occam::jobs::select::{PairResult, run};
 use std::path::Path;
 
 fn ln_b(p: &PairResult, method: &str) -> Option<f64> {
@@ -64,7 +64,7 @@ fn high_snr_regime_rj_never_enters_x_but_bridge_and_laplace_are_finite() {
     assert!(ln_b(p, "RJMCMC visits").is_none());
     // Fig. 2 is drawn all the same, its legend saying which curve is absent and why
     let dir = tempfile::tempdir().unwrap();
-    occam::select::write_outputs(&out, dir.path()).unwrap();
+    occam::jobs::select::write_outputs(&out, dir.path()).unwrap();
     let svg = std::fs::read_to_string(dir.path().join("bayes_factor.svg")).unwrap();
     assert!(svg.contains("X never visited"));
     let rj = out.rj.as_ref().unwrap();

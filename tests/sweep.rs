@@ -66,7 +66,7 @@ fn run(s: &Sweep, threads: usize) -> occam::jobs::sweep::SweepResult {
         .run(&Threads::new(threads).unwrap(), false)
         .unwrap()
         .unwrap();
-    let run = occam::rundir::RunDir::open(&s.out).unwrap();
+    let run = occam::data::rundir::RunDir::open(&s.out).unwrap();
     occam::jobs::sweep::publish(s, &r, &run).unwrap();
     r
 }

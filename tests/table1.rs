@@ -2,8 +2,8 @@
 //! the exact one in the 5σ region, and the MCMC fit recovers every parameter within 3σ with
 //! chain σ within 25 % of the Cramér-Rao σ.
 
-use occam::analysis::{prepare, relbin_of};
 use occam::config::Study;
+use occam::jobs::prepare::{prepare, relbin_of};
 use occam::likelihood::{cramer_rao, fisher_exact, fisher_scoring};
 use occam::ltp::N_PARAMS;
 use std::path::Path;
@@ -77,7 +77,7 @@ fn table_one_fit_recovers_the_truth() {
     s.fit.burn_in = 3000;
     let prep = prepare(&s).unwrap();
     let dir = tempfile::tempdir().unwrap();
-    let o = occam::fit::run(&s, &prep, dir.path(), None, false).unwrap();
+    let o = occam::jobs::fit::run(&s, &prep, dir.path(), None, false).unwrap();
     let free: Vec<usize> = (0..N_PARAMS).collect();
     let cr = cramer_rao(&fisher_exact(&prep.likelihood, &o.map_full, &free)).unwrap();
     for (r, c) in o.summary.rows.iter().zip(&cr) {
@@ -97,7 +97,7 @@ fn table_one_fit_recovers_the_truth() {
         );
         assert!(r.rhat < 1.05, "{}: R-hat {}", r.name, r.rhat);
     }
-    occam::fit::write_outputs(&o, dir.path()).unwrap();
+    occam::jobs::fit::write_outputs(&o, dir.path()).unwrap();
     for f in [
         "summary.json",
         "table.txt",
@@ -126,7 +126,7 @@ fn a_map_on_a_prior_bound_is_warned_about() {
     s.models.priors[mi] = occam::prior::Prior::new(names, kinds).unwrap();
     let prep = prepare(&s).unwrap();
     let dir = tempfile::tempdir().unwrap();
-    let o = occam::fit::run(&s, &prep, dir.path(), None, false).unwrap();
+    let o = occam::jobs::fit::run(&s, &prep, dir.path(), None, false).unwrap();
     assert!(
         (o.map_full[k] - 0.9).abs() < 1e-12,
         "MAP a_df = {}",

@@ -3,8 +3,8 @@
 
 mod common;
 use common::occam;
-use occam::analysis::{likelihood_of, prepare};
 use occam::config::Study;
+use occam::jobs::prepare::{likelihood_of, prepare};
 use occam::likelihood::fisher_exact;
 use std::fmt::Write as _;
 use std::path::Path;
@@ -105,7 +105,7 @@ fn fit_from_csv_files_equals_fit_from_the_simulated_dataset() {
     let (ok, _, err) = occam(&["fit", "ds.toml", "-q"], d);
     assert!(ok, "{err}");
     // the user's files: their own column names, data and noise in separate files
-    let ds = occam::dataset::Dataset::read(&d.join("sim")).unwrap();
+    let ds = occam::data::dataset::Dataset::read(&d.join("sim")).unwrap();
     std::fs::create_dir(d.join("data")).unwrap();
     let mut exps = String::new();
     for e in &ds.experiments {

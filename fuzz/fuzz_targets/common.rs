@@ -17,8 +17,8 @@ pub fn old_json() -> &'static [u8] {
         v.as_object_mut().unwrap().remove("npz_digest");
         let old = serde_json::to_vec_pretty(&v).unwrap();
         // the pair itself must read, or the targets test nothing
-        occam::dataset::Dataset::from_bytes(JSON, NPZ).expect("the seed pair reads");
-        occam::dataset::Dataset::from_bytes(&old, NPZ).expect("the old-format seed pair reads");
+        occam::data::dataset::Dataset::from_bytes(JSON, NPZ).expect("the seed pair reads");
+        occam::data::dataset::Dataset::from_bytes(&old, NPZ).expect("the old-format seed pair reads");
         old
     })
 }

@@ -3,7 +3,7 @@
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
-    if let Ok(t) = occam::dataset::parse_csv(std::path::Path::new("fuzz.csv"), data) {
+    if let Ok(t) = occam::data::dataset::parse_csv(std::path::Path::new("fuzz.csv"), data) {
         let _ = t.sample_rate();
     }
 });

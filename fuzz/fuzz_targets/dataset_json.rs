@@ -5,5 +5,5 @@ mod common;
 
 fuzz_target!(|data: &[u8]| {
     let _ = common::old_json();
-    let _ = occam::dataset::Dataset::from_bytes(data, common::NPZ);
+    let _ = occam::data::dataset::Dataset::from_bytes(data, common::NPZ);
 });

@@ -5,5 +5,5 @@ use libfuzzer_sys::fuzz_target;
 mod common;
 
 fuzz_target!(|data: &[u8]| {
-    let _ = occam::dataset::Dataset::from_bytes(common::old_json(), data);
+    let _ = occam::data::dataset::Dataset::from_bytes(common::old_json(), data);
 });

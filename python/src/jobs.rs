@@ -1,5 +1,5 @@
 //! `occam.simulate`, `occam.fit`, `occam.select`: the command line's jobs
-//! ([`occam::commands`]: run-directory lock, staging, manifest), run with the GIL released.
+//! ([`occam::jobs`]: run-directory lock, staging, manifest), run with the GIL released.
 //! They return the run directory and the lines the command line would print while running;
 //! the Python package reads the outputs from the directory.
 
@@ -38,15 +38,25 @@ fn run(
             .expect("no panic holds the lock")
             .push(l.to_string())
     };
+    let ctx = occam::jobs::Context {
+        out: &out,
+        resume,
+        log: &log,
+        work: None,
+    };
     match job {
         Job::Simulate => {
-            occam::commands::simulate(&study, &out, None)?;
+            occam::jobs::execute(&mut occam::jobs::simulate::Simulate { study: &study }, &ctx)?;
         }
         Job::Fit => {
-            occam::commands::fit(&study, &out, resume, &log, None)?;
+            occam::jobs::execute(&mut occam::jobs::fit::Fit { study: &study }, &ctx)?;
         }
         Job::Select => {
-            occam::commands::select(&study, &out, resume, &log, None, None)?;
+            let mut job = occam::jobs::select::Select {
+                study: &study,
+                on_rj: None,
+            };
+            occam::jobs::execute(&mut job, &ctx)?;
         }
     }
     Ok((out, lines.into_inner().expect("no panic holds the lock")))

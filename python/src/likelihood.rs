@@ -4,9 +4,9 @@
 use crate::occam_error;
 use anyhow::Context;
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods};
-use occam::analysis::{default_start, likelihood_of, load_data, model_warnings, truth_of};
 use occam::config::{ModelSpec, Study};
 use occam::density::LogDensity;
+use occam::jobs::prepare::{default_start, likelihood_of, load_data, model_warnings, truth_of};
 use occam::likelihood::{Likelihood, fisher_exact};
 use occam::nested::SubModel;
 use occam::prior::PriorKind;

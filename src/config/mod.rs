@@ -25,11 +25,15 @@
 //! spacecraft) take the waveform kinds of `x1`/`x12`, are scaled with them by `target_snr` and
 //! `amplitude_scale`, and need `method = "frequency"`, as do actuator poles and delays.
 
+pub use crate::experiment::options::{
+    Actuator, MAX_AMPLITUDE, Method, NoiseSynthesis, TruthThruster,
+};
 use crate::experiment::{ExperimentDesign, SineSegment, Waveform};
 use crate::ltp::{Controllers, LtpParams, Masses, NoiseModel, check_stable};
 use crate::prior::PriorKind;
 
 pub mod budget;
+pub mod design;
 mod models;
 #[cfg(test)]
 mod reference;
@@ -58,30 +62,6 @@ pub enum ConfigError {
         field: String,
         msg: String,
     },
-}
-
-/// How the data are generated.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
-#[serde(rename_all = "snake_case")]
-pub enum Method {
-    /// From the continuous-time `H_io` on the DFT grid (exact for the fit model).
-    #[default]
-    Frequency,
-    /// Time-domain simulation of the discretised loop (ZOH plant, Tustin controllers).
-    Time,
-}
-
-/// How the coloured noise is synthesised.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
-#[serde(rename_all = "snake_case")]
-pub enum NoiseSynthesis {
-    /// Circular: the DFT of the series has exactly the model CSD.
-    #[default]
-    Circular,
-    /// Synthesised on a 4× longer grid and cropped: not circular, like real data.
-    Realistic,
-    /// No noise at all (noiseless templates, for tests and SNR studies).
-    None,
 }
 
 /// `[simulation]` options.
@@ -217,58 +197,6 @@ impl ActuatorOptions {
         }
         Ok(())
     }
-}
-
-/// A resolved true actuator of one test mass: the force applied per unit mass is
-/// `Act(f)·g` for the commanded `g` (m s⁻²), with `Act(f) = gain · 1/(1 + i f/f_o) · e^{−i2πfτ}`
-/// (e^{−2πift} Fourier convention, unity-DC-gain pole when `pole` is set).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct Actuator {
-    pub gain: f64,
-    /// Pole frequency `f_o` (Hz), if any.
-    pub pole: Option<f64>,
-    /// Delay τ (s).
-    pub delay: f64,
-}
-
-impl Actuator {
-    /// `Act(f)`, the applied force per unit commanded force at `f` (Hz).
-    ///
-    /// ```
-    /// use occam::config::Actuator;
-    /// let a = Actuator { gain: 1.08, pole: Some(2.0), delay: 0.0 };
-    /// let r = a.response(2.0); // at the pole: gain/(1 + i)
-    /// assert!((r.re - 0.54).abs() < 1e-15 && (r.im + 0.54).abs() < 1e-15);
-    /// ```
-    pub fn response(&self, f: f64) -> num_complex::Complex64 {
-        match self.shape(f) {
-            Some(r) => r * self.gain,
-            None => num_complex::Complex64::new(self.gain, 0.0),
-        }
-    }
-
-    /// `Act(f)/gain`: the pole and delay factors, or `None` for a flat actuator (no pole, no
-    /// delay), so that callers can keep the arithmetic of the flat loop exactly.
-    pub fn shape(&self, f: f64) -> Option<num_complex::Complex64> {
-        if self.pole.is_none() && self.delay == 0.0 {
-            return None;
-        }
-        Some(crate::model::accel::actuator(
-            1.0,
-            self.pole,
-            (self.delay != 0.0).then_some(self.delay),
-            f,
-        ))
-    }
-}
-
-/// The true thruster response of a simulation: `response = "delay"` with `value` = τ_df (s),
-/// or `"pole"` with `value` = f_df (Hz).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct TruthThruster {
-    pub response: crate::model::ThrusterResponse,
-    pub value: f64,
 }
 
 impl Default for SimulationOptions {
@@ -596,9 +524,9 @@ pub struct StudyFile {
     /// `[sweep]`: the grid of `occam sweep` (ignored by the other commands).
     #[serde(default)]
     pub sweep: Option<SweepOptions>,
-    /// `[design]`: the injection-design search of `occam design` ([`crate::design`]).
+    /// `[design]`: the injection-design search of `occam design` (`crate::jobs::design`).
     #[serde(default)]
-    pub design: Option<crate::design::DesignOptions>,
+    pub design: Option<design::DesignOptions>,
     pub experiment: Vec<ExperimentEntry>,
 }
 
@@ -630,8 +558,8 @@ pub struct Study {
     pub select_models: Vec<SelectModel>,
     /// `[sweep]` as written (validated against the select models).
     pub sweep: Option<SweepOptions>,
-    /// `[design]` as written (validated by [`crate::design::DesignOptions::validate`]).
-    pub design: Option<crate::design::DesignOptions>,
+    /// `[design]` as written (validated by [`design::DesignOptions::validate`]).
+    pub design: Option<design::DesignOptions>,
     /// The file it came from (for messages).
     pub source: String,
     /// The study file as parsed, serde's defaults filled in ([`resolved_toml`]); not part of
@@ -641,6 +569,36 @@ pub struct Study {
 }
 
 impl Study {
+    /// The true system of the study (`[truth]`, `[masses]`, `[noise]`, the OMS delay and the
+    /// `[simulation]` thruster and actuators).
+    pub fn system(&self) -> crate::experiment::System {
+        crate::experiment::System {
+            truth: self.truth,
+            controllers: Controllers::default(),
+            masses: self.masses,
+            noise: self.noise,
+            oms_delay: self.oms_delay,
+            thruster: self.simulation.thruster,
+            actuators: self.simulation.actuators.resolve(self.truth.a_sus),
+        }
+    }
+
+    /// What the simulator needs of the study, as plain values.
+    pub fn simulation_plan(&self) -> crate::experiment::SimulationPlan {
+        let o = &self.simulation;
+        crate::experiment::SimulationPlan {
+            source: self.source.clone(),
+            seed: self.seed,
+            system: self.system(),
+            experiments: self.experiments.clone(),
+            method: o.method,
+            noise: o.noise,
+            target_snr: o.target_snr,
+            snr_band: o.snr_band,
+            oversample: o.oversample,
+        }
+    }
+
     /// Reads and validates a study file.
     pub fn load(path: &Path) -> Result<Study, ConfigError> {
         let file = path.display().to_string();
@@ -696,11 +654,6 @@ pub const MIN_ASD: f64 = 1e-30;
 /// Largest noise corner frequency (`readout_corner`, `tm_corner`, Hz): 1 kHz, far above any
 /// sample rate of the mission.
 pub const MAX_CORNER: f64 = 1e3;
-
-/// Largest injection amplitude (m on `x1`, `x12`; m s⁻² on `f1`, `f2`, `fsc`), after
-/// `amplitude_scale`: 1e-2, above the 4 mm gap around a test mass and ~10⁷ × LPF's force
-/// injections. Beyond it ρ² and ln L overflow (`amplitude_scale = 1e300` gave ρ = NaN).
-pub const MAX_AMPLITUDE: f64 = 1e-2;
 
 /// Largest `simulation.target_snr`: 10⁶, three orders above LPF's loudest experiments; the
 /// amplitude factor it implies must also keep every amplitude within [`MAX_AMPLITUDE`]
@@ -892,7 +845,7 @@ impl StudyFile {
                 }
                 for ch in e.columns.keys() {
                     if ch != "t" {
-                        crate::dataset::check_channel_name(ch)
+                        crate::data::dataset::check_channel_name(ch)
                             .map_err(|m| bad(at(&format!("columns.{ch}")), m))?;
                     }
                 }
@@ -1513,7 +1466,7 @@ fn to_waveform(
         }),
         InjectionEntry::File { path, column } => {
             let p = base.join(path);
-            let table = crate::dataset::read_csv(&p).map_err(|e| ConfigError::Invalid {
+            let table = crate::data::dataset::read_csv(&p).map_err(|e| ConfigError::Invalid {
                 file: file.into(),
                 field: format!("{field}.path"),
                 msg: e.to_string(),

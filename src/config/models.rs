@@ -360,7 +360,7 @@ impl ModelSet {
                 let centre: Vec<f64> = set.priors[k]
                     .kinds()
                     .iter()
-                    .map(crate::analysis::prior_centre)
+                    .map(PriorKind::centre)
                     .collect();
                 crate::model::check_identifiable(
                     set.models[k].as_ref(),

@@ -107,7 +107,7 @@ fn schema() -> BTreeMap<String, BTreeSet<String>> {
     put("[[select.model]]", keys::<SelectModelEntry>(""));
     put("[sweep]", keys::<sweep::SweepOptions>(""));
     put("[[sweep.axis]]", keys::<sweep::SweepAxis>(""));
-    put("[design]", keys::<crate::design::DesignOptions>(""));
+    put("[design]", keys::<crate::config::design::DesignOptions>(""));
     put("[[experiment]]", keys::<ExperimentEntry>(""));
     put("[[experiment]] injection kind", kinds::<InjectionEntry>());
     for k in kinds::<InjectionEntry>() {

@@ -2,28 +2,31 @@
 //! than simulated ([`DataSource`]), and the checks shared by every reader (a uniformly sampled
 //! time column, [`uniform_rate`]).
 //!
-//! The on-disk dataset format written by `occam simulate` lives in [`crate::dataset`].
+//! The on-disk dataset format written by `occam simulate` lives in [`crate::data::dataset`].
 
+pub mod dataset;
+pub mod memory;
 pub mod npz;
 pub mod npz_write;
+pub mod rundir;
 pub mod source;
 
 pub use source::DataSource;
 
 /// The memory budget for data read from files, in bytes: the one budget of the study loader
-/// ([`crate::config::budget::budget_from_env`]: `OCCAM_MEMORY_BUDGET`, else 8 GiB). Readers
+/// ([`memory::budget_from_env`]: `OCCAM_MEMORY_BUDGET`, else 8 GiB). Readers
 /// compare the sizes a file implies with it before allocating anything, so that a damaged or
 /// enormous file is an error naming the file rather than an abort. An unreadable value is an
 /// error naming the variable (never silently the default).
 pub fn memory_budget() -> Result<u64, String> {
     // saturating: a budget above 2⁶⁴ bytes is no limit
-    crate::config::budget::budget_from_env().map(|b| b as u64)
+    memory::budget_from_env().map(|b| b as u64)
 }
 
 /// [`memory_budget`], or the default budget when the variable cannot be read (for callers
 /// that have already reported that error through [`check_budget`]).
 pub fn memory_budget_bytes() -> u64 {
-    memory_budget().unwrap_or(crate::config::budget::DEFAULT_BUDGET as u64)
+    memory_budget().unwrap_or(memory::DEFAULT_BUDGET as u64)
 }
 
 /// Checks that reading `what` of `file`, which needs `bytes` bytes, fits the memory budget.
@@ -31,10 +34,10 @@ pub(crate) fn check_budget(
     file: &std::path::Path,
     what: &str,
     bytes: u64,
-) -> Result<(), crate::dataset::DataError> {
-    let budget = memory_budget().map_err(|m| crate::dataset::fmt_err(file, m))?;
+) -> Result<(), crate::data::dataset::DataError> {
+    let budget = memory_budget().map_err(|m| crate::data::dataset::fmt_err(file, m))?;
     if bytes > budget {
-        return Err(crate::dataset::fmt_err(
+        return Err(crate::data::dataset::fmt_err(
             file,
             format!(
                 "{what} needs {bytes} bytes, more than the memory budget of {budget} bytes; raise OCCAM_MEMORY_BUDGET if the machine has the memory, or split the data"

@@ -1,6 +1,6 @@
 //! [`DataSource`]: one experiment's data read from a CSV or npz file named in the study.
 
-use crate::dataset::{DataError, ExperimentData, check_channel_name, fmt_err, read_csv};
+use crate::data::dataset::{DataError, ExperimentData, check_channel_name, fmt_err, read_csv};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -193,7 +193,7 @@ impl DataSource {
         let data = base.join(&self.data);
         let mut chans: Vec<&str> = Vec::new();
         for c in channels {
-            if !crate::dataset::FIXED_CHANNELS.contains(&c.as_str()) {
+            if !crate::data::dataset::FIXED_CHANNELS.contains(&c.as_str()) {
                 check_channel_name(c)
                     .map_err(|m| fmt_err(&data, format!("experiment `{name}`: {m}")))?;
             }
@@ -459,7 +459,7 @@ mod tests {
         assert_eq!(e.channel_names(), chans(&["o1", "g1"]));
         assert_eq!(e.n_noise_samples(), 0);
         // and the experiment round-trips through a dataset directory
-        let d = crate::dataset::Dataset {
+        let d = crate::data::dataset::Dataset {
             experiments: vec![
                 src.load(
                     "inv1",
@@ -473,7 +473,7 @@ mod tests {
             extra: serde_json::Value::Null,
         };
         d.write(&dir.path().join("ds")).unwrap();
-        let back = crate::dataset::Dataset::read(&dir.path().join("ds")).unwrap();
+        let back = crate::data::dataset::Dataset::read(&dir.path().join("ds")).unwrap();
         assert_eq!(back, d);
     }
 

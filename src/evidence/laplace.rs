@@ -86,38 +86,22 @@ pub struct LaplaceEstimate {
 }
 
 /// `ln π(θ)` with uniform and log-uniform densities continued beyond their bounds by their
-/// formula (constant, and `−ln θ − ln ln(b/a)`). This is the smooth function a Laplace expansion
-/// (and an optimiser looking for the unconstrained maximum) works with.
+/// formula ([`Prior::ln_pdf_extended`]): the smooth function a Laplace expansion (and an
+/// optimiser looking for the unconstrained maximum) works with.
 pub fn ln_prior_extended(prior: &Prior, theta: &[f64]) -> Result<f64, EvidenceError> {
-    if theta.len() != prior.dim() {
-        return Err(EvidenceError::dimension("θ", prior.dim(), theta.len()));
-    }
-    let mut s = 0.0;
-    for ((k, &x), name) in prior.kinds().iter().zip(theta).zip(prior.names()) {
-        if !x.is_finite() {
-            return Err(EvidenceError::non_finite(
-                format!("θ̂ of `{name}`"),
-                x,
-                "pass a finite expansion point",
-            ));
+    use crate::prior::ExtendedError as E;
+    prior.ln_pdf_extended(theta).map_err(|e| match e {
+        E::Dimension { got } => EvidenceError::dimension("θ", prior.dim(), got),
+        E::NonFinite { name, x } => {
+            EvidenceError::non_finite(format!("θ̂ of `{name}`"), x, "pass a finite expansion point")
         }
-        s += match *k {
-            PriorKind::Uniform { lo, hi } => -(hi - lo).ln(),
-            PriorKind::Gaussian { .. } => k.ln_pdf(x),
-            PriorKind::LogUniform { lo, hi } => {
-                if x <= 0.0 {
-                    return Err(EvidenceError::UnsupportedPrior {
-                        param: name.clone(),
-                        why: format!(
-                            "log-uniform density undefined at θ = {x} ≤ 0; expand at a positive point"
-                        ),
-                    });
-                }
-                -x.ln() - (hi / lo).ln().ln()
-            }
-        };
-    }
-    Ok(s)
+        E::LogUniformAtNonPositive { name, x } => EvidenceError::UnsupportedPrior {
+            param: name,
+            why: format!(
+                "log-uniform density undefined at θ = {x} ≤ 0; expand at a positive point"
+            ),
+        },
+    })
 }
 
 /// `−∇∇ ln π` (diagonal) at θ for the extended prior.

@@ -2,12 +2,13 @@
 //! designs with padding and a noise-only stretch, and their simulation.
 
 mod design;
+pub mod options;
 mod simulate;
 mod waveform;
 
 pub use design::{ExperimentDesign, FORCE_CHANNELS, ladder_freqs};
 pub use simulate::{
-    SimError, Simulation, System, TELEMETRY_CHANNELS, delayed_injections, optimal_snr, simulate,
-    simulate_observed, stream,
+    SimError, SimProgress, Simulation, SimulationPlan, System, TELEMETRY_CHANNELS,
+    delayed_injections, optimal_snr, simulate, simulate_observed, stream,
 };
 pub use waveform::{SineSegment, Waveform};

@@ -38,8 +38,8 @@
 //! above, because the noise on the outputs is the continuous model's in that method too.
 
 use super::ExperimentDesign;
-use crate::config::{Actuator, Method, NoiseSynthesis, Study};
-use crate::dataset::{Dataset, ExperimentData};
+use super::options::{Actuator, MAX_AMPLITUDE, Method, NoiseSynthesis, TruthThruster};
+use crate::data::dataset::{Dataset, ExperimentData};
 use crate::hermitian;
 use crate::ltp::{BinConsts, ClosedLoop, Controllers, LtpParams, Masses, NoiseModel};
 use crate::signal::{RealFft, SignalError, SynthMode, synth_two_channel};
@@ -74,25 +74,12 @@ pub struct System {
     /// Fixed OMS delay τ_o (s).
     pub oms_delay: f64,
     /// Thruster response on the drag-free actuation (none by default).
-    pub thruster: Option<crate::config::TruthThruster>,
+    pub thruster: Option<TruthThruster>,
     /// The true actuators `[TM1, TM2]`; TM2's gain is `truth.a_sus`.
     pub actuators: [Actuator; 2],
 }
 
 impl System {
-    /// The system of a study file.
-    pub fn of(study: &Study) -> Self {
-        Self {
-            truth: study.truth,
-            controllers: Controllers::default(),
-            masses: study.masses,
-            noise: study.noise,
-            oms_delay: study.oms_delay,
-            thruster: study.simulation.thruster,
-            actuators: study.simulation.actuators.resolve(study.truth.a_sus),
-        }
-    }
-
     /// `[Act1(f), Act2(f)]`: the force actually applied to each test mass per unit commanded
     /// force (`g1`, `g2` of the telemetry), at `f` Hz.
     pub fn actuator_response(&self, f: f64) -> [Complex64; 2] {
@@ -421,32 +408,59 @@ pub fn stream(seed: u64, index: u64) -> Xoshiro256PlusPlus {
     r
 }
 
-/// Simulates every experiment of the study: the fit stretch (response + noise) and the
-/// noise-only stretch. Experiment `j` draws its fit noise from stream `2j` and its noise-only
-/// stretch from stream `2j + 1` of the study seed.
-pub fn simulate(study: &Study) -> Result<Simulation, SimError> {
-    simulate_observed(study, None)
+/// Everything the simulator needs, as plain values (a study file's `[truth]`, `[noise]`,
+/// `[masses]`, `[simulation]` and `[[experiment]]` tables: `Study::simulation_plan`).
+#[derive(Debug, Clone)]
+pub struct SimulationPlan {
+    /// Where the plan came from (a study file's name), recorded in the dataset.
+    pub source: String,
+    /// The seed of every noise stream.
+    pub seed: u64,
+    /// The true system.
+    pub system: System,
+    /// The experiments, at their written amplitudes.
+    pub experiments: Vec<ExperimentDesign>,
+    /// How the data are generated.
+    pub method: Method,
+    /// How the noise is synthesised.
+    pub noise: NoiseSynthesis,
+    /// Scale every amplitude by one factor so that the study's ρ_opt equals this.
+    pub target_snr: Option<f64>,
+    /// Band (Hz) of ρ_opt.
+    pub snr_band: [f64; 2],
+    /// `method = "time"`: the discretised loop's oversampling.
+    pub oversample: usize,
 }
 
-/// [`simulate`], counting finished experiments into `work` (for a progress bar).
+/// Simulates every experiment of the plan: the fit stretch (response + noise) and the
+/// noise-only stretch. Experiment `j` draws its fit noise from stream `2j` and its noise-only
+/// stretch from stream `2j + 1` of the seed.
+pub fn simulate(plan: &SimulationPlan) -> Result<Simulation, SimError> {
+    simulate_observed(plan, None)
+}
+
+/// Progress of a simulation: `(done, total)` experiments, `(0, total)` first.
+pub type SimProgress<'a> = &'a dyn Fn(u64, u64);
+
+/// [`simulate`], reporting finished experiments to `progress` (for a progress bar).
 pub fn simulate_observed(
-    study: &Study,
-    work: Option<&crate::commands::Work>,
+    plan: &SimulationPlan,
+    progress: Option<SimProgress>,
 ) -> Result<Simulation, SimError> {
-    if study.experiments.is_empty() {
+    if plan.experiments.is_empty() {
         return Err(SimError::Other(
             "study".into(),
             "every [[experiment]] reads its data from a file (`data = …`): there is nothing to simulate".into(),
         ));
     }
-    let sys = System::of(study);
-    let opts = &study.simulation;
-    let mut designs = study.experiments.clone();
+    let sys = &plan.system;
+    let opts = plan;
+    let mut designs = plan.experiments.clone();
     let mut amplitude_factor = 1.0;
     if let Some(target) = opts.target_snr {
         let mut rho2 = 0.0;
         for d in &designs {
-            rho2 += optimal_snr(&sys, d, opts.snr_band)?.powi(2);
+            rho2 += optimal_snr(sys, d, opts.snr_band)?.powi(2);
         }
         if rho2 <= 0.0 {
             return Err(SimError::Other(
@@ -465,16 +479,14 @@ pub fn simulate_observed(
                     .flat_map(|w| w.segments().iter().map(|s| s.amplitude.abs()))
             })
             .fold(0.0, f64::max);
-        if !(amplitude_factor.is_finite()
-            && biggest * amplitude_factor <= crate::config::MAX_AMPLITUDE)
-        {
+        if !(amplitude_factor.is_finite() && biggest * amplitude_factor <= MAX_AMPLITUDE) {
             return Err(SimError::Other(
                 "study".into(),
                 format!(
                     "`simulation.target_snr` = {target} needs the injections scaled by {amplitude_factor:e} (ρ_opt is {:e} before scaling), which makes the largest amplitude {:e}, above the plausible {} (m or m s⁻²): lower target_snr or raise the injections",
                     rho2.sqrt(),
                     biggest * amplitude_factor,
-                    crate::config::MAX_AMPLITUDE
+                    MAX_AMPLITUDE
                 ),
             ));
         }
@@ -482,23 +494,23 @@ pub fn simulate_observed(
     }
     let mut experiments = Vec::new();
     let mut snr = Vec::new();
-    if let Some(w) = work {
-        w.start(designs.len() as u64);
+    if let Some(p) = progress {
+        p(0, designs.len() as u64);
     }
     for (j, d) in designs.iter().enumerate() {
-        if let Some(w) = work
+        if let Some(p) = progress
             && j > 0
         {
-            w.done.store(j as u64, std::sync::atomic::Ordering::Relaxed);
+            p(j as u64, designs.len() as u64);
         }
-        snr.push(optimal_snr(&sys, d, opts.snr_band)?);
+        snr.push(optimal_snr(sys, d, opts.snr_band)?);
         let err = |e| SimError::Signal(d.name.clone(), e);
         let n = d.n_samples();
         let inj = d.injections();
         let forces = d.has_forces().then(|| d.force_injections());
         let (o, commands) = match opts.method {
             Method::Frequency => {
-                let h = noiseless_spectrum(&sys, d)?;
+                let h = noiseless_spectrum(sys, d)?;
                 let mut fft = RealFft::new(n).map_err(err)?;
                 let mut o = [vec![0.0; n], vec![0.0; n]];
                 for c in 0..2 {
@@ -507,7 +519,7 @@ pub fn simulate_observed(
                 (o, None)
             }
             Method::Time => {
-                let (o, u) = time_domain_response(&sys, d, opts.oversample)?;
+                let (o, u) = time_domain_response(sys, d, opts.oversample)?;
                 (o, Some(u))
             }
         };
@@ -517,7 +529,7 @@ pub fn simulate_observed(
                 NoiseSynthesis::Circular => SynthMode::Circular,
                 NoiseSynthesis::Realistic => SynthMode::Realistic { oversample: 4 },
             };
-            let mut rng = stream(study.seed, idx);
+            let mut rng = stream(plan.seed, idx);
             synth_two_channel(len, d.fs, |f| sys.noise_csd(f), &mut rng, mode).map_err(err)
         };
         let fit_noise = noise_of(n, 2 * j as u64)?;
@@ -566,9 +578,9 @@ pub fn simulate_observed(
     }
     let snr_total = snr.iter().map(|r| r * r).sum::<f64>().sqrt();
     let extra = serde_json::json!({
-        "source": study.source,
+        "source": plan.source,
         "method": opts.method,
-        "thruster": opts.thruster,
+        "thruster": sys.thruster,
         "actuators": {
             "tm1": sys.actuators[0],
             "tm2": sys.actuators[1],
@@ -577,9 +589,9 @@ pub fn simulate_observed(
         "telemetry_channels": TELEMETRY_CHANNELS,
         "force_channels": super::FORCE_CHANNELS,
         "noise_synthesis": opts.noise,
-        "noise_model": study.noise,
-        "masses": study.masses,
-        "oms_delay": study.oms_delay,
+        "noise_model": sys.noise,
+        "masses": sys.masses,
+        "oms_delay": sys.oms_delay,
         "snr_band": opts.snr_band,
         "snr_definition": "rho_opt = sqrt(<h|h>) over snr_band",
         "snr": snr,
@@ -590,8 +602,8 @@ pub fn simulate_observed(
     Ok(Simulation {
         dataset: Dataset {
             experiments,
-            seed: Some(study.seed),
-            truth: Some(study.truth),
+            seed: Some(plan.seed),
+            truth: Some(sys.truth),
             extra,
         },
         designs,
@@ -663,6 +675,7 @@ fn time_domain_response(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::config::Study;
     use std::path::Path;
 
     fn study(extra: &str) -> Study {
@@ -675,11 +688,11 @@ mod tests {
     #[test]
     fn same_seed_same_data_and_target_snr_is_met() {
         let s = study("");
-        let a = simulate(&s).unwrap();
-        let b = simulate(&s).unwrap();
+        let a = simulate(&s.simulation_plan()).unwrap();
+        let b = simulate(&s.simulation_plan()).unwrap();
         assert_eq!(a.dataset, b.dataset);
         let t = study("[simulation]\ntarget_snr = 50.0");
-        let sim = simulate(&t).unwrap();
+        let sim = simulate(&t.simulation_plan()).unwrap();
         assert!(
             (sim.snr_total - 50.0).abs() < 1e-9 * 50.0,
             "{}",
@@ -698,7 +711,11 @@ mod tests {
                 "seed = 3\noutput = \"x\"\n[simulation]\nnoise = \"none\"\nmethod = \"{method}\"\noversample = {oversample}\n[[experiment]]\nname = \"a\"\nfs = 10.0\npre_pad = 200.0\npost_pad = 6000.0\nnoise_duration = 100.0\n{inj} = {{ kind = \"sine\", freq = {freq}, amplitude = 1e-6, duration = 3000.0 }}\n"
             );
             let s = Study::from_toml(&text, "t.toml", Path::new(".")).unwrap();
-            simulate(&s).unwrap().dataset.experiments.remove(0)
+            simulate(&s.simulation_plan())
+                .unwrap()
+                .dataset
+                .experiments
+                .remove(0)
         };
         let f = mk("frequency");
         let t = mk("time");
@@ -731,10 +748,10 @@ mod tests {
     #[test]
     fn noiseless_output_is_the_frequency_response() {
         let s = study("[simulation]\nnoise = \"none\"");
-        let sim = simulate(&s).unwrap();
+        let sim = simulate(&s.simulation_plan()).unwrap();
         let e = &sim.dataset.experiments[0];
         // during the steady middle of the sine, o1 ≈ |H_io,11| sin(ωt + arg H)
-        let sys = System::of(&s);
+        let sys = s.system();
         let f = 0.01;
         let cl = ClosedLoop::at(
             &sys.truth,
@@ -807,7 +824,7 @@ fsc = { kind = "sine", freq = 0.1, amplitude = 5e-9, duration = 200.0 }
         fs: f64,
         n: usize,
     ) -> ([Vec<(f64, f64)>; 2], f64) {
-        let sys = System::of(s);
+        let sys = s.system();
         let d21 = s.truth.d21;
         let mut rows: [Vec<(f64, f64)>; 2] = [Vec::new(), Vec::new()];
         let mut tele_err: f64 = 0.0;
@@ -856,7 +873,7 @@ fsc = { kind = "sine", freq = 0.1, amplitude = 5e-9, duration = 200.0 }
     #[test]
     fn plant_equations_hold_bin_by_bin() {
         let s = load(FULL);
-        let sys = System::of(&s);
+        let sys = s.system();
         let d = &s.experiments[0];
         let (n, fs) = (d.n_samples(), d.fs);
         // 1. the exact spectra: every bin on its own, relative to its largest term
@@ -886,7 +903,11 @@ fsc = { kind = "sine", freq = 0.1, amplitude = 5e-9, duration = 200.0 }
         // the largest bin of o, spread over all bins) times D ≈ (2πf)² ≈ 1e3 s⁻² near
         // Nyquist sets a floor of ~1e−10 of the row's peak term (measured 5.9e−11, 1.2e−10),
         // hence 1e−9 against that peak
-        let e = simulate(&s).unwrap().dataset.experiments.remove(0);
+        let e = simulate(&s.simulation_plan())
+            .unwrap()
+            .dataset
+            .experiments
+            .remove(0);
         let ch = |c: &str| dft(e.channel(c).unwrap());
         let o = [dft(&e.o[0]), dft(&e.o[1])];
         let i = [dft(&e.i[0]), dft(&e.i[1])];
@@ -911,7 +932,7 @@ fsc = { kind = "sine", freq = 0.1, amplitude = 5e-9, duration = 200.0 }
         let text = format!(
             "seed = 1\noutput = \"x\"\n[simulation]\nnoise = \"none\"\n[simulation.actuators]\ntm1 = {{ gain = 1.2 }}\n[[experiment]]\nname = \"a\"\nfs = 10.0\npre_pad = 200.0\npost_pad = 3000.0\nnoise_duration = 100.0\n{ch} = {{ kind = \"sine\", freq = 0.01, amplitude = 1e-9, duration = 3000.0 }}\n"
         );
-        simulate(&load(&text))
+        simulate(&load(&text).simulation_plan())
             .unwrap()
             .dataset
             .experiments
@@ -1006,7 +1027,11 @@ fsc = { kind = "sine", freq = 0.1, amplitude = 5e-9, duration = 200.0 }
         // plain loop on the DFT grid, noise from the plain loop's CSD, same streams
         let text = "seed = 11\noutput = \"x\"\n[[experiment]]\nname = \"a\"\nfs = 1.0\npre_pad = 500.0\npost_pad = 3000.0\nnoise_duration = 2000.0\nx1 = { kind = \"sine\", freq = 0.01, amplitude = 1e-6, duration = 500.0 }\nx12 = { kind = \"sine\", freq = 0.002, amplitude = 1e-7, duration = 1500.0 }\n";
         let s = load(text);
-        let e = simulate(&s).unwrap().dataset.experiments.remove(0);
+        let e = simulate(&s.simulation_plan())
+            .unwrap()
+            .dataset
+            .experiments
+            .remove(0);
         let d = &s.experiments[0];
         let (n, fs) = (d.n_samples(), d.fs);
         let th = s.truth.to_array();
@@ -1053,7 +1078,7 @@ fsc = { kind = "sine", freq = 0.1, amplitude = 5e-9, duration = 200.0 }
         assert_eq!(keys, ["g1", "g2", "gsc"]);
         assert_eq!(e.noise_extra.keys().collect::<Vec<_>>(), keys);
         // the generalised loop with a flat TM2 actuator given explicitly agrees to rounding
-        let sys = System::of(&s);
+        let sys = s.system();
         for f in [1e-4, 3e-3, 0.05, 0.4] {
             let bc = BinConsts::new(f, &ctrl, 0.0);
             let a = ClosedLoop::at(&s.truth, &bc, &s.masses);
@@ -1078,8 +1103,12 @@ fsc = { kind = "sine", freq = 0.1, amplitude = 5e-9, duration = 200.0 }
         // S_a1 + S_a2 + |D10 − δ21 D11|² S_r1 + |D11|² S_r12 (ltp-model.md §5, §7.1).
         let text = "seed = 21\noutput = \"x\"\noms_delay = 0.5\n[noise]\ntm_accel = 3e-14\ntm_corner = 5e-4\n[simulation.actuators]\ntm1 = { gain = 1.3, pole = 0.3, delay = 0.4 }\ntm2 = { pole = 0.2, delay = 0.7 }\n[[experiment]]\nname = \"a\"\nfs = 1.0\npre_pad = 100.0\npost_pad = 100.0\nnoise_duration = 131072.0\nx1 = { kind = \"sine\", freq = 0.01, amplitude = 1e-9, duration = 100.0 }\n";
         let s = load(text);
-        let sys = System::of(&s);
-        let e = simulate(&s).unwrap().dataset.experiments.remove(0);
+        let sys = s.system();
+        let e = simulate(&s.simulation_plan())
+            .unwrap()
+            .dataset
+            .experiments
+            .remove(0);
         let n = e.noise[0].len();
         let (fs, d21) = (e.fs, s.truth.d21);
         let o = [dft(&e.noise[0]), dft(&e.noise[1])];
@@ -1136,7 +1165,7 @@ fsc = { kind = "sine", freq = 0.1, amplitude = 5e-9, duration = 200.0 }
                 let text = format!(
                     "seed = 3\noutput = \"x\"\n[simulation]\nnoise = \"none\"\nmethod = \"{method}\"\n[[experiment]]\nname = \"a\"\nfs = 10.0\npre_pad = 200.0\npost_pad = 6000.0\nnoise_duration = 100.0\n{ch} = {{ kind = \"sine\", freq = 0.002, amplitude = 1e-6, duration = 3000.0 }}\n"
                 );
-                simulate(&load(&text))
+                simulate(&load(&text).simulation_plan())
                     .unwrap()
                     .dataset
                     .experiments
@@ -1181,7 +1210,7 @@ fsc = { kind = "sine", freq = 0.1, amplitude = 5e-9, duration = 200.0 }
     fn force_injections_scale_with_the_target_snr_and_count_in_it() {
         let text = "seed = 2\noutput = \"x\"\n[simulation]\nnoise = \"none\"\ntarget_snr = 30.0\n[[experiment]]\nname = \"a\"\nfs = 1.0\npre_pad = 200.0\npost_pad = 3000.0\nnoise_duration = 200.0\nf2 = { kind = \"sine\", freq = 0.01, amplitude = 1e-12, duration = 1000.0 }\n";
         let s = load(text);
-        let sim = simulate(&s).unwrap();
+        let sim = simulate(&s.simulation_plan()).unwrap();
         // the force-only experiment has an SNR, so the target is met through the force response
         assert!(
             (sim.snr_total - 30.0).abs() < 1e-9 * 30.0,
@@ -1199,7 +1228,7 @@ fsc = { kind = "sine", freq = 0.1, amplitude = 5e-9, duration = 200.0 }
     fn dataset_with_telemetry_round_trips() {
         let mut s = load(FULL);
         s.experiments[0].noise_duration = 200.0;
-        let sim = simulate(&s).unwrap();
+        let sim = simulate(&s.simulation_plan()).unwrap();
         let dir = tempfile::tempdir().unwrap();
         sim.dataset.write(dir.path()).unwrap();
         let back = Dataset::read(dir.path()).unwrap();

@@ -1,4 +1,4 @@
-//! A fit run's page parts, from `summary.json` ([`crate::fit::FitSummary`]).
+//! A fit run's page parts, from `summary.json` ([`crate::jobs::fit::FitSummary`]).
 
 use super::fmt::{at, bad, cell, facts, numbers, sig, table};
 use super::parts::Parts;

@@ -20,7 +20,7 @@ mod warnings;
 pub use escape::{esc, inline_svg};
 pub use run::{MAX_INLINE_BYTES, RESOLVED_STUDY, Run, RunKind};
 
-use crate::rundir::{MANIFEST, RunDir, RunDirError};
+use crate::data::rundir::{MANIFEST, RunDir, RunDirError};
 use std::path::{Path, PathBuf};
 
 /// The report's default file name inside the run directory.

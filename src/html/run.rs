@@ -3,7 +3,7 @@
 //! from what they have.
 
 use super::ReportError;
-use crate::rundir::{MANIFEST, Manifest};
+use crate::data::rundir::{MANIFEST, Manifest};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 

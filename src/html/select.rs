@@ -1,4 +1,4 @@
-//! A select run's page parts, from `summary.json` ([`crate::select::SelectSummary`]): each
+//! A select run's page parts, from `summary.json` ([`crate::jobs::select::SelectSummary`]): each
 //! pair's verdict and jump statistics, every estimator's full note, each model's chains,
 //! tempering and reversible-jump diagnostics.
 

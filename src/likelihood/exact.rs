@@ -4,7 +4,7 @@ use super::spectra::ExperimentSpectra;
 use super::statistic::{
     LogPeriodogramOptions, LogPgExperiment, Statistic, student_t_const, student_t_shape,
 };
-use crate::dataset::ExperimentData;
+use crate::data::dataset::ExperimentData;
 use crate::density::LogDensity;
 use crate::hermitian;
 use crate::model::{BlockKernel, MAX_CHANNELS, MAX_RESIDUALS, Model, residual};

@@ -385,7 +385,7 @@ pub fn describe_unconstrained(f: &DMatrix<f64>, names: &[String]) -> (String, Ve
         parts.push(format!(
             "null direction {} (relative eigenvalue {})",
             format_direction(d, names),
-            crate::report::fmt_short(d.relative_eigenvalue)
+            crate::numfmt::fmt_short(d.relative_eigenvalue)
         ));
     }
     let all = named

@@ -90,7 +90,7 @@ impl ScoringResult {
 
 /// `` `name` = v on the lower bound (lo = … of [prior] name = {…}: lower lo) ``.
 pub fn describe_bound(name: &str, kind: &PriorKind, value: f64) -> String {
-    use crate::report::fmt_roundtrip as r;
+    use crate::numfmt::fmt_roundtrip as r;
     let (lo, hi) = kind.bounds();
     let upper = (value - hi).abs() <= (value - lo).abs();
     let (side, key, verb) = if upper {
@@ -218,8 +218,7 @@ fn scoring(
                 lp + lik.ln_likelihood_whittle(&th)
             }
         } else {
-            lik.ln_likelihood_whittle(&th)
-                + crate::evidence::laplace::ln_prior_extended(lik.prior(), &th).unwrap_or(f64::NAN)
+            lik.ln_likelihood_whittle(&th) + lik.prior().ln_pdf_extended(&th).unwrap_or(f64::NAN)
         }
     };
     let grad_fisher = |x: &[f64]| {

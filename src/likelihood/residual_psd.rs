@@ -14,7 +14,7 @@
 
 use super::exact::Likelihood;
 use super::statistic::{LogPeriodogramOptions, LogPgExperiment};
-use crate::dataset::ExperimentData;
+use crate::data::dataset::ExperimentData;
 use crate::model::{Bin, Model};
 use crate::signal::Window;
 use num_complex::{Complex, Complex64};
@@ -143,8 +143,8 @@ pub fn residual_psds(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::analysis::{likelihood_of, load_data, truth_of};
     use crate::config::Study;
+    use crate::jobs::prepare::{likelihood_of, load_data, truth_of};
     use std::path::Path;
 
     /// On the acceleration domain at the truth, the residual PSD is the reference noise (within

@@ -55,7 +55,7 @@
 //! rectangular window, 3 for Hann, 4 for BH92 (its main lobe is ±4 bins wide).
 
 use super::spectra::ExperimentSpectra;
-use crate::dataset::ExperimentData;
+use crate::data::dataset::ExperimentData;
 use crate::model::{Bin, MAX_CHANNELS, MAX_RESIDUALS, Model, residual};
 use crate::signal::{WelchConfig, Window};
 use num_complex::Complex64;

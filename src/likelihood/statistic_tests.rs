@@ -2,7 +2,7 @@
 
 use super::statistic::{default_decimation, student_t_ln_density};
 use super::*;
-use crate::dataset::ExperimentData;
+use crate::data::dataset::ExperimentData;
 use crate::model::{Bin, Model};
 use crate::prior::{Prior, PriorKind};
 use crate::signal::{Detrend, WelchConfig, Window, welch_psd};
@@ -443,7 +443,7 @@ fn study_keys_select_the_statistic() {
 fn every_statistic_on_the_closed_loop_and_its_maximum() {
     for stat in ["whittle", "student_t", "log_periodogram"] {
         let s = small_study_with(&format!("statistic = \"{stat}\"")).unwrap();
-        let prep = crate::analysis::prepare(&s).unwrap();
+        let prep = crate::jobs::prepare::prepare(&s).unwrap();
         let lik = &prep.likelihood;
         assert_eq!(lik.statistic().name(), stat);
         let th = s.truth.to_array();

@@ -2,8 +2,8 @@
 
 use super::*;
 use crate::config::Study;
-use crate::dataset::ExperimentData;
-use crate::experiment::{System, simulate};
+use crate::data::dataset::ExperimentData;
+use crate::experiment::simulate;
 use crate::hermitian::Mat2;
 use crate::ltp::{Controllers, LtpParams, N_PARAMS, response};
 use crate::prior::Prior;
@@ -65,8 +65,8 @@ pub(crate) fn spectra_for(
     model: &dyn crate::model::Model,
     reference: &[f64],
 ) -> Vec<ExperimentSpectra> {
-    let sim = simulate(study).unwrap();
-    let sys = System::of(study);
+    let sim = simulate(&study.simulation_plan()).unwrap();
+    let sys = study.system();
     let csd = |f: f64| -> Mat2 { sys.noise_csd(f) };
     sim.dataset
         .experiments
@@ -95,8 +95,8 @@ fn fft_likelihood_equals_naive_direct_sum() {
     let study = small_study(11, 1e-7, "circular");
     let opts = model_opts();
     let lik = likelihood_of(&study, &opts);
-    let sim = simulate(&study).unwrap();
-    let sys = System::of(&study);
+    let sim = simulate(&study.simulation_plan()).unwrap();
+    let sys = study.system();
     let th = LtpParams {
         a_df: 0.83,
         dt1: 0.1,
@@ -277,7 +277,7 @@ fn relative_binning_matches_exact_in_the_5_sigma_region() {
 #[test]
 fn bad_bands_are_reported() {
     let study = small_study(1, 1e-6, "circular");
-    let sim = simulate(&study).unwrap();
+    let sim = simulate(&study.simulation_plan()).unwrap();
     let e = &sim.dataset.experiments[0];
     for band in [[2.0, 3.0], [0.3, 0.1], [0.0, 0.1]] {
         let opts = SpectraOptions {

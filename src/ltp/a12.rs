@@ -9,8 +9,8 @@
 //! plus the external differential force noise. The acceleration-domain model
 //! ([`crate::model::accel`]) is the same expression in the frequency domain.
 
+use super::accel_options::{AccelOptions, Derivative};
 use super::fpsder::{fpsder, fpsder_response};
-use crate::model::accel::{AccelOptions, Derivative};
 use crate::signal::{RealFft, SignalError};
 use num_complex::Complex64;
 use std::f64::consts::PI;

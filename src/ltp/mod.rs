@@ -15,6 +15,7 @@
 //! The stiffnesses use the physical sign convention `ẍ + ω² x = f/m` with `ω² < 0`.
 
 pub mod a12;
+pub mod accel_options;
 mod closed_loop;
 mod controllers;
 pub mod discrete_response;

@@ -7,7 +7,7 @@
 //! A logarithmic axis works in `log10` of the data (callers transform their values), with
 //! ticks at whole decades labelled `10ⁿ`, or at 1-2-5 steps when the range is under a decade.
 
-use super::format::{fmt_axis_number, fmt_sig, superscript};
+use crate::numfmt::format::{fmt_axis_number, fmt_sig, superscript};
 
 /// One axis: plotted range, tick positions (both in plotted coordinates) and label format.
 #[derive(Debug, Clone)]
@@ -221,7 +221,7 @@ impl Axis {
                 ..
             } => {
                 let v = (t - offset) / 10f64.powi(exp);
-                super::format::fix_negative_zero(format!("{v:.decimals$}"))
+                crate::numfmt::format::fix_negative_zero(format!("{v:.decimals$}"))
             }
             Kind::Log10 { plain: true } => fmt_sig(10f64.powf(t), 1),
             Kind::Log10 { plain: false } => {

@@ -8,9 +8,9 @@
 
 use super::ReportError;
 use super::axis::Axis;
-use super::format::fmt_sig;
 use super::plots::{DrawResult, Figure, MeshText, Ticked, bad_input, chart, mesh, render};
 use super::style::{self, ZONES, colour, dash, marker as marker_shape};
+use crate::numfmt::format::fmt_sig;
 use plotters::coord::Shift;
 use plotters::element::DashedPathElement;
 use plotters::prelude::*;

@@ -2,9 +2,9 @@
 
 use super::ReportError;
 use super::axis::Axis;
-use super::format::fmt_sig;
 use super::plots::{DrawResult, Figure, bad_input, chart, render, text, y_label_area};
 use super::style;
+use crate::numfmt::format::fmt_sig;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::FontTransform;

@@ -4,11 +4,11 @@
 use super::ReportError;
 use super::axis::Axis;
 use super::contour::{SIGMA_MASS, contour_segments, hdr_levels, quantiles_16_50_84, smooth};
-use super::format::fmt_sig;
 use super::plots::{
     DrawResult, Figure, MeshText, bad_input, chart, check_truth, mesh, render, text,
 };
 use super::style;
+use crate::numfmt::format::fmt_sig;
 use plotters::coord::Shift;
 use plotters::element::DashedPathElement;
 use plotters::prelude::*;

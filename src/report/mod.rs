@@ -25,9 +25,7 @@ mod bands;
 mod bars;
 mod contour;
 mod corner;
-mod format;
 mod lines;
-mod numbers;
 mod plots;
 pub mod residual_psd;
 mod running;
@@ -39,12 +37,14 @@ mod trace;
 
 use std::path::PathBuf;
 
+pub use crate::numfmt::{
+    fmt_bayes_factor, fmt_fixed, fmt_pm, fmt_roundtrip, fmt_short, fmt_short_sig, fmt_sig,
+    kass_raftery, kass_raftery_named,
+};
 pub use bands::{BandPlot, BandSeries, HeatMap, band_plot, heat_map};
 pub use bars::model_histogram;
 pub use corner::{CornerPlot, corner_plot, draw_corner};
-pub use format::{fmt_pm, fmt_sig, kass_raftery, kass_raftery_named};
 pub use lines::{LinePlot, bayes_factor_evolution, line_plot};
-pub use numbers::{fmt_bayes_factor, fmt_fixed, fmt_roundtrip, fmt_short, fmt_short_sig};
 pub use running::{RunningSeries, running_bayes_factor};
 pub use table::Table;
 pub use trace::{TracePlot, draw_trace, trace_plot};

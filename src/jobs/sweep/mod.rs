@@ -227,8 +227,8 @@ impl Sweep {
         let (p, r) = (t / self.realisations, t % self.realisations);
         let result = (|| -> anyhow::Result<Outcome> {
             let study = self.study_at(p, r)?;
-            let prep = crate::analysis::prepare(&study)?;
-            let s = crate::select::run(&study, &prep, None)?;
+            let prep = crate::jobs::prepare::prepare(&study)?;
+            let s = crate::jobs::select::run(&study, &prep, None)?;
             Ok(Outcome::from_summary(&s))
         })();
         let (outcome, error) = match result {
@@ -264,7 +264,7 @@ impl Sweep {
         &self,
         exec: &dyn Executor,
         log: Option<&(dyn Fn(&str) + Sync)>,
-        work: Option<&crate::commands::Work>,
+        work: Option<&crate::jobs::progress::Work>,
     ) -> anyhow::Result<Option<SweepResult>> {
         let t0 = Instant::now();
         let n = self.task_count();

@@ -8,7 +8,7 @@ use ndarray::{Array, ArrayD, IxDyn};
 use std::path::{Path, PathBuf};
 
 /// What a sweep directory held before `manifest.json` existed: the files a new run removes
-/// when it does not write them itself ([`crate::rundir::RunDir::publish`]).
+/// when it does not write them itself ([`crate::data::rundir::RunDir::publish`]).
 pub const LEGACY_OUTPUTS: &[&str] = &[
     "sweep.json",
     "sweep.npz",
@@ -26,14 +26,14 @@ pub const LEGACY_OUTPUTS: &[&str] = &[
 pub fn publish(
     sweep: &Sweep,
     res: &SweepResult,
-    run: &crate::rundir::RunDir,
+    run: &crate::data::rundir::RunDir,
 ) -> anyhow::Result<Vec<String>> {
     write_outputs(sweep, res, &run.staging()?)?;
     Ok(run.publish("sweep", LEGACY_OUTPUTS)?)
 }
 
 /// Writes the sweep's outputs into `dir` (the run directory, or its staging directory: see
-/// [`crate::rundir`]); returns the files written.
+/// [`crate::data::rundir`]); returns the files written.
 pub fn write_outputs(sweep: &Sweep, res: &SweepResult, dir: &Path) -> anyhow::Result<Vec<PathBuf>> {
     let out = dir;
     let mut files = Vec::new();

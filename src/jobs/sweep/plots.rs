@@ -3,8 +3,8 @@
 //! median ln B over a 2-D grid.
 
 use super::{Sweep, SweepResult};
+use crate::jobs::select::EstimateKind;
 use crate::report::{BandPlot, BandSeries, HeatMap, band_plot, heat_map};
-use crate::select::EstimateKind;
 use std::path::{Path, PathBuf};
 
 /// A log axis when every value is positive and they span more than a decade.

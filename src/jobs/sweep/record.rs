@@ -1,7 +1,7 @@
 //! One task's result on disk: the numbers of a model selection at one (point, realisation),
 //! written atomically when the task ends, and read back on a rerun instead of recomputing.
 
-use crate::select::{EstimateKind, SelectSummary};
+use crate::jobs::select::{EstimateKind, SelectSummary};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 

@@ -217,7 +217,7 @@ pub fn threshold(points: &[PointStats], pair: usize, truth: &str) -> Option<f64>
 mod tests {
     use super::super::record::{Estimate, Pair, TaskId};
     use super::*;
-    use crate::select::EstimateKind;
+    use crate::jobs::select::EstimateKind;
 
     #[test]
     fn quantiles_match_numpy() {

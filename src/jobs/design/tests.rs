@@ -129,7 +129,7 @@ fn asimov_equals_the_occam_factor_for_a_nested_truth() {
     let (data, _) = load_data(&sn).unwrap();
     let y = &sn.select_models[1].spec;
     let lik = likelihood_of(&sn, y.model, &data).unwrap();
-    let truth = crate::analysis::reference_point(&sn, y.model);
+    let truth = crate::jobs::prepare::reference_point(&sn, y.model);
     let f = fisher_exact(&lik, &truth, &y.free);
     // inverse after Jacobi scaling (the diagonal spans many decades in SI units)
     let n = f.nrows();

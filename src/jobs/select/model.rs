@@ -7,13 +7,13 @@
 //! the run (nothing can be computed for it).
 
 use super::{Evidence, ModelOutcome, TemperingDiagnostics};
-use crate::analysis::{default_start, relbin_in_region};
 use crate::config::{JumpProposal, LikelihoodKind, ModelSpec, SelectModel, Study};
 use crate::density::LogDensity;
 use crate::evidence::{
     LaplaceOptions, McdOptions, MveOptions, RobustMethod, TemperingOptions, laplace_fisher,
     laplace_metropolis, run_tempering_observed, schwarz_ln_z,
 };
+use crate::jobs::prepare::{default_start, relbin_in_region};
 use crate::likelihood::{
     Likelihood, RelBinLikelihood, Statistic, fisher_exact, fisher_scoring,
     fisher_scoring_unbounded, refine_statistic_max,
@@ -198,7 +198,7 @@ pub(super) fn sampled_around(
     base: &[f64],
     walk_cov: &DMatrix<f64>,
 ) -> (Sampled, Vec<String>) {
-    let (kind, why) = crate::analysis::sampled_kind(study, exact);
+    let (kind, why) = crate::jobs::prepare::sampled_kind(study, exact);
     let mut notes: Vec<String> = why.into_iter().collect();
     let sampled = match kind {
         LikelihoodKind::Relbin => {

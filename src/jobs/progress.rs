@@ -7,15 +7,41 @@
 //! counted, so its first estimate was minutes for a run of seconds. [`Eta`] starts its clock
 //! at the first unit of work and says nothing until the projection rests on enough of it.
 
-use crate::commands::Work;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
+
+/// How far a job is: `done` of `total` units of work, readable from another thread (a
+/// progress bar polls it). A unit is one likelihood evaluation of a sampler (fit, select) or
+/// one experiment (simulate).
+#[derive(Debug, Default)]
+pub struct Work {
+    /// Units finished so far.
+    pub done: AtomicU64,
+    /// Units the job will do in all (0 until the job knows it).
+    pub total: AtomicU64,
+}
+
+impl Work {
+    /// Sets the total and clears what is done.
+    pub fn start(&self, total: u64) {
+        self.done.store(0, Ordering::Relaxed);
+        self.total.store(total, Ordering::Relaxed);
+    }
+
+    /// `(done, total)` now.
+    pub fn get(&self) -> (u64, u64) {
+        (
+            self.done.load(Ordering::Relaxed),
+            self.total.load(Ordering::Relaxed),
+        )
+    }
+}
 
 /// Projected time to go from `(seconds, done)` observations of a counter moving to `total`.
 ///
 /// ```
-/// use occam::progress::Eta;
+/// use occam::jobs::progress::Eta;
 /// let mut eta = Eta::default();
 /// assert_eq!(eta.observe(5.0, 0, 1000), None); // nothing done yet (say, a MAP search)
 /// assert_eq!(eta.observe(6.0, 100, 1000), None); // the clock starts now
@@ -144,6 +170,15 @@ impl Drop for Bar {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn work_starts_from_zero_with_its_total() {
+        let w = Work::default();
+        assert_eq!(w.get(), (0, 0));
+        w.done.store(5, Ordering::Relaxed);
+        w.start(40);
+        assert_eq!(w.get(), (0, 40));
+    }
 
     /// A fit-shaped run: 5 s before the first iteration (data, MAP search), then 10 000
     /// iterations at a steady 1 000 per second. From its first projection on, the estimate must

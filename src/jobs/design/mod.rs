@@ -37,13 +37,13 @@ mod tests;
 
 pub use cli::{DesignReport, ScoredDesign, Validation, run_cli, study_toml, table, validate};
 
-use crate::analysis::{default_start, likelihood_of, load_data};
 use crate::config::{NoiseSynthesis, Study};
 use crate::evidence::{LaplaceOptions, laplace_fisher};
 use crate::experiment::{ExperimentDesign, SineSegment, Waveform, ladder_freqs};
+use crate::jobs::prepare::{default_start, likelihood_of, load_data};
 use crate::likelihood::{NoiseSource, fisher_exact, fisher_scoring, fisher_scoring_unbounded};
 use crate::nested::SubModel;
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 
 /// Errors of the design search, naming the field or stage and the fix.
 #[derive(Debug, thiserror::Error)]
@@ -60,106 +60,7 @@ pub enum DesignError {
     Io(String),
 }
 
-/// Candidate frequencies: a list (Hz) or a log-spaced grid.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(untagged)]
-pub enum Candidates {
-    List(Vec<f64>),
-    LogGrid { from: f64, to: f64, points: usize },
-}
-
-impl Candidates {
-    /// The frequencies (Hz), ascending for a grid.
-    pub fn freqs(&self) -> Vec<f64> {
-        match self {
-            Candidates::List(v) => v.clone(),
-            Candidates::LogGrid { from, to, points } => {
-                if *points == 1 {
-                    return vec![*from];
-                }
-                let (a, b) = (from.ln(), to.ln());
-                (0..*points)
-                    .map(|k| (a + (b - a) * k as f64 / (*points - 1) as f64).exp())
-                    .collect()
-            }
-        }
-    }
-}
-
-/// What the chosen design is compared with.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
-#[serde(rename_all = "snake_case")]
-pub enum Baseline {
-    /// The TN3045 ladder (ltp-model.md §6.1) under the same budget.
-    #[default]
-    Tn3045,
-}
-
-fn default_channels() -> Vec<String> {
-    vec!["x1".into(), "x12".into()]
-}
-
-/// Most candidate frequencies of a `{ from, to, points }` grid: each is scored for each
-/// segment in each pass, so 10 000 is already hours of search.
-pub const MAX_CANDIDATES: usize = 10_000;
-
-/// `[design]`: the budget and the search. Keys:
-/// * `true_model`: the `[[select.model]]` name that generated the data (required);
-/// * `channels`: guidance channels, one experiment each (default `["x1", "x12"]`);
-/// * `candidates`: frequencies in Hz, a list or `{ from, to, points }` log-spaced;
-/// * `segments` (default 7), `segment_duration` (s, default 1200), `gap` (s, default 120);
-/// * `amplitude`: the largest amplitude of a segment (m, default 1e-6);
-/// * `max_accel`: optional cap on the commanded acceleration (m s⁻²): a segment at `f` gets at
-///   most `max_accel / (2πf)²`;
-/// * `allow_repeat`: whether a channel may use one frequency twice (default false);
-/// * `max_passes`: coordinate-exchange passes (default 3);
-/// * `realisations`: noise realisations of `--validate` when the flag gives no number (default 16);
-/// * `baseline`: `"tn3045"`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct DesignOptions {
-    pub true_model: String,
-    #[serde(default = "default_channels")]
-    pub channels: Vec<String>,
-    pub candidates: Candidates,
-    #[serde(default = "d_segments")]
-    pub segments: usize,
-    #[serde(default = "d_duration")]
-    pub segment_duration: f64,
-    #[serde(default = "d_gap")]
-    pub gap: f64,
-    #[serde(default = "d_amplitude")]
-    pub amplitude: f64,
-    #[serde(default)]
-    pub max_accel: Option<f64>,
-    #[serde(default)]
-    pub allow_repeat: bool,
-    #[serde(default = "d_passes")]
-    pub max_passes: usize,
-    #[serde(default = "d_realisations")]
-    pub realisations: usize,
-    #[serde(default)]
-    pub baseline: Baseline,
-}
-
-fn d_segments() -> usize {
-    7
-}
-fn d_duration() -> f64 {
-    1200.0
-}
-fn d_gap() -> f64 {
-    120.0
-}
-fn d_amplitude() -> f64 {
-    1e-6
-}
-fn d_passes() -> usize {
-    3
-}
-fn d_realisations() -> usize {
-    16
-}
+pub use crate::config::design::{Baseline, Candidates, DesignOptions, MAX_CANDIDATES};
 
 /// A validated `[design]` with the index of the true model.
 #[derive(Debug, Clone, PartialEq)]
@@ -486,7 +387,7 @@ pub fn asimov_score(
         // start at the truth where the model has the true value (the MAP on Asimov data of
         // the true model), else at the study's default start
         let mut start = default_start(&s, &m.spec);
-        let truth = crate::analysis::reference_point(&s, m.spec.model);
+        let truth = crate::jobs::prepare::reference_point(&s, m.spec.model);
         for &i in free {
             let p = &s.models.priors[m.spec.model];
             let (lo, hi) = p.kinds()[i].bounds();

@@ -8,21 +8,25 @@
 //! reports.
 
 mod checkpoint;
+mod console;
+mod job;
 mod model;
 mod output;
 mod pair;
 
 pub use checkpoint::{FILE as CHECKPOINT_FILE, SelectCheckpoint, identity};
 
+pub use console::console;
+pub use job::Select;
 pub use output::{
     Fig2, LEGACY_OUTPUTS, chains_file, fig2, fig2_warnings, rj_chain_arrays, table, write_outputs,
 };
 pub use pair::{EstimateKind, JumpStats, PairEstimate, PairResult};
 
-use crate::analysis::{Prepared, likelihood_of, model_warnings, truth_of};
 use crate::config::Study;
 use crate::density::LogDensity;
 use crate::evidence::{LaplaceEstimate, ProposalShape, RjModel, RjOptions, RjResult, run_rjmcmc};
+use crate::jobs::prepare::{Prepared, likelihood_of, model_warnings, truth_of};
 use crate::likelihood::Likelihood;
 use crate::nested::SubModel;
 use model::Sampled;
@@ -240,7 +244,7 @@ pub fn run_observed(
     study: &Study,
     prep: &Prepared,
     mut progress: Option<&mut dyn FnMut(&crate::evidence::RjProgress<'_>)>,
-    work: Option<&crate::commands::Work>,
+    work: Option<&crate::jobs::progress::Work>,
     mut ckpt: Option<Checkpointing<'_>>,
 ) -> Result<SelectSummary, SelectError> {
     use std::sync::atomic::Ordering;

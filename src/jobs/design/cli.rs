@@ -69,9 +69,9 @@ pub fn validate(
         s.seed = super::realisation_seed(study.seed, k);
         s.select.seed = None;
         seeds.push(s.seed);
-        let prep = crate::analysis::prepare(&s)
+        let prep = crate::jobs::prepare::prepare(&s)
             .map_err(|e| DesignError::Proxy(format!("{label}, realisation {k}: {e}")))?;
-        let sum = crate::select::run(&s, &prep, None)
+        let sum = crate::jobs::select::run(&s, &prep, None)
             .map_err(|e| DesignError::Proxy(format!("{label}, realisation {k}: {e}")))?;
         let mut worst: Option<f64> = None;
         let mut refs = Vec::new();
@@ -257,7 +257,8 @@ pub fn run_cli(
     })?;
     let plan = opts.validate(&study)?;
     let out = out.unwrap_or_else(|| study.output.join("design"));
-    let run = crate::rundir::RunDir::open(&out).map_err(|e| DesignError::Io(e.to_string()))?;
+    let run =
+        crate::data::rundir::RunDir::open(&out).map_err(|e| DesignError::Io(e.to_string()))?;
     let base_segs = plan.baseline();
     let baseline = ScoredDesign {
         label: "baseline".into(),

@@ -11,7 +11,7 @@
 use super::model::{ModelRun, Sampled, sampled_around, spd_inverse, walk_cov};
 use super::{ModelOutcome, SelectError};
 use crate::config::{ModelSpec, Study};
-use crate::dataset::Dataset;
+use crate::data::dataset::Dataset;
 use crate::density::LogDensity;
 use crate::evidence::RjResult;
 use crate::likelihood::{Likelihood, fisher_exact};

@@ -4,18 +4,17 @@
 //! `occam select` and `occam sweep`.
 
 use crate::config::{ModelSpec, Study};
-use crate::dataset::Dataset;
-use crate::experiment::{SimError, System, simulate};
+use crate::data::dataset::Dataset;
+use crate::experiment::{SimError, simulate};
 use crate::likelihood::{
     ExperimentSpectra, Likelihood, RelBinLikelihood, RelBinOptions, SpectraError, SpectraOptions,
 };
-use crate::prior::PriorKind;
 
 /// Errors while preparing an analysis.
 #[derive(Debug, thiserror::Error)]
 pub enum AnalysisError {
     #[error(transparent)]
-    Data(#[from] crate::dataset::DataError),
+    Data(#[from] crate::data::dataset::DataError),
     #[error(transparent)]
     Simulation(#[from] SimError),
     #[error(transparent)]
@@ -63,7 +62,7 @@ pub fn load_data(study: &Study) -> Result<(Dataset, String), AnalysisError> {
     let mut sim = if study.experiments.is_empty() {
         None
     } else {
-        Some(simulate(study)?.dataset)
+        Some(simulate(&study.simulation_plan())?.dataset)
     };
     if study.data_sources.is_empty() {
         let d = sim.expect("a study has at least one experiment");
@@ -195,18 +194,9 @@ pub fn reference_point(study: &Study, mi: usize) -> Vec<f64> {
                 .find(|(t, _)| t == n)
                 .map(|(_, v)| *v)
                 .or_else(|| study.fit.start.as_ref().and_then(|s| s.get(n).copied()))
-                .unwrap_or_else(|| prior_centre(&prior.kinds()[i]))
+                .unwrap_or_else(|| prior.kinds()[i].centre())
         })
         .collect()
-}
-
-/// The centre of a prior: box midpoint, Gaussian mean, geometric mean of a log-uniform box.
-pub fn prior_centre(k: &PriorKind) -> f64 {
-    match *k {
-        PriorKind::Uniform { lo, hi } => 0.5 * (lo + hi),
-        PriorKind::Gaussian { mu, .. } => mu,
-        PriorKind::LogUniform { lo, hi } => (lo * hi).sqrt(),
-    }
 }
 
 /// The exact likelihood of model `mi` of the study on `dataset`, of the study's statistic
@@ -217,7 +207,7 @@ pub fn likelihood_of(
     dataset: &Dataset,
 ) -> Result<Likelihood, AnalysisError> {
     let opts = spectra_options(study);
-    let sys = System::of(study);
+    let sys = study.system();
     let csd = |f: f64| sys.noise_csd(f);
     let model = study.models.models[mi].clone();
     let reference = reference_point(study, mi);
@@ -311,7 +301,7 @@ pub fn default_start(study: &Study, model: &ModelSpec) -> Vec<f64> {
     let prior = &study.models.priors[model.model];
     let names = study.models.models[model.model].param_names();
     for &i in &model.free {
-        th[i] = prior_centre(&prior.kinds()[i]);
+        th[i] = prior.kinds()[i].centre();
         if let Some(v) = study.fit.start.as_ref().and_then(|s| s.get(&names[i])) {
             th[i] = *v;
         }

@@ -1,9 +1,12 @@
 //! `occam fit`: MAP, Fisher matrix and Metropolis–Hastings parameter estimation of one model,
 //! with the paper's Table I layout, chains on disk, plots and a JSON summary.
 
-use crate::analysis::{Prepared, default_start, model_warnings, relbin_of, truth_of};
+mod job;
+pub use job::{Fit, Fitted};
+
 use crate::config::{LikelihoodKind, Study};
 use crate::density::LogDensity;
+use crate::jobs::prepare::{Prepared, default_start, model_warnings, relbin_of, truth_of};
 use crate::likelihood::{cramer_rao, fisher_exact, fisher_scoring};
 use crate::nested::SubModel;
 use crate::report::{Table, fmt_fixed, fmt_pm, fmt_short, fmt_sig};
@@ -21,7 +24,7 @@ pub enum FitError {
     #[error(transparent)]
     Sampler(#[from] crate::sampler::SamplerError),
     #[error(transparent)]
-    Analysis(#[from] crate::analysis::AnalysisError),
+    Analysis(#[from] crate::jobs::prepare::AnalysisError),
     #[error(transparent)]
     Nested(#[from] crate::nested::NestedError),
     #[error(transparent)]
@@ -159,7 +162,7 @@ pub fn run(
     };
     let t1 = Instant::now();
     let statistic = exact.statistic();
-    let (kind, why) = crate::analysis::sampled_kind(study, exact);
+    let (kind, why) = crate::jobs::prepare::sampled_kind(study, exact);
     warnings.extend(why);
     let (chains, n_coarse) = match kind {
         LikelihoodKind::Exact => (
@@ -432,7 +435,7 @@ pub fn table(s: &FitSummary) -> Table {
 }
 
 /// What a fit directory held before `manifest.json` existed: the files a new run removes when
-/// it does not write them itself ([`crate::rundir::RunDir::publish`]).
+/// it does not write them itself ([`crate::data::rundir::RunDir::publish`]).
 pub const LEGACY_OUTPUTS: &[&str] = &[
     "summary.json",
     "table.txt",

@@ -55,7 +55,7 @@ pub fn table(s: &SelectSummary) -> Table {
 }
 
 /// What a select directory held before `manifest.json` existed: the files a new run removes
-/// when it does not write them itself ([`crate::rundir::RunDir::publish`]).
+/// when it does not write them itself ([`crate::data::rundir::RunDir::publish`]).
 pub const LEGACY_OUTPUTS: &[&str] = &[
     "summary.json",
     "table.txt",
@@ -92,7 +92,7 @@ pub fn write_outputs(s: &SelectSummary, out: &Path) -> Result<(), SelectError> {
     for (name, chains) in &s.model_chains {
         if let Some(c) = chains {
             let p = out.join(chains_file(name));
-            crate::data::npz_write::write_npz_file(&p, &crate::fit::chains_arrays(c))
+            crate::data::npz_write::write_npz_file(&p, &crate::jobs::fit::chains_arrays(c))
                 .map_err(|e| io(&p, e))?;
         }
     }
@@ -241,7 +241,7 @@ pub fn fig2_warnings(rj: &crate::evidence::RjResult) -> Vec<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::select::{JumpStats, PairEstimate, PairResult};
+    use crate::jobs::select::{JumpStats, PairEstimate, PairResult};
 
     fn est(method: &str, ln_b: Option<f64>) -> PairEstimate {
         PairEstimate {

@@ -1,0 +1,81 @@
+//! `occam fit` as a [`Job`]: prepare the data, run the sampler with checkpoints, write the
+//! Table I layout, chains and plots.
+
+use super::{FitOutcome, LEGACY_OUTPUTS};
+use crate::config::Study;
+use crate::jobs::{Context, Job};
+use anyhow::Context as _;
+use std::path::Path;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// The fit job of a study's `[fit]` model.
+pub struct Fit<'a> {
+    /// The study.
+    pub study: &'a Study,
+}
+
+/// What the fit job computed.
+pub struct Fitted {
+    /// The fit (summary, chains, MAP, Fisher matrix).
+    pub outcome: FitOutcome,
+    /// Where the data came from (a path, or "simulated from <study>").
+    pub origin: String,
+}
+
+impl Job for Fit<'_> {
+    type Outcome = Fitted;
+    const COMMAND: &'static str = "fit";
+    const LEGACY_OUTPUTS: &'static [&'static str] = LEGACY_OUTPUTS;
+
+    /// Fits with checkpoints in `ctx.out` (continuing from one with `ctx.resume`, an error when
+    /// there is none); the work counters count MCMC iterations over all chains.
+    fn run(&mut self, ctx: &Context) -> anyhow::Result<Fitted> {
+        let (study, out) = (self.study, ctx.out);
+        if ctx.resume {
+            let ckpt = out.join("checkpoint.json");
+            if !ckpt.exists() {
+                anyhow::bail!(
+                    "--resume: there is nothing to resume in {}: it has no checkpoint.json; run without --resume",
+                    out.display()
+                );
+            }
+            let (done, total) = crate::sampler::checkpoint_progress(&ckpt)?;
+            (ctx.log)(&format!(
+                "resuming from {}: iterations done per chain {done:?} of {total}",
+                ckpt.display()
+            ));
+        }
+        let prep = crate::jobs::prepare::prepare(study)
+            .with_context(|| format!("preparing the data of {}", study.source))?;
+        (ctx.log)(&format!(
+            "data: {} ({} experiments, {} bins in band)",
+            prep.origin,
+            prep.dataset.experiments.len(),
+            prep.likelihood.n_bins()
+        ));
+        let chains = study.fit.chains;
+        let counts: Vec<AtomicU64> = (0..chains).map(|_| AtomicU64::new(0)).collect();
+        if let Some(w) = ctx.work {
+            w.start((study.fit.iterations * chains) as u64);
+        }
+        let work = ctx.work;
+        let observer = |p: &crate::sampler::Progress| {
+            if let Some(w) = work {
+                counts[p.chain].store(p.iteration as u64, Ordering::Relaxed);
+                let done: u64 = counts.iter().map(|c| c.load(Ordering::Relaxed)).sum();
+                w.done.store(done, Ordering::Relaxed);
+            }
+        };
+        let outcome = super::run(study, &prep, out, Some(&observer), ctx.resume)?;
+        Ok(Fitted {
+            outcome,
+            origin: prep.origin,
+        })
+    }
+
+    fn write(&self, fitted: &Fitted, staging: &Path) -> anyhow::Result<()> {
+        super::write_outputs(&fitted.outcome, staging)?;
+        crate::config::write_resolved(self.study, staging)?;
+        Ok(())
+    }
+}

@@ -1,0 +1,78 @@
+//! What `occam select` prints when it ends: Table II, the verdict per pair, the jumps, the
+//! posterior model probabilities and the SNR (the command line prints it; the warnings go to
+//! standard error separately).
+
+use super::SelectSummary;
+
+/// The lines printed after a select run (without its warnings).
+pub fn console(s: &SelectSummary) -> String {
+    let mut out: Vec<String> = Vec::new();
+    out.push(super::table(s).to_string());
+    let yes_no = |b: bool| if b { "yes" } else { "no" };
+    for p in &s.pairs {
+        out.push(format!(
+            "{}/{}: reference {}; preferred model {} ({}); statistical estimators agree within errors: {}; Laplace estimates within 1 nat: {}",
+            p.x,
+            p.y,
+            p.reference,
+            p.preferred,
+            p.kass_raftery,
+            yes_no(p.all_agree),
+            p.systematic_agree.map_or("–", yes_no)
+        ));
+    }
+    for p in &s.pairs {
+        let j = &p.jumps;
+        let rate = |a: u64, n: u64| {
+            if n == 0 {
+                "–".to_string()
+            } else {
+                format!("{:.3}", a as f64 / n as f64)
+            }
+        };
+        out.push(format!(
+            "jumps {x}→{y}: {} of {} accepted ({}); {y}→{x}: {} of {} ({})",
+            j.accepted_x_to_y,
+            j.proposed_x_to_y,
+            rate(j.accepted_x_to_y, j.proposed_x_to_y),
+            j.accepted_y_to_x,
+            j.proposed_y_to_x,
+            rate(j.accepted_y_to_x, j.proposed_y_to_x),
+            x = p.x,
+            y = p.y,
+        ));
+    }
+    if let Some(pp) = &s.posterior_model_probabilities {
+        let parts: Vec<String> = s
+            .models
+            .iter()
+            .zip(pp)
+            .map(|(m, p)| format!("{} {p:.4}", m.name))
+            .collect();
+        out.push(format!(
+            "posterior model probabilities: {}",
+            parts.join(", ")
+        ));
+    }
+    let rj = match &s.rj {
+        Some(rj) => format!(
+            "RJ visits {:?} over {} iterations in {} chains ({:.0} iterations/s)",
+            rj.visits, rj.n_iter, rj.n_chains, s.rj_iterations_per_second
+        ),
+        None => "no RJ run".into(),
+    };
+    let rho = |r: f64| {
+        if r.is_finite() {
+            format!("{r:.4e}")
+        } else {
+            "–".into()
+        }
+    };
+    out.push(format!(
+        "rho_opt = {} (simulation noise model), {} (analysis noise estimate); {rj}",
+        s.rho_opt_simulated.map_or("–".into(), rho),
+        rho(s.rho_opt),
+    ));
+    out.push(format!("ln L statistic: {}", s.statistic.name()));
+    out.join("\n")
+}

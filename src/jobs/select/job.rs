@@ -1,0 +1,77 @@
+//! `occam select` as a [`Job`]: prepare the data, run every model's stages and the reversible
+//! jump with checkpoints, write Table II, the figures and the samples.
+
+use super::{CHECKPOINT_FILE, Checkpointing, LEGACY_OUTPUTS, SelectCheckpoint, SelectSummary};
+use crate::config::Study;
+use crate::evidence::RjProgress;
+use crate::jobs::{Context, Job};
+use anyhow::Context as _;
+use std::path::Path;
+
+/// The select job of a study's `[[select.model]]` models.
+pub struct Select<'a, 'r> {
+    /// The study.
+    pub study: &'a Study,
+    /// Sees the reversible-jump run's visits as it goes.
+    pub on_rj: Option<&'r mut dyn FnMut(&RjProgress<'_>)>,
+}
+
+impl Job for Select<'_, '_> {
+    type Outcome = SelectSummary;
+    const COMMAND: &'static str = "select";
+    const LEGACY_OUTPUTS: &'static [&'static str] = LEGACY_OUTPUTS;
+
+    /// Saves each finished stage to `checkpoint.cbor` (continuing from it with `ctx.resume`,
+    /// an error when there is none); the work counters count likelihood evaluations of every
+    /// stage.
+    fn run(&mut self, ctx: &Context) -> anyhow::Result<SelectSummary> {
+        let (study, out) = (self.study, ctx.out);
+        let ckpt_path = out.join(CHECKPOINT_FILE);
+        if ctx.resume && !ckpt_path.exists() {
+            anyhow::bail!(
+                "--resume: there is nothing to resume in {}: it has no {}; run without --resume",
+                out.display(),
+                CHECKPOINT_FILE
+            );
+        }
+        let prep = crate::jobs::prepare::prepare(study)
+            .with_context(|| format!("preparing the data of {}", study.source))?;
+        let identity = super::identity(study, &prep.dataset);
+        let state = if ctx.resume {
+            let c = SelectCheckpoint::read(&ckpt_path, &identity)?;
+            let names: Vec<String> = study.select_models.iter().map(|m| m.name.clone()).collect();
+            (ctx.log)(&format!(
+                "resuming from {}: {}",
+                ckpt_path.display(),
+                c.describe(&names)
+            ));
+            c
+        } else {
+            SelectCheckpoint::new(identity)
+        };
+        (ctx.log)(&format!(
+            "data: {} ({} experiments, {} bins in band)",
+            prep.origin,
+            prep.dataset.experiments.len(),
+            prep.likelihood.n_bins()
+        ));
+        let ckpt = Checkpointing {
+            path: &ckpt_path,
+            state,
+        };
+        let on_rj = self.on_rj.take();
+        Ok(super::run_observed(
+            study,
+            &prep,
+            on_rj,
+            ctx.work,
+            Some(ckpt),
+        )?)
+    }
+
+    fn write(&self, summary: &SelectSummary, staging: &Path) -> anyhow::Result<()> {
+        super::write_outputs(summary, staging)?;
+        crate::config::write_resolved(self.study, staging)?;
+        Ok(())
+    }
+}

@@ -1,0 +1,261 @@
+//! The layer check: no module of `src/` uses one on its own layer or above it. The order is
+//! written once, in `docs/architecture.md` (the fenced block after `<!-- layers -->`, top layer
+//! first); there is no exceptions list.
+//!
+//! A use is any `crate::NAME` path (with `crate::{A, B}` groups) in code compiled into the
+//! library: comments, `#[cfg(test)]` modules and test-only files do not count (tests may build
+//! their fixtures from any layer, as `cargo modules dependencies` leaves them out by default).
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// The layers from `docs/architecture.md`, top first: module → layer index (0 = top).
+fn layers() -> BTreeMap<String, usize> {
+    let text = std::fs::read_to_string(root().join("docs/architecture.md")).unwrap();
+    let after = text
+        .split("<!-- layers -->")
+        .nth(1)
+        .expect("docs/architecture.md has a `<!-- layers -->` marker");
+    let block = after
+        .split("```")
+        .nth(1)
+        .expect("a fenced block follows the marker");
+    let mut map = BTreeMap::new();
+    for (i, line) in block
+        .lines()
+        .skip(1) // the fence's info string
+        .map(|l| l.split('#').next().unwrap().trim())
+        .filter(|l| !l.is_empty())
+        .enumerate()
+    {
+        for m in line.split_whitespace() {
+            assert!(
+                map.insert(m.to_string(), i).is_none(),
+                "`{m}` is on two lines of the layer block"
+            );
+        }
+    }
+    map
+}
+
+/// The top-level modules `src/lib.rs` declares.
+fn lib_modules() -> Vec<String> {
+    std::fs::read_to_string(root().join("src/lib.rs"))
+        .unwrap()
+        .lines()
+        .filter_map(|l| l.trim().strip_prefix("pub mod "))
+        .map(|m| m.trim_end_matches(';').to_string())
+        .collect()
+}
+
+fn rs_files(dir: &Path, out: &mut Vec<PathBuf>) {
+    for e in std::fs::read_dir(dir).unwrap() {
+        let p = e.unwrap().path();
+        if p.is_dir() {
+            rs_files(&p, out);
+        } else if p.extension().is_some_and(|x| x == "rs") {
+            out.push(p);
+        }
+    }
+}
+
+/// Files that are compiled only for tests: `#[cfg(test)] mod name;` in their parent.
+fn test_only_files(files: &[PathBuf]) -> BTreeSet<PathBuf> {
+    let mut set = BTreeSet::new();
+    for f in files {
+        let text = std::fs::read_to_string(f).unwrap();
+        let lines: Vec<&str> = text.lines().map(str::trim).collect();
+        let dir = match f.file_name().unwrap().to_str().unwrap() {
+            "mod.rs" | "lib.rs" | "main.rs" => f.parent().unwrap().to_path_buf(),
+            name => f.parent().unwrap().join(name.trim_end_matches(".rs")),
+        };
+        for w in lines.windows(2) {
+            if w[0] == "#[cfg(test)]"
+                && let Some(rest) = w[1]
+                    .trim_start_matches("pub ")
+                    .trim_start_matches("pub(crate) ")
+                    .strip_prefix("mod ")
+                && let Some(name) = rest.strip_suffix(';')
+            {
+                set.insert(dir.join(format!("{name}.rs")));
+                set.insert(dir.join(name).join("mod.rs"));
+            }
+        }
+    }
+    set
+}
+
+/// The code of a file that is compiled into the library: without comments and without inline
+/// `#[cfg(test)] mod … { … }` blocks.
+fn library_code(text: &str) -> String {
+    let mut out = String::new();
+    let mut skip_depth: Option<i64> = None;
+    let mut depth = 0i64;
+    let mut pending_cfg_test = false;
+    for line in text.lines() {
+        let code = line.split("//").next().unwrap();
+        let t = code.trim();
+        if skip_depth.is_none() {
+            if t == "#[cfg(test)]" {
+                pending_cfg_test = true;
+                continue;
+            }
+            if pending_cfg_test && t.starts_with("mod ") && t.ends_with('{') {
+                skip_depth = Some(depth);
+            }
+            pending_cfg_test = false;
+        }
+        for c in code.chars() {
+            match c {
+                '{' => depth += 1,
+                '}' => depth -= 1,
+                _ => {}
+            }
+        }
+        match skip_depth {
+            Some(d) if depth <= d => skip_depth = None,
+            Some(_) => {}
+            None => {
+                out.push_str(code);
+                out.push('\n');
+            }
+        }
+    }
+    out
+}
+
+/// The top-level modules a piece of code names through `crate::`.
+fn crate_uses(code: &str) -> BTreeSet<String> {
+    let mut used = BTreeSet::new();
+    let ident = |s: &str| -> String {
+        s.chars()
+            .take_while(|c| c.is_alphanumeric() || *c == '_')
+            .collect()
+    };
+    for (i, _) in code.match_indices("crate::") {
+        let rest = &code[i + "crate::".len()..];
+        if let Some(group) = rest.strip_prefix('{') {
+            let inner = &group[..group.find('}').unwrap_or(group.len())];
+            // top-level names of the group: those not inside a nested `{…}`
+            let mut level = 0;
+            let mut item = String::new();
+            for c in inner.chars().chain(std::iter::once(',')) {
+                match c {
+                    '{' => level += 1,
+                    '}' => level -= 1,
+                    ',' if level == 0 => {
+                        let name = ident(item.trim());
+                        if !name.is_empty() {
+                            used.insert(name);
+                        }
+                        item.clear();
+                        continue;
+                    }
+                    _ => {}
+                }
+                if level == 0 {
+                    item.push(c);
+                }
+            }
+        } else {
+            let name = ident(rest);
+            if !name.is_empty() {
+                used.insert(name);
+            }
+        }
+    }
+    used
+}
+
+/// The top-level module of a file under `src/`.
+fn module_of(src: &Path, f: &Path) -> String {
+    let rel = f.strip_prefix(src).unwrap();
+    let first = rel
+        .components()
+        .next()
+        .unwrap()
+        .as_os_str()
+        .to_string_lossy();
+    first.trim_end_matches(".rs").to_string()
+}
+
+#[test]
+fn no_module_uses_its_own_layer_or_one_above() {
+    let layers = layers();
+    let src = root().join("src");
+    for m in lib_modules() {
+        assert!(
+            layers.contains_key(&m),
+            "module `{m}` of src/lib.rs has no layer in docs/architecture.md: add it to the layer block"
+        );
+    }
+    let mut files = Vec::new();
+    rs_files(&src, &mut files);
+    files.sort();
+    let tests = test_only_files(&files);
+    let mut violations = Vec::new();
+    for f in &files {
+        let name = f.file_name().unwrap();
+        if f.parent() == Some(src.as_path()) && (name == "lib.rs" || name == "main.rs") {
+            continue;
+        }
+        if tests.contains(f) {
+            continue;
+        }
+        let me = module_of(&src, f);
+        let mine = layers[&me];
+        let code = library_code(&std::fs::read_to_string(f).unwrap());
+        for used in crate_uses(&code) {
+            if used == me {
+                continue;
+            }
+            let Some(&theirs) = layers.get(&used) else {
+                continue; // a crate-root item (a macro, a re-export), not a module
+            };
+            if theirs <= mine {
+                violations.push(format!(
+                    "{}: `{me}` uses `crate::{used}`, which is {}",
+                    f.strip_prefix(root()).unwrap().display(),
+                    if theirs == mine {
+                        "on its own layer"
+                    } else {
+                        "on a layer above it"
+                    }
+                ));
+            }
+        }
+    }
+    assert!(
+        violations.is_empty(),
+        "imports against the layer order of docs/architecture.md:\n{}",
+        violations.join("\n")
+    );
+}
+
+#[test]
+fn the_check_sees_uses_and_ignores_comments_and_tests() {
+    let code = library_code(
+        "use crate::{ltp::{A, B}, signal};\n// crate::jobs in a comment\nfn f() { crate::model::x(); }\n#[cfg(test)]\nmod tests {\n    use crate::jobs;\n}\nfn g() { crate::data::y(); }\n",
+    );
+    let used = crate_uses(&code);
+    let want: BTreeSet<String> = ["ltp", "signal", "model", "data"]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    assert_eq!(used, want);
+}
+
+#[test]
+fn every_layer_module_exists() {
+    let mods: BTreeSet<String> = lib_modules().into_iter().collect();
+    for m in layers().keys() {
+        assert!(
+            mods.contains(m),
+            "docs/architecture.md names `{m}`, which src/lib.rs does not declare"
+        );
+    }
+}
