@@ -11,11 +11,13 @@
 //! every task is done.
 
 pub mod grid;
+mod job;
 pub mod output;
 mod plots;
 pub mod record;
 pub mod stats;
 
+pub use job::{PlannedSweep, SweepDone, SweepRequest, executor, plan, run as run_request};
 pub use output::{LEGACY_OUTPUTS, publish, write_outputs};
 
 use crate::config::{Study, StudyFile};
