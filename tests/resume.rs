@@ -226,3 +226,25 @@ fn a_rerun_removes_the_previous_runs_files_it_does_not_write() {
     }
     assert!(!line.contains("my-notes.txt"), "{line}");
 }
+
+#[test]
+fn a_fit_resumed_with_another_likelihood_kind_is_refused() {
+    // the chains of a relative-binned fit must not be continued (and published) as exact ones
+    let dir = tempfile::tempdir().unwrap();
+    let exact = small().replace("[analysis]\n", "[analysis]\nlikelihood = \"exact\"\n");
+    std::fs::write(dir.path().join("s.toml"), &exact).unwrap();
+    let (ok, _, err) = occam(&["fit", "s.toml", "-q", "-o", "f"], dir.path());
+    assert!(ok, "{err}");
+    assert!(dir.path().join("f/checkpoint.cbor").exists());
+    // the same study resumes (a finished fit has nothing left to do)
+    let (ok, _, err) = occam(&["fit", "s.toml", "-q", "-o", "f", "--resume"], dir.path());
+    assert!(ok, "{err}");
+    let relbin = exact.replace("likelihood = \"exact\"", "likelihood = \"relbin\"");
+    std::fs::write(dir.path().join("s.toml"), relbin).unwrap();
+    let (ok, _, err) = occam(&["fit", "s.toml", "-q", "-o", "f", "--resume"], dir.path());
+    assert!(!ok, "a changed likelihood kind was resumed");
+    assert!(
+        err.contains("belongs to a different run") && err.contains("run without --resume"),
+        "{err}"
+    );
+}

@@ -66,15 +66,21 @@ fn ckpt_err(path: &Path, e: crate::data::checkpoint::CheckpointError) -> Sampler
     }
 }
 
-/// Writes `ckpt` to `path` atomically.
-pub(crate) fn write(path: &Path, ckpt: &CheckpointRef<'_>) -> Result<(), SamplerError> {
-    crate::data::checkpoint::write(path, KIND, VERSION, "", ckpt).map_err(|e| ckpt_err(path, e))
+/// Writes `ckpt` of the run `identity` to `path` atomically.
+pub(crate) fn write(
+    path: &Path,
+    ckpt: &CheckpointRef<'_>,
+    identity: &str,
+) -> Result<(), SamplerError> {
+    crate::data::checkpoint::write(path, KIND, VERSION, identity, ckpt)
+        .map_err(|e| ckpt_err(path, e))
 }
 
-/// Reads a checkpoint (format, kind and version checked, contents not yet matched to a run).
-pub(crate) fn read(path: &Path) -> Result<Checkpoint, SamplerError> {
-    let mut ckpt: Checkpoint =
-        crate::data::checkpoint::read(path, KIND, VERSION, None).map_err(|e| ckpt_err(path, e))?;
+/// Reads a checkpoint (format, kind, version and, when given, the run's identity checked;
+/// contents not yet matched to a run).
+pub(crate) fn read(path: &Path, identity: Option<&str>) -> Result<Checkpoint, SamplerError> {
+    let mut ckpt: Checkpoint = crate::data::checkpoint::read(path, KIND, VERSION, identity)
+        .map_err(|e| ckpt_err(path, e))?;
     for ch in &mut ckpt.chains {
         ch.upgrade();
     }
@@ -84,7 +90,7 @@ pub(crate) fn read(path: &Path) -> Result<Checkpoint, SamplerError> {
 /// How far the run saved in the checkpoint at `path` got: iterations done per chain and the
 /// iterations each chain runs in all (for the "resuming from" line of a command).
 pub fn progress(path: &Path) -> Result<(Vec<usize>, usize), SamplerError> {
-    let c = read(path)?;
+    let c = read(path, None)?;
     Ok((c.chains.iter().map(|s| s.iter).collect(), c.settings.n_iter))
 }
 

@@ -167,20 +167,27 @@ pub fn run(
     let statistic = exact.statistic();
     let (kind, why) = crate::jobs::prepare::sampled_kind(study, exact);
     warnings.extend(why);
+    // the checkpoint belongs to this study, these data and this likelihood kind (a resumed
+    // fit must not continue relative-binned chains as exact ones, or the other way round)
+    let identity = format!(
+        "{}-{kind:?}",
+        crate::jobs::select::identity(study, &prep.dataset)
+    );
+    let ckpt = Checkpoint {
+        out,
+        resume,
+        identity: &identity,
+    };
     let (chains, n_coarse) = match kind {
         LikelihoodKind::Exact => (
-            sample(
-                exact, model, &map.theta, &cov, settings, out, observer, resume,
-            )?,
+            sample(exact, model, &map.theta, &cov, settings, &ckpt, observer)?,
             None,
         ),
         LikelihoodKind::Relbin => {
             let rb = relbin_of(study, exact, &map.theta)?;
             let n = rb.n_coarse();
             (
-                sample(
-                    &rb, model, &map.theta, &cov, settings, out, observer, resume,
-                )?,
+                sample(&rb, model, &map.theta, &cov, settings, &ckpt, observer)?,
                 Some(n),
             )
         }
@@ -310,17 +317,24 @@ pub fn near_singular_warning(fisher: &DMatrix<f64>, free_names: &[String]) -> Op
     ))
 }
 
-#[allow(clippy::too_many_arguments)]
+/// Where a fit checkpoints and whether it continues from there.
+struct Checkpoint<'a> {
+    out: &'a Path,
+    resume: bool,
+    /// The run's identity in the checkpoint (study, data and likelihood kind).
+    identity: &'a str,
+}
+
 fn sample<D: LogDensity>(
     parent: &D,
     model: &crate::config::ModelSpec,
     map: &[f64],
     cov: &DMatrix<f64>,
     settings: MhSettings,
-    out: &Path,
+    ck: &Checkpoint,
     observer: Option<&(dyn Fn(&Progress) + Sync)>,
-    resume: bool,
 ) -> Result<Chains, FitError> {
+    let (out, resume) = (ck.out, ck.resume);
     let mut base = model.base.clone();
     for &i in &model.free {
         base[i] = map[i];
@@ -328,7 +342,9 @@ fn sample<D: LogDensity>(
     let sub = SubModel::new(parent, model.free.clone(), base)?;
     std::fs::create_dir_all(out).map_err(|e| FitError::Other(format!("{}: {e}", out.display())))?;
     let ckpt = out.join(CHECKPOINT_FILE);
-    let mut mh = MetropolisHastings::new(&sub, cov, settings)?.checkpoint(&ckpt);
+    let mut mh = MetropolisHastings::new(&sub, cov, settings)?
+        .checkpoint(&ckpt)
+        .checkpoint_identity(ck.identity);
     if let Some(o) = observer {
         mh = mh.observer(o);
     }
