@@ -189,23 +189,12 @@ pub fn write<T: Serialize + ?Sized>(
     identity: &str,
     payload: &T,
 ) -> Result<(), CheckpointError> {
-    crate::atomic::write_with(path, |w| {
-        ciborium::into_writer(
-            &Out {
-                format: FORMAT,
-                kind,
-                version,
-                identity,
-                payload,
-            },
-            w,
-        )
-        .map_err(|e| std::io::Error::other(e.to_string()))
-    })
-    .map_err(|e| CheckpointError::Io {
-        path: path.to_path_buf(),
-        what: "cannot write the checkpoint".into(),
-        msg: e.to_string(),
+    crate::atomic::write_bytes(path, &to_bytes(kind, version, identity, payload)).map_err(|e| {
+        CheckpointError::Io {
+            path: path.to_path_buf(),
+            what: "cannot write the checkpoint".into(),
+            msg: e.to_string(),
+        }
     })
 }
 
