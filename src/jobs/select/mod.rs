@@ -13,6 +13,7 @@ mod job;
 mod model;
 mod output;
 mod pair;
+mod plan;
 
 pub use checkpoint::{FILE as CHECKPOINT_FILE, SelectCheckpoint, identity};
 
@@ -25,13 +26,13 @@ pub use pair::{EstimateKind, JumpStats, PairEstimate, PairResult};
 
 use crate::config::Study;
 use crate::density::LogDensity;
-use crate::evidence::{LaplaceEstimate, ProposalShape, RjModel, RjOptions, RjResult, run_rjmcmc};
-use crate::jobs::prepare::{Prepared, likelihood_of, model_warnings, truth_of};
+use crate::evidence::{LaplaceEstimate, RjModel, RjResult, run_rjmcmc};
+use crate::jobs::prepare::{Prepared, model_warnings, truth_of};
 use crate::likelihood::Likelihood;
 use crate::nested::SubModel;
 use model::Sampled;
+use plan::{Parents, SelectPlan};
 use serde::Serialize;
-use std::borrow::Cow;
 use std::time::Instant;
 
 /// Errors of a model-selection run.
@@ -265,31 +266,13 @@ pub fn run_observed(
         )));
     }
     // one exact likelihood per parent model in use
-    let mut parents: Vec<usize> = study.select_models.iter().map(|m| m.spec.model).collect();
-    parents.sort_unstable();
-    parents.dedup();
-    let mut exacts: Vec<(usize, Cow<Likelihood>)> = Vec::new();
-    for &mi in &parents {
-        let lik = if mi == study.fit_model.model {
-            Cow::Borrowed(&prep.likelihood)
-        } else {
-            Cow::Owned(
-                likelihood_of(study, mi, &prep.dataset).map_err(|e| SelectError::Model {
-                    model: study.models.defs[mi].name().to_string(),
-                    msg: e.to_string(),
-                })?,
-            )
-        };
-        exacts.push((mi, lik));
-    }
-    let exact_of =
-        |mi: usize| -> &Likelihood { &exacts.iter().find(|(i, _)| *i == mi).expect("built").1 };
+    let parents = Parents::new(study, prep)?;
+    let plan = SelectPlan::new(study, &parents);
+    let exact_of = |mi: usize| -> &Likelihood { parents.of(mi) };
     let first = exact_of(study.select_models[0].spec.model);
-    let seed = sel.seed.unwrap_or(study.seed.wrapping_add(2));
-    let n_sbic = sel.schwarz_n.unwrap_or(first.n_real_data() as f64);
+    let n_sbic = plan.n_sbic;
     let mut runs = Vec::new();
-    for (k, m) in study.select_models.iter().enumerate() {
-        let exact = exact_of(m.spec.model);
+    for (k, m) in plan.models.iter().enumerate() {
         let saved = ckpt.as_ref().and_then(|c| c.state.models.get(k).cloned());
         let tempered = saved.as_ref().is_some_and(|s| s.tempered);
         let err = |msg| SelectError::Model {
@@ -297,8 +280,8 @@ pub fn run_observed(
             msg,
         };
         let mut r = match saved {
-            Some(stage) => stage.restore(study, exact, &m.spec),
-            None => model::run_model(study, exact, m, seed.wrapping_add(k as u64), n_sbic),
+            Some(stage) => stage.restore(m),
+            None => model::run_model(m),
         }
         .map_err(err)?;
         add(sel.chains * sel.iterations);
@@ -309,7 +292,7 @@ pub fn run_observed(
             c.state.write(c.path)?;
         }
         if !tempered {
-            model::temper(study, exact, &mut r, &|| add(sel.pt_temperatures)).map_err(err)?;
+            model::temper(m, &mut r, &|| add(sel.pt_temperatures)).map_err(err)?;
             if let Some(c) = ckpt.as_mut() {
                 c.state.models[k] = checkpoint::ModelStage::of(&r, true);
                 c.state.write(c.path)?;
@@ -345,28 +328,7 @@ pub fn run_observed(
             cov: r.jump_cov.clone(),
         })
         .collect();
-    let opts = RjOptions {
-        n_iter: sel.rj_iterations,
-        burn_in: sel.rj_burn_in,
-        seed,
-        prior_model_probs: Some(
-            study
-                .select_models
-                .iter()
-                .map(|m| m.prior_probability)
-                .collect(),
-        ),
-        proposal: if sel.student_t > 0.0 {
-            ProposalShape::StudentT { nu: sel.student_t }
-        } else {
-            ProposalShape::Gaussian
-        },
-        jump_scale: sel.jump_scale,
-        n_chains: sel.rj_chains,
-        defensive: sel.defensive,
-        keep_draws: true,
-        ..Default::default()
-    };
+    let opts = &plan.rj;
     let saved_rj = ckpt.as_ref().and_then(|c| c.state.rj.clone());
     let (rj, rj_note, rj_rate) = match saved_rj {
         Some(s) => {
@@ -387,7 +349,7 @@ pub fn run_observed(
                     f(p);
                 }
             };
-            let (mut rj, note) = match run_rjmcmc(&rj_models, &opts, Some(&mut observe)) {
+            let (mut rj, note) = match run_rjmcmc(&rj_models, opts, Some(&mut observe)) {
                 Ok(r) => (Some(r), None),
                 Err(e) => (
                     None,
@@ -426,8 +388,8 @@ pub fn run_observed(
         }
     }
     let mut warnings: Vec<String> = parents
-        .iter()
-        .flat_map(|&mi| model_warnings(study, mi, &prep.dataset))
+        .indices()
+        .flat_map(|mi| model_warnings(study, mi, &prep.dataset))
         .collect();
     for m in &models {
         warnings.extend(m.notes.iter().map(|n| format!("model `{}`: {n}", m.name)));
