@@ -73,7 +73,7 @@ fn select_resumed_after_a_crash_in_the_reversible_jump_stage_equals_an_uninterru
     );
     assert!(w == files(&again, "again"), "sample files read back differ");
 
-    // a checkpoint of the previous version (no chains saved) is refused with the way out
+    // a checkpoint of another version is refused with the way out
     let mut v: ciborium::Value = ciborium::from_reader(std::fs::File::open(&ck).unwrap()).unwrap();
     for (k, val) in v.as_map_mut().unwrap() {
         if k.as_text() == Some("version") {
@@ -84,7 +84,7 @@ fn select_resumed_after_a_crash_in_the_reversible_jump_stage_equals_an_uninterru
     ciborium::into_writer(&v, std::fs::File::create(&old).unwrap()).unwrap();
     let e = SelectCheckpoint::read(&old, &id).unwrap_err().to_string();
     assert!(
-        e.contains("earlier occam") && e.contains("run without --resume"),
+        e.contains("checkpoint version 1 of `select`") && e.contains("run without --resume"),
         "{e}"
     );
 
@@ -95,7 +95,7 @@ fn select_resumed_after_a_crash_in_the_reversible_jump_stage_equals_an_uninterru
         .unwrap_err()
         .to_string();
     assert!(
-        e.contains("different study or different data") && e.contains("without --resume"),
+        e.contains("belongs to a different run") && e.contains("without --resume"),
         "{e}"
     );
 }

@@ -4,6 +4,9 @@
 mod job;
 pub use job::{Fit, Fitted};
 
+/// The fit's checkpoint inside its run directory ([`crate::data::checkpoint`], kind `mh`).
+pub const CHECKPOINT_FILE: &str = "checkpoint.cbor";
+
 use crate::config::{LikelihoodKind, Study};
 use crate::density::LogDensity;
 use crate::jobs::prepare::{Prepared, default_start, model_warnings, relbin_of, truth_of};
@@ -324,7 +327,7 @@ fn sample<D: LogDensity>(
     }
     let sub = SubModel::new(parent, model.free.clone(), base)?;
     std::fs::create_dir_all(out).map_err(|e| FitError::Other(format!("{}: {e}", out.display())))?;
-    let ckpt = out.join("checkpoint.json");
+    let ckpt = out.join(CHECKPOINT_FILE);
     let mut mh = MetropolisHastings::new(&sub, cov, settings)?.checkpoint(&ckpt);
     if let Some(o) = observer {
         mh = mh.observer(o);
