@@ -668,121 +668,88 @@ fn finite_pos(v: f64) -> bool {
     v.is_finite() && v > 0.0
 }
 
+/// The invalid `field` of `file`, and why.
+fn invalid(file: &str, field: String, msg: String) -> ConfigError {
+    ConfigError::Invalid {
+        file: file.into(),
+        field,
+        msg,
+    }
+}
+
+/// The `[[experiment]]` tables, resolved.
+struct Experiments {
+    /// The designs of the simulated experiments, built-ins resolved and overrides applied.
+    designs: Vec<ExperimentDesign>,
+    /// The experiments read from files, by name.
+    data_sources: Vec<(String, crate::data::DataSource)>,
+    /// Every experiment name in file order.
+    names: Vec<String>,
+}
+
 impl StudyFile {
     /// Validates every field and resolves designs.
     pub fn resolve(self, file: &str, base: &Path) -> Result<Study, ConfigError> {
         let as_parsed = self.clone();
-        let bad = |field: String, msg: String| ConfigError::Invalid {
-            file: file.into(),
-            field,
-            msg,
-        };
+        let bad = |field: String, msg: String| invalid(file, field, msg);
         let budget = budget::budget_from_env()
             .map_err(|m| bad(format!("{} (environment)", budget::BUDGET_ENV), m))?;
-        if let Some(n) = self.truth.non_finite() {
-            return Err(bad(format!("truth.{n}"), "must be a finite number".into()));
-        }
-        for (n, v) in [("dt1", self.truth.dt1), ("dt2", self.truth.dt2)] {
-            check_delay(v).map_err(|m| bad(format!("truth.{n}"), m))?;
-        }
-        if let Some((n, v)) = self.noise.invalid_field() {
-            return Err(bad(
-                format!("noise.{n}"),
-                format!("must be a finite number ≥ 0 (got {v})"),
-            ));
-        }
-        let nz = &self.noise;
-        for (n, v) in [
-            ("readout_o1", nz.readout_o1),
-            ("readout_o12", nz.readout_o12),
-            ("thruster_force", nz.thruster_force),
-            ("tm_accel", nz.tm_accel),
-        ] {
-            if v > MAX_ASD || (v != 0.0 && v < MIN_ASD) {
-                return Err(bad(
-                    format!("noise.{n}"),
-                    format!(
-                        "{v} is not a plausible noise level: a source ASD is 0 (off) or in [{MIN_ASD:e}, {MAX_ASD}] (LPF's are 1e-15 to 1e-7); larger levels overflow the CSD"
-                    ),
-                ));
-            }
-        }
-        for (n, v) in [
-            ("readout_corner", nz.readout_corner),
-            ("tm_corner", nz.tm_corner),
-        ] {
-            if v > MAX_CORNER {
-                return Err(bad(
-                    format!("noise.{n}"),
-                    format!(
-                        "must be a corner frequency ≤ {MAX_CORNER} Hz, or 0 for none (got {v})"
-                    ),
-                ));
-            }
-        }
-        for (n, v) in [
-            ("m1", self.masses.m1),
-            ("m2", self.masses.m2),
-            ("msc", self.masses.msc),
-        ] {
-            if !finite_pos(v) {
-                return Err(bad(
-                    format!("masses.{n}"),
-                    format!("must be a finite mass > 0 kg (got {v})"),
-                ));
-            }
-        }
+        check_truth(&self.truth, file)?;
+        check_noise(&self.noise, file)?;
+        check_masses(&self.masses, file)?;
         check_delay(self.oms_delay).map_err(|m| bad("oms_delay".into(), m))?;
         check_stable(&self.truth, &Controllers::default(), &self.masses)
             .map_err(|e| bad("truth".into(), e.to_string()))?;
+        check_simulation(&self.simulation, file)?;
+        let experiments = self.resolve_experiments(file, base, budget)?;
+        validate_analysis(&self.analysis, file)?;
+        self.check_bands(&experiments.designs, file)?;
+        let models = self.resolve_models(file)?;
+        let fit_model = self.resolve_fit(&models, file)?;
+        let select_models = self.resolve_select(&models, file)?;
+        if let Some(sw) = &self.sweep {
+            let names: Vec<&str> = select_models.iter().map(|m| m.name.as_str()).collect();
+            sw.validate(&names, file)?;
+        }
+        let study = Study {
+            sweep: self.sweep,
+            select: self.select,
+            select_models,
+            design: self.design,
+            analysis: self.analysis,
+            models,
+            fit: self.fit,
+            fit_model,
+            seed: self.seed,
+            output: self.output,
+            truth: self.truth,
+            noise: self.noise,
+            masses: self.masses,
+            oms_delay: self.oms_delay,
+            simulation: self.simulation,
+            experiments: experiments.designs,
+            data_sources: experiments.data_sources,
+            experiment_names: experiments.names,
+            base_dir: base.to_path_buf(),
+            source: file.into(),
+            file: as_parsed,
+        };
+        budget::check_study(&study, budget)?;
+        Ok(study)
+    }
+
+    /// `[[experiment]]`: at least one, unique names; read ones become data sources, simulated
+    /// ones designs (checked against the data budget in file order).
+    fn resolve_experiments(
+        &self,
+        file: &str,
+        base: &Path,
+        budget: f64,
+    ) -> Result<Experiments, ConfigError> {
         let sim = &self.simulation;
-        if let Some(t) = &sim.thruster {
-            use crate::model::ThrusterResponse as R;
-            let ok = match t.response {
-                R::None => true,
-                R::Delay => t.value.is_finite() && (0.0..=MAX_DELAY).contains(&t.value),
-                R::Pole => finite_pos(t.value),
-            };
-            if !ok {
-                return Err(bad(
-                    "simulation.thruster.value".into(),
-                    format!(
-                        "must be a delay in [0, {MAX_DELAY}] s (response = \"delay\") or a pole frequency > 0 Hz (response = \"pole\"); got {}",
-                        t.value
-                    ),
-                ));
-            }
-            if t.response != R::None && sim.method == Method::Time {
-                return Err(bad(
-                    "simulation.thruster".into(),
-                    "a thruster response is simulated in the frequency domain only; use method = \"frequency\"".into(),
-                ));
-            }
-        }
-        sim.actuators.validate(sim.method, file)?;
-        if let Some(t) = sim.target_snr
-            && !(finite_pos(t) && t <= MAX_TARGET_SNR)
-        {
-            return Err(bad(
-                "simulation.target_snr".into(),
-                format!("must be an SNR in (0, {MAX_TARGET_SNR:e}] (got {t})"),
-            ));
-        }
-        if !(1..=1000).contains(&sim.oversample) {
-            return Err(bad(
-                "simulation.oversample".into(),
-                format!("must be an integer in 1..=1000 (got {})", sim.oversample),
-            ));
-        }
-        let [lo, hi] = sim.snr_band;
-        if !(finite_pos(lo) && hi.is_finite() && hi > lo) {
-            return Err(bad(
-                "simulation.snr_band".into(),
-                format!("must be [lo, hi] with 0 < lo < hi (got [{lo}, {hi}])"),
-            ));
-        }
         if self.experiment.is_empty() {
-            return Err(bad(
+            return Err(invalid(
+                file,
                 "experiment".into(),
                 "at least one [[experiment]] table is needed".into(),
             ));
@@ -793,189 +760,30 @@ impl StudyFile {
         let mut data_bytes = 0.0;
         for (k, e) in self.experiment.iter().enumerate() {
             let at = |f: &str| format!("experiment[{k}].{f}");
-            if e.name.is_empty()
-                || e.name.chars().count() > budget::MAX_NAME_LEN
-                || !e
-                    .name
-                    .chars()
-                    .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
-            {
-                return Err(bad(
-                    at("name"),
-                    format!(
-                        "`{}`: use 1 to {} letters, digits, `_` or `-` (it names arrays in the dataset)",
-                        short(&e.name),
-                        budget::MAX_NAME_LEN
-                    ),
-                ));
-            }
-            if experiment_names.contains(&e.name) {
-                return Err(bad(at("name"), format!("`{}` is used twice", e.name)));
-            }
+            check_experiment_name(e, &experiment_names, &at, file)?;
             experiment_names.push(e.name.clone());
             if let Some(path) = &e.data {
-                // read, not simulated: no injection design applies
-                for (f, given) in [
-                    ("design", e.design.is_some()),
-                    ("x1", e.x1.is_some()),
-                    ("x12", e.x12.is_some()),
-                    ("f1", e.f1.is_some()),
-                    ("f2", e.f2.is_some()),
-                    ("fsc", e.fsc.is_some()),
-                    ("pre_pad", e.pre_pad.is_some()),
-                    ("post_pad", e.post_pad.is_some()),
-                    ("noise_duration", e.noise_duration.is_some()),
-                    ("amplitude_scale", e.amplitude_scale.is_some()),
-                ] {
-                    if given {
-                        return Err(bad(
-                            at(f),
-                            format!(
-                                "experiment `{}` reads its data from {}; `{f}` describes a simulation and does not apply: remove it",
-                                e.name,
-                                path.display()
-                            ),
-                        ));
-                    }
-                }
-                if let Some(fs) = e.fs
-                    && !finite_pos(fs)
-                {
-                    return Err(bad(at("fs"), format!("must be > 0 Hz (got {fs})")));
-                }
-                for ch in e.columns.keys() {
-                    if ch != "t" {
-                        crate::data::dataset::check_channel_name(ch)
-                            .map_err(|m| bad(at(&format!("columns.{ch}")), m))?;
-                    }
-                }
-                data_sources.push((
-                    e.name.clone(),
-                    crate::data::DataSource {
-                        data: path.clone(),
-                        columns: e.columns.clone(),
-                        fs: e.fs,
-                        noise_data: e.noise_data.clone(),
-                    },
-                ));
+                data_sources.push((e.name.clone(), data_source(e, path, &at, file)?));
                 continue;
             }
-            if !e.columns.is_empty() || e.noise_data.is_some() {
-                return Err(bad(
-                    at(if e.noise_data.is_some() {
-                        "noise_data"
-                    } else {
-                        "columns"
-                    }),
-                    "only an experiment that reads its data (`data = \"file.csv\"`) takes `columns` and `noise_data`".into(),
-                ));
-            }
-            let mut d = match &e.design {
-                Some(n) => ExperimentDesign::builtin(n).ok_or_else(|| {
-                    bad(
-                        at("design"),
-                        format!(
-                            "unknown design `{n}`; built-in designs are {:?}",
-                            ExperimentDesign::BUILTINS
-                        ),
-                    )
-                })?,
-                None => ExperimentDesign {
-                    name: String::new(),
-                    fs: 10.0,
-                    pre_pad: 2000.0,
-                    post_pad: 8000.0,
-                    noise_duration: 20000.0,
-                    x1: Waveform::None,
-                    x12: Waveform::None,
-                    f1: Waveform::None,
-                    f2: Waveform::None,
-                    fsc: Waveform::None,
-                },
-            };
-            d.name = e.name.clone();
-            if let Some(fs) = e.fs {
-                if !finite_pos(fs) {
-                    return Err(bad(at("fs"), format!("must be > 0 Hz (got {fs})")));
-                }
-                d.fs = fs;
-            }
-            for (f, src, dst) in [
-                ("pre_pad", e.pre_pad, &mut d.pre_pad),
-                ("post_pad", e.post_pad, &mut d.post_pad),
-                ("noise_duration", e.noise_duration, &mut d.noise_duration),
-            ] {
-                if let Some(v) = src {
-                    if !(v.is_finite() && v >= 0.0) {
-                        return Err(bad(at(f), format!("must be a duration ≥ 0 s (got {v})")));
-                    }
-                    *dst = v;
-                }
-            }
-            if d.noise_duration * d.fs < 64.0 {
-                return Err(bad(
-                    at("noise_duration"),
-                    format!(
-                        "the noise-only stretch needs at least 64 samples for noise estimation (got {} s at {} Hz)",
-                        d.noise_duration, d.fs
-                    ),
-                ));
-            }
-            for (ch, entry, dst) in [
-                ("x1", &e.x1, &mut d.x1),
-                ("x12", &e.x12, &mut d.x12),
-                ("f1", &e.f1, &mut d.f1),
-                ("f2", &e.f2, &mut d.f2),
-                ("fsc", &e.fsc, &mut d.fsc),
-            ] {
-                if let Some(entry) = entry {
-                    *dst = to_waveform(entry, base, file, &at(ch))?;
-                }
-            }
-            if sim.method == Method::Time
-                && let Some((ch, _)) = [("f1", &d.f1), ("f2", &d.f2), ("fsc", &d.fsc)]
-                    .into_iter()
-                    .find(|(_, w)| !w.is_none())
-            {
-                return Err(bad(
-                    at(ch),
-                    "force injections are supported with method = \"frequency\" only (the discretised loop of method = \"time\" takes guidance injections x1, x12)".into(),
-                ));
-            }
+            let d = simulated_design(e, sim.method, base, &at, file)?;
             // sized before anything is rendered (validate_waveforms renders file injections'
             // checks only; sine lengths are analytic)
             data_bytes += budget::check_experiment(&d, k, sim, data_bytes, budget, file)?;
             validate_waveforms(&d, file, &at(""), e.amplitude_scale.is_none())?;
-            if let Some(s) = e.amplitude_scale {
-                if !s.is_finite() {
-                    return Err(bad(
-                        at("amplitude_scale"),
-                        format!("must be finite (got {s})"),
-                    ));
-                }
-                let scaled = d.scaled(s);
-                if let Some(a) = max_amplitude(&scaled)
-                    && !(a <= MAX_AMPLITUDE)
-                {
-                    return Err(bad(
-                        at("amplitude_scale"),
-                        format!(
-                            "{s} scales the largest injection amplitude to {a:e}, above the plausible {MAX_AMPLITUDE} (m or m s⁻²); lower it"
-                        ),
-                    ));
-                }
-                d = scaled;
-            }
-            experiments.push(d);
+            experiments.push(scale_amplitudes(d, e.amplitude_scale, &at, file)?);
         }
-        let ltp_defaults = crate::model::LtpModelOptions {
-            masses: self.masses,
-            oms_delay: self.oms_delay,
-            ..Default::default()
-        };
-        validate_analysis(&self.analysis, file)?;
-        // bands inside (0, Nyquist] of every experiment whose rate is known now (a written band
-        // is an error there, not a silent clip; the defaults are clipped as before)
+        Ok(Experiments {
+            designs: experiments,
+            data_sources,
+            names: experiment_names,
+        })
+    }
+
+    /// Written bands inside (0, Nyquist] of every experiment whose rate is known now (a
+    /// written band is an error there, not a silent clip; the defaults are clipped as before).
+    fn check_bands(&self, experiments: &[ExperimentDesign], file: &str) -> Result<(), ConfigError> {
+        let sim = &self.simulation;
         let defaults = (AnalysisOptions::default(), SimulationOptions::default());
         let rates: Vec<(usize, f64)> = self
             .experiment
@@ -1013,7 +821,8 @@ impl StudyFile {
                 continue;
             }
             if let Some((k, fs)) = list.iter().copied().find(|&(_, fs)| !(band[1] <= fs / 2.0)) {
-                return Err(bad(
+                return Err(invalid(
+                    file,
                     field.into(),
                     format!(
                         "[{}, {}] Hz reaches outside (0, {}] Hz, the frequencies up to the Nyquist frequency of experiment `{}` (fs = {fs} Hz): lower its upper edge",
@@ -1025,7 +834,17 @@ impl StudyFile {
                 ));
             }
         }
-        // a log grid over the fit band, where user-defined models must act
+        Ok(())
+    }
+
+    /// `[[model]]` and `[prior]`: every model resolved with its prior, user-defined models
+    /// checked on a log grid over the fit band, where they must act.
+    fn resolve_models(&self, file: &str) -> Result<ModelSet, ConfigError> {
+        let ltp_defaults = crate::model::LtpModelOptions {
+            masses: self.masses,
+            oms_delay: self.oms_delay,
+            ..Default::default()
+        };
         let [blo, bhi] = self.analysis.band;
         let check_fs = self.experiment.iter().find_map(|e| e.fs).unwrap_or(10.0);
         let bhi = if bhi.min(0.49 * check_fs) > blo {
@@ -1041,7 +860,7 @@ impl StudyFile {
             tau_ifo: self.oms_delay,
             ..Default::default()
         };
-        let models = ModelSet::resolve(
+        ModelSet::resolve(
             &self.model,
             &self.prior,
             &ltp_defaults,
@@ -1049,57 +868,380 @@ impl StudyFile {
             &check_freqs,
             check_fs,
             file,
-        )?;
+        )
+    }
+
+    /// `[fit]`: its model, its options, and a stable loop with its fixed values.
+    fn resolve_fit(&self, models: &ModelSet, file: &str) -> Result<ModelSpec, ConfigError> {
         let fit_model = ModelEntry {
             model: self.fit.model.clone(),
             free: self.fit.free.clone(),
             fixed: self.fit.fixed.clone(),
         }
-        .resolve(&models, file, "fit.")?;
-        validate_fit(&self.fit, &models, file)?;
+        .resolve(models, file, "fit.")?;
+        validate_fit(&self.fit, models, file)?;
         check_fixed_loop(
             &self.fit.fixed,
             &fit_model,
-            &models,
+            models,
             &self.truth,
             &self.masses,
         )
-        .map_err(|(n, m)| bad(format!("fit.fixed.{n}"), m))?;
-        let select_models = validate_select(&self.select, &models, file)?;
-        for (k, (m, sm)) in self.select.model.iter().zip(&select_models).enumerate() {
-            check_fixed_loop(&m.fixed, &sm.spec, &models, &self.truth, &self.masses)
-                .map_err(|(n, e)| bad(format!("select.model[{k}].fixed.{n}"), e))?;
-        }
-        if let Some(sw) = &self.sweep {
-            let names: Vec<&str> = select_models.iter().map(|m| m.name.as_str()).collect();
-            sw.validate(&names, file)?;
-        }
-        let study = Study {
-            sweep: self.sweep,
-            select: self.select,
-            select_models,
-            design: self.design,
-            analysis: self.analysis,
-            models,
-            fit: self.fit,
-            fit_model,
-            seed: self.seed,
-            output: self.output,
-            truth: self.truth,
-            noise: self.noise,
-            masses: self.masses,
-            oms_delay: self.oms_delay,
-            simulation: self.simulation,
-            experiments,
-            data_sources,
-            experiment_names,
-            base_dir: base.to_path_buf(),
-            source: file.into(),
-            file: as_parsed,
-        };
-        budget::check_study(&study, budget)?;
-        Ok(study)
+        .map_err(|(n, m)| invalid(file, format!("fit.fixed.{n}"), m))?;
+        Ok(fit_model)
     }
+
+    /// `[select]`: its options and models, and a stable loop with each model's fixed values.
+    fn resolve_select(
+        &self,
+        models: &ModelSet,
+        file: &str,
+    ) -> Result<Vec<SelectModel>, ConfigError> {
+        let select_models = validate_select(&self.select, models, file)?;
+        for (k, (m, sm)) in self.select.model.iter().zip(&select_models).enumerate() {
+            check_fixed_loop(&m.fixed, &sm.spec, models, &self.truth, &self.masses)
+                .map_err(|(n, e)| invalid(file, format!("select.model[{k}].fixed.{n}"), e))?;
+        }
+        Ok(select_models)
+    }
+}
+
+/// `[truth]`: finite values, plausible delays.
+fn check_truth(truth: &LtpParams, file: &str) -> Result<(), ConfigError> {
+    if let Some(n) = truth.non_finite() {
+        return Err(invalid(
+            file,
+            format!("truth.{n}"),
+            "must be a finite number".into(),
+        ));
+    }
+    for (n, v) in [("dt1", truth.dt1), ("dt2", truth.dt2)] {
+        check_delay(v).map_err(|m| invalid(file, format!("truth.{n}"), m))?;
+    }
+    Ok(())
+}
+
+/// `[noise]`: finite levels ≥ 0, plausible source ASDs and corner frequencies.
+fn check_noise(nz: &NoiseModel, file: &str) -> Result<(), ConfigError> {
+    let bad = |field: String, msg: String| invalid(file, field, msg);
+    if let Some((n, v)) = nz.invalid_field() {
+        return Err(bad(
+            format!("noise.{n}"),
+            format!("must be a finite number ≥ 0 (got {v})"),
+        ));
+    }
+    for (n, v) in [
+        ("readout_o1", nz.readout_o1),
+        ("readout_o12", nz.readout_o12),
+        ("thruster_force", nz.thruster_force),
+        ("tm_accel", nz.tm_accel),
+    ] {
+        if v > MAX_ASD || (v != 0.0 && v < MIN_ASD) {
+            return Err(bad(
+                format!("noise.{n}"),
+                format!(
+                    "{v} is not a plausible noise level: a source ASD is 0 (off) or in [{MIN_ASD:e}, {MAX_ASD}] (LPF's are 1e-15 to 1e-7); larger levels overflow the CSD"
+                ),
+            ));
+        }
+    }
+    for (n, v) in [
+        ("readout_corner", nz.readout_corner),
+        ("tm_corner", nz.tm_corner),
+    ] {
+        if v > MAX_CORNER {
+            return Err(bad(
+                format!("noise.{n}"),
+                format!("must be a corner frequency ≤ {MAX_CORNER} Hz, or 0 for none (got {v})"),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// `[masses]`: finite and positive.
+fn check_masses(masses: &Masses, file: &str) -> Result<(), ConfigError> {
+    for (n, v) in [("m1", masses.m1), ("m2", masses.m2), ("msc", masses.msc)] {
+        if !finite_pos(v) {
+            return Err(invalid(
+                file,
+                format!("masses.{n}"),
+                format!("must be a finite mass > 0 kg (got {v})"),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// `[simulation]`: the thruster response, the actuators, the SNR target, oversampling and
+/// the SNR band.
+fn check_simulation(sim: &SimulationOptions, file: &str) -> Result<(), ConfigError> {
+    let bad = |field: &str, msg: String| invalid(file, field.into(), msg);
+    if let Some(t) = &sim.thruster {
+        use crate::model::ThrusterResponse as R;
+        let ok = match t.response {
+            R::None => true,
+            R::Delay => t.value.is_finite() && (0.0..=MAX_DELAY).contains(&t.value),
+            R::Pole => finite_pos(t.value),
+        };
+        if !ok {
+            return Err(bad(
+                "simulation.thruster.value",
+                format!(
+                    "must be a delay in [0, {MAX_DELAY}] s (response = \"delay\") or a pole frequency > 0 Hz (response = \"pole\"); got {}",
+                    t.value
+                ),
+            ));
+        }
+        if t.response != R::None && sim.method == Method::Time {
+            return Err(bad(
+                "simulation.thruster",
+                "a thruster response is simulated in the frequency domain only; use method = \"frequency\"".into(),
+            ));
+        }
+    }
+    sim.actuators.validate(sim.method, file)?;
+    if let Some(t) = sim.target_snr
+        && !(finite_pos(t) && t <= MAX_TARGET_SNR)
+    {
+        return Err(bad(
+            "simulation.target_snr",
+            format!("must be an SNR in (0, {MAX_TARGET_SNR:e}] (got {t})"),
+        ));
+    }
+    if !(1..=1000).contains(&sim.oversample) {
+        return Err(bad(
+            "simulation.oversample",
+            format!("must be an integer in 1..=1000 (got {})", sim.oversample),
+        ));
+    }
+    let [lo, hi] = sim.snr_band;
+    if !(finite_pos(lo) && hi.is_finite() && hi > lo) {
+        return Err(bad(
+            "simulation.snr_band",
+            format!("must be [lo, hi] with 0 < lo < hi (got [{lo}, {hi}])"),
+        ));
+    }
+    Ok(())
+}
+
+/// An experiment's name: 1 to [`budget::MAX_NAME_LEN`] letters, digits, `_` or `-`, not one
+/// of the names `before` it.
+fn check_experiment_name(
+    e: &ExperimentEntry,
+    before: &[String],
+    at: &dyn Fn(&str) -> String,
+    file: &str,
+) -> Result<(), ConfigError> {
+    if e.name.is_empty()
+        || e.name.chars().count() > budget::MAX_NAME_LEN
+        || !e
+            .name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+    {
+        return Err(invalid(
+            file,
+            at("name"),
+            format!(
+                "`{}`: use 1 to {} letters, digits, `_` or `-` (it names arrays in the dataset)",
+                short(&e.name),
+                budget::MAX_NAME_LEN
+            ),
+        ));
+    }
+    if before.contains(&e.name) {
+        return Err(invalid(
+            file,
+            at("name"),
+            format!("`{}` is used twice", e.name),
+        ));
+    }
+    Ok(())
+}
+
+/// An experiment read from `path`: no simulation fields, a positive rate if given, valid
+/// channel names.
+fn data_source(
+    e: &ExperimentEntry,
+    path: &Path,
+    at: &dyn Fn(&str) -> String,
+    file: &str,
+) -> Result<crate::data::DataSource, ConfigError> {
+    // read, not simulated: no injection design applies
+    for (f, given) in [
+        ("design", e.design.is_some()),
+        ("x1", e.x1.is_some()),
+        ("x12", e.x12.is_some()),
+        ("f1", e.f1.is_some()),
+        ("f2", e.f2.is_some()),
+        ("fsc", e.fsc.is_some()),
+        ("pre_pad", e.pre_pad.is_some()),
+        ("post_pad", e.post_pad.is_some()),
+        ("noise_duration", e.noise_duration.is_some()),
+        ("amplitude_scale", e.amplitude_scale.is_some()),
+    ] {
+        if given {
+            return Err(invalid(
+                file,
+                at(f),
+                format!(
+                    "experiment `{}` reads its data from {}; `{f}` describes a simulation and does not apply: remove it",
+                    e.name,
+                    path.display()
+                ),
+            ));
+        }
+    }
+    if let Some(fs) = e.fs
+        && !finite_pos(fs)
+    {
+        return Err(invalid(
+            file,
+            at("fs"),
+            format!("must be > 0 Hz (got {fs})"),
+        ));
+    }
+    for ch in e.columns.keys() {
+        if ch != "t" {
+            crate::data::dataset::check_channel_name(ch)
+                .map_err(|m| invalid(file, at(&format!("columns.{ch}")), m))?;
+        }
+    }
+    Ok(crate::data::DataSource {
+        data: path.to_path_buf(),
+        columns: e.columns.clone(),
+        fs: e.fs,
+        noise_data: e.noise_data.clone(),
+    })
+}
+
+/// The design of a simulated experiment: a built-in one or the defaults, with the table's
+/// rate, durations and injections (force injections need `method = "frequency"`).
+fn simulated_design(
+    e: &ExperimentEntry,
+    method: Method,
+    base: &Path,
+    at: &dyn Fn(&str) -> String,
+    file: &str,
+) -> Result<ExperimentDesign, ConfigError> {
+    let bad = |field: String, msg: String| invalid(file, field, msg);
+    if !e.columns.is_empty() || e.noise_data.is_some() {
+        return Err(bad(
+            at(if e.noise_data.is_some() {
+                "noise_data"
+            } else {
+                "columns"
+            }),
+            "only an experiment that reads its data (`data = \"file.csv\"`) takes `columns` and `noise_data`".into(),
+        ));
+    }
+    let mut d = match &e.design {
+        Some(n) => ExperimentDesign::builtin(n).ok_or_else(|| {
+            bad(
+                at("design"),
+                format!(
+                    "unknown design `{n}`; built-in designs are {:?}",
+                    ExperimentDesign::BUILTINS
+                ),
+            )
+        })?,
+        None => ExperimentDesign {
+            name: String::new(),
+            fs: 10.0,
+            pre_pad: 2000.0,
+            post_pad: 8000.0,
+            noise_duration: 20000.0,
+            x1: Waveform::None,
+            x12: Waveform::None,
+            f1: Waveform::None,
+            f2: Waveform::None,
+            fsc: Waveform::None,
+        },
+    };
+    d.name = e.name.clone();
+    if let Some(fs) = e.fs {
+        if !finite_pos(fs) {
+            return Err(bad(at("fs"), format!("must be > 0 Hz (got {fs})")));
+        }
+        d.fs = fs;
+    }
+    for (f, src, dst) in [
+        ("pre_pad", e.pre_pad, &mut d.pre_pad),
+        ("post_pad", e.post_pad, &mut d.post_pad),
+        ("noise_duration", e.noise_duration, &mut d.noise_duration),
+    ] {
+        if let Some(v) = src {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(bad(at(f), format!("must be a duration ≥ 0 s (got {v})")));
+            }
+            *dst = v;
+        }
+    }
+    if d.noise_duration * d.fs < 64.0 {
+        return Err(bad(
+            at("noise_duration"),
+            format!(
+                "the noise-only stretch needs at least 64 samples for noise estimation (got {} s at {} Hz)",
+                d.noise_duration, d.fs
+            ),
+        ));
+    }
+    for (ch, entry, dst) in [
+        ("x1", &e.x1, &mut d.x1),
+        ("x12", &e.x12, &mut d.x12),
+        ("f1", &e.f1, &mut d.f1),
+        ("f2", &e.f2, &mut d.f2),
+        ("fsc", &e.fsc, &mut d.fsc),
+    ] {
+        if let Some(entry) = entry {
+            *dst = to_waveform(entry, base, file, &at(ch))?;
+        }
+    }
+    if method == Method::Time
+        && let Some((ch, _)) = [("f1", &d.f1), ("f2", &d.f2), ("fsc", &d.fsc)]
+            .into_iter()
+            .find(|(_, w)| !w.is_none())
+    {
+        return Err(bad(
+            at(ch),
+            "force injections are supported with method = \"frequency\" only (the discretised loop of method = \"time\" takes guidance injections x1, x12)".into(),
+        ));
+    }
+    Ok(d)
+}
+
+/// `d` with `amplitude_scale` applied, if given: finite, and keeping every amplitude within
+/// [`MAX_AMPLITUDE`].
+fn scale_amplitudes(
+    d: ExperimentDesign,
+    amplitude_scale: Option<f64>,
+    at: &dyn Fn(&str) -> String,
+    file: &str,
+) -> Result<ExperimentDesign, ConfigError> {
+    let Some(s) = amplitude_scale else {
+        return Ok(d);
+    };
+    if !s.is_finite() {
+        return Err(invalid(
+            file,
+            at("amplitude_scale"),
+            format!("must be finite (got {s})"),
+        ));
+    }
+    let scaled = d.scaled(s);
+    if let Some(a) = max_amplitude(&scaled)
+        && !(a <= MAX_AMPLITUDE)
+    {
+        return Err(invalid(
+            file,
+            at("amplitude_scale"),
+            format!(
+                "{s} scales the largest injection amplitude to {a:e}, above the plausible {MAX_AMPLITUDE} (m or m s⁻²); lower it"
+            ),
+        ));
+    }
+    Ok(scaled)
 }
 
 /// Checks that the fixed values of a sub-model of the closed loop (an `ltp` model or a

@@ -351,231 +351,38 @@ pub fn run_tempering_observed(
     on_sweep: &(dyn Fn() + Sync),
 ) -> Result<TemperingResult, EvidenceError> {
     validate(opts)?;
-    let prior = target.prior();
-    let d = target.dim();
-    if d == 0 {
-        return Err(EvidenceError::option(
-            "tempering target dimension",
-            0,
-            "the target has no parameters: its evidence is its likelihood, nothing to integrate",
-        ));
-    }
-    if start.len() != d {
-        return Err(EvidenceError::dimension("tempering start", d, start.len()));
-    }
-    if cov.nrows() != d || cov.ncols() != d {
-        return Err(EvidenceError::dimension(
-            "tempering covariance rows and columns",
-            d * d,
-            cov.nrows() * cov.ncols(),
-        ));
-    }
-    let ln_prior0 = prior.ln_pdf(start);
-    if ln_prior0 == f64::NEG_INFINITY {
-        return Err(EvidenceError::non_finite(
-            "ln π(start)",
-            ln_prior0,
-            "start inside the prior support",
-        ));
-    }
-    let ln_l0 = target.ln_likelihood(start);
-    if !ln_l0.is_finite() {
-        return Err(EvidenceError::non_finite(
-            "ln L(start)",
-            ln_l0,
-            "start where the likelihood is positive and finite (e.g. at the MAP)",
-        ));
-    }
-    let cov_chol = spd_cholesky(
-        cov,
-        "tempering proposal covariance",
-        "pass the inverse Fisher matrix or an in-model chain's sample covariance",
-    )?;
-    let cov_inv = cov_chol.inverse();
-    let cov_inv = (&cov_inv + cov_inv.transpose()) * 0.5;
-    let (prior_prec, width): (Vec<f64>, Vec<f64>) = prior
-        .kinds()
-        .iter()
-        .map(|k| match *k {
-            PriorKind::Uniform { lo, hi } | PriorKind::LogUniform { lo, hi } => {
-                (12.0 / (hi - lo).powi(2), hi - lo)
-            }
-            PriorKind::Gaussian { sigma, .. } => (1.0 / (sigma * sigma), f64::INFINITY),
-        })
-        .unzip();
-    let geom = Geometry {
-        dim: d,
-        cov_inv,
-        prior_prec,
-        width,
-    };
-
+    let (ln_prior0, ln_l0) = check_start(target, start, cov)?;
+    let geom = Geometry::new(target, cov)?;
     let n_t = opts.n_temps;
-    let mut evals = 0u64;
-    let mut pilot_non_finite = 0u64;
-    let mut betas = match &opts.betas {
-        Some(b) => b.clone(),
-        None => {
-            let mut rng = chain_rng(opts.seed, n_t + 1);
-            let mut ls = Vec::with_capacity(N_PILOT);
-            for _ in 0..N_PILOT {
-                let l = target.ln_likelihood(&prior.sample(&mut rng));
-                evals += 1;
-                if l.is_finite() {
-                    ls.push(l);
-                } else if !(l == f64::NEG_INFINITY) {
-                    pilot_non_finite += 1;
-                }
-            }
-            let cap = 1.0 / (n_t - 1) as f64;
-            let beta1 = if ls.len() >= 2 {
-                let m = ls.iter().sum::<f64>() / ls.len() as f64;
-                let sd = (ls.iter().map(|l| (l - m).powi(2)).sum::<f64>() / (ls.len() - 1) as f64)
-                    .sqrt();
-                if sd > 0.0 { (1.0 / sd).min(cap) } else { cap }
-            } else {
-                cap
-            };
-            let beta1 = beta1.max(1e-300);
-            let mut b = vec![0.0];
-            for i in 0..n_t - 1 {
-                let f = i as f64 / (n_t - 2) as f64;
-                b.push((beta1.ln() * (1.0 - f)).exp());
-            }
-            b[n_t - 1] = 1.0;
-            b
-        }
-    };
-
-    let init_ln_scale = (2.38 / (d as f64).sqrt()).ln();
-    let mut rungs = Vec::with_capacity(n_t);
-    for (i, &beta) in betas.iter().enumerate() {
-        let (chol, cap) = geom.rung(beta)?;
-        rungs.push(Rung {
-            beta,
-            theta: start.to_vec(),
-            ln_l: ln_l0,
-            ln_prior: ln_prior0,
-            rng: chain_rng(opts.seed, i + 1),
-            chol,
-            ln_scale: init_ln_scale.min(cap),
-            ln_scale_max: cap,
-            prop: vec![0.0; d],
-            z: vec![0.0; d],
-            tried: 0,
-            accepted: 0,
-            non_finite: 0,
+    let pilot = match &opts.betas {
+        Some(b) => Pilot {
+            betas: b.clone(),
             evals: 0,
-        });
-    }
+            non_finite: 0,
+        },
+        None => pilot_ladder(target, opts),
+    };
+    let mut betas = pilot.betas;
+    let mut rungs = start_rungs(&betas, &geom, start, (ln_l0, ln_prior0), opts)?;
     // Rung 0 starts from a prior draw.
     rungs[0].step(target);
+    let sweeps = sweep(&mut rungs, &mut betas, &geom, target, opts, on_sweep)?;
 
-    let mut swap_rng = chain_rng(opts.seed, 0);
     let n_post = opts.n_iter - opts.burn_in;
-    let mut series: Vec<f64> = Vec::with_capacity(n_post * n_t);
-    let mut swaps_tried = vec![0u64; n_t - 1];
-    let mut swaps_acc = vec![0u64; n_t - 1];
-    let mut win_tried = vec![0u64; n_t - 1];
-    let mut win_acc = vec![0u64; n_t - 1];
-    let mut win_rung: Vec<(u64, u64)> = vec![(0, 0); n_t];
-    let mut rung_samples: Vec<Vec<Vec<f64>>> = vec![Vec::with_capacity(SNAPSHOTS); n_t];
-    let n_updates = opts.burn_in / opts.adapt_interval;
-    let t0 = (n_updates as f64 / 4.0).max(1.0);
-    let mut update = 0usize;
-
-    for t in 0..opts.n_iter {
-        if opts.parallel {
-            rungs.par_iter_mut().for_each(|r| r.step(target));
-        } else {
-            rungs.iter_mut().for_each(|r| r.step(target));
-        }
-        // Deterministic even–odd swap round.
-        let mut i = 1 + t % 2;
-        while i < n_t {
-            let (lo, hi) = rungs.split_at_mut(i);
-            let (a, b) = (&mut lo[i - 1], &mut hi[0]);
-            let ln_a = (b.beta - a.beta) * (a.ln_l - b.ln_l);
-            let u: f64 = swap_rng.random();
-            let ok = u.ln() < ln_a;
-            if ok {
-                std::mem::swap(&mut a.theta, &mut b.theta);
-                std::mem::swap(&mut a.ln_l, &mut b.ln_l);
-                std::mem::swap(&mut a.ln_prior, &mut b.ln_prior);
-            }
-            if t >= opts.burn_in {
-                swaps_tried[i - 1] += 1;
-                swaps_acc[i - 1] += ok as u64;
-            } else {
-                win_tried[i - 1] += 1;
-                win_acc[i - 1] += ok as u64;
-            }
-            i += 2;
-        }
-        if t < opts.burn_in {
-            if (t + 1) % opts.adapt_interval == 0 {
-                adapt(
-                    &mut rungs,
-                    &mut betas,
-                    &geom,
-                    opts,
-                    update,
-                    t0,
-                    (&mut win_tried, &mut win_acc, &mut win_rung),
-                )?;
-                update += 1;
-            }
-            if t + 1 == opts.burn_in {
-                for r in rungs.iter_mut() {
-                    r.tried = 0;
-                    r.accepted = 0;
-                }
-            }
-        } else {
-            series.extend(rungs.iter().map(|r| r.ln_l));
-            if (t - opts.burn_in + 1).is_multiple_of((n_post / SNAPSHOTS).max(1)) {
-                for (keep, r) in rung_samples.iter_mut().zip(&rungs) {
-                    if keep.len() < SNAPSHOTS {
-                        keep.push(r.theta.clone());
-                    }
-                }
-            }
-        }
-        on_sweep();
-    }
-
+    let series = &sweeps.series;
     let batch = opts
         .batch_size
         .unwrap_or((n_post as f64).sqrt() as usize)
         .max(1);
-    let series_ref = &series;
-    let col = |i: usize| (0..n_post).map(move |t| series_ref[t * n_t + i]);
-    let mut mean = Vec::with_capacity(n_t);
-    let mut var = Vec::with_capacity(n_t);
-    let mut mean_se = Vec::with_capacity(n_t);
-    for i in 0..n_t {
-        let m = col(i).sum::<f64>() / n_post as f64;
-        let v = if m.is_finite() {
-            col(i).map(|l| (l - m).powi(2)).sum::<f64>() / n_post as f64
-        } else {
-            f64::NAN
-        };
-        let se = if m.is_finite() {
-            batch_means_var(|t| series[t * n_t + i], n_post, batch).sqrt()
-        } else {
-            f64::NAN
-        };
-        mean.push(m);
-        var.push(v);
-        mean_se.push(se);
-    }
-    let thermodynamic = thermodynamic(&betas, &mean, &var, &series, batch);
-    let stepping_stone = stepping_stone(&betas, &series, batch);
-    evals += rungs.iter().map(|r| r.evals).sum::<u64>();
+    let (mean, var, mean_se) = rung_moments(series, n_t, n_post, batch);
+    let thermodynamic = thermodynamic(&betas, &mean, &var, series, batch);
+    let stepping_stone = stepping_stone(&betas, series, batch);
+    let evals = pilot.evals + rungs.iter().map(|r| r.evals).sum::<u64>();
     Ok(TemperingResult {
-        swap_acceptance: swaps_acc
+        swap_acceptance: sweeps
+            .swaps_acc
             .iter()
-            .zip(&swaps_tried)
+            .zip(&sweeps.swaps_tried)
             .map(|(&a, &n)| a as f64 / n.max(1) as f64)
             .collect(),
         in_rung_acceptance: rungs
@@ -595,10 +402,309 @@ pub fn run_tempering_observed(
         n_iter: opts.n_iter,
         burn_in: opts.burn_in,
         batch_size: batch,
-        rung_samples,
+        rung_samples: sweeps.rung_samples,
         ln_l_evals: evals,
-        non_finite: pilot_non_finite + rungs.iter().map(|r| r.non_finite).sum::<u64>(),
+        non_finite: pilot.non_finite + rungs.iter().map(|r| r.non_finite).sum::<u64>(),
     })
+}
+
+/// `(ln π(start), ln L(start))`, checking the target has parameters, `start` and `cov` its
+/// dimension, and `start` lies inside the prior where the likelihood is finite.
+fn check_start(
+    target: &dyn LogDensity,
+    start: &[f64],
+    cov: &DMatrix<f64>,
+) -> Result<(f64, f64), EvidenceError> {
+    let d = target.dim();
+    if d == 0 {
+        return Err(EvidenceError::option(
+            "tempering target dimension",
+            0,
+            "the target has no parameters: its evidence is its likelihood, nothing to integrate",
+        ));
+    }
+    if start.len() != d {
+        return Err(EvidenceError::dimension("tempering start", d, start.len()));
+    }
+    if cov.nrows() != d || cov.ncols() != d {
+        return Err(EvidenceError::dimension(
+            "tempering covariance rows and columns",
+            d * d,
+            cov.nrows() * cov.ncols(),
+        ));
+    }
+    let ln_prior0 = target.prior().ln_pdf(start);
+    if ln_prior0 == f64::NEG_INFINITY {
+        return Err(EvidenceError::non_finite(
+            "ln π(start)",
+            ln_prior0,
+            "start inside the prior support",
+        ));
+    }
+    let ln_l0 = target.ln_likelihood(start);
+    if !ln_l0.is_finite() {
+        return Err(EvidenceError::non_finite(
+            "ln L(start)",
+            ln_l0,
+            "start where the likelihood is positive and finite (e.g. at the MAP)",
+        ));
+    }
+    Ok((ln_prior0, ln_l0))
+}
+
+impl Geometry {
+    /// `C⁻¹` from the posterior covariance `cov`, and the prior's precisions and widths.
+    fn new(target: &dyn LogDensity, cov: &DMatrix<f64>) -> Result<Geometry, EvidenceError> {
+        let cov_chol = spd_cholesky(
+            cov,
+            "tempering proposal covariance",
+            "pass the inverse Fisher matrix or an in-model chain's sample covariance",
+        )?;
+        let cov_inv = cov_chol.inverse();
+        let cov_inv = (&cov_inv + cov_inv.transpose()) * 0.5;
+        let (prior_prec, width): (Vec<f64>, Vec<f64>) = target
+            .prior()
+            .kinds()
+            .iter()
+            .map(|k| match *k {
+                PriorKind::Uniform { lo, hi } | PriorKind::LogUniform { lo, hi } => {
+                    (12.0 / (hi - lo).powi(2), hi - lo)
+                }
+                PriorKind::Gaussian { sigma, .. } => (1.0 / (sigma * sigma), f64::INFINITY),
+            })
+            .unzip();
+        Ok(Geometry {
+            dim: target.dim(),
+            cov_inv,
+            prior_prec,
+            width,
+        })
+    }
+}
+
+/// The initial ladder and what choosing it cost.
+struct Pilot {
+    betas: Vec<f64>,
+    /// Likelihood evaluations of the pilot draws.
+    evals: u64,
+    /// Pilot draws whose `ln L` was NaN or `+∞`.
+    non_finite: u64,
+}
+
+/// The geometric ladder from the pilot `β_1 = 1/sd_π(ln L)` (from [`N_PILOT`] prior draws on
+/// stream `N + 1`; capped at `1/(N−1)`) to 1.
+fn pilot_ladder(target: &dyn LogDensity, opts: &TemperingOptions) -> Pilot {
+    let prior = target.prior();
+    let n_t = opts.n_temps;
+    let mut evals = 0u64;
+    let mut pilot_non_finite = 0u64;
+    let mut rng = chain_rng(opts.seed, n_t + 1);
+    let mut ls = Vec::with_capacity(N_PILOT);
+    for _ in 0..N_PILOT {
+        let l = target.ln_likelihood(&prior.sample(&mut rng));
+        evals += 1;
+        if l.is_finite() {
+            ls.push(l);
+        } else if !(l == f64::NEG_INFINITY) {
+            pilot_non_finite += 1;
+        }
+    }
+    let cap = 1.0 / (n_t - 1) as f64;
+    let beta1 = if ls.len() >= 2 {
+        let m = ls.iter().sum::<f64>() / ls.len() as f64;
+        let sd = (ls.iter().map(|l| (l - m).powi(2)).sum::<f64>() / (ls.len() - 1) as f64).sqrt();
+        if sd > 0.0 { (1.0 / sd).min(cap) } else { cap }
+    } else {
+        cap
+    };
+    let beta1 = beta1.max(1e-300);
+    let mut b = vec![0.0];
+    for i in 0..n_t - 1 {
+        let f = i as f64 / (n_t - 2) as f64;
+        b.push((beta1.ln() * (1.0 - f)).exp());
+    }
+    b[n_t - 1] = 1.0;
+    Pilot {
+        betas: b,
+        evals,
+        non_finite: pilot_non_finite,
+    }
+}
+
+/// One rung per β, all at `start` (`(ln L, ln π)` there), rung `i` on stream `i + 1`.
+fn start_rungs(
+    betas: &[f64],
+    geom: &Geometry,
+    start: &[f64],
+    (ln_l0, ln_prior0): (f64, f64),
+    opts: &TemperingOptions,
+) -> Result<Vec<Rung>, EvidenceError> {
+    let d = start.len();
+    let init_ln_scale = (2.38 / (d as f64).sqrt()).ln();
+    let mut rungs = Vec::with_capacity(betas.len());
+    for (i, &beta) in betas.iter().enumerate() {
+        let (chol, cap) = geom.rung(beta)?;
+        rungs.push(Rung {
+            beta,
+            theta: start.to_vec(),
+            ln_l: ln_l0,
+            ln_prior: ln_prior0,
+            rng: chain_rng(opts.seed, i + 1),
+            chol,
+            ln_scale: init_ln_scale.min(cap),
+            ln_scale_max: cap,
+            prop: vec![0.0; d],
+            z: vec![0.0; d],
+            tried: 0,
+            accepted: 0,
+            non_finite: 0,
+            evals: 0,
+        });
+    }
+    Ok(rungs)
+}
+
+/// What the sweeps after the burn-in leave.
+struct Sweeps {
+    /// `ln L` of every rung, sweep-major (`[t * n_t + i]`).
+    series: Vec<f64>,
+    swaps_tried: Vec<u64>,
+    swaps_acc: Vec<u64>,
+    rung_samples: Vec<Vec<Vec<f64>>>,
+}
+
+/// Runs the `opts.n_iter` sweeps: every rung steps, then one even–odd swap round; the burn-in
+/// adapts scales and ladder every `adapt_interval` sweeps; the post-burn-in sweeps are recorded.
+fn sweep(
+    rungs: &mut [Rung],
+    betas: &mut [f64],
+    geom: &Geometry,
+    target: &dyn LogDensity,
+    opts: &TemperingOptions,
+    on_sweep: &(dyn Fn() + Sync),
+) -> Result<Sweeps, EvidenceError> {
+    let n_t = opts.n_temps;
+    let mut swap_rng = chain_rng(opts.seed, 0);
+    let n_post = opts.n_iter - opts.burn_in;
+    let mut series: Vec<f64> = Vec::with_capacity(n_post * n_t);
+    let mut swaps_tried = vec![0u64; n_t - 1];
+    let mut swaps_acc = vec![0u64; n_t - 1];
+    let mut win_tried = vec![0u64; n_t - 1];
+    let mut win_acc = vec![0u64; n_t - 1];
+    let mut win_rung: Vec<(u64, u64)> = vec![(0, 0); n_t];
+    let mut rung_samples: Vec<Vec<Vec<f64>>> = vec![Vec::with_capacity(SNAPSHOTS); n_t];
+    let n_updates = opts.burn_in / opts.adapt_interval;
+    let t0 = (n_updates as f64 / 4.0).max(1.0);
+    let mut update = 0usize;
+
+    for t in 0..opts.n_iter {
+        if opts.parallel {
+            rungs.par_iter_mut().for_each(|r| r.step(target));
+        } else {
+            rungs.iter_mut().for_each(|r| r.step(target));
+        }
+        let (tried, acc) = if t >= opts.burn_in {
+            (&mut swaps_tried, &mut swaps_acc)
+        } else {
+            (&mut win_tried, &mut win_acc)
+        };
+        swap_round(rungs, t, &mut swap_rng, tried, acc);
+        if t < opts.burn_in {
+            if (t + 1) % opts.adapt_interval == 0 {
+                adapt(
+                    rungs,
+                    betas,
+                    geom,
+                    opts,
+                    update,
+                    t0,
+                    (&mut win_tried, &mut win_acc, &mut win_rung),
+                )?;
+                update += 1;
+            }
+            if t + 1 == opts.burn_in {
+                for r in rungs.iter_mut() {
+                    r.tried = 0;
+                    r.accepted = 0;
+                }
+            }
+        } else {
+            series.extend(rungs.iter().map(|r| r.ln_l));
+            if (t - opts.burn_in + 1).is_multiple_of((n_post / SNAPSHOTS).max(1)) {
+                for (keep, r) in rung_samples.iter_mut().zip(rungs.iter()) {
+                    if keep.len() < SNAPSHOTS {
+                        keep.push(r.theta.clone());
+                    }
+                }
+            }
+        }
+        on_sweep();
+    }
+    Ok(Sweeps {
+        series,
+        swaps_tried,
+        swaps_acc,
+        rung_samples,
+    })
+}
+
+/// The deterministic even–odd swap round of sweep `t`, counting each pair's proposals and
+/// acceptances into `tried` and `acc`.
+fn swap_round(
+    rungs: &mut [Rung],
+    t: usize,
+    swap_rng: &mut Xoshiro256PlusPlus,
+    tried: &mut [u64],
+    acc: &mut [u64],
+) {
+    let n_t = rungs.len();
+    let mut i = 1 + t % 2;
+    while i < n_t {
+        let (lo, hi) = rungs.split_at_mut(i);
+        let (a, b) = (&mut lo[i - 1], &mut hi[0]);
+        let ln_a = (b.beta - a.beta) * (a.ln_l - b.ln_l);
+        let u: f64 = swap_rng.random();
+        let ok = u.ln() < ln_a;
+        if ok {
+            std::mem::swap(&mut a.theta, &mut b.theta);
+            std::mem::swap(&mut a.ln_l, &mut b.ln_l);
+            std::mem::swap(&mut a.ln_prior, &mut b.ln_prior);
+        }
+        tried[i - 1] += 1;
+        acc[i - 1] += ok as u64;
+        i += 2;
+    }
+}
+
+/// Per rung: the post-burn-in mean and variance of `ln L` and the mean's batch-means error
+/// (NaN where the mean is not finite).
+fn rung_moments(
+    series: &[f64],
+    n_t: usize,
+    n_post: usize,
+    batch: usize,
+) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+    let col = |i: usize| (0..n_post).map(move |t| series[t * n_t + i]);
+    let mut mean = Vec::with_capacity(n_t);
+    let mut var = Vec::with_capacity(n_t);
+    let mut mean_se = Vec::with_capacity(n_t);
+    for i in 0..n_t {
+        let m = col(i).sum::<f64>() / n_post as f64;
+        let v = if m.is_finite() {
+            col(i).map(|l| (l - m).powi(2)).sum::<f64>() / n_post as f64
+        } else {
+            f64::NAN
+        };
+        let se = if m.is_finite() {
+            batch_means_var(|t| series[t * n_t + i], n_post, batch).sqrt()
+        } else {
+            f64::NAN
+        };
+        mean.push(m);
+        var.push(v);
+        mean_se.push(se);
+    }
+    (mean, var, mean_se)
 }
 
 type Windows<'a> = (&'a mut [u64], &'a mut [u64], &'a mut [(u64, u64)]);

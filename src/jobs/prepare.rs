@@ -274,25 +274,6 @@ pub fn relbin_of(
     )?)
 }
 
-/// As [`relbin_of`], validated in the region of the covariance `cov` of the parameters
-/// `free` (the samplers' Gaussian: inverse Fisher matrix at the MAP, or a chain's
-/// covariance), clipped to the prior box.
-pub fn relbin_in_region(
-    study: &Study,
-    exact: &Likelihood,
-    fiducial: &[f64],
-    free: &[usize],
-    cov: &nalgebra::DMatrix<f64>,
-) -> Result<RelBinLikelihood, AnalysisError> {
-    Ok(RelBinLikelihood::with_covariance(
-        exact,
-        fiducial,
-        &relbin_options(study),
-        free,
-        cov,
-    )?)
-}
-
 /// The start of a MAP search for `model`: `[fit] start` values, else the prior centre (box
 /// midpoint or Gaussian mean; for a log-uniform box, the geometric mean); fixed values as
 /// given.

@@ -569,19 +569,118 @@ impl Prepared<'_> {
 pub fn run_rjmcmc(
     models: &[RjModel<'_>],
     opts: &RjOptions,
-    mut progress: Option<&mut dyn FnMut(&RjProgress<'_>)>,
+    progress: Option<&mut dyn FnMut(&RjProgress<'_>)>,
 ) -> Result<RjResult, EvidenceError> {
     let k_models = models.len();
     let (prior_p, jump) = validate(models, opts)?;
     let n_chains = opts.n_chains;
     let per_chain = opts.n_iter / n_chains;
     let prepared = prepare(models, opts)?;
-    let BoxMasses {
-        ln_p: ln_box,
-        se: ln_box_se,
-        ln_p_g: ln_box_g,
-        se_g: ln_box_g_se,
-    } = box_masses(&prepared, opts)?;
+    let boxes = box_masses(&prepared, opts)?;
+    let n_post = per_chain - opts.burn_in;
+    let model_params: Vec<&[String]> = models.iter().map(|m| m.target.prior().names()).collect();
+    let (param_names, columns) = union_columns(&model_params);
+    let mut shared = shared(
+        prepared,
+        &prior_p,
+        &jump,
+        &boxes,
+        opts,
+        per_chain,
+        (columns, param_names.len()),
+    )?;
+    let mut chains: Vec<Chain> = (0..n_chains)
+        .map(|j| Chain::new(&shared, j, opts.seed))
+        .collect();
+    run_chains(&mut chains, &mut shared, opts, per_chain, progress);
+    estimate::check_chains(&chains)?;
+
+    let totals = Totals::of(&chains, k_models);
+    let (layout, batch) = (shared.layout, shared.batch);
+    let pool = Pool::new(&chains, layout, batch);
+    let soj = Sojourns {
+        sojourns: &totals.sojourns,
+        visits: &totals.visits,
+    };
+    let est = PairEstimator {
+        prior_p: &prior_p,
+        ln_ratio: &shared.ln_ratio,
+        grid: shared.grid.as_ref().expect("set after the pilot"),
+        boxes: &boxes,
+    };
+    let pairs = pairs(models, &est, &pool, &soj, layout, &totals.accepted_post);
+    let running = estimate::running_points(
+        &chains,
+        layout,
+        batch,
+        opts.burn_in,
+        &pairs,
+        &|pool, soj, a, b| est.estimates(pool, soj, a, b),
+    );
+    let draws = opts.keep_draws.then(|| RjDraws {
+        model_names: models.iter().map(|m| m.name.clone()).collect(),
+        param_names: param_names.clone(),
+        n_chains,
+        n_draws: n_post,
+        thin: 1,
+        model_index: chains
+            .iter()
+            .flat_map(|c| c.draw_model.iter().copied())
+            .collect(),
+        samples: chains
+            .iter()
+            .flat_map(|c| c.draw_theta.iter().copied())
+            .collect(),
+        ln_likelihood: chains
+            .iter()
+            .flat_map(|c| c.draw_ln_l.iter().copied())
+            .collect(),
+    });
+    Ok(RjResult {
+        model_names: models.iter().map(|m| m.name.clone()).collect(),
+        n_iter: per_chain * n_chains,
+        n_chains,
+        burn_in: opts.burn_in,
+        defensive: opts.defensive,
+        batch_size: batch,
+        prior_model_probs: prior_p,
+        visits: totals.visits,
+        in_model_acceptance: totals
+            .rw_accepted
+            .iter()
+            .zip(&totals.rw_tried)
+            .map(|(&a, &t)| (t > 0).then(|| a as f64 / t as f64))
+            .collect(),
+        jumps_proposed: totals.proposed,
+        jumps_accepted: totals.accepted,
+        sojourns: totals.sojourns,
+        regeneration_units: pool.cycles.len(),
+        non_finite: totals.non_finite,
+        likelihood_calls: chains.iter().map(|c| c.likelihood_calls).sum(),
+        ln_box_mass: boxes.ln_p,
+        ln_box_mass_std_err: boxes.se,
+        pairs,
+        trace: totals.trace,
+        running,
+        draws,
+    })
+}
+
+/// The constants every chain reads: jump ratios and cumulative jump rows from the validated
+/// prior model probabilities `prior_p` and jump matrix `jump`, box-mass shifts, the proposal's
+/// χ² (Student-t), batch size and trace spacing; `columns` is the union of the models'
+/// parameters (each model's columns and the union's width).
+fn shared<'a>(
+    prepared: Vec<Prepared<'a>>,
+    prior_p: &[f64],
+    jump: &[Vec<f64>],
+    boxes: &BoxMasses,
+    opts: &RjOptions,
+    per_chain: usize,
+    columns: (Vec<Vec<usize>>, usize),
+) -> Result<Shared<'a>, EvidenceError> {
+    let k_models = prior_p.len();
+    let (ln_box, ln_box_g) = (&boxes.ln_p, &boxes.ln_p_g);
     let n_post = per_chain - opts.burn_in;
     let batch = opts
         .batch_size
@@ -625,14 +724,8 @@ pub fn run_rjmcmc(
             ProposalShape::Gaussian => None,
         };
     let w = opts.defensive;
-    let layout = Layout {
-        k: k_models,
-        g: GRID_OFFSETS.len(),
-    };
-    let pilot = n_post.min(PILOT_ITERS);
-    let model_params: Vec<&[String]> = models.iter().map(|m| m.target.prior().names()).collect();
-    let (param_names, columns) = union_columns(&model_params);
-    let mut shared = Shared {
+    let (columns, n_columns) = columns;
+    Ok(Shared {
         prepared,
         shape: opts.proposal,
         chi2,
@@ -646,15 +739,29 @@ pub fn run_rjmcmc(
         batch,
         trace_every,
         start_model: opts.start_model,
-        layout,
+        layout: Layout {
+            k: k_models,
+            g: GRID_OFFSETS.len(),
+        },
         grid: None,
-        columns: opts.keep_draws.then(|| columns.clone()),
-        n_columns: param_names.len(),
-    };
-    let mut chains: Vec<Chain> = (0..n_chains)
-        .map(|j| Chain::new(&shared, j, opts.seed))
-        .collect();
+        columns: opts.keep_draws.then_some(columns),
+        n_columns,
+    })
+}
 
+/// Runs the chains to `per_chain` iterations, synchronising every 1 % (the progress callback
+/// is called there) and once at the end of the pilot, where the bridge grid is fixed and the
+/// pilot replayed into every chain's sums.
+fn run_chains(
+    chains: &mut [Chain],
+    shared: &mut Shared<'_>,
+    opts: &RjOptions,
+    per_chain: usize,
+    mut progress: Option<&mut dyn FnMut(&RjProgress<'_>)>,
+) {
+    let k_models = shared.layout.k;
+    let n_chains = chains.len();
+    let pilot = (per_chain - opts.burn_in).min(PILOT_ITERS);
     let progress_every = (per_chain / 100).max(1);
     let pilot_end = opts.burn_in + pilot;
     let mut t = 0;
@@ -663,19 +770,19 @@ pub fn run_rjmcmc(
         if shared.grid.is_none() && pilot_end > t && pilot_end < next {
             next = pilot_end;
         }
-        let sh = &shared;
+        let sh = &*shared;
         chains.par_iter_mut().for_each(|c| c.run_to(next, sh));
         t = next;
         if shared.grid.is_none() && t >= pilot_end {
-            shared.grid = Some(estimate::pilot_grid(&chains, k_models, &shared.shift));
-            let sh = &shared;
+            shared.grid = Some(estimate::pilot_grid(chains, k_models, &shared.shift));
+            let sh = &*shared;
             chains.par_iter_mut().for_each(|c| c.replay_pilot(sh));
         }
         if let Some(cb) = progress.as_mut()
             && (t.is_multiple_of(progress_every) || t == per_chain)
         {
             let mut visits = vec![0u64; k_models];
-            for c in &chains {
+            for c in chains.iter() {
                 for (v, cv) in visits.iter_mut().zip(&c.visits) {
                     *v += cv;
                 }
@@ -688,76 +795,123 @@ pub fn run_rjmcmc(
             });
         }
     }
-    estimate::check_chains(&chains)?;
+}
 
-    let sum_vec = |f: &dyn Fn(&Chain) -> &Vec<u64>| -> Vec<u64> {
-        let mut v = vec![0u64; k_models];
-        for c in &chains {
-            for (a, b) in v.iter_mut().zip(f(c)) {
-                *a += b;
-            }
-        }
-        v
-    };
-    let sum_mat = |f: &dyn Fn(&Chain) -> &Vec<Vec<u64>>| -> Vec<Vec<u64>> {
-        let mut m = vec![vec![0u64; k_models]; k_models];
-        for c in &chains {
-            for (row, crow) in m.iter_mut().zip(f(c)) {
-                for (a, b) in row.iter_mut().zip(crow) {
+/// The chains' counts, summed.
+struct Totals {
+    visits: Vec<u64>,
+    sojourns: Vec<u64>,
+    rw_tried: Vec<u64>,
+    rw_accepted: Vec<u64>,
+    proposed: Vec<Vec<u64>>,
+    accepted: Vec<Vec<u64>>,
+    accepted_post: Vec<Vec<u64>>,
+    non_finite: u64,
+    trace: Vec<RjTracePoint>,
+}
+
+impl Totals {
+    fn of(chains: &[Chain], k_models: usize) -> Totals {
+        let sum_vec = |f: &dyn Fn(&Chain) -> &Vec<u64>| -> Vec<u64> {
+            let mut v = vec![0u64; k_models];
+            for c in chains {
+                for (a, b) in v.iter_mut().zip(f(c)) {
                     *a += b;
                 }
             }
-        }
-        m
-    };
-    let visits = sum_vec(&|c| &c.visits);
-    let sojourns = sum_vec(&|c| &c.sojourns);
-    let rw_tried = sum_vec(&|c| &c.rw_tried);
-    let rw_accepted = sum_vec(&|c| &c.rw_accepted);
-    let proposed = sum_mat(&|c| &c.proposed);
-    let accepted = sum_mat(&|c| &c.accepted);
-    let accepted_post = sum_mat(&|c| &c.accepted_post);
-    let non_finite = chains.iter().map(|c| c.non_finite).sum();
-    // traces: every chain has the same points; sum them
-    let trace: Vec<RjTracePoint> = (0..chains[0].trace.len())
-        .map(|i| {
-            let mut p = RjTracePoint {
-                iteration: 0,
-                visits: vec![0; k_models],
-            };
-            for c in &chains {
-                let q = &c.trace[i];
-                p.iteration += q.iteration;
-                for (a, b) in p.visits.iter_mut().zip(&q.visits) {
-                    *a += b;
+            v
+        };
+        let sum_mat = |f: &dyn Fn(&Chain) -> &Vec<Vec<u64>>| -> Vec<Vec<u64>> {
+            let mut m = vec![vec![0u64; k_models]; k_models];
+            for c in chains {
+                for (row, crow) in m.iter_mut().zip(f(c)) {
+                    for (a, b) in row.iter_mut().zip(crow) {
+                        *a += b;
+                    }
                 }
             }
-            p
-        })
-        .collect();
+            m
+        };
+        // traces: every chain has the same points; sum them
+        let trace: Vec<RjTracePoint> = (0..chains[0].trace.len())
+            .map(|i| {
+                let mut p = RjTracePoint {
+                    iteration: 0,
+                    visits: vec![0; k_models],
+                };
+                for c in chains {
+                    let q = &c.trace[i];
+                    p.iteration += q.iteration;
+                    for (a, b) in p.visits.iter_mut().zip(&q.visits) {
+                        *a += b;
+                    }
+                }
+                p
+            })
+            .collect();
+        Totals {
+            visits: sum_vec(&|c| &c.visits),
+            sojourns: sum_vec(&|c| &c.sojourns),
+            rw_tried: sum_vec(&|c| &c.rw_tried),
+            rw_accepted: sum_vec(&|c| &c.rw_accepted),
+            proposed: sum_mat(&|c| &c.proposed),
+            accepted: sum_mat(&|c| &c.accepted),
+            accepted_post: sum_mat(&|c| &c.accepted_post),
+            non_finite: chains.iter().map(|c| c.non_finite).sum(),
+            trace,
+        }
+    }
+}
 
-    let pool = Pool::new(&chains, layout, batch);
-    let grid = shared.grid.as_ref().expect("set after the pilot");
-    let soj = Sojourns {
-        sojourns: &sojourns,
-        visits: &visits,
-    };
-    // the three estimates of a pair from a pool of sums: one code path for the final numbers
-    // and for every running point
-    let estimates = |pool: &Pool<'_>, soj: &Sojourns<'_>, a: usize, b: usize| {
+/// The three estimates of a pair from a pool of sums: one code path for the final numbers and
+/// for every running point.
+struct PairEstimator<'a> {
+    prior_p: &'a [f64],
+    ln_ratio: &'a [Vec<f64>],
+    grid: &'a estimate::Grid,
+    boxes: &'a BoxMasses,
+}
+
+impl PairEstimator<'_> {
+    fn estimates(
+        &self,
+        pool: &Pool<'_>,
+        soj: &Sojourns<'_>,
+        a: usize,
+        b: usize,
+    ) -> estimate::PairEstimates {
+        let BoxMasses {
+            ln_p: ln_box,
+            se: ln_box_se,
+            se_g: ln_box_g_se,
+            ..
+        } = self.boxes;
         (
-            estimate::visit_estimate(pool, a, b, &prior_p, soj),
-            estimate::acceptance_estimate(pool, a, b, shared.ln_ratio[a][b]),
+            estimate::visit_estimate(pool, a, b, self.prior_p, soj),
+            estimate::acceptance_estimate(pool, a, b, self.ln_ratio[a][b]),
             estimate::bridge_estimate(
                 pool,
-                grid,
+                self.grid,
                 a,
                 b,
                 [(ln_box[a], ln_box_se[a]), (ln_box[b], ln_box_se[b])],
                 [ln_box_g_se[a], ln_box_g_se[b]],
             ),
         )
-    };
+    }
+}
+
+/// Every pair `a < b`: its estimates, jump counts and a warning when too few jumps were
+/// accepted after burn-in.
+fn pairs(
+    models: &[RjModel<'_>],
+    est: &PairEstimator<'_>,
+    pool: &Pool<'_>,
+    soj: &Sojourns<'_>,
+    layout: Layout,
+    accepted_post: &[Vec<u64>],
+) -> Vec<RjPair> {
+    let k_models = models.len();
     let mut pairs = Vec::new();
     for a in 0..k_models {
         for b in a + 1..k_models {
@@ -770,7 +924,7 @@ pub fn run_rjmcmc(
                     models[a].name, models[b].name
                 )
             });
-            let (visits, rao_blackwell, bridge) = estimates(&pool, &soj, a, b);
+            let (visits, rao_blackwell, bridge) = est.estimates(pool, soj, a, b);
             pairs.push(RjPair {
                 k: a,
                 l: b,
@@ -787,60 +941,7 @@ pub fn run_rjmcmc(
             });
         }
     }
-    let running = estimate::running_points(
-        &chains,
-        layout,
-        batch,
-        opts.burn_in,
-        &pairs,
-        &|pool, soj, a, b| estimates(pool, soj, a, b),
-    );
-    let draws = opts.keep_draws.then(|| RjDraws {
-        model_names: models.iter().map(|m| m.name.clone()).collect(),
-        param_names: param_names.clone(),
-        n_chains,
-        n_draws: n_post,
-        thin: 1,
-        model_index: chains
-            .iter()
-            .flat_map(|c| c.draw_model.iter().copied())
-            .collect(),
-        samples: chains
-            .iter()
-            .flat_map(|c| c.draw_theta.iter().copied())
-            .collect(),
-        ln_likelihood: chains
-            .iter()
-            .flat_map(|c| c.draw_ln_l.iter().copied())
-            .collect(),
-    });
-    Ok(RjResult {
-        model_names: models.iter().map(|m| m.name.clone()).collect(),
-        n_iter: per_chain * n_chains,
-        n_chains,
-        burn_in: opts.burn_in,
-        defensive: w,
-        batch_size: batch,
-        prior_model_probs: prior_p,
-        visits,
-        in_model_acceptance: rw_accepted
-            .iter()
-            .zip(&rw_tried)
-            .map(|(&a, &t)| (t > 0).then(|| a as f64 / t as f64))
-            .collect(),
-        jumps_proposed: proposed,
-        jumps_accepted: accepted,
-        sojourns,
-        regeneration_units: pool.cycles.len(),
-        non_finite,
-        likelihood_calls: chains.iter().map(|c| c.likelihood_calls).sum(),
-        ln_box_mass: ln_box,
-        ln_box_mass_std_err: ln_box_se,
-        pairs,
-        trace,
-        running,
-        draws,
-    })
+    pairs
 }
 
 type Validated = (Vec<f64>, Vec<Vec<f64>>);

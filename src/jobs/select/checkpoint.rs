@@ -8,12 +8,13 @@
 //! directory) and of the data — and a checkpoint of another study or other data is refused.
 
 use super::model::{ModelRun, Sampled, sampled_around, spd_inverse, walk_cov};
+use super::plan::ModelPlan;
 use super::{ModelOutcome, SelectError};
-use crate::config::{ModelSpec, Study};
+use crate::config::Study;
 use crate::data::dataset::Dataset;
 use crate::density::LogDensity;
 use crate::evidence::RjResult;
-use crate::likelihood::{Likelihood, fisher_exact};
+use crate::likelihood::fisher_exact;
 use crate::nested::SubModel;
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
@@ -171,12 +172,8 @@ impl ModelStage {
     }
 
     /// The model stage again, its sampled likelihood rebuilt exactly as the run built it.
-    pub(super) fn restore(
-        self,
-        study: &Study,
-        exact: &Likelihood,
-        spec: &ModelSpec,
-    ) -> Result<ModelRun, String> {
+    pub(super) fn restore(self, m: &ModelPlan<'_>) -> Result<ModelRun, String> {
+        let (exact, spec) = (m.exact, &m.spec);
         let d = spec.free.len();
         if self.jump_center.len() != d || self.jump_cov.len() != d * d {
             return Err(format!(
@@ -189,7 +186,7 @@ impl ModelStage {
             .map_err(|e| e.to_string())?;
         let fisher_cov = spd_inverse(&fisher_exact(exact, &self.base, &spec.free));
         let cov = walk_cov(fisher_cov.as_ref(), sub.prior());
-        let (sampled, _) = sampled_around(study, exact, spec, &self.base, &cov);
+        let (sampled, _) = sampled_around(m, &self.base, &cov);
         if matches!(sampled, Sampled::RelBin(_)) != self.relbin {
             return Err(format!(
                 "the sampled likelihood of `{}` does not rebuild as checkpointed",

@@ -13,6 +13,7 @@ mod job;
 mod model;
 mod output;
 mod pair;
+mod plan;
 
 pub use checkpoint::{FILE as CHECKPOINT_FILE, SelectCheckpoint, identity};
 
@@ -25,13 +26,12 @@ pub use pair::{EstimateKind, JumpStats, PairEstimate, PairResult};
 
 use crate::config::Study;
 use crate::density::LogDensity;
-use crate::evidence::{LaplaceEstimate, ProposalShape, RjModel, RjOptions, RjResult, run_rjmcmc};
-use crate::jobs::prepare::{Prepared, likelihood_of, model_warnings, truth_of};
-use crate::likelihood::Likelihood;
+use crate::evidence::{LaplaceEstimate, RjModel, RjOptions, RjResult, run_rjmcmc};
+use crate::jobs::prepare::{Prepared, model_warnings, truth_of};
 use crate::nested::SubModel;
-use model::Sampled;
+use model::{ModelRun, Sampled};
+use plan::{Parents, SelectPlan};
 use serde::Serialize;
-use std::borrow::Cow;
 use std::time::Instant;
 
 /// Errors of a model-selection run.
@@ -243,21 +243,14 @@ pub fn work_units(study: &Study) -> u64 {
 pub fn run_observed(
     study: &Study,
     prep: &Prepared,
-    mut progress: Option<&mut dyn FnMut(&crate::evidence::RjProgress<'_>)>,
+    progress: Option<&mut dyn FnMut(&crate::evidence::RjProgress<'_>)>,
     work: Option<&crate::jobs::progress::Work>,
     mut ckpt: Option<Checkpointing<'_>>,
 ) -> Result<SelectSummary, SelectError> {
-    use std::sync::atomic::Ordering;
     if let Some(w) = work {
         w.start(work_units(study));
     }
-    let add = |n: usize| {
-        if let Some(w) = work {
-            w.done.fetch_add(n as u64, Ordering::Relaxed);
-        }
-    };
     let t0 = Instant::now();
-    let sel = &study.select;
     if study.select_models.len() < 2 {
         return Err(SelectError::Config(format!(
             "{}: `select.model`: model selection needs at least two [[select.model]] tables",
@@ -265,31 +258,33 @@ pub fn run_observed(
         )));
     }
     // one exact likelihood per parent model in use
-    let mut parents: Vec<usize> = study.select_models.iter().map(|m| m.spec.model).collect();
-    parents.sort_unstable();
-    parents.dedup();
-    let mut exacts: Vec<(usize, Cow<Likelihood>)> = Vec::new();
-    for &mi in &parents {
-        let lik = if mi == study.fit_model.model {
-            Cow::Borrowed(&prep.likelihood)
-        } else {
-            Cow::Owned(
-                likelihood_of(study, mi, &prep.dataset).map_err(|e| SelectError::Model {
-                    model: study.models.defs[mi].name().to_string(),
-                    msg: e.to_string(),
-                })?,
-            )
-        };
-        exacts.push((mi, lik));
+    let parents = Parents::new(study, prep)?;
+    let plan = SelectPlan::new(study, &parents);
+    let runs = run_models(&plan, &mut ckpt, work)?;
+    let rj = reversible_jump(&plan, &parents, &runs, &mut ckpt, progress, work)?;
+    let mut out = summarise(study, prep, &plan, &parents, runs, rj)?;
+    out.seconds = t0.elapsed().as_secs_f64();
+    Ok(out)
+}
+
+/// Counts `n` more likelihood evaluations into `work`.
+fn add_work(work: Option<&crate::jobs::progress::Work>, n: usize) {
+    if let Some(w) = work {
+        w.done
+            .fetch_add(n as u64, std::sync::atomic::Ordering::Relaxed);
     }
-    let exact_of =
-        |mi: usize| -> &Likelihood { &exacts.iter().find(|(i, _)| *i == mi).expect("built").1 };
-    let first = exact_of(study.select_models[0].spec.model);
-    let seed = sel.seed.unwrap_or(study.seed.wrapping_add(2));
-    let n_sbic = sel.schwarz_n.unwrap_or(first.n_real_data() as f64);
+}
+
+/// Every model's stages in turn — the in-model stage, then its tempering — each restored from
+/// the checkpoint where it holds it, and saved to it once done.
+fn run_models(
+    plan: &SelectPlan<'_>,
+    ckpt: &mut Option<Checkpointing<'_>>,
+    work: Option<&crate::jobs::progress::Work>,
+) -> Result<Vec<ModelRun>, SelectError> {
     let mut runs = Vec::new();
-    for (k, m) in study.select_models.iter().enumerate() {
-        let exact = exact_of(m.spec.model);
+    for (k, m) in plan.models.iter().enumerate() {
+        let st = &m.stages;
         let saved = ckpt.as_ref().and_then(|c| c.state.models.get(k).cloned());
         let tempered = saved.as_ref().is_some_and(|s| s.tempered);
         let err = |msg| SelectError::Model {
@@ -297,11 +292,11 @@ pub fn run_observed(
             msg,
         };
         let mut r = match saved {
-            Some(stage) => stage.restore(study, exact, &m.spec),
-            None => model::run_model(study, exact, m, seed.wrapping_add(k as u64), n_sbic),
+            Some(stage) => stage.restore(m),
+            None => model::run_model(m),
         }
         .map_err(err)?;
-        add(sel.chains * sel.iterations);
+        add_work(work, st.chains * st.iterations);
         if let Some(c) = ckpt.as_mut()
             && c.state.models.len() == k
         {
@@ -309,23 +304,38 @@ pub fn run_observed(
             c.state.write(c.path)?;
         }
         if !tempered {
-            model::temper(study, exact, &mut r, &|| add(sel.pt_temperatures)).map_err(err)?;
+            model::temper(m, &mut r, &|| add_work(work, st.pt_temperatures)).map_err(err)?;
             if let Some(c) = ckpt.as_mut() {
                 c.state.models[k] = checkpoint::ModelStage::of(&r, true);
                 c.state.write(c.path)?;
             }
         } else {
-            add(sel.pt_temperatures * sel.pt_iterations);
+            add_work(work, st.pt_temperatures * st.pt_iterations);
         }
         runs.push(r);
     }
-    let rj_base = work.map_or(0, |w| w.done.load(Ordering::Relaxed));
-    // reversible jump over all models, each on its own sampled likelihood
+    Ok(runs)
+}
+
+/// The reversible-jump run and why it did not run, and its iterations per second.
+type RjStage = (Option<RjResult>, Option<String>, f64);
+
+/// The reversible jump over all models, each on its own sampled likelihood: restored from
+/// the checkpoint where it holds it, else run and saved.
+fn reversible_jump(
+    plan: &SelectPlan<'_>,
+    parents: &Parents<'_>,
+    runs: &[ModelRun],
+    ckpt: &mut Option<Checkpointing<'_>>,
+    progress: Option<&mut dyn FnMut(&crate::evidence::RjProgress<'_>)>,
+    work: Option<&crate::jobs::progress::Work>,
+) -> Result<RjStage, SelectError> {
+    let rj_base = work.map_or(0, |w| w.done.load(std::sync::atomic::Ordering::Relaxed));
     let targets: Vec<&dyn LogDensity> = runs
         .iter()
         .map(|r| match &r.sampled {
             Sampled::RelBin(rb) => rb.as_ref() as &dyn LogDensity,
-            Sampled::Exact(mi) => exact_of(*mi) as &dyn LogDensity,
+            Sampled::Exact(mi) => parents.of(*mi) as &dyn LogDensity,
         })
         .collect();
     let subs: Vec<SubModel<&dyn LogDensity>> = runs
@@ -337,7 +347,7 @@ pub fn run_observed(
     let rj_models: Vec<RjModel<'_>> = runs
         .iter()
         .zip(&subs)
-        .zip(&study.select_models)
+        .zip(&plan.models)
         .map(|((r, s), m)| RjModel {
             name: m.name.clone(),
             target: s as &dyn LogDensity,
@@ -345,74 +355,74 @@ pub fn run_observed(
             cov: r.jump_cov.clone(),
         })
         .collect();
-    let opts = RjOptions {
-        n_iter: sel.rj_iterations,
-        burn_in: sel.rj_burn_in,
-        seed,
-        prior_model_probs: Some(
-            study
-                .select_models
-                .iter()
-                .map(|m| m.prior_probability)
-                .collect(),
+    if let Some(s) = ckpt.as_ref().and_then(|c| c.state.rj.clone()) {
+        let mut rj = s.rj;
+        if let Some(r) = rj.as_mut() {
+            r.draws = s.draws;
+        }
+        return Ok((rj, s.note, s.rate));
+    }
+    run_rj(&rj_models, &plan.rj, ckpt, progress, work, rj_base)
+}
+
+/// Runs the reversible jump on `rj_models` (work counted from `rj_base` on) and saves it to
+/// the checkpoint.
+fn run_rj(
+    rj_models: &[RjModel<'_>],
+    opts: &RjOptions,
+    ckpt: &mut Option<Checkpointing<'_>>,
+    mut progress: Option<&mut dyn FnMut(&crate::evidence::RjProgress<'_>)>,
+    work: Option<&crate::jobs::progress::Work>,
+    rj_base: u64,
+) -> Result<RjStage, SelectError> {
+    let t_rj = Instant::now();
+    let mut observe = |p: &crate::evidence::RjProgress<'_>| {
+        if let Some(w) = work {
+            w.done.store(
+                rj_base + p.iteration as u64,
+                std::sync::atomic::Ordering::Relaxed,
+            );
+        }
+        if let Some(f) = progress.as_mut() {
+            f(p);
+        }
+    };
+    let (mut rj, note) = match run_rjmcmc(rj_models, opts, Some(&mut observe)) {
+        Ok(r) => (Some(r), None),
+        Err(e) => (
+            None,
+            Some(format!("the reversible-jump chain did not run: {e}")),
         ),
-        proposal: if sel.student_t > 0.0 {
-            ProposalShape::StudentT { nu: sel.student_t }
-        } else {
-            ProposalShape::Gaussian
-        },
-        jump_scale: sel.jump_scale,
-        n_chains: sel.rj_chains,
-        defensive: sel.defensive,
-        keep_draws: true,
-        ..Default::default()
     };
-    let saved_rj = ckpt.as_ref().and_then(|c| c.state.rj.clone());
-    let (rj, rj_note, rj_rate) = match saved_rj {
-        Some(s) => {
-            let mut rj = s.rj;
-            if let Some(r) = rj.as_mut() {
-                r.draws = s.draws;
-            }
-            (rj, s.note, s.rate)
+    let rate = opts.n_iter as f64 / t_rj.elapsed().as_secs_f64();
+    if let Some(c) = ckpt.as_mut() {
+        // the draws move into the checkpoint for writing and back out (no copy)
+        let draws = rj.as_mut().and_then(|r| r.draws.take());
+        c.state.rj = Some(checkpoint::RjStage {
+            rj: rj.clone(),
+            note: note.clone(),
+            rate,
+            draws,
+        });
+        let written = c.state.write(c.path);
+        if let (Some(r), Some(stage)) = (rj.as_mut(), c.state.rj.as_mut()) {
+            r.draws = stage.draws.take();
         }
-        None => {
-            let t_rj = Instant::now();
-            let mut observe = |p: &crate::evidence::RjProgress<'_>| {
-                if let Some(w) = work {
-                    w.done
-                        .store(rj_base + p.iteration as u64, Ordering::Relaxed);
-                }
-                if let Some(f) = progress.as_mut() {
-                    f(p);
-                }
-            };
-            let (mut rj, note) = match run_rjmcmc(&rj_models, &opts, Some(&mut observe)) {
-                Ok(r) => (Some(r), None),
-                Err(e) => (
-                    None,
-                    Some(format!("the reversible-jump chain did not run: {e}")),
-                ),
-            };
-            let rate = sel.rj_iterations as f64 / t_rj.elapsed().as_secs_f64();
-            if let Some(c) = ckpt.as_mut() {
-                // the draws move into the checkpoint for writing and back out (no copy)
-                let draws = rj.as_mut().and_then(|r| r.draws.take());
-                c.state.rj = Some(checkpoint::RjStage {
-                    rj: rj.clone(),
-                    note: note.clone(),
-                    rate,
-                    draws,
-                });
-                let written = c.state.write(c.path);
-                if let (Some(r), Some(stage)) = (rj.as_mut(), c.state.rj.as_mut()) {
-                    r.draws = stage.draws.take();
-                }
-                written?;
-            }
-            (rj, note, rate)
-        }
-    };
+        written?;
+    }
+    Ok((rj, note, rate))
+}
+
+/// The summary of a finished run: pairs, warnings (models, data, estimators), residual PSDs
+/// (Fig. 3) and the optimal SNR; `seconds` is left 0 for the caller.
+fn summarise(
+    study: &Study,
+    prep: &Prepared,
+    plan: &SelectPlan<'_>,
+    parents: &Parents<'_>,
+    runs: Vec<ModelRun>,
+    (rj, rj_note, rj_rate): RjStage,
+) -> Result<SelectSummary, SelectError> {
     let mut model_chains = Vec::with_capacity(runs.len());
     let mut models: Vec<ModelOutcome> = Vec::with_capacity(runs.len());
     for r in runs {
@@ -426,8 +436,8 @@ pub fn run_observed(
         }
     }
     let mut warnings: Vec<String> = parents
-        .iter()
-        .flat_map(|&mi| model_warnings(study, mi, &prep.dataset))
+        .indices()
+        .flat_map(|mi| model_warnings(study, mi, &prep.dataset))
         .collect();
     for m in &models {
         warnings.extend(m.notes.iter().map(|n| format!("model `{}`: {n}", m.name)));
@@ -441,9 +451,9 @@ pub fn run_observed(
     }
     // the paper's Fig. 3: each model's residual PSD at its MAP
     let mut residual_psd = Vec::new();
-    for (m, sm) in models.iter().zip(&study.select_models) {
+    for (m, pm) in models.iter().zip(&plan.models) {
         match crate::likelihood::residual_psd::residual_psds(
-            exact_of(sm.spec.model),
+            pm.exact,
             &prep.dataset.experiments,
             &m.map,
         ) {
@@ -452,8 +462,8 @@ pub fn run_observed(
         }
     }
     // ρ_opt at the truth where the first model has every true value, else at its MAP
-    let m0 = study.select_models[0].spec.model;
-    let truth_snr = truth_of(study, m0, &prep.dataset)
+    let first = plan.models[0].exact;
+    let truth_snr = truth_of(study, plan.models[0].spec.model, &prep.dataset)
         .and_then(|t| t.into_iter().collect::<Option<Vec<f64>>>())
         .map(|t| first.snr(&t));
     Ok(SelectSummary {
@@ -462,14 +472,14 @@ pub fn run_observed(
         rho_opt: truth_snr.unwrap_or_else(|| first.snr(&models[0].map)),
         n_bins: first.n_bins(),
         statistic: first.statistic(),
-        schwarz_n: n_sbic,
+        schwarz_n: plan.n_sbic,
         posterior_model_probabilities: pair::posterior_probabilities(&models, &pairs),
         models,
         pairs,
         rj,
         rj_note,
         rj_iterations_per_second: rj_rate,
-        seconds: t0.elapsed().as_secs_f64(),
+        seconds: 0.0,
         warnings,
         residual_psd,
         model_chains,

@@ -6,14 +6,14 @@
 //! distinct samples. Only a model with no point inside its prior where `ln L` is finite stops
 //! the run (nothing can be computed for it).
 
+use super::plan::{ModelPlan, StageSettings};
 use super::{Evidence, ModelOutcome, TemperingDiagnostics};
-use crate::config::{JumpProposal, LikelihoodKind, ModelSpec, SelectModel, Study};
+use crate::config::{JumpProposal, LikelihoodKind, ModelSpec};
 use crate::density::LogDensity;
 use crate::evidence::{
-    LaplaceOptions, McdOptions, MveOptions, RobustMethod, TemperingOptions, laplace_fisher,
-    laplace_metropolis, run_tempering_observed, schwarz_ln_z,
+    LaplaceEstimate, LaplaceOptions, McdOptions, MveOptions, RobustMethod, TemperingOptions,
+    laplace_fisher, laplace_metropolis, run_tempering_observed, schwarz_ln_z,
 };
-use crate::jobs::prepare::{default_start, relbin_in_region};
 use crate::likelihood::{
     Likelihood, RelBinLikelihood, Statistic, fisher_exact, fisher_scoring,
     fisher_scoring_unbounded, refine_statistic_max,
@@ -179,7 +179,6 @@ fn sample_matrix(chains: &Chains) -> DMatrix<f64> {
     m
 }
 
-/// Runs every per-model stage for competing model `m` on its parent's exact likelihood.
 /// The random-walk covariance of a model's samplers: the inverse Fisher matrix capped at the
 /// prior's marginal widths, or the prior's covariance when the Fisher matrix is singular.
 pub(super) fn walk_cov(fisher_cov: Option<&DMatrix<f64>>, prior: &Prior) -> DMatrix<f64> {
@@ -192,17 +191,15 @@ pub(super) fn walk_cov(fisher_cov: Option<&DMatrix<f64>>, prior: &Prior) -> DMat
 /// relative-binned one when it is not. Deterministic, so a run resumed from a checkpoint
 /// rebuilds the very likelihood the checkpointed stage sampled.
 pub(super) fn sampled_around(
-    study: &Study,
-    exact: &Likelihood,
-    spec: &ModelSpec,
+    m: &ModelPlan<'_>,
     base: &[f64],
     walk_cov: &DMatrix<f64>,
 ) -> (Sampled, Vec<String>) {
-    let (kind, why) = crate::jobs::prepare::sampled_kind(study, exact);
-    let mut notes: Vec<String> = why.into_iter().collect();
-    let sampled = match kind {
+    let (exact, spec) = (m.exact, &m.spec);
+    let mut notes: Vec<String> = m.sampled_why.iter().cloned().collect();
+    let sampled = match m.sampled_kind {
         LikelihoodKind::Relbin => {
-            match relbin_in_region(study, exact, base, &spec.free, walk_cov) {
+            match RelBinLikelihood::with_covariance(exact, base, &m.relbin, &spec.free, walk_cov) {
                 Ok(rb) => Sampled::RelBin(Box::new(rb)),
                 Err(e) => {
                     notes.push(format!(
@@ -217,24 +214,22 @@ pub(super) fn sampled_around(
     (sampled, notes)
 }
 
-pub(super) fn run_model(
-    study: &Study,
-    exact: &Likelihood,
-    m: &SelectModel,
-    seed: u64,
-    n_sbic: f64,
-) -> Result<ModelRun, String> {
-    let spec = &m.spec;
-    let free = &spec.free;
-    let d = free.len();
-    let names = exact.model().param_names().to_vec();
-    let free_names: Vec<String> = free.iter().map(|&i| names[i].clone()).collect();
-    let sel = &study.select;
-    let mut notes = Vec::new();
-    let start = default_start(study, spec);
+/// The MAP search of a model and the Fisher matrix where it ended.
+struct MapStage {
+    /// The MAP, when the search converged.
+    theta: Option<Vec<f64>>,
+    /// Why the search failed.
+    err: Option<String>,
+    /// Free parameters whose MAP value is on a bound of the prior box.
+    at_bound: Vec<String>,
+    /// The MAP, or the start point without one: where the sub-models embed.
+    base: Vec<f64>,
+}
 
-    // MAP (bounded) and the Fisher matrix there
-    let map = fisher_scoring(exact, &start, free, 1e-3, 200);
+/// The bounded MAP search from the plan's start; notes a failure and a MAP on the prior box.
+fn map_search(m: &ModelPlan<'_>, notes: &mut Vec<String>) -> MapStage {
+    let (exact, free, names) = (m.exact, &m.spec.free, &m.param_names);
+    let map = fisher_scoring(exact, &m.start, free, 1e-3, 200);
     let (map_theta, map_err) = match &map {
         Ok(r) => (Some(r.theta.clone()), None),
         Err(e) => (None, Some(format!("MAP search: {e}"))),
@@ -244,27 +239,40 @@ pub(super) fn run_model(
     }
     let map_at_bound = map
         .as_ref()
-        .map(|r| r.bound_names(&names, free))
+        .map(|r| r.bound_names(names, free))
         .unwrap_or_default();
     if let Ok(r) = &map
         && !map_at_bound.is_empty()
     {
         notes.push(format!(
             "the MAP is on a bound of the prior box: {}; the posterior is cut by the prior there",
-            r.bound_report(&names, exact.prior().kinds(), free)
+            r.bound_report(names, exact.prior().kinds(), free)
                 .join("; ")
         ));
     }
-    let base = map_theta.clone().unwrap_or_else(|| start.clone());
-    let sub_exact = SubModel::new(exact, free.clone(), base.clone()).map_err(|e| e.to_string())?;
-    let prior = sub_exact.prior().clone();
-    let f_map = fisher_exact(exact, &base, free);
+    let base = map_theta.clone().unwrap_or_else(|| m.start.clone());
+    MapStage {
+        theta: map_theta,
+        err: map_err,
+        at_bound: map_at_bound,
+        base,
+    }
+}
+
+/// The Fisher matrix at the MAP (or start point) and its inverse; a singular one is noted
+/// with the directions the data do not constrain.
+fn fisher_at(
+    m: &ModelPlan<'_>,
+    map: &MapStage,
+    notes: &mut Vec<String>,
+) -> (DMatrix<f64>, Option<DMatrix<f64>>) {
+    let f_map = fisher_exact(m.exact, &map.base, &m.spec.free);
     let fisher_cov = spd_inverse(&f_map);
     if fisher_cov.is_none() {
-        let (detail, named) = crate::likelihood::describe_unconstrained(&f_map, &free_names);
+        let (detail, named) = crate::likelihood::describe_unconstrained(&f_map, &m.free_names);
         notes.push(format!(
             "the Fisher matrix at the {} is singular: {detail}; fix {} (`fixed` of this [[select.model]]) or add an experiment that excites {}",
-            if map_theta.is_some() {
+            if map.theta.is_some() {
                 "MAP"
             } else {
                 "start point"
@@ -273,81 +281,118 @@ pub(super) fn run_model(
             if named.len() == 1 { "it" } else { "them" }
         ));
     }
-    let walk_cov = walk_cov(fisher_cov.as_ref(), &prior);
+    (f_map, fisher_cov)
+}
 
-    // the sampled likelihood
-    let statistic = exact.statistic();
-    let whittle = statistic == Statistic::Whittle;
-    let (sampled, why) = sampled_around(study, exact, spec, &base, &walk_cov);
-    notes.extend(why);
-    let target: &dyn LogDensity = match &sampled {
-        Sampled::RelBin(rb) => rb.as_ref(),
-        Sampled::Exact(_) => exact,
-    };
-    let sub_s = SubModel::new(target, free.clone(), base.clone()).map_err(|e| e.to_string())?;
-
-    // in-model chains from starts inside the prior
-    let centre = free_vec(&base, free);
-    let starts = chain_starts(&sub_s, &centre, &walk_cov, sel.chains, seed)?;
+/// The in-model Metropolis–Hastings chains on the sampled sub-model `sub_s`, from starts
+/// inside the prior around `centre`; `None` (noted) when they fail.
+fn in_model_chains(
+    m: &ModelPlan<'_>,
+    sub_s: &SubModel<&dyn LogDensity>,
+    centre: &[f64],
+    walk_cov: &DMatrix<f64>,
+    notes: &mut Vec<String>,
+) -> Result<Option<Chains>, String> {
+    let st = &m.stages;
+    let starts = chain_starts(sub_s, centre, walk_cov, st.chains, m.seed)?;
     let settings = MhSettings {
-        n_iter: sel.iterations,
-        burn_in: sel.burn_in,
+        n_iter: st.iterations,
+        burn_in: st.burn_in,
         thin: 1,
-        n_chains: sel.chains,
-        seed,
+        n_chains: st.chains,
+        seed: m.seed,
         anneal: None,
         adapt: Some(crate::sampler::Adapt {
-            start: sel.burn_in / 5,
+            start: st.burn_in / 5,
             ..Default::default()
         }),
-        checkpoint_every: sel.iterations,
-        progress_every: sel.iterations,
+        checkpoint_every: st.iterations,
+        progress_every: st.iterations,
     };
-    let prop = &walk_cov * (2.38f64.powi(2) / d.max(1) as f64);
-    let chains = MetropolisHastings::new(&sub_s, &prop, settings)
+    let prop = walk_cov * (2.38f64.powi(2) / m.spec.free.len().max(1) as f64);
+    let chains = MetropolisHastings::new(sub_s, &prop, settings)
         .and_then(|mh| mh.run(&Start::PerChain(starts)))
         .map_err(|e| e.to_string())
         .and_then(|o| match o {
             RunOutcome::Finished(c) => Ok(c),
             RunOutcome::Stopped { .. } => Err("the in-model chains stopped early".to_string()),
         });
-    let chains = match chains {
+    Ok(match chains {
         Ok(c) => Some(c),
         Err(e) => {
             notes.push(format!("in-model chains: {e}"));
             None
         }
-    };
-    let diag = chains.as_ref().and_then(|c| c.diagnostics().ok());
+    })
+}
 
-    // jump proposal: the chains' mean and covariance, or the Fisher Gaussian
-    let chain_moments = chains.as_ref().and_then(|c| {
+/// The jump proposal (centre, covariance, source): the chains' mean and covariance, or the
+/// Fisher Gaussian at the MAP, or the prior covariance; a fallback from the chains is noted.
+fn jump_proposal(
+    m: &ModelPlan<'_>,
+    chains: Option<&Chains>,
+    fisher_cov: Option<&DMatrix<f64>>,
+    centre: &[f64],
+    prior: &Prior,
+    notes: &mut Vec<String>,
+) -> (Vec<f64>, DMatrix<f64>, &'static str) {
+    let d = m.spec.free.len();
+    let chain_moments = chains.and_then(|c| {
         let cov = DMatrix::from_row_slice(d, d, &c.covariance());
         spd_inverse(&cov).map(|_| (c.mean(), cov))
     });
-    let (jump_center, jump_cov, jump_source) = match (sel.jump_proposal, chain_moments) {
+    let (jump_center, jump_cov, jump_source) = match (m.stages.jump_proposal, chain_moments) {
         (JumpProposal::Chain, Some((mu, cov))) => (mu, cov, "in-model chains"),
-        (JumpProposal::Chain, None) | (JumpProposal::Fisher, _) => match &fisher_cov {
-            Some(c) => (centre.clone(), c.clone(), "Fisher matrix at the MAP"),
-            None => (centre.clone(), prior_cov(&prior), "prior covariance"),
+        (JumpProposal::Chain, None) | (JumpProposal::Fisher, _) => match fisher_cov {
+            Some(c) => (centre.to_vec(), c.clone(), "Fisher matrix at the MAP"),
+            None => (centre.to_vec(), prior_cov(prior), "prior covariance"),
         },
     };
-    if sel.jump_proposal == JumpProposal::Chain && jump_source != "in-model chains" {
+    if m.stages.jump_proposal == JumpProposal::Chain && jump_source != "in-model chains" {
         notes.push(format!(
             "the jump proposal uses the {jump_source}: the in-model chains gave no covariance"
         ));
     }
+    (jump_center, jump_cov, jump_source)
+}
 
+/// The Laplace–Fisher estimates of a model and what they found on the way.
+struct LaplaceFisher {
+    /// `ln L` at the statistic's own maximum, when it was refined (non-Whittle statistics).
+    stat_max_ln_l: Option<f64>,
+    /// Raw: at the MAP (or the statistic's maximum), the prior box ignored.
+    raw: Result<LaplaceEstimate, String>,
+    /// Box-corrected: at the unconstrained maximum.
+    boxed: Result<LaplaceEstimate, String>,
+    /// The unconstrained maximum of `ln L`, when found.
+    unbounded_max: Option<Vec<f64>>,
+    /// Smallest distance of the raw expansion point from a prior bound, in Fisher σ.
+    min_margin_sigma: f64,
+}
+
+/// Laplace–Fisher raw at the MAP (at the statistic's own maximum with its observed
+/// information for a statistic other than Whittle's) and box-corrected at the unconstrained
+/// maximum; a statistic whose `ln L` is not finite at the Whittle MAP is noted.
+fn laplace_fisher_stage(
+    m: &ModelPlan<'_>,
+    map: &MapStage,
+    (f_map, fisher_cov): (&DMatrix<f64>, Option<&DMatrix<f64>>),
+    sub_exact: &SubModel<&Likelihood>,
+    notes: &mut Vec<String>,
+) -> LaplaceFisher {
+    let (exact, free, d) = (m.exact, &m.spec.free, m.spec.free.len());
+    let statistic = exact.statistic();
+    let whittle = statistic == Statistic::Whittle;
     // the statistic's own maximum and observed information (the Whittle MAP and Fisher
     // matrix otherwise)
-    let stat_max = match (&map_theta, &fisher_cov, whittle) {
+    let stat_max = match (&map.theta, fisher_cov, whittle) {
         (Some(th), Some(c), false) => {
             let sigma: Vec<f64> = (0..d).map(|i| c[(i, i)].sqrt()).collect();
             refine_statistic_max(exact, th, free, &sigma, 30)
         }
         _ => None,
     };
-    if !whittle && map_theta.is_some() && stat_max.is_none() {
+    if !whittle && map.theta.is_some() && stat_max.is_none() {
         notes.push(format!(
             "ln L of statistic \"{}\" is not finite at the Whittle MAP",
             statistic.name()
@@ -355,13 +400,13 @@ pub(super) fn run_model(
     }
     let (lf_theta, lf_info) = match &stat_max {
         Some((th, _, info)) => (Some(th.clone()), info.clone()),
-        None if whittle => (map_theta.clone(), f_map.clone()),
+        None if whittle => (map.theta.clone(), f_map.clone()),
         None => (None, f_map.clone()),
     };
     // Laplace–Fisher: raw at the MAP, box-corrected at the unconstrained maximum
-    let lf_raw = match (&lf_theta, &fisher_cov) {
+    let lf_raw = match (&lf_theta, fisher_cov) {
         (Some(th), Some(_)) => laplace_fisher(
-            &sub_exact,
+            sub_exact,
             &free_vec(th, free),
             &lf_info,
             &LaplaceOptions {
@@ -372,13 +417,13 @@ pub(super) fn run_model(
         .map_err(|e| e.to_string()),
         (None, _) => Err(format!(
             "needs the MAP ({})",
-            map_err.clone().unwrap_or_default()
+            map.err.clone().unwrap_or_default()
         )),
         (_, None) => Err("needs a non-singular Fisher matrix at the MAP".into()),
     };
     let min_margin_sigma = lf_raw.as_ref().map_or(0.0, |e| e.min_margin_sigma);
     let unb = if whittle {
-        fisher_scoring_unbounded(exact, &base, free, 1e-3, 200).map_err(|e| {
+        fisher_scoring_unbounded(exact, &map.base, free, 1e-3, 200).map_err(|e| {
             format!("the unconstrained maximum of ln L was not found ({e}); the box-corrected expansion needs it")
         })
     } else {
@@ -390,21 +435,40 @@ pub(super) fn run_model(
     let lf_box = unb.as_ref().map_err(|e| e.clone()).and_then(|u| {
         let f = fisher_exact(exact, &u.theta, free);
         laplace_fisher(
-            &sub_exact,
+            sub_exact,
             &free_vec(&u.theta, free),
             &f,
             &LaplaceOptions::default(),
         )
         .map_err(|e| e.to_string())
     });
+    LaplaceFisher {
+        stat_max_ln_l: stat_max.map(|s| s.1),
+        raw: lf_raw,
+        boxed: lf_box,
+        unbounded_max: unb.map(|u| u.theta).ok(),
+        min_margin_sigma,
+    }
+}
 
-    // Laplace–Metropolis at the best sample, ln L exact there
-    let (lm_mve, lm_mcd, best) = match &chains {
+/// Laplace–Metropolis with the MVE and MCD covariances of the chains at their best sample
+/// (`ln L` exact there), and that sample.
+type LaplaceMetropolis = (
+    Result<LaplaceEstimate, String>,
+    Result<LaplaceEstimate, String>,
+    Option<Vec<f64>>,
+);
+
+fn laplace_metropolis_stage(
+    chains: Option<&Chains>,
+    sub_exact: &SubModel<&Likelihood>,
+) -> LaplaceMetropolis {
+    match chains {
         Some(c) => {
             let samples = sample_matrix(c);
             let best = c.max_posterior().theta.to_vec();
             let lm = |method: RobustMethod| {
-                laplace_metropolis(&sub_exact, &best, &samples, &method).map_err(|e| e.to_string())
+                laplace_metropolis(sub_exact, &best, &samples, &method).map_err(|e| e.to_string())
             };
             (
                 lm(RobustMethod::Mve(MveOptions::default())),
@@ -413,27 +477,17 @@ pub(super) fn run_model(
             )
         }
         None => {
-            let why = Err::<crate::evidence::LaplaceEstimate, String>(
+            let why = Err::<LaplaceEstimate, String>(
                 "needs the in-model chains, which did not run".into(),
             );
             (why.clone(), why, None)
         }
-    };
-    // parallel tempering (its own stage: [`temper`]) starts from the best sample with the
-    // chains' covariance
-    let tempering_start = best.clone().unwrap_or_else(|| centre.clone());
+    }
+}
 
-    // Schwarz at the MAP, or at the best sample when there is no MAP
-    let ln_l_map = match (&map_theta, &best) {
-        // the statistic's maximum, not its value at the Whittle MAP
-        (Some(_), _) if stat_max.is_some() => stat_max.as_ref().map_or(f64::NAN, |s| s.1),
-        (Some(th), _) => exact.ln_likelihood_full(th),
-        (None, Some(b)) => sub_exact.ln_likelihood(b),
-        (None, None) => exact.ln_likelihood_full(&base),
-    };
-    let schwarz = schwarz_ln_z(ln_l_map, d, n_sbic).map_err(|e| e.to_string())?;
-
-    let raw_assumes = if whittle {
+/// What the raw Laplace–Fisher expansion assumes, for the table.
+fn raw_assumes(statistic: Statistic, min_margin_sigma: f64) -> String {
+    if statistic == Statistic::Whittle {
         format!(
             "a Gaussian posterior around the MAP, the prior box ignored (MAP {min_margin_sigma:.1} σ inside the nearest bound)"
         )
@@ -442,28 +496,93 @@ pub(super) fn run_model(
             "a Gaussian posterior around the maximum of the {} ln L with its numerical Hessian, the prior box ignored (maximum {min_margin_sigma:.1} σ inside the nearest bound)",
             statistic.name()
         )
+    }
+}
+
+/// Runs every per-model stage but tempering ([`temper`]) for a competing model on its
+/// parent's exact likelihood: MAP and Fisher matrix, the sampled likelihood, the in-model
+/// chains, the jump proposal, Laplace–Fisher, Laplace–Metropolis and Schwarz.
+pub(super) fn run_model(m: &ModelPlan<'_>) -> Result<ModelRun, String> {
+    let (exact, spec) = (m.exact, &m.spec);
+    let free = &spec.free;
+    let d = free.len();
+    let mut notes = Vec::new();
+
+    // MAP (bounded) and the Fisher matrix there
+    let map = map_search(m, &mut notes);
+    let base = map.base.clone();
+    let sub_exact = SubModel::new(exact, free.clone(), base.clone()).map_err(|e| e.to_string())?;
+    let prior = sub_exact.prior().clone();
+    let (f_map, fisher_cov) = fisher_at(m, &map, &mut notes);
+    let walk_cov = walk_cov(fisher_cov.as_ref(), &prior);
+
+    // the sampled likelihood
+    let (sampled, why) = sampled_around(m, &base, &walk_cov);
+    notes.extend(why);
+    let target: &dyn LogDensity = match &sampled {
+        Sampled::RelBin(rb) => rb.as_ref(),
+        Sampled::Exact(_) => exact,
     };
+    let sub_s = SubModel::new(target, free.clone(), base.clone()).map_err(|e| e.to_string())?;
+
+    // in-model chains from starts inside the prior
+    let centre = free_vec(&base, free);
+    let chains = in_model_chains(m, &sub_s, &centre, &walk_cov, &mut notes)?;
+    let diag = chains.as_ref().and_then(|c| c.diagnostics().ok());
+    let (jump_center, jump_cov, jump_source) = jump_proposal(
+        m,
+        chains.as_ref(),
+        fisher_cov.as_ref(),
+        &centre,
+        &prior,
+        &mut notes,
+    );
+    let lf = laplace_fisher_stage(
+        m,
+        &map,
+        (&f_map, fisher_cov.as_ref()),
+        &sub_exact,
+        &mut notes,
+    );
+    let (lm_mve, lm_mcd, best) = laplace_metropolis_stage(chains.as_ref(), &sub_exact);
+    // parallel tempering (its own stage: [`temper`]) starts from the best sample with the
+    // chains' covariance
+    let tempering_start = best.clone().unwrap_or_else(|| centre.clone());
+
+    // Schwarz at the MAP, or at the best sample when there is no MAP
+    let ln_l_map = match (&map.theta, &best, lf.stat_max_ln_l) {
+        // the statistic's maximum, not its value at the Whittle MAP
+        (Some(_), _, Some(l)) => l,
+        (Some(th), _, None) => exact.ln_likelihood_full(th),
+        (None, Some(b), _) => sub_exact.ln_likelihood(b),
+        (None, None, _) => exact.ln_likelihood_full(&base),
+    };
+    let schwarz = schwarz_ln_z(ln_l_map, d, m.n_sbic).map_err(|e| e.to_string())?;
+
     let box_assumes =
         "a Gaussian likelihood around its unconstrained maximum, cut by the prior box".to_string();
     let lm_assumes = "a Gaussian posterior with the chains' robust covariance, centred on the best sample, the prior box ignored".to_string();
     let outcome = ModelOutcome {
         name: m.name.clone(),
         model: exact.model().name().to_string(),
-        params: names.clone(),
-        free: free_names,
+        params: m.param_names.clone(),
+        free: m.free_names.clone(),
         prior_probability: m.prior_probability,
         map: base.clone(),
-        map_found: map_theta.is_some(),
-        map_at_bound,
+        map_found: map.theta.is_some(),
+        map_at_bound: map.at_bound,
         relbin: match &sampled {
             Sampled::RelBin(rb) => Some(rb.validation().clone()),
             Sampled::Exact(_) => None,
         },
         ln_l_map,
-        unbounded_max: unb.map(|u| u.theta).ok(),
-        min_margin_sigma,
-        laplace_fisher_raw: Evidence::systematic(lf_raw, raw_assumes),
-        laplace_fisher_box: Evidence::systematic(lf_box, box_assumes),
+        unbounded_max: lf.unbounded_max,
+        min_margin_sigma: lf.min_margin_sigma,
+        laplace_fisher_raw: Evidence::systematic(
+            lf.raw,
+            raw_assumes(exact.statistic(), lf.min_margin_sigma),
+        ),
+        laplace_fisher_box: Evidence::systematic(lf.boxed, box_assumes),
         laplace_metropolis_mve: Evidence::systematic(lm_mve, lm_assumes.clone()),
         laplace_metropolis_mcd: Evidence::systematic(lm_mcd, lm_assumes),
         thermodynamic: Evidence::not_applicable("parallel tempering has not run yet".into()),
@@ -485,7 +604,7 @@ pub(super) fn run_model(
         jump_center,
         jump_cov,
         tempering_start,
-        seed,
+        seed: m.seed,
         chains,
     })
 }
@@ -495,11 +614,11 @@ pub(super) fn run_model(
 /// tempering, the longest part, has not run yet.
 /// `on_sweep` is called after every sweep of the ladder (for progress).
 pub(super) fn temper(
-    study: &Study,
-    exact: &Likelihood,
+    m: &ModelPlan<'_>,
     run: &mut ModelRun,
     on_sweep: &(dyn Fn() + Sync),
 ) -> Result<(), String> {
+    let exact = m.exact;
     let free = &run.spec.free;
     let target: &dyn LogDensity = match &run.sampled {
         Sampled::RelBin(rb) => rb.as_ref(),
@@ -509,7 +628,7 @@ pub(super) fn temper(
     let sub_exact =
         SubModel::new(exact, free.clone(), run.base.clone()).map_err(|e| e.to_string())?;
     let (thermodynamic, stepping_stone, tempering) = tempering(
-        study,
+        &m.stages,
         &sub_s,
         matches!(run.sampled, Sampled::RelBin(_)).then_some(&sub_exact as &dyn LogDensity),
         &run.tempering_start,
@@ -556,7 +675,7 @@ fn ladder_approximation_error(
 /// likelihood is an approximation of it), the approximation's effect along the ladder is
 /// measured at the rungs' states and added to both errors.
 fn tempering(
-    study: &Study,
+    st: &StageSettings,
     target: &dyn LogDensity,
     exact: Option<&dyn LogDensity>,
     start: &[f64],
@@ -564,8 +683,7 @@ fn tempering(
     seed: u64,
     on_sweep: &(dyn Fn() + Sync),
 ) -> (Evidence, Evidence, Option<TemperingDiagnostics>) {
-    let sel = &study.select;
-    if sel.pt_temperatures == 0 {
+    if st.pt_temperatures == 0 {
         let off = || {
             Evidence::not_applicable(
                 "parallel tempering is off ([select] pt_temperatures = 0)".into(),
@@ -574,9 +692,9 @@ fn tempering(
         return (off(), off(), None);
     }
     let opts = TemperingOptions {
-        n_temps: sel.pt_temperatures,
-        n_iter: sel.pt_iterations,
-        burn_in: sel.pt_burn_in,
+        n_temps: st.pt_temperatures,
+        n_iter: st.pt_iterations,
+        burn_in: st.pt_burn_in,
         seed: seed.wrapping_add(7919),
         ..Default::default()
     };

@@ -49,38 +49,80 @@ impl UserModel {
         if m.trim().is_empty() {
             return Err("user model: `name` is empty".into());
         }
-        let fail = |entry: &str, msg: String| format!("user model `{m}`: {entry}: {msg}");
+        check_lists(def)?;
+        let scope = Scope::new(def)?;
+        let blocks = scope.blocks()?;
+        let defines = scope.defines()?;
+        let coefs = scope.coefficients()?;
+        let order = scope.define_order(&defines)?;
+        let reach = scope.reach(&blocks, &defines, &coefs)?;
+        let model = scope.program(blocks, &defines, &coefs, order, &reach)?;
+        crate::model::validate_shape(&model)?;
+        Ok(model)
+    }
+}
 
-        // --- names -------------------------------------------------------------------------
-        for (field, v, max) in [
-            ("parameters", &def.parameters, usize::MAX),
-            ("data", &def.data, MAX_CHANNELS),
-            ("residual", &def.residual, MAX_RESIDUALS),
-        ] {
-            if v.is_empty() {
-                return Err(fail(field, "the list is empty".into()));
+/// An error of model `m`: `user model `m`: <entry>: <msg>`.
+fn fail(m: &str, entry: &str, msg: String) -> String {
+    format!("user model `{m}`: {entry}: {msg}")
+}
+
+/// The message of a name that is not an identifier.
+fn not_a_name(n: &str) -> String {
+    format!("`{n}` is not a valid name (letters, digits and `_`, not starting with a digit)")
+}
+
+/// The lists `parameters`, `data` and `residual`: not empty, not too long, valid names, no
+/// name twice.
+fn check_lists(def: &UserModelDef) -> Result<(), String> {
+    let fail = |entry: &str, msg: String| fail(&def.name, entry, msg);
+    for (field, v, max) in [
+        ("parameters", &def.parameters, usize::MAX),
+        ("data", &def.data, MAX_CHANNELS),
+        ("residual", &def.residual, MAX_RESIDUALS),
+    ] {
+        if v.is_empty() {
+            return Err(fail(field, "the list is empty".into()));
+        }
+        if v.len() > max {
+            return Err(fail(
+                field,
+                format!("{} channels; at most {max} are supported", v.len()),
+            ));
+        }
+        for (i, a) in v.iter().enumerate() {
+            if !is_ident(a) {
+                return Err(fail(field, not_a_name(a)));
             }
-            if v.len() > max {
-                return Err(fail(
-                    field,
-                    format!("{} channels; at most {max} are supported", v.len()),
-                ));
-            }
-            for (i, a) in v.iter().enumerate() {
-                if !is_ident(a) {
-                    return Err(fail(
-                        field,
-                        format!(
-                            "`{a}` is not a valid name (letters, digits and `_`, not starting \
-                             with a digit)"
-                        ),
-                    ));
-                }
-                if v[..i].contains(a) {
-                    return Err(fail(field, format!("`{a}` is listed twice")));
-                }
+            if v[..i].contains(a) {
+                return Err(fail(field, format!("`{a}` is listed twice")));
             }
         }
+    }
+    Ok(())
+}
+
+/// What the coefficients reach, directly or through blocks and defines.
+struct Reach {
+    define: Vec<bool>,
+    block: Vec<bool>,
+}
+
+/// The model's one namespace (parameters, constants, blocks, defines, `s` and `pi`), each name
+/// with its kind and how a message calls it.
+struct Scope<'a> {
+    def: &'a UserModelDef,
+    kinds: HashMap<&'a str, (Kind, String)>,
+    /// Parameter, constant, block and define names, for the lists of allowed names.
+    groups: [(&'static str, Vec<&'a str>); 4],
+    /// The names a complex expression may use, for messages.
+    allowed_complex: String,
+}
+
+impl<'a> Scope<'a> {
+    /// Collects the namespace, checking every name once, and that constants are finite.
+    fn new(def: &'a UserModelDef) -> Result<Scope<'a>, String> {
+        let fail = |entry: &str, msg: String| fail(&def.name, entry, msg);
         let mut kinds: HashMap<&str, (Kind, String)> = HashMap::new();
         kinds.insert("s", (Kind::S, "the Laplace variable `s`".into()));
         kinds.insert("pi", (Kind::Pi, "the number `pi`".into()));
@@ -104,13 +146,7 @@ impl UserModel {
                     format!("{g}.{n}")
                 };
                 if !is_ident(n) {
-                    return Err(fail(
-                        &entry,
-                        format!(
-                            "`{n}` is not a valid name (letters, digits and `_`, not starting \
-                             with a digit)"
-                        ),
-                    ));
+                    return Err(fail(&entry, not_a_name(n)));
                 }
                 if matches!(*g, "parameters" | "constants")
                     && <real::Ex as exmex::Express<f64>>::parse(n)
@@ -165,119 +201,155 @@ impl UserModel {
             list(&groups[2].1),
             list(&groups[3].1)
         );
-        let allowed_real = |n: &str| {
-            let what = match kinds.get(n) {
-                Some((_, what)) => format!("{what} is complex; "),
-                None => String::new(),
-            };
-            format!(
-                "{what}a real field may use numbers, the parameters ({}), the constants ({}), \
-                 `pi` and exmex functions (sin, exp, sqrt, …); blocks, defines and `s` are \
-                 complex and not allowed here",
-                list(&groups[0].1),
-                list(&groups[1].1)
-            )
-        };
+        Ok(Scope {
+            def,
+            kinds,
+            groups,
+            allowed_complex,
+        })
+    }
 
-        // --- blocks ------------------------------------------------------------------------
-        let lookup = |n: &str| match kinds.get(n).map(|k| k.0) {
+    fn fail(&self, entry: &str, msg: String) -> String {
+        fail(&self.def.name, entry, msg)
+    }
+
+    /// The message of a name a real field may not use.
+    fn allowed_real(&self, n: &str) -> String {
+        let what = match self.kinds.get(n) {
+            Some((_, what)) => format!("{what} is complex; "),
+            None => String::new(),
+        };
+        format!(
+            "{what}a real field may use numbers, the parameters ({}), the constants ({}), \
+             `pi` and exmex functions (sin, exp, sqrt, …); blocks, defines and `s` are \
+             complex and not allowed here",
+            list(&self.groups[0].1),
+            list(&self.groups[1].1)
+        )
+    }
+
+    /// What a real field's name stands for; `None` if a real field may not use it.
+    fn real_var(&self, n: &str) -> Option<VarSrc> {
+        match self.kinds.get(n).map(|k| k.0) {
             Some(Kind::Param(i)) => Some(VarSrc::Param(i)),
             Some(Kind::Const(x)) => Some(VarSrc::Const(x)),
             Some(Kind::Pi) => Some(VarSrc::Const(PI)),
             _ => None,
-        };
-        let mut blocks: Vec<(String, Block)> = Vec::new();
-        for (bn, b) in &def.blocks {
-            let at = |field: &str| format!("blocks.{bn}.{field}");
-            let real = |field: &str, v: &RealValue| -> Result<RealExpr, String> {
-                match v {
-                    RealValue::Number(x) => Ok(RealExpr::Num(*x)),
-                    RealValue::Expr(t) => {
-                        RealExpr::parse(t, &lookup, &allowed_real).map_err(|e| fail(&at(field), e))
-                    }
-                }
-            };
-            let poly = |field: &str, v: &[RealValue]| -> Result<Vec<RealExpr>, String> {
-                if v.is_empty() {
-                    return Err(fail(
-                        &at(field),
-                        "the polynomial is empty; give its coefficients in descending powers of s"
-                            .into(),
-                    ));
-                }
-                v.iter()
-                    .enumerate()
-                    .map(|(i, x)| real(&format!("{field}[{i}]"), x))
-                    .collect()
-            };
-            let block = match b {
-                BlockDef::Rational { num, den } => Block::Rational {
-                    num: poly("num", num)?,
-                    den: poly("den", den)?,
-                },
-                BlockDef::Gain { value } => Block::Gain(real("value", value)?),
-                BlockDef::Delay { tau } => Block::Delay(real("tau", tau)?),
-                BlockDef::Pole { f } => Block::Pole(real("f", f)?),
-                BlockDef::Zero { f } => Block::Zero(real("f", f)?),
-                BlockDef::ComplexPole { f, q } => Block::ComplexPole {
-                    f: real("f", f)?,
-                    q: real("q", q)?,
-                },
-                BlockDef::SPower { n } => {
-                    if n.unsigned_abs() > MAX_S_POWER as u32 {
-                        return Err(fail(
-                            &at("n"),
-                            format!("is {n}; |n| ≤ {MAX_S_POWER} is supported"),
-                        ));
-                    }
-                    Block::SPower(*n)
-                }
-            };
-            block
-                .check_values(&|v| v.constant())
-                .map_err(|(field, msg)| fail(&at(&field), msg))?;
-            blocks.push((bn.clone(), block));
         }
+    }
 
-        // --- complex expressions -----------------------------------------------------------
-        let compile = |entry: &str, text: &str| -> Result<Node, String> {
-            let n =
-                expr::parse(text).map_err(|e| fail(entry, format!("{e} (in `{}`)", clip(text))))?;
-            let mut ids = Vec::new();
-            n.idents(&mut ids);
-            for (id, pos) in ids {
-                if !kinds.contains_key(id) {
-                    return Err(fail(
-                        entry,
-                        format!(
-                            "unknown name `{id}` at character {pos} of `{}`; {allowed_complex}",
-                            clip(text)
-                        ),
-                    ));
+    /// Every block, compiled and checked where its fields are constant, in name order.
+    fn blocks(&self) -> Result<Vec<(String, Block)>, String> {
+        let mut blocks: Vec<(String, Block)> = Vec::new();
+        for (bn, b) in &self.def.blocks {
+            blocks.push((bn.clone(), self.block(bn, b)?));
+        }
+        Ok(blocks)
+    }
+
+    /// One block `bn`.
+    fn block(&self, bn: &str, b: &BlockDef) -> Result<Block, String> {
+        let at = |field: &str| format!("blocks.{bn}.{field}");
+        let real = |field: &str, v: &RealValue| -> Result<RealExpr, String> {
+            match v {
+                RealValue::Number(x) => Ok(RealExpr::Num(*x)),
+                RealValue::Expr(t) => {
+                    RealExpr::parse(t, &|n| self.real_var(n), &|n| self.allowed_real(n))
+                        .map_err(|e| self.fail(&at(field), e))
                 }
             }
-            if n.depth() > MAX_STACK {
-                return Err(fail(
+        };
+        let poly = |field: &str, v: &[RealValue]| -> Result<Vec<RealExpr>, String> {
+            if v.is_empty() {
+                return Err(self.fail(
+                    &at(field),
+                    "the polynomial is empty; give its coefficients in descending powers of s"
+                        .into(),
+                ));
+            }
+            v.iter()
+                .enumerate()
+                .map(|(i, x)| real(&format!("{field}[{i}]"), x))
+                .collect()
+        };
+        let block = match b {
+            BlockDef::Rational { num, den } => Block::Rational {
+                num: poly("num", num)?,
+                den: poly("den", den)?,
+            },
+            BlockDef::Gain { value } => Block::Gain(real("value", value)?),
+            BlockDef::Delay { tau } => Block::Delay(real("tau", tau)?),
+            BlockDef::Pole { f } => Block::Pole(real("f", f)?),
+            BlockDef::Zero { f } => Block::Zero(real("f", f)?),
+            BlockDef::ComplexPole { f, q } => Block::ComplexPole {
+                f: real("f", f)?,
+                q: real("q", q)?,
+            },
+            BlockDef::SPower { n } => {
+                if n.unsigned_abs() > MAX_S_POWER as u32 {
+                    return Err(self.fail(
+                        &at("n"),
+                        format!("is {n}; |n| ≤ {MAX_S_POWER} is supported"),
+                    ));
+                }
+                Block::SPower(*n)
+            }
+        };
+        block
+            .check_values(&|v| v.constant())
+            .map_err(|(field, msg)| self.fail(&at(&field), msg))?;
+        Ok(block)
+    }
+
+    /// Parses the complex expression of `entry`: known names only, a bounded stack.
+    fn compile(&self, entry: &str, text: &str) -> Result<Node, String> {
+        let n = expr::parse(text)
+            .map_err(|e| self.fail(entry, format!("{e} (in `{}`)", clip(text))))?;
+        let mut ids = Vec::new();
+        n.idents(&mut ids);
+        for (id, pos) in ids {
+            if !self.kinds.contains_key(id) {
+                return Err(self.fail(
                     entry,
                     format!(
-                        "the expression nests too deeply (needs a stack of {}, at most \
-                         {MAX_STACK}); split it with defines",
-                        n.depth()
+                        "unknown name `{id}` at character {pos} of `{}`; {}",
+                        clip(text),
+                        self.allowed_complex
                     ),
                 ));
             }
-            Ok(n)
-        };
-        let defines: Vec<(&str, Node)> = def
+        }
+        if n.depth() > MAX_STACK {
+            return Err(self.fail(
+                entry,
+                format!(
+                    "the expression nests too deeply (needs a stack of {}, at most \
+                     {MAX_STACK}); split it with defines",
+                    n.depth()
+                ),
+            ));
+        }
+        Ok(n)
+    }
+
+    /// Every define, compiled, in name order.
+    fn defines(&self) -> Result<Vec<(&'a str, Node)>, String> {
+        self.def
             .define
             .iter()
-            .map(|(k, v)| Ok((k.as_str(), compile(&format!("define.{k}"), v)?)))
-            .collect::<Result<_, String>>()?;
+            .map(|(k, v)| Ok((k.as_str(), self.compile(&format!("define.{k}"), v)?)))
+            .collect()
+    }
+
+    /// Every coefficient, compiled, with its index `r·n_data + c` in `M`; every residual
+    /// channel has one at least.
+    fn coefficients(&self) -> Result<Vec<(usize, Node)>, String> {
+        let def = self.def;
         let nc = def.data.len();
         let mut coefs: Vec<(usize, Node)> = Vec::new();
         for (r, row) in &def.coefficients {
             let Some(ri) = def.residual.iter().position(|x| x == r) else {
-                return Err(fail(
+                return Err(self.fail(
                     &format!("coefficients.{r}"),
                     format!(
                         "`{r}` is not a declared residual channel; residual = [{}]",
@@ -288,7 +360,7 @@ impl UserModel {
             for (c, text) in row {
                 let entry = format!("coefficients.{r}.{c}");
                 let Some(ci) = def.data.iter().position(|x| x == c) else {
-                    return Err(fail(
+                    return Err(self.fail(
                         &entry,
                         format!(
                             "`{c}` is not a declared data channel; data = [{}]",
@@ -296,12 +368,12 @@ impl UserModel {
                         ),
                     ));
                 };
-                coefs.push((ri * nc + ci, compile(&entry, text)?));
+                coefs.push((ri * nc + ci, self.compile(&entry, text)?));
             }
         }
         for (ri, r) in def.residual.iter().enumerate() {
             if !coefs.iter().any(|(k, _)| k / nc == ri) {
-                return Err(fail(
+                return Err(self.fail(
                     &format!("coefficients.{r}"),
                     "the residual channel has no coefficients (every entry would be 0); give \
                      at least one `coefficients.<residual>.<data> = \"…\"`"
@@ -309,17 +381,22 @@ impl UserModel {
                 ));
             }
         }
+        Ok(coefs)
+    }
 
-        // --- dependency order of the defines -----------------------------------------------
-        let deps = |n: &Node| -> Vec<Kind> {
-            let mut ids = Vec::new();
-            n.idents(&mut ids);
-            ids.iter().map(|(id, _)| kinds[id].0).collect()
-        };
+    /// The kinds of the names an expression uses, in order of appearance.
+    fn deps(&self, n: &Node) -> Vec<Kind> {
+        let mut ids = Vec::new();
+        n.idents(&mut ids);
+        ids.iter().map(|(id, _)| self.kinds[id].0).collect()
+    }
+
+    /// The defines in dependency order (each after the defines it uses); a cycle is an error.
+    fn define_order(&self, defines: &[(&str, Node)]) -> Result<Vec<usize>, String> {
         let dep_defines: Vec<Vec<usize>> = defines
             .iter()
             .map(|(_, n)| {
-                deps(n)
+                self.deps(n)
                     .into_iter()
                     .filter_map(|k| match k {
                         Kind::Define(j) => Some(j),
@@ -331,37 +408,10 @@ impl UserModel {
         // depth-first post-order; state 1 = on the current path, 2 = done
         let mut state = vec![0u8; defines.len()];
         let mut order = Vec::with_capacity(defines.len());
-        fn visit(
-            i: usize,
-            deps: &[Vec<usize>],
-            state: &mut [u8],
-            path: &mut Vec<usize>,
-            order: &mut Vec<usize>,
-        ) -> Result<(), Vec<usize>> {
-            match state[i] {
-                2 => return Ok(()),
-                1 => {
-                    let start = path.iter().position(|&p| p == i).unwrap_or(0);
-                    let mut cyc = path[start..].to_vec();
-                    cyc.push(i);
-                    return Err(cyc);
-                }
-                _ => {}
-            }
-            state[i] = 1;
-            path.push(i);
-            for &j in &deps[i] {
-                visit(j, deps, state, path, order)?;
-            }
-            path.pop();
-            state[i] = 2;
-            order.push(i);
-            Ok(())
-        }
         for i in 0..defines.len() {
             visit(i, &dep_defines, &mut state, &mut Vec::new(), &mut order).map_err(|cyc| {
                 let names: Vec<&str> = cyc.iter().map(|&j| defines[j].0).collect();
-                fail(
+                self.fail(
                     &format!("define.{}", names[0]),
                     format!(
                         "circular definition {}; a define may use only defines that do not \
@@ -371,14 +421,22 @@ impl UserModel {
                 )
             })?;
         }
+        Ok(order)
+    }
 
-        // --- what the coefficients reach ---------------------------------------------------
+    /// The blocks and defines the coefficients reach; every parameter must be reached.
+    fn reach(
+        &self,
+        blocks: &[(String, Block)],
+        defines: &[(&str, Node)],
+        coefs: &[(usize, Node)],
+    ) -> Result<Reach, String> {
         let mut used_define = vec![false; defines.len()];
         let mut used_block = vec![false; blocks.len()];
-        let mut used_param = vec![false; def.parameters.len()];
+        let mut used_param = vec![false; self.def.parameters.len()];
         let mut stack: Vec<&Node> = coefs.iter().map(|(_, n)| n).collect();
         while let Some(n) = stack.pop() {
-            for k in deps(n) {
+            for k in self.deps(n) {
                 match k {
                     Kind::Param(i) => used_param[i] = true,
                     Kind::Block(b) if !used_block[b] => {
@@ -395,43 +453,62 @@ impl UserModel {
                 }
             }
         }
-        let unused: Vec<&str> = def
+        self.all_parameters_used(&used_param)?;
+        Ok(Reach {
+            define: used_define,
+            block: used_block,
+        })
+    }
+
+    /// An error naming the parameters no coefficient uses, if any.
+    fn all_parameters_used(&self, used_param: &[bool]) -> Result<(), String> {
+        let unused: Vec<&str> = self
+            .def
             .parameters
             .iter()
-            .zip(&used_param)
+            .zip(used_param)
             .filter(|(_, u)| !**u)
             .map(|(p, _)| p.as_str())
             .collect();
-        if !unused.is_empty() {
-            return Err(fail(
-                "parameters",
-                format!(
-                    "{} {} {} declared but not used by any coefficient (directly or through the \
-                     blocks and defines the coefficients use); remove {} or use {}",
-                    if unused.len() == 1 {
-                        "parameter"
-                    } else {
-                        "parameters"
-                    },
-                    unused
-                        .iter()
-                        .map(|p| format!("`{p}`"))
-                        .collect::<Vec<_>>()
-                        .join(", "),
-                    if unused.len() == 1 { "is" } else { "are" },
-                    if unused.len() == 1 { "it" } else { "them" },
-                    if unused.len() == 1 { "it" } else { "them" },
-                ),
-            ));
+        if unused.is_empty() {
+            return Ok(());
         }
+        let one = unused.len() == 1;
+        Err(self.fail(
+            "parameters",
+            format!(
+                "{} {} {} declared but not used by any coefficient (directly or through the \
+                 blocks and defines the coefficients use); remove {} or use {}",
+                if one { "parameter" } else { "parameters" },
+                unused
+                    .iter()
+                    .map(|p| format!("`{p}`"))
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                if one { "is" } else { "are" },
+                if one { "it" } else { "them" },
+                if one { "it" } else { "them" },
+            ),
+        ))
+    }
 
-        // --- slots, per-bin constants, program ---------------------------------------------
+    /// Slots, per-bin constants and the program of the reached blocks and defines: defines
+    /// stored in dependency order, then the coefficients.
+    fn program(
+        &self,
+        blocks: Vec<(String, Block)>,
+        defines: &[(&str, Node)],
+        coefs: &[(usize, Node)],
+        order: Vec<usize>,
+        reach: &Reach,
+    ) -> Result<UserModel, String> {
+        let def = self.def;
         let mut block_slot = vec![u16::MAX; blocks.len()];
         let mut kept_blocks = Vec::new();
         let mut const_of = Vec::new();
         let mut n_consts = 0;
         for (b, (bn, blk)) in blocks.into_iter().enumerate() {
-            if !used_block[b] {
+            if !reach.block[b] {
                 continue;
             }
             block_slot[b] = kept_blocks.len() as u16;
@@ -444,15 +521,15 @@ impl UserModel {
             kept_blocks.push((bn, blk));
         }
         if n_consts > MAX_CONSTS {
-            return Err(fail(
+            return Err(self.fail(
                 "blocks",
                 format!("{n_consts} constant blocks are used; at most {MAX_CONSTS} are supported"),
             ));
         }
-        let live_defines: Vec<usize> = order.into_iter().filter(|&d| used_define[d]).collect();
+        let live_defines: Vec<usize> = order.into_iter().filter(|&d| reach.define[d]).collect();
         let n_slots = kept_blocks.len() + live_defines.len();
         if n_slots > MAX_SLOTS {
-            return Err(fail(
+            return Err(self.fail(
                 "define",
                 format!(
                     "the coefficients use {n_slots} blocks and defines; at most {MAX_SLOTS} are \
@@ -464,7 +541,7 @@ impl UserModel {
         for (k, &d) in live_defines.iter().enumerate() {
             define_slot[d] = (kept_blocks.len() + k) as u16;
         }
-        let resolve = |n: &str| match kinds[n].0 {
+        let resolve = |n: &str| match self.kinds[n].0 {
             Kind::Param(i) => Operand::Param(i as u16),
             Kind::Const(x) => Operand::Const(x),
             Kind::Block(b) => Operand::Slot(block_slot[b]),
@@ -477,12 +554,11 @@ impl UserModel {
             expr::emit(&defines[d].1, &resolve, &mut ops);
             ops.push(Op::Store(define_slot[d]));
         }
-        for (k, n) in &coefs {
+        for (k, n) in coefs {
             expr::emit(n, &resolve, &mut ops);
             ops.push(Op::Out(*k as u16));
         }
-
-        let model = UserModel {
+        Ok(UserModel {
             name: def.name.clone(),
             params: def.parameters.clone(),
             data: def.data.clone(),
@@ -492,8 +568,36 @@ impl UserModel {
             n_consts,
             ops,
             n_slots,
-        };
-        crate::model::validate_shape(&model)?;
-        Ok(model)
+        })
     }
+}
+
+/// Depth-first post-order visit of define `i` (`state`: 1 = on the current path, 2 = done);
+/// a cycle comes back as the path that closes it.
+fn visit(
+    i: usize,
+    deps: &[Vec<usize>],
+    state: &mut [u8],
+    path: &mut Vec<usize>,
+    order: &mut Vec<usize>,
+) -> Result<(), Vec<usize>> {
+    match state[i] {
+        2 => return Ok(()),
+        1 => {
+            let start = path.iter().position(|&p| p == i).unwrap_or(0);
+            let mut cyc = path[start..].to_vec();
+            cyc.push(i);
+            return Err(cyc);
+        }
+        _ => {}
+    }
+    state[i] = 1;
+    path.push(i);
+    for &j in &deps[i] {
+        visit(j, deps, state, path, order)?;
+    }
+    path.pop();
+    state[i] = 2;
+    order.push(i);
+    Ok(())
 }
