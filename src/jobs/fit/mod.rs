@@ -293,11 +293,10 @@ pub fn fix_hint(
 }
 
 /// A warning when the Fisher matrix has directions below
-/// [`crate::likelihood::NULL_EIGENVALUE_TOL`] although its Cholesky factorisation succeeded:
+/// [`crate::linalg::NULL_EIGENVALUE_TOL`] although its Cholesky factorisation succeeded:
 /// the Cramér–Rao σ and the proposal along them are set by rounding, not by the data.
 pub fn near_singular_warning(fisher: &DMatrix<f64>, free_names: &[String]) -> Option<String> {
-    let dirs =
-        crate::likelihood::unconstrained_directions(fisher, crate::likelihood::NULL_EIGENVALUE_TOL);
+    let dirs = crate::linalg::unconstrained_directions(fisher, crate::linalg::NULL_EIGENVALUE_TOL);
     if dirs.is_empty() {
         return None;
     }
