@@ -31,18 +31,18 @@ pub use spd::{
 };
 
 /// What is wrong with a matrix that had to be symmetric positive definite. The messages say
-/// what is wrong with "it"; callers prefix the matrix's name (`proposal covariance: …`).
+/// what is wrong; callers prefix the matrix's name (`proposal covariance: not symmetric: …`).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum LinalgError {
     /// The matrix is not square.
-    #[error("is {rows}×{cols}, not square")]
+    #[error("not square ({rows}×{cols})")]
     NotSquare { rows: usize, cols: usize },
     /// An entry that is read is NaN or infinite.
     #[error("entry ({row}, {col}) = {value} is not finite")]
     NonFinite { row: usize, col: usize, value: f64 },
     /// `|a_ij − a_ji|` exceeds the tolerance of [`Symmetry::Within`].
     #[error(
-        "is not symmetric: ({row}, {col}) = {lower:e} but ({col}, {row}) = {upper:e}; pass (A + Aᵀ)/2 if the difference is round-off"
+        "not symmetric: ({row}, {col}) = {lower:e} but ({col}, {row}) = {upper:e}; pass (A + Aᵀ)/2 if the difference is round-off"
     )]
     NotSymmetric {
         row: usize,
@@ -51,7 +51,7 @@ pub enum LinalgError {
         upper: f64,
     },
     /// The Cholesky factorisation failed.
-    #[error("is not positive definite{}", describe_failure(*.pivot, .weakest.as_ref(), .names))]
+    #[error("not positive definite{}", describe_failure(*.pivot, .weakest.as_ref(), .names))]
     NotPositiveDefinite {
         /// The first pivot (row) that is not positive, when known (the kernel reports it).
         pivot: Option<usize>,
@@ -64,7 +64,7 @@ pub enum LinalgError {
     },
     /// The factorisation succeeded but the inverse overflowed: singular to working precision.
     #[error(
-        "has an inverse that is not finite (entry ({row}, {col}) = {value}): it is singular to working precision"
+        "its inverse is not finite (entry ({row}, {col}) = {value}): singular to working precision"
     )]
     InverseNotFinite { row: usize, col: usize, value: f64 },
 }
@@ -105,11 +105,11 @@ fn describe_failure(
     let first = d.weights.first().map_or(0, |w| w.0);
     match d.kind {
         NullKind::ZeroColumn => s.push_str(&format!(
-            ": the diagonal entry of `{}` is not > 0",
+            "; the diagonal entry of `{}` is not > 0",
             row_name(names, first)
         )),
         NullKind::NonFinite => s.push_str(&format!(
-            ": the row of `{}` is not finite",
+            "; the row of `{}` is not finite",
             row_name(names, first)
         )),
         NullKind::Degenerate => {
@@ -119,7 +119,7 @@ fn describe_failure(
                 "≤ 0".to_string()
             };
             s.push_str(&format!(
-                ": its least-constrained direction is {} (relative eigenvalue of the correlation form {rel})",
+                "; its least-constrained direction is {} (relative eigenvalue of the correlation form {rel})",
                 format_direction(d, names)
             ));
         }

@@ -293,7 +293,7 @@ fn a_singular_matrix_names_its_unconstrained_direction() {
         assert_eq!(e.unconstrained(), ["a", "b"]);
         assert!(
             e.to_string().starts_with(
-                "is not positive definite: its least-constrained direction is 0.71·a − 0.71·b (relative eigenvalue of the correlation form"
+                "not positive definite; its least-constrained direction is 0.71·a − 0.71·b (relative eigenvalue of the correlation form"
             ),
             "{e}"
         );
