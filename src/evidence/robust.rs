@@ -38,7 +38,7 @@
 //! Both are deterministic given their seed.
 
 use super::EvidenceError;
-use super::linalg::forward_solve_norm2;
+use crate::linalg::{cholesky_in_place, forward_solve_norm2, ln_det_lower};
 use nalgebra::DMatrix;
 use rand::{RngExt, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
@@ -700,29 +700,13 @@ impl Data {
     }
 }
 
-/// Row-major Cholesky; `None` when a pivot falls below 1e-12 of its diagonal entry (singular to
-/// working precision).
+/// Row-major Cholesky factor and `ln det`; `None` when a pivot falls below 1e-12 of its
+/// diagonal entry (singular to working precision). Runs in every C-step: the allocation-free
+/// kernel of [`crate::linalg`].
 fn cholesky(a: &[f64], p: usize) -> Option<(Vec<f64>, f64)> {
-    let mut l = vec![0.0; p * p];
-    let mut ln_det = 0.0;
-    for i in 0..p {
-        for j in 0..=i {
-            let mut s = a[i * p + j];
-            for k in 0..j {
-                s -= l[i * p + k] * l[j * p + k];
-            }
-            if i == j {
-                if s.is_nan() || s <= 1e-12 * a[i * p + i] || !s.is_finite() {
-                    return None;
-                }
-                let d = s.sqrt();
-                l[i * p + i] = d;
-                ln_det += 2.0 * d.ln();
-            } else {
-                l[i * p + j] = s / l[j * p + j];
-            }
-        }
-    }
+    let mut l = a.to_vec();
+    cholesky_in_place(&mut l, p, 1e-12).ok()?;
+    let ln_det = ln_det_lower(&l, p);
     Some((l, ln_det))
 }
 
