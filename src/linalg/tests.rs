@@ -73,6 +73,11 @@ fn jacobi_scaling_inverts_a_matrix_spanning_36_decades() {
         }
     }
     assert_eq!(spd_inverse(&f, &opts).unwrap(), inv);
+    // singular, or a zero diagonal entry: refused
+    let sing = DMatrix::from_row_slice(2, 2, &[1.0, 1.0, 1.0, 1.0]);
+    assert!(spd_inverse(&sing, &opts).is_err());
+    let zero = DMatrix::from_row_slice(2, 2, &[1.0, 0.0, 0.0, 0.0]);
+    assert!(spd_inverse(&zero, &opts).is_err());
     // ln det F = ln det C + 2 Σ ln s_i; L Lᵀ = F; F x = b
     let ln_det_c = c.clone().cholesky().unwrap().determinant().ln();
     let want = ln_det_c + 2.0 * s.iter().map(|x| x.ln()).sum::<f64>();
