@@ -576,7 +576,10 @@ mod tests {
         let bad = DMatrix::from_row_slice(2, 2, &[1.0, 2.0, 2.0, 1.0]);
         assert!(matches!(
             mvn_rectangle(&[0.0, 0.0], &[1.0, 1.0], &[0.0, 0.0], &bad, &o),
-            Err(EvidenceError::NotPositiveDefinite { .. })
+            Err(EvidenceError::Matrix {
+                source: crate::linalg::LinalgError::NotPositiveDefinite { .. },
+                ..
+            })
         ));
         let few = MvnOptions { n_shifts: 2, ..o };
         assert!(mvn_rectangle(&[0.0, 0.0], &[1.0, 1.0], &[0.0, 0.0], &cov, &few).is_err());
