@@ -34,7 +34,6 @@ pub fn cholesky_in_place(a: &mut [f64], n: usize, floor: f64) -> Result<(), Lina
             return Err(LinalgError::NotPositiveDefinite {
                 pivot: Some(j),
                 weakest: None,
-                names: Vec::new(),
             });
         }
         let l = s.sqrt();

@@ -51,16 +51,13 @@ pub enum LinalgError {
         upper: f64,
     },
     /// The Cholesky factorisation failed.
-    #[error("not positive definite{}", describe_failure(*.pivot, .weakest.as_ref(), .names))]
+    #[error("not positive definite{}", describe_failure(*.pivot, .weakest.as_deref()))]
     NotPositiveDefinite {
         /// The first pivot (row) that is not positive, when known (the kernel reports it).
         pivot: Option<usize>,
-        /// The direction the matrix constrains least: a non-positive diagonal entry, or the
-        /// eigenvector of the correlation form with the smallest eigenvalue. `None` from the
-        /// allocation-free kernel, which does not diagnose.
-        weakest: Option<NullDirection>,
-        /// The rows' names as the caller gave them (empty: rows are called `#i`).
-        names: Vec<String>,
+        /// The direction the matrix constrains least; `None` from the allocation-free kernel,
+        /// which does not diagnose.
+        weakest: Option<Box<Weakest>>,
     },
     /// The factorisation succeeded but the inverse overflowed: singular to working precision.
     #[error(
@@ -69,16 +66,30 @@ pub enum LinalgError {
     InverseNotFinite { row: usize, col: usize, value: f64 },
 }
 
+/// The direction a matrix that is not positive definite constrains least, with the names of
+/// its rows.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Weakest {
+    /// A non-positive diagonal entry, or the eigenvector of the correlation form with the
+    /// smallest eigenvalue ([`weakest_direction`]).
+    pub direction: NullDirection,
+    /// The rows' names as the caller gave them (empty: rows are called `#i`).
+    pub names: Vec<String>,
+}
+
 impl LinalgError {
     /// The parameters (row names, `#i` without names) that the least-constrained direction of a
     /// [`LinalgError::NotPositiveDefinite`] involves, largest weight first; empty otherwise.
     pub fn unconstrained(&self) -> Vec<String> {
         match self {
             LinalgError::NotPositiveDefinite {
-                weakest: Some(d),
-                names,
-                ..
-            } => d.weights.iter().map(|&(i, _)| row_name(names, i)).collect(),
+                weakest: Some(w), ..
+            } => w
+                .direction
+                .weights
+                .iter()
+                .map(|&(i, _)| row_name(&w.names, i))
+                .collect(),
             _ => Vec::new(),
         }
     }
@@ -90,16 +101,16 @@ fn row_name(names: &[String], i: usize) -> String {
 }
 
 /// The tail of a [`LinalgError::NotPositiveDefinite`] message.
-fn describe_failure(
-    pivot: Option<usize>,
-    weakest: Option<&NullDirection>,
-    names: &[String],
-) -> String {
+fn describe_failure(pivot: Option<usize>, weakest: Option<&Weakest>) -> String {
     let mut s = String::new();
     if let Some(k) = pivot {
         s.push_str(&format!(" (Cholesky pivot {k} is not > 0)"));
     }
-    let Some(d) = weakest else {
+    let Some(Weakest {
+        direction: d,
+        names,
+    }) = weakest
+    else {
         return s;
     };
     let first = d.weights.first().map_or(0, |w| w.0);

@@ -3,8 +3,8 @@
 
 use nalgebra::{Cholesky, DMatrix, DVector, Dyn, SymmetricEigen};
 
-use super::LinalgError;
 use super::directions::weakest_direction;
+use super::{LinalgError, Weakest};
 
 /// Default relative asymmetry tolerated by [`Symmetry::Within`]: far above the round-off of
 /// a numerically inverted or accumulated matrix (`AᵀA`-type products, `Σ = F⁻¹`), far below
@@ -156,8 +156,12 @@ impl Spd {
         };
         let fail = || LinalgError::NotPositiveDefinite {
             pivot: None,
-            weakest: weakest_direction(&mirror_lower(m)),
-            names: opts.names.to_vec(),
+            weakest: weakest_direction(&mirror_lower(m)).map(|direction| {
+                Box::new(Weakest {
+                    direction,
+                    names: opts.names.to_vec(),
+                })
+            }),
         };
         let (chol, scale) = match opts.scaling {
             Scaling::None => (Cholesky::new(m.clone()), None),
