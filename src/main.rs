@@ -3,7 +3,6 @@
 use anyhow::{Context as _, Result};
 use clap::{Parser, Subcommand};
 use occam::config::Study;
-use occam::data::rundir::RunDir;
 use occam::jobs::progress::{Bar, Work};
 use occam::jobs::{Context, execute};
 use std::path::{Path, PathBuf};
@@ -359,65 +358,29 @@ struct SweepCli {
 }
 
 fn sweep(cli: SweepCli) -> Result<()> {
-    use occam::jobs::sweep::{Sweep, SweepArgs, grid};
-    let path = cli.study;
+    use occam::jobs::sweep::{SweepRequest, executor, plan, run_request};
     let t0 = Instant::now();
-    let mut axes = cli
-        .axis
-        .iter()
-        .map(|a| grid::parse_axis(a))
-        .collect::<Result<Vec<_>>>()?;
-    if let Some(snr) = cli.snr {
-        let list: Vec<String> = snr.iter().map(|v| v.to_string()).collect();
-        axes.push(grid::parse_axis(&format!(
-            "simulation.target_snr={}",
-            list.join(",")
-        ))?);
-    }
-    let args = SweepArgs {
-        axes: (!axes.is_empty()).then_some(axes),
+    let exec = executor(cli.threads)?;
+    let req = SweepRequest {
+        study: cli.study,
+        axes: cli.axis,
+        snr: cli.snr,
         realisations: cli.realisations,
         truth: cli.truth,
         output: cli.output,
+        resume: cli.resume,
     };
-    let exec = executor(cli.threads)?;
-    let sweep = Sweep::load(&path, args)?;
-    // one run per directory; under MPI the root holds it for every rank
-    let run = if exec.is_root() {
-        Some(RunDir::open(&sweep.out)?)
-    } else {
-        None
-    };
-    if cli.resume {
-        let done = sweep.finished_tasks();
-        if done == 0 {
-            anyhow::bail!(
-                "--resume: there is nothing to resume in {}: no finished task of this sweep in {}/tasks; run without --resume",
-                sweep.out.display(),
-                sweep.out.display()
-            );
-        }
-        if exec.is_root() {
-            println!(
-                "resuming from {}/tasks: {done} of {} tasks finished",
-                sweep.out.display(),
-                sweep.task_count()
-            );
-        }
-    }
+    let planned = plan(&req, exec.as_ref())?;
+    let out = planned.sweep.out.clone();
     if exec.is_root() {
-        for w in &sweep.warnings {
+        let (resume_lines, summary) = planned.lines.split_at(planned.lines.len() - 1);
+        for l in resume_lines {
+            println!("{l}");
+        }
+        for w in &planned.warnings {
             eprintln!("warning: {w}");
         }
-        println!(
-            "sweep of {}: {} point(s) × {} realisation(s) = {} tasks on {} worker(s), into {}",
-            path.display(),
-            sweep.grid.len(),
-            sweep.realisations,
-            sweep.task_count(),
-            exec.workers(),
-            sweep.out.display()
-        );
+        println!("{}", summary[0]);
     }
     let work = Arc::new(Work::default());
     let bar = (exec.is_root() && !exec.is_distributed())
@@ -427,34 +390,25 @@ fn sweep(cli: SweepCli) -> Result<()> {
         Some(b) => b.bar().println(line),
         None => println!("{line}"),
     };
-    let res = sweep.run_observed(exec.as_ref(), (!cli.quiet).then_some(&say), Some(&work))?;
+    let done = run_request(
+        planned,
+        exec.as_ref(),
+        (!cli.quiet).then_some(&say),
+        Some(&work),
+    )?;
     if let Some(b) = bar {
         b.finish();
     }
-    let Some(res) = res else {
+    let Some(done) = done else {
         return Ok(());
     };
-    print!("{}", occam::jobs::sweep::output::table(&sweep, &res));
-    let run = run.expect("the root holds the run directory");
-    let names = occam::jobs::sweep::publish(&sweep, &res, &run)?;
-    println!("wrote {}", listing(&sweep.out, &names));
+    print!("{}", done.table);
+    println!("wrote {}", listing(&out, &done.written));
     println!(
         "{} task(s) computed, {} reused; took {:.1} s",
-        res.computed,
-        res.reused,
+        done.result.computed,
+        done.result.reused,
         t0.elapsed().as_secs_f64()
     );
     Ok(())
-}
-
-/// Where a job's tasks run. With the `mpi` feature, under `mpirun -n N` (N > 1) the tasks are
-/// spread over the N ranks, each running its share on `threads` threads (0 there means 1: one
-/// rank per core is how `mpirun` places ranks); otherwise on `threads` threads of this process
-/// (0: one per core). Only the root (`is_root()`) prints summaries and writes aggregate files.
-fn executor(threads: usize) -> Result<Box<dyn occam::jobs::exec::Executor>> {
-    #[cfg(feature = "mpi")]
-    if let Some(mpi) = occam::jobs::mpi::Mpi::init()? {
-        return Ok(Box::new(mpi.with_threads(threads.max(1))?));
-    }
-    Ok(Box::new(occam::jobs::exec::Threads::new(threads)?))
 }

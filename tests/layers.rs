@@ -139,7 +139,20 @@ fn crate_uses(code: &str) -> BTreeSet<String> {
     for (i, _) in code.match_indices("crate::") {
         let rest = &code[i + "crate::".len()..];
         if let Some(group) = rest.strip_prefix('{') {
-            let inner = &group[..group.find('}').unwrap_or(group.len())];
+            // the group runs to its matching brace (groups nest: `crate::{a::{B, C}, d}`)
+            let mut open = 1;
+            let end = group
+                .char_indices()
+                .find_map(|(i, c)| {
+                    match c {
+                        '{' => open += 1,
+                        '}' => open -= 1,
+                        _ => {}
+                    }
+                    (open == 0).then_some(i)
+                })
+                .unwrap_or(group.len());
+            let inner = &group[..end];
             // top-level names of the group: those not inside a nested `{…}`
             let mut level = 0;
             let mut item = String::new();

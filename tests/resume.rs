@@ -73,7 +73,7 @@ fn select_resumed_after_a_crash_in_the_reversible_jump_stage_equals_an_uninterru
     );
     assert!(w == files(&again, "again"), "sample files read back differ");
 
-    // a checkpoint of the previous version (no chains saved) is refused with the way out
+    // a checkpoint of another version is refused with the way out
     let mut v: ciborium::Value = ciborium::from_reader(std::fs::File::open(&ck).unwrap()).unwrap();
     for (k, val) in v.as_map_mut().unwrap() {
         if k.as_text() == Some("version") {
@@ -84,7 +84,7 @@ fn select_resumed_after_a_crash_in_the_reversible_jump_stage_equals_an_uninterru
     ciborium::into_writer(&v, std::fs::File::create(&old).unwrap()).unwrap();
     let e = SelectCheckpoint::read(&old, &id).unwrap_err().to_string();
     assert!(
-        e.contains("earlier occam") && e.contains("run without --resume"),
+        e.contains("checkpoint version 1 of `select`") && e.contains("run without --resume"),
         "{e}"
     );
 
@@ -95,7 +95,7 @@ fn select_resumed_after_a_crash_in_the_reversible_jump_stage_equals_an_uninterru
         .unwrap_err()
         .to_string();
     assert!(
-        e.contains("different study or different data") && e.contains("without --resume"),
+        e.contains("belongs to a different run") && e.contains("without --resume"),
         "{e}"
     );
 }
@@ -225,4 +225,26 @@ fn a_rerun_removes_the_previous_runs_files_it_does_not_write() {
         assert!(d.join("out/select").join(&f.name).exists());
     }
     assert!(!line.contains("my-notes.txt"), "{line}");
+}
+
+#[test]
+fn a_fit_resumed_with_another_likelihood_kind_is_refused() {
+    // the chains of a relative-binned fit must not be continued (and published) as exact ones
+    let dir = tempfile::tempdir().unwrap();
+    let exact = small().replace("[analysis]\n", "[analysis]\nlikelihood = \"exact\"\n");
+    std::fs::write(dir.path().join("s.toml"), &exact).unwrap();
+    let (ok, _, err) = occam(&["fit", "s.toml", "-q", "-o", "f"], dir.path());
+    assert!(ok, "{err}");
+    assert!(dir.path().join("f/checkpoint.cbor").exists());
+    // the same study resumes (a finished fit has nothing left to do)
+    let (ok, _, err) = occam(&["fit", "s.toml", "-q", "-o", "f", "--resume"], dir.path());
+    assert!(ok, "{err}");
+    let relbin = exact.replace("likelihood = \"exact\"", "likelihood = \"relbin\"");
+    std::fs::write(dir.path().join("s.toml"), relbin).unwrap();
+    let (ok, _, err) = occam(&["fit", "s.toml", "-q", "-o", "f", "--resume"], dir.path());
+    assert!(!ok, "a changed likelihood kind was resumed");
+    assert!(
+        err.contains("belongs to a different run") && err.contains("run without --resume"),
+        "{err}"
+    );
 }

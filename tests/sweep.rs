@@ -120,7 +120,7 @@ fn a_2d_sweep_is_the_same_on_any_number_of_threads_and_resumes_where_it_stopped(
     for f in &files[..3] {
         std::fs::remove_file(f).unwrap();
     }
-    std::fs::write(tasks.join(".0123.json.tmp-999"), b"half").unwrap();
+    std::fs::write(tasks.join(".0123.cbor.tmp-999"), b"half").unwrap();
     let json_before = bytes(&a, "sweep.json");
     let r3 = run(&small(&a), 2);
     assert_eq!((r3.computed, r3.reused), (3, 5));
@@ -129,7 +129,7 @@ fn a_2d_sweep_is_the_same_on_any_number_of_threads_and_resumes_where_it_stopped(
         "a resumed sweep must give the same numbers"
     );
     assert!(
-        !tasks.join(".0123.json.tmp-999").exists(),
+        !tasks.join(".0123.cbor.tmp-999").exists(),
         "stale temporaries are removed"
     );
     // a third run computes nothing

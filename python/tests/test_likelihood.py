@@ -82,7 +82,7 @@ def test_select_model_ln_l_equals_its_chains(cli_select):
 
 def test_prior_bounds_priors_and_ln_prior(lik):
     b = lik.prior_bounds
-    # the built-in model's default boxes (README: [prior])
+    # the built-in model's default boxes (docs/src/guide/study-files.md: [prior])
     np.testing.assert_array_equal(
         b, [[-5e-6, 5e-6], [-5e-6, 5e-6], [0.5, 1.5], [0.5, 1.5], [-1e-3, 1e-3]]
     )

@@ -1,9 +1,10 @@
-//! The README's study-file reference against the loader: every table the reference lists has
-//! exactly the keys the loader accepts, and every table the loader has is listed.
+//! The book's study-file reference (`docs/src/reference/study-file.md`) against the loader:
+//! every table the reference lists has exactly the keys the loader accepts, and every table the
+//! loader has is listed.
 //!
 //! The loader's key sets are not written down a second time here: each table's type is asked
 //! for them (a probe key makes serde list the fields it expected), so a key added to a struct
-//! without a line in the README fails this test, and so does a README key the loader refuses.
+//! without a line in the reference fails this test, and so does a listed key the loader refuses.
 
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -49,7 +50,7 @@ fn kinds<T: serde::de::DeserializeOwned>() -> BTreeSet<String> {
     expected_names(&e)
 }
 
-/// Every table of a study file, by the heading the README gives it, with its keys.
+/// Every table of a study file, by the heading the reference gives it, with its keys.
 fn schema() -> BTreeMap<String, BTreeSet<String>> {
     use crate::config::*;
     let mut s = BTreeMap::new();
@@ -123,20 +124,19 @@ fn schema() -> BTreeMap<String, BTreeSet<String>> {
     s
 }
 
-/// The README's reference: `#### heading` lines, each followed by a table whose first column
-/// holds the keys in backticks.
-fn readme_reference(readme: &str) -> BTreeMap<String, BTreeSet<String>> {
-    let start = readme
-        .find("## Study file reference")
-        .expect("README.md has a `## Study file reference` section");
-    let body = &readme[start..];
-    let end = body[3..].find("\n## ").map_or(body.len(), |i| i + 3);
+/// The reference chapter: after its `# Study file reference` title, `## heading` lines, each
+/// followed by a table whose first column holds the keys in backticks.
+fn book_reference(chapter: &str) -> BTreeMap<String, BTreeSet<String>> {
+    assert!(
+        chapter.starts_with("# Study file reference\n"),
+        "the reference chapter starts with `# Study file reference`"
+    );
     let mut out: BTreeMap<String, BTreeSet<String>> = BTreeMap::new();
     let mut current: Option<String> = None;
-    for line in body[..end].lines() {
-        if let Some(h) = line.strip_prefix("#### ") {
+    for line in chapter.lines() {
+        if let Some(h) = line.strip_prefix("## ") {
             let h = h.trim().trim_matches('`').to_string();
-            assert!(!out.contains_key(&h), "README lists {h} twice");
+            assert!(!out.contains_key(&h), "the reference lists {h} twice");
             out.insert(h.clone(), BTreeSet::new());
             current = Some(h);
         } else if let (Some(h), Some(row)) = (&current, line.strip_prefix("| `")) {
@@ -148,21 +148,20 @@ fn readme_reference(readme: &str) -> BTreeMap<String, BTreeSet<String>> {
 }
 
 #[test]
-fn the_readme_lists_every_study_key_and_no_other() {
-    let readme = include_str!("../../README.md");
-    let doc = readme_reference(readme);
+fn the_book_lists_every_study_key_and_no_other() {
+    let doc = book_reference(include_str!("../../docs/src/reference/study-file.md"));
     let schema = schema();
     let mut problems = Vec::new();
     for (table, keys) in &schema {
         match doc.get(table) {
             None => problems.push(format!(
-                "README has no `#### {table}` table (keys: {keys:?})"
+                "docs/src/reference/study-file.md has no `## {table}` table (keys: {keys:?})"
             )),
             Some(d) => {
                 let missing: Vec<_> = keys.difference(d).collect();
                 let extra: Vec<_> = d.difference(keys).collect();
                 if !missing.is_empty() {
-                    problems.push(format!("{table}: README lacks {missing:?}"));
+                    problems.push(format!("{table}: the reference lacks {missing:?}"));
                 }
                 if !extra.is_empty() {
                     problems.push(format!("{table}: the loader has no {extra:?}"));
@@ -172,7 +171,7 @@ fn the_readme_lists_every_study_key_and_no_other() {
     }
     for table in doc.keys().filter(|t| !schema.contains_key(*t)) {
         problems.push(format!(
-            "README table `{table}` is not a table of the loader"
+            "reference table `{table}` is not a table of the loader"
         ));
     }
     assert!(problems.is_empty(), "{}", problems.join("\n"));
@@ -190,14 +189,14 @@ fn the_probe_reads_serde_lists() {
         ["only".to_string()].into()
     );
     assert!(expected_names("unknown field `zz`, there are no fields").is_empty());
-    // a probe of a real table finds keys the README names
+    // a probe of a real table finds keys the reference names
     assert!(keys::<crate::config::FitOptions>("").contains("burn_in"));
 }
 
 #[test]
-fn the_readme_parser_reads_headings_and_first_cells() {
-    let text = "## Study file reference\n#### `[fit]`\n| key | default |\n|---|---|\n| `chains` | 4 |\n| `burn_in` | 5000 |\n#### top level\n| `seed` | required |\n## Next\n#### `[x]`\n| `y` | |\n";
-    let r = readme_reference(text);
+fn the_reference_parser_reads_headings_and_first_cells() {
+    let text = "# Study file reference\n| `not_a_key` | before any heading |\n## `[fit]`\n| key | default |\n|---|---|\n| `chains` | 4 |\n| `burn_in` | 5000 |\n## top level\n| `seed` | required |\n";
+    let r = book_reference(text);
     assert_eq!(r.len(), 2, "{r:?}");
     assert_eq!(r["[fit]"], ["burn_in", "chains"].map(String::from).into());
     assert_eq!(r["top level"], ["seed".to_string()].into());

@@ -4,6 +4,7 @@
 //!
 //! The on-disk dataset format written by `occam simulate` lives in [`crate::data::dataset`].
 
+pub mod checkpoint;
 pub mod dataset;
 pub mod memory;
 pub mod npz;

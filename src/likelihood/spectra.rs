@@ -33,7 +33,7 @@ pub struct SpectraOptions {
     /// likelihood weights are `1/Ŝ`, and for an estimate with ν effective averages
     /// `E[1/Ŝ] = ν/(ν − 1) · 1/S`: with 5 the inverse noise is overestimated by ~25 %, the
     /// posterior is too narrow and, on the Table I study, Δt2 lands 5σ from the truth. With 16
-    /// the bias is ~7 % and every Table I parameter is within 3σ (see the README).
+    /// the bias is ~7 % and every Table I parameter is within 3σ (see docs/src/results.md).
     pub welch_averages: usize,
     /// Welch window (with its recommended overlap).
     pub welch_window: Window,

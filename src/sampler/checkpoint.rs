@@ -1,13 +1,10 @@
-//! Checkpoints: atomic JSON snapshots of a run, and the check that one belongs to a run.
+//! Checkpoints of a Metropolis–Hastings run, and the check that one belongs to a run.
 //!
 //! A checkpoint holds the run's identity (parameter names, prior, settings, initial proposal)
 //! and every chain's complete state: position, RNG state, counters, adaptation state, kept
-//! samples and best point, all floats as exact bit patterns. Writing goes to a temporary file
-//! in the same directory, which is then renamed over the target, so a crash never leaves a
-//! half-written checkpoint.
+//! samples and best point. It is written in the common checkpoint format of every job
+//! ([`crate::data::checkpoint`]: CBOR, every f64 bit kept, atomic writes), kind [`KIND`].
 
-use std::fs::File;
-use std::io::{BufReader, BufWriter, Write};
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
@@ -19,14 +16,14 @@ use super::settings::{Adapt, Anneal, MhSettings};
 use crate::density::LogDensity;
 use crate::prior::{Prior, PriorKind};
 
-const FORMAT: &str = "occam-mh-checkpoint";
-const VERSION: u32 = 1;
+/// The checkpoint kind of a Metropolis–Hastings run.
+pub const KIND: &str = "mh";
+/// 2: the common checkpoint format (1 was JSON, `occam-mh-checkpoint`).
+const VERSION: u32 = 2;
 
 /// What is written (borrows the live run, so writing copies nothing).
 #[derive(Serialize)]
 pub(crate) struct CheckpointRef<'a> {
-    pub(crate) format: &'static str,
-    pub(crate) version: u32,
     pub(crate) names: &'a [String],
     pub(crate) prior: &'a Prior,
     pub(crate) settings: &'a MhSettings,
@@ -37,8 +34,6 @@ pub(crate) struct CheckpointRef<'a> {
 /// What is read back.
 #[derive(Deserialize)]
 pub(crate) struct Checkpoint {
-    format: String,
-    version: u32,
     names: Vec<String>,
     prior: Prior,
     settings: MhSettings,
@@ -55,8 +50,6 @@ impl<'a> CheckpointRef<'a> {
         chains: &'a [ChainState],
     ) -> Self {
         Self {
-            format: FORMAT,
-            version: VERSION,
             names,
             prior,
             settings,
@@ -66,51 +59,28 @@ impl<'a> CheckpointRef<'a> {
     }
 }
 
-fn io_err(path: &Path, what: &str, e: impl std::fmt::Display) -> SamplerError {
+fn ckpt_err(path: &Path, e: crate::data::checkpoint::CheckpointError) -> SamplerError {
     SamplerError::Checkpoint {
         path: path.to_path_buf(),
-        problem: format!("{what}: {e}"),
+        problem: e.to_string(),
     }
 }
 
-/// Writes `ckpt` to `path` atomically (temporary file in the same directory, then rename).
-pub(crate) fn write(path: &Path, ckpt: &CheckpointRef<'_>) -> Result<(), SamplerError> {
-    let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => std::path::PathBuf::from("."),
-    };
-    let name = path
-        .file_name()
-        .ok_or_else(|| io_err(path, "cannot write", "the path has no file name"))?;
-    let tmp = dir.join(format!(".{}.tmp", name.to_string_lossy()));
-    let file = File::create(&tmp).map_err(|e| io_err(path, "cannot create temporary file", e))?;
-    let mut w = BufWriter::new(file);
-    serde_json::to_writer(&mut w, ckpt).map_err(|e| io_err(path, "cannot serialise", e))?;
-    w.flush().map_err(|e| io_err(path, "cannot write", e))?;
-    let file = w
-        .into_inner()
-        .map_err(|e| io_err(path, "cannot write", e.error()))?;
-    file.sync_all()
-        .map_err(|e| io_err(path, "cannot sync", e))?;
-    std::fs::rename(&tmp, path).map_err(|e| io_err(path, "cannot rename temporary file", e))
+/// Writes `ckpt` of the run `identity` to `path` atomically.
+pub(crate) fn write(
+    path: &Path,
+    ckpt: &CheckpointRef<'_>,
+    identity: &str,
+) -> Result<(), SamplerError> {
+    crate::data::checkpoint::write(path, KIND, VERSION, identity, ckpt)
+        .map_err(|e| ckpt_err(path, e))
 }
 
-/// Reads a checkpoint (format and version checked, contents not yet matched to a run).
-pub(crate) fn read(path: &Path) -> Result<Checkpoint, SamplerError> {
-    let file = File::open(path).map_err(|e| io_err(path, "cannot open", e))?;
-    let ckpt: Checkpoint = serde_json::from_reader(BufReader::new(file))
-        .map_err(|e| io_err(path, "not a readable occam MH checkpoint", e))?;
-    if ckpt.format != FORMAT || ckpt.version != VERSION {
-        return Err(io_err(
-            path,
-            "unsupported checkpoint",
-            format!(
-                "format `{}` version {}, expected `{FORMAT}` version {VERSION}",
-                ckpt.format, ckpt.version
-            ),
-        ));
-    }
-    let mut ckpt = ckpt;
+/// Reads a checkpoint (format, kind, version and, when given, the run's identity checked;
+/// contents not yet matched to a run).
+pub(crate) fn read(path: &Path, identity: Option<&str>) -> Result<Checkpoint, SamplerError> {
+    let mut ckpt: Checkpoint = crate::data::checkpoint::read(path, KIND, VERSION, identity)
+        .map_err(|e| ckpt_err(path, e))?;
     for ch in &mut ckpt.chains {
         ch.upgrade();
     }
@@ -120,13 +90,13 @@ pub(crate) fn read(path: &Path) -> Result<Checkpoint, SamplerError> {
 /// How far the run saved in the checkpoint at `path` got: iterations done per chain and the
 /// iterations each chain runs in all (for the "resuming from" line of a command).
 pub fn progress(path: &Path) -> Result<(Vec<usize>, usize), SamplerError> {
-    let c = read(path)?;
+    let c = read(path, None)?;
     Ok((c.chains.iter().map(|s| s.iter).collect(), c.settings.n_iter))
 }
 
-/// Equal up to JSON float parsing (serde_json's default parser may be one ulp off).
+/// Equal bit for bit (the checkpoint keeps every bit; NaN equals NaN here).
 fn close(a: f64, b: f64) -> bool {
-    a == b || (a - b).abs() <= 1e-14 * a.abs().max(b.abs())
+    a.to_bits() == b.to_bits() || a == b
 }
 
 fn close_prior_kind(a: &PriorKind, b: &PriorKind) -> bool {

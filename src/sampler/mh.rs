@@ -94,6 +94,8 @@ pub struct MetropolisHastings<'a, D: LogDensity> {
     proposal: GaussianProposal,
     observer: Option<&'a (dyn Fn(&Progress) + Sync)>,
     checkpoint: Option<PathBuf>,
+    /// The run's identity in its checkpoints (empty: none is checked beyond the contents).
+    identity: String,
     stop: Option<&'a dyn Fn(usize) -> bool>,
 }
 
@@ -129,6 +131,7 @@ impl<'a, D: LogDensity> MetropolisHastings<'a, D> {
             proposal,
             observer: None,
             checkpoint: None,
+            identity: String::new(),
             stop: None,
         })
     }
@@ -144,6 +147,14 @@ impl<'a, D: LogDensity> MetropolisHastings<'a, D> {
     /// (atomically: temporary file, then rename).
     pub fn checkpoint(mut self, path: impl Into<PathBuf>) -> Self {
         self.checkpoint = Some(path.into());
+        self
+    }
+
+    /// Names the run in its checkpoints: [`MetropolisHastings::resume`] refuses a checkpoint
+    /// of another identity (say, a hash of the study and its data, which the target and the
+    /// settings alone do not pin down).
+    pub fn checkpoint_identity(mut self, identity: impl Into<String>) -> Self {
+        self.identity = identity.into();
         self
     }
 
@@ -185,7 +196,7 @@ impl<'a, D: LogDensity> MetropolisHastings<'a, D> {
     /// otherwise the error names the field that differs.
     pub fn resume(&self, path: impl AsRef<Path>) -> Result<RunOutcome, SamplerError> {
         let path = path.as_ref();
-        let ckpt = checkpoint::read(path)?;
+        let ckpt = checkpoint::read(path, (!self.identity.is_empty()).then_some(&*self.identity))?;
         ckpt.verify(path, self.target, &self.settings, &self.proposal)?;
         self.drive(ckpt.chains)
     }
@@ -211,7 +222,7 @@ impl<'a, D: LogDensity> MetropolisHastings<'a, D> {
             if let Some(path) = &self.checkpoint {
                 let ck =
                     CheckpointRef::new(&names, target.prior(), settings, &self.proposal, &states);
-                checkpoint::write(path, &ck)?;
+                checkpoint::write(path, &ck, &self.identity)?;
             }
             if until < settings.n_iter
                 && let Some(stop) = self.stop

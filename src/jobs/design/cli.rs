@@ -251,7 +251,7 @@ pub fn run_cli(
     let study = Study::load(path).map_err(|e| DesignError::Io(e.to_string()))?;
     let opts = study.design.clone().ok_or_else(|| {
         DesignError::Proxy(format!(
-            "{}: `design`: the study has no [design] table: add one with true_model and candidates (see README, \"Designing experiments\")",
+            "{}: `design`: the study has no [design] table: add one with true_model and candidates (see docs/src/guide/design.md)",
             study.source
         ))
     })?;

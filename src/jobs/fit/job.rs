@@ -1,7 +1,7 @@
 //! `occam fit` as a [`Job`]: prepare the data, run the sampler with checkpoints, write the
 //! Table I layout, chains and plots.
 
-use super::{FitOutcome, LEGACY_OUTPUTS};
+use super::{CHECKPOINT_FILE, FitOutcome, LEGACY_OUTPUTS};
 use crate::config::Study;
 use crate::jobs::{Context, Job};
 use anyhow::Context as _;
@@ -32,10 +32,16 @@ impl Job for Fit<'_> {
     fn run(&mut self, ctx: &Context) -> anyhow::Result<Fitted> {
         let (study, out) = (self.study, ctx.out);
         if ctx.resume {
-            let ckpt = out.join("checkpoint.json");
+            let ckpt = out.join(CHECKPOINT_FILE);
+            if !ckpt.exists() && out.join("checkpoint.json").exists() {
+                anyhow::bail!(
+                    "--resume: {} holds checkpoint.json, the checkpoint of an earlier occam (JSON), which this one cannot continue; run without --resume",
+                    out.display()
+                );
+            }
             if !ckpt.exists() {
                 anyhow::bail!(
-                    "--resume: there is nothing to resume in {}: it has no checkpoint.json; run without --resume",
+                    "--resume: there is nothing to resume in {}: it has no {CHECKPOINT_FILE}; run without --resume",
                     out.display()
                 );
             }

@@ -4,6 +4,9 @@
 mod job;
 pub use job::{Fit, Fitted};
 
+/// The fit's checkpoint inside its run directory ([`crate::data::checkpoint`], kind `mh`).
+pub const CHECKPOINT_FILE: &str = "checkpoint.cbor";
+
 use crate::config::{LikelihoodKind, Study};
 use crate::density::LogDensity;
 use crate::jobs::prepare::{Prepared, default_start, model_warnings, relbin_of, truth_of};
@@ -168,20 +171,27 @@ pub fn run(
     let statistic = exact.statistic();
     let (kind, why) = crate::jobs::prepare::sampled_kind(study, exact);
     warnings.extend(why);
+    // the checkpoint belongs to this study, these data and this likelihood kind (a resumed
+    // fit must not continue relative-binned chains as exact ones, or the other way round)
+    let identity = format!(
+        "{}-{kind:?}",
+        crate::jobs::select::identity(study, &prep.dataset)
+    );
+    let ckpt = Checkpoint {
+        out,
+        resume,
+        identity: &identity,
+    };
     let (chains, n_coarse) = match kind {
         LikelihoodKind::Exact => (
-            sample(
-                exact, model, &map.theta, &cov, settings, out, observer, resume,
-            )?,
+            sample(exact, model, &map.theta, &cov, settings, &ckpt, observer)?,
             None,
         ),
         LikelihoodKind::Relbin => {
             let rb = relbin_of(study, exact, &map.theta)?;
             let n = rb.n_coarse();
             (
-                sample(
-                    &rb, model, &map.theta, &cov, settings, out, observer, resume,
-                )?,
+                sample(&rb, model, &map.theta, &cov, settings, &ckpt, observer)?,
                 Some(n),
             )
         }
@@ -310,25 +320,34 @@ pub fn near_singular_warning(fisher: &DMatrix<f64>, free_names: &[String]) -> Op
     ))
 }
 
-#[allow(clippy::too_many_arguments)]
+/// Where a fit checkpoints and whether it continues from there.
+struct Checkpoint<'a> {
+    out: &'a Path,
+    resume: bool,
+    /// The run's identity in the checkpoint (study, data and likelihood kind).
+    identity: &'a str,
+}
+
 fn sample<D: LogDensity>(
     parent: &D,
     model: &crate::config::ModelSpec,
     map: &[f64],
     cov: &DMatrix<f64>,
     settings: MhSettings,
-    out: &Path,
+    ck: &Checkpoint,
     observer: Option<&(dyn Fn(&Progress) + Sync)>,
-    resume: bool,
 ) -> Result<Chains, FitError> {
+    let (out, resume) = (ck.out, ck.resume);
     let mut base = model.base.clone();
     for &i in &model.free {
         base[i] = map[i];
     }
     let sub = SubModel::new(parent, model.free.clone(), base)?;
     std::fs::create_dir_all(out).map_err(|e| FitError::Other(format!("{}: {e}", out.display())))?;
-    let ckpt = out.join("checkpoint.json");
-    let mut mh = MetropolisHastings::new(&sub, cov, settings)?.checkpoint(&ckpt);
+    let ckpt = out.join(CHECKPOINT_FILE);
+    let mut mh = MetropolisHastings::new(&sub, cov, settings)?
+        .checkpoint(&ckpt)
+        .checkpoint_identity(ck.identity);
     if let Some(o) = observer {
         mh = mh.observer(o);
     }

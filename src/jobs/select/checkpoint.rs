@@ -3,10 +3,9 @@
 //! resumes at the first unfinished stage. Each stage is deterministic given its seed and the
 //! stages before it, so a resumed run ends with the numbers of an uninterrupted one, bit for bit.
 //!
-//! The file is CBOR (not JSON) because JSON has no NaN or ∞ and its floats need care to
-//! round-trip; CBOR keeps every `f64` bit pattern. It carries an identity — a hash of the
-//! resolved study (without its output directory) and of the data — and a checkpoint of another
-//! study or other data is refused.
+//! The file is a checkpoint of the common format ([`crate::data::checkpoint`]: CBOR, every
+//! `f64` bit kept). It carries an identity — a hash of the resolved study (without its output
+//! directory) and of the data — and a checkpoint of another study or other data is refused.
 
 use super::model::{ModelRun, Sampled, sampled_around, walk_cov};
 use super::{ModelOutcome, SelectError};
@@ -23,10 +22,11 @@ use std::path::Path;
 
 /// The checkpoint's file name inside the run directory.
 pub const FILE: &str = "checkpoint.cbor";
-const FORMAT: &str = "occam-select-checkpoint";
-/// 2: the in-model chains and the jump chain's draws are saved too (for the sample files);
-/// a version-1 checkpoint is refused (rerun without `--resume`).
-const VERSION: u32 = 2;
+/// The checkpoint kind ([`crate::data::checkpoint`]).
+const KIND: &str = "select";
+/// 3: the common checkpoint format of every job. (2: the in-model chains and the jump
+/// chain's draws are saved too; 1: without them. Both are refused: rerun without `--resume`.)
+const VERSION: u32 = 3;
 
 /// One model's finished stage: what the reversible-jump run and the tables need from it.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -62,8 +62,8 @@ pub(super) struct RjStage {
 /// The saved stages of one select run.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct SelectCheckpoint {
-    format: String,
-    version: u32,
+    /// The run's [`identity`] (the envelope's; not repeated in the payload).
+    #[serde(skip)]
     identity: String,
     pub(super) models: Vec<ModelStage>,
     pub(super) rj: Option<RjStage>,
@@ -95,16 +95,10 @@ pub fn identity(study: &Study, data: &Dataset) -> String {
     format!("{:016x}", h.finish())
 }
 
-fn io_err(path: &Path, what: &str, e: impl std::fmt::Display) -> SelectError {
-    SelectError::Io(format!("{}: {what}: {e}", path.display()))
-}
-
 impl SelectCheckpoint {
     /// An empty checkpoint of the run with this [`identity`].
     pub fn new(identity: String) -> Self {
         Self {
-            format: FORMAT.into(),
-            version: VERSION,
             identity,
             models: Vec::new(),
             rj: None,
@@ -113,46 +107,17 @@ impl SelectCheckpoint {
 
     /// Reads the checkpoint at `path` and checks that it belongs to the run `identity`.
     pub fn read(path: &Path, identity: &str) -> Result<Self, SelectError> {
-        let f = std::fs::File::open(path).map_err(|e| io_err(path, "cannot open", e))?;
-        let c: SelectCheckpoint = ciborium::from_reader(std::io::BufReader::new(f))
-            .map_err(|e| io_err(path, "not a readable occam select checkpoint", e))?;
-        if c.format == FORMAT && c.version < VERSION {
-            return Err(io_err(
-                path,
-                "checkpoint of an earlier occam",
-                format!(
-                    "version {} holds no chains for the sample files (chains_<model>.npz, rj_chain.npz); run without --resume to start afresh",
-                    c.version
-                ),
-            ));
-        }
-        if c.format != FORMAT || c.version != VERSION {
-            return Err(io_err(
-                path,
-                "unsupported checkpoint",
-                format!(
-                    "format `{}` version {}, expected `{FORMAT}` version {VERSION}",
-                    c.format, c.version
-                ),
-            ));
-        }
-        if c.identity != identity {
-            return Err(SelectError::Io(format!(
-                "{}: the checkpoint belongs to a different study or different data (identity {} here, {} in the checkpoint); run without --resume to start afresh",
-                path.display(),
-                identity,
-                c.identity
-            )));
-        }
+        let mut c: SelectCheckpoint =
+            crate::data::checkpoint::read(path, KIND, VERSION, Some(identity))
+                .map_err(|e| SelectError::Io(e.to_string()))?;
+        c.identity = identity.into();
         Ok(c)
     }
 
     /// Writes the checkpoint atomically.
     pub fn write(&self, path: &Path) -> Result<(), SelectError> {
-        crate::atomic::write_with(path, |w| {
-            ciborium::into_writer(self, w).map_err(|e| std::io::Error::other(e.to_string()))
-        })
-        .map_err(|e| io_err(path, "cannot write the checkpoint", e))
+        crate::data::checkpoint::write(path, KIND, VERSION, &self.identity, self)
+            .map_err(|e| SelectError::Io(e.to_string()))
     }
 
     /// What is done and what is left, for the "resuming from" line.

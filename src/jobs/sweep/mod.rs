@@ -5,17 +5,19 @@
 //! `t / R`, realisation `t % R`; its study is the base study file with the swept keys set
 //! ([`grid::set_key`]) and the seed [`grid::task_seed`] of (run seed, point values, realisation),
 //! so its numbers do not depend on which worker runs it or in what order. Each finished task is
-//! written atomically to `tasks/<hash>.json` in the run directory; a rerun reuses every task
+//! written atomically to `tasks/<hash>.cbor` (a checkpoint, [`crate::data::checkpoint`]) in the run directory; a rerun reuses every task
 //! whose file matches it exactly ([`record::TaskRecord::load`]), so a killed sweep loses only
 //! the tasks in flight. The outputs (`sweep.json`, `sweep.npz`, table, plots) are written when
 //! every task is done.
 
 pub mod grid;
+mod job;
 pub mod output;
 mod plots;
 pub mod record;
 pub mod stats;
 
+pub use job::{PlannedSweep, SweepDone, SweepRequest, executor, plan, run as run_request};
 pub use output::{LEGACY_OUTPUTS, publish, write_outputs};
 
 use crate::config::{Study, StudyFile};
@@ -353,7 +355,7 @@ impl Sweep {
         }
         let n_computed = computed.len();
         for (t, bytes) in computed {
-            let rec: TaskRecord = serde_json::from_slice(&bytes)
+            let rec = TaskRecord::from_bytes(&bytes)
                 .with_context(|| format!("task {t}: a worker returned an unreadable result"))?;
             stored[t] = Some(rec);
         }

@@ -1,6 +1,7 @@
 //! One task's result on disk: the numbers of a model selection at one (point, realisation),
 //! written atomically when the task ends, and read back on a rerun instead of recomputing.
 
+use crate::data::checkpoint;
 use crate::jobs::select::{EstimateKind, SelectSummary};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -23,10 +24,11 @@ pub struct TaskId {
 }
 
 impl TaskId {
-    /// `tasks/<hash>.json` under the sweep's directory.
+    /// `tasks/<hash>.cbor` under the sweep's directory (a checkpoint of kind
+    /// [`TASK_KIND`]; the `.json` files of earlier versions are not reused).
     pub fn path(&self, dir: &Path) -> PathBuf {
         let id = serde_json::to_vec(self).expect("a TaskId serialises");
-        dir.join("tasks").join(format!("{:016x}.json", fnv1a(&id)))
+        dir.join("tasks").join(format!("{:016x}.cbor", fnv1a(&id)))
     }
 }
 
@@ -127,6 +129,12 @@ impl Outcome {
     }
 }
 
+/// The checkpoint kind of a sweep task's file.
+pub const TASK_KIND: &str = "sweep-task";
+/// Its version (1: the first in the common checkpoint format; the JSON files before it are
+/// recomputed).
+pub const TASK_VERSION: u32 = 1;
+
 /// A finished task: its identity and its numbers, or why it has none (a study that cannot be
 /// simulated at that point, a model with no finite likelihood, …).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -140,16 +148,19 @@ impl TaskRecord {
     /// The stored record of `id` in `dir`, if one exists and is for exactly this task. A file
     /// that cannot be read or parsed (a foreign file, a different study) is not reused.
     pub fn load(dir: &Path, id: &TaskId) -> Option<TaskRecord> {
-        let bytes = std::fs::read(id.path(dir)).ok()?;
-        let r: TaskRecord = serde_json::from_slice(&bytes).ok()?;
+        let r: TaskRecord = checkpoint::read(&id.path(dir), TASK_KIND, TASK_VERSION, None).ok()?;
         (r.id == *id).then_some(r)
     }
 
-    /// The bytes written to the task's file (and passed between workers).
+    /// The bytes written to the task's file (and passed between workers): a checkpoint
+    /// ([`crate::data::checkpoint`]), so every number, NaN included, comes back bit for bit.
     pub fn to_bytes(&self) -> Vec<u8> {
-        let mut v = serde_json::to_vec(self).expect("a TaskRecord serialises");
-        v.push(b'\n');
-        v
+        checkpoint::to_bytes(TASK_KIND, TASK_VERSION, "", self)
+    }
+
+    /// The record in bytes from [`TaskRecord::to_bytes`].
+    pub fn from_bytes(bytes: &[u8]) -> Result<TaskRecord, checkpoint::CheckpointError> {
+        checkpoint::from_bytes(bytes, TASK_KIND, TASK_VERSION, None)
     }
 }
 
