@@ -272,7 +272,7 @@ fn numbers_do_not_depend_on_the_thread_count() {
 #[test]
 fn resume_ends_with_exactly_the_uninterrupted_chains() {
     let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("mh.json");
+    let path = dir.path().join("mh.cbor");
     let t = GaussianTarget::correlated(3, 1e3, 51);
     let cov = optimal_cov(&t);
     let start = Start::Around {
@@ -366,7 +366,7 @@ fn acceptance_flags_match_the_counts_and_the_moves() {
 #[test]
 fn resumed_and_upgraded_checkpoints_keep_the_flags() {
     let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("mh.json");
+    let path = dir.path().join("mh.cbor");
     let t = GaussianTarget::correlated(3, 1e3, 52);
     let cov = optimal_cov(&t);
     let start = Start::Around {
@@ -383,7 +383,6 @@ fn resumed_and_upgraded_checkpoints_keep_the_flags() {
         .run(&start)
         .unwrap();
     assert_eq!(outcome, RunOutcome::Stopped { iterations: 2_000 });
-    let saved = std::fs::read_to_string(&path).unwrap();
     let resume = |p: &std::path::Path| {
         MetropolisHastings::new(&t, &cov, full_settings())
             .unwrap()
@@ -393,14 +392,16 @@ fn resumed_and_upgraded_checkpoints_keep_the_flags() {
             .unwrap()
     };
     assert_eq!(bits(&resume(&path)), bits(&reference));
-    // the same checkpoint as an older version wrote it
-    let mut v: serde_json::Value = serde_json::from_str(&saved).unwrap();
-    for ch in v["chains"].as_array_mut().unwrap() {
-        let o = ch.as_object_mut().unwrap();
-        assert!(o.remove("kept_accepted").is_some() && o.remove("moved").is_some());
-    }
-    let old = dir.path().join("old.json");
-    std::fs::write(&old, serde_json::to_string(&v).unwrap()).unwrap();
+    // the chains as an occam before the acceptance flags saved them
+    let old = dir.path().join("old.cbor");
+    edit_checkpoint(&path, &old, |payload| {
+        for ch in entry(payload, "chains").as_array_mut().unwrap() {
+            let o = ch.as_map_mut().unwrap();
+            let before = o.len();
+            o.retain(|(k, _)| !matches!(k.as_text(), Some("kept_accepted" | "moved")));
+            assert_eq!(o.len(), before - 2);
+        }
+    });
     let upgraded = resume(&old);
     for (u, r) in upgraded.chains().iter().zip(reference.chains()) {
         assert_eq!(u.samples, r.samples);
@@ -409,10 +410,31 @@ fn resumed_and_upgraded_checkpoints_keep_the_flags() {
     }
 }
 
+/// The value under `key` of a CBOR map.
+fn entry<'v>(map: &'v mut ciborium::Value, key: &str) -> &'v mut ciborium::Value {
+    map.as_map_mut()
+        .unwrap()
+        .iter_mut()
+        .find(|(k, _)| k.as_text() == Some(key))
+        .map(|(_, v)| v)
+        .unwrap_or_else(|| panic!("no `{key}`"))
+}
+
+/// Copies the checkpoint at `src` to `dst` with its payload edited by `f`.
+fn edit_checkpoint(
+    src: &std::path::Path,
+    dst: &std::path::Path,
+    f: impl FnOnce(&mut ciborium::Value),
+) {
+    let mut v: ciborium::Value = ciborium::from_reader(std::fs::File::open(src).unwrap()).unwrap();
+    f(entry(&mut v, "payload"));
+    ciborium::into_writer(&v, std::fs::File::create(dst).unwrap()).unwrap();
+}
+
 #[test]
 fn mismatched_checkpoints_name_the_difference() {
     let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("ck.json");
+    let path = dir.path().join("ck.cbor");
     let t = GaussianTarget::correlated(3, 1e3, 61);
     let cov = optimal_cov(&t);
     let s = MhSettings {
@@ -516,11 +538,11 @@ fn mismatched_checkpoints_name_the_difference() {
     let moved = t.shifted(0.1);
     assert!(field_of(&moved, &cov, s.clone()).starts_with("ln posterior"));
     // A state whose kept samples do not match its iteration count.
-    let mut v: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
-    v["chains"][1]["kept_ln_post"].as_array_mut().unwrap().pop();
-    let tampered = dir.path().join("tampered.json");
-    std::fs::write(&tampered, v.to_string()).unwrap();
+    let tampered = dir.path().join("tampered.cbor");
+    edit_checkpoint(&path, &tampered, |payload| {
+        let ch = &mut entry(payload, "chains").as_array_mut().unwrap()[1];
+        entry(ch, "kept_ln_post").as_array_mut().unwrap().pop();
+    });
     match MetropolisHastings::new(&t, &cov, s.clone())
         .unwrap()
         .resume(&tampered)
@@ -533,7 +555,7 @@ fn mismatched_checkpoints_name_the_difference() {
     // Unreadable files.
     let missing = MetropolisHastings::new(&t, &cov, s.clone())
         .unwrap()
-        .resume(dir.path().join("nope.json"));
+        .resume(dir.path().join("nope.cbor"));
     assert!(matches!(missing, Err(SamplerError::Checkpoint { .. })));
     std::fs::write(&path, "{\"format\": 1}").unwrap();
     let garbage = MetropolisHastings::new(&t, &cov, s).unwrap().resume(&path);
