@@ -16,6 +16,7 @@ pub mod hermitian;
 pub mod html;
 pub mod jobs;
 pub mod likelihood;
+pub mod linalg;
 pub mod lti;
 pub mod ltp;
 pub mod model;

@@ -26,11 +26,11 @@
 //! linear-Gaussian family it is exact. Without the correction a θ̂ on or outside a bound is an
 //! error, and [`LaplaceEstimate::min_margin_sigma`] reports how close θ̂ is to a bound.
 
-use super::linalg::{ln_det, spd_cholesky};
 use super::mvn::{MvnOptions, mvn_rectangle};
 use super::robust::{RobustMethod, robust_covariance};
 use super::{EvidenceError, Method};
 use crate::density::LogDensity;
+use crate::linalg::SpdOptions;
 use crate::prior::{Prior, PriorKind};
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
@@ -164,17 +164,19 @@ pub fn laplace_fisher<T: LogDensity + ?Sized>(
     {
         h[(i, i)] += c;
     }
-    let chol = spd_cholesky(
-        &h,
-        "Fisher matrix + prior curvature",
-        "the data do not constrain every parameter; fix or remove the unconstrained ones",
-    )?;
+    let chol = SpdOptions::default()
+        .names(target.prior().names())
+        .factor(&h)
+        .map_err(EvidenceError::matrix(
+            "Fisher matrix + prior curvature",
+            "the data do not constrain every parameter; fix or remove the unconstrained ones",
+        ))?;
     let cov = chol.inverse();
     assemble(
         target,
         theta_hat,
         cov,
-        -ln_det(&chol),
+        -chol.ln_det(),
         Method::LaplaceFisher,
         Some(opts),
     )
@@ -210,17 +212,19 @@ pub fn laplace_hessian<T: LogDensity + ?Sized>(
     };
     let hess = numerical_hessian(f, theta_hat, &scale, prior.names())?;
     let h = -hess;
-    let chol = spd_cholesky(
-        &h,
-        "−Hessian of the log posterior",
-        "θ̂ must be a maximum of ln L + ln π with every parameter constrained",
-    )?;
+    let chol = SpdOptions::default()
+        .names(prior.names())
+        .factor(&h)
+        .map_err(EvidenceError::matrix(
+            "−Hessian of the log posterior",
+            "θ̂ must be a maximum of ln L + ln π with every parameter constrained",
+        ))?;
     let cov = chol.inverse();
     assemble(
         target,
         theta_hat,
         cov,
-        -ln_det(&chol),
+        -chol.ln_det(),
         Method::LaplaceHessian,
         Some(opts),
     )
@@ -255,12 +259,14 @@ pub fn laplace_metropolis<T: LogDensity + ?Sized>(
         return assemble(target, theta_hat, DMatrix::zeros(0, 0), 0.0, tag, None);
     }
     let rc = robust_covariance(samples, method)?;
-    let chol = spd_cholesky(
-        &rc.cov,
-        "robust covariance",
-        "the samples must vary in every parameter",
-    )?;
-    let ln_det_cov = ln_det(&chol);
+    let chol = SpdOptions::default()
+        .names(target.prior().names())
+        .factor(&rc.cov)
+        .map_err(EvidenceError::matrix(
+            "robust covariance",
+            "the samples must vary in every parameter",
+        ))?;
+    let ln_det_cov = chol.ln_det();
     assemble(target, theta_hat, rc.cov, ln_det_cov, tag, None)
 }
 
@@ -575,7 +581,10 @@ mod tests {
                 &singular,
                 &LaplaceOptions::default()
             ),
-            Err(EvidenceError::NotPositiveDefinite { .. })
+            Err(EvidenceError::Matrix {
+                source: crate::linalg::LinalgError::NotPositiveDefinite { .. },
+                ..
+            })
         ));
         let saddle = |t: &[f64]| t[0] * t[0] - t[1] * t[1];
         assert!(matches!(

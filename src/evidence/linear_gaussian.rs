@@ -24,10 +24,10 @@
 //! absent); for an all-uniform prior it is §11's box formula (`m = θ̂`, `A⁻¹ = σ² G⁻¹`). The box
 //! probability comes from [`mvn_rectangle`] and carries its quasi-Monte-Carlo error.
 
-use super::linalg::{ln_det, spd_cholesky};
 use super::mvn::{MvnOptions, mvn_rectangle};
 use super::{EvidenceError, Method};
 use crate::density::LogDensity;
+use crate::linalg::{Spd, SpdOptions};
 use crate::prior::{Prior, PriorKind};
 use nalgebra::{DMatrix, DVector};
 use rand::{Rng, SeedableRng};
@@ -127,11 +127,13 @@ impl LinearGaussian {
         }
         let y = DVector::from_vec(data);
         let g = design.transpose() * &design;
-        let chol = spd_cholesky(
-            &g,
-            "XᵀX of the linear-Gaussian design",
-            "the design columns must be linearly independent (full column rank)",
-        )?;
+        let chol = SpdOptions::default()
+            .names(prior.names())
+            .factor(&g)
+            .map_err(EvidenceError::matrix(
+                "XᵀX of the linear-Gaussian design",
+                "the design columns must be linearly independent (full column rank)",
+            ))?;
         let theta_ls = chol.solve(&(design.transpose() * &y));
         let rss_min = (&y - &design * &theta_ls).norm_squared();
         let gram = (0..d * d).map(|k| g[(k / d, k % d)]).collect();
@@ -208,10 +210,18 @@ impl LinearGaussian {
         let s2 = self.sigma * self.sigma;
         let xs = self.design.select_columns(cols);
         let g = xs.transpose() * &xs;
+        let names: Vec<String> = cols
+            .iter()
+            .map(|&c| self.prior.names()[c].clone())
+            .collect();
+        let opts = SpdOptions::default().names(&names);
         let (theta_hat, rss) = if k == 0 {
             (DVector::zeros(0), self.data.norm_squared())
         } else {
-            let cg = spd_cholesky(&g, "X_SᵀX_S", "use linearly independent columns")?;
+            let cg = opts.factor(&g).map_err(EvidenceError::matrix(
+                "X_SᵀX_S",
+                "use linearly independent columns",
+            ))?;
             let t = cg.solve(&(xs.transpose() * &self.data));
             let r = (&self.data - &xs * &t).norm_squared();
             (t, r)
@@ -227,11 +237,10 @@ impl LinearGaussian {
         let (mean, cov) = if k == 0 {
             (DVector::zeros(0), DMatrix::zeros(0, 0))
         } else {
-            let ca = spd_cholesky(
-                &a,
+            let ca = opts.factor(&a).map_err(EvidenceError::matrix(
                 "posterior precision A",
                 "use linearly independent columns",
-            )?;
+            ))?;
             (ca.solve(&rhs), ca.inverse())
         };
         Ok((
@@ -308,8 +317,11 @@ impl LinearGaussian {
                 PriorKind::LogUniform { .. } => unreachable!("rejected in new()"),
             }
         }
-        let ca = spd_cholesky(&post.precision, "posterior precision A", "unreachable")?;
-        ln_z += -0.5 * q + 0.5 * k as f64 * (2.0 * PI).ln() - 0.5 * ln_det(&ca);
+        let ca = Spd::new(&post.precision).map_err(EvidenceError::matrix(
+            "posterior precision A",
+            "unreachable",
+        ))?;
+        ln_z += -0.5 * q + 0.5 * k as f64 * (2.0 * PI).ln() - 0.5 * ca.ln_det();
         let mut std_err = 0.0;
         if !bounded.is_empty() {
             let idx: Vec<usize> = bounded.iter().map(|b| b.0).collect();
@@ -354,10 +366,10 @@ impl LinearGaussian {
             }
         }
         let c = DMatrix::identity(n, n) * (self.sigma * self.sigma) + &xs * s0 * xs.transpose();
-        let cc = spd_cholesky(&c, "data covariance C", "unreachable")?;
+        let cc = Spd::new(&c).map_err(EvidenceError::matrix("data covariance C", "unreachable"))?;
         let r = &self.data - &xs * mu0;
         let q = r.dot(&cc.solve(&r));
-        Ok(-0.5 * (n as f64 * (2.0 * PI).ln() + ln_det(&cc) + q))
+        Ok(-0.5 * (n as f64 * (2.0 * PI).ln() + cc.ln_det() + q))
     }
 
     /// `n` exact posterior draws (rows) of the model on `cols`: multivariate normal, truncated to
@@ -374,7 +386,9 @@ impl LinearGaussian {
         if k == 0 {
             return Ok(out);
         }
-        let l = spd_cholesky(&post.cov, "posterior covariance", "unreachable")?.l();
+        let l = Spd::new(&post.cov)
+            .map_err(EvidenceError::matrix("posterior covariance", "unreachable"))?
+            .l();
         let sub = self.prior.subset(cols);
         let mut z = DVector::zeros(k);
         let (mut got, mut tries) = (0usize, 0usize);
@@ -714,7 +728,10 @@ mod tests {
         .unwrap();
         assert!(matches!(
             LinearGaussian::new(collinear, vec![1.0; 3], 1.0, prior),
-            Err(EvidenceError::NotPositiveDefinite { .. })
+            Err(EvidenceError::Matrix {
+                source: crate::linalg::LinalgError::NotPositiveDefinite { .. },
+                ..
+            })
         ));
     }
 

@@ -20,7 +20,6 @@
 //! the right way up; MVE keeps repeated chain samples and never rotates the data.
 
 pub mod laplace;
-mod linalg;
 pub mod linear_gaussian;
 pub mod mvn;
 mod normal;
@@ -117,11 +116,20 @@ pub enum EvidenceError {
         value: f64,
         fix: String,
     },
-    /// A matrix that must be symmetric positive definite is not.
+    /// A matrix that must be symmetric positive definite is not (found outside a
+    /// factorisation: a pivot of the reordered MVN integral, a Hessian diagonal).
     #[error("{what} is not symmetric positive definite ({detail}); {fix}")]
     NotPositiveDefinite {
         what: String,
         detail: String,
+        fix: String,
+    },
+    /// A matrix that must be symmetric positive definite failed its factorisation: `source`
+    /// says why (naming the least-constrained direction when it is not positive definite).
+    #[error("{what}: {source}; {fix}")]
+    Matrix {
+        what: String,
+        source: crate::linalg::LinalgError,
         fix: String,
     },
     /// The expansion point is on or outside the prior support and no box correction was asked.
@@ -193,6 +201,20 @@ impl EvidenceError {
         EvidenceError::NonFinite {
             what: what.into(),
             value,
+            fix: fix.to_string(),
+        }
+    }
+
+    /// The context of a [`crate::linalg::LinalgError`], for `map_err`: the matrix's name and
+    /// what to do about it.
+    pub(crate) fn matrix<'a>(
+        what: impl Into<String>,
+        fix: &'a str,
+    ) -> impl FnOnce(crate::linalg::LinalgError) -> Self + 'a {
+        let what = what.into();
+        move |source| EvidenceError::Matrix {
+            what,
+            source,
             fix: fix.to_string(),
         }
     }

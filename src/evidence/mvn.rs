@@ -23,8 +23,8 @@
 //! draws, so that tiny masses (a Gaussian hundreds of σ outside a box) stay finite and keep
 //! their relative precision.
 
-use super::linalg::spd_cholesky;
 use super::{EvidenceError, normal};
+use crate::linalg::Spd;
 use nalgebra::DMatrix;
 use rand::{RngExt, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
@@ -146,12 +146,15 @@ pub fn mvn_rectangle(
     if d == 0 {
         return Ok(MvnProbability::exact(0.0));
     }
-    let chol = spd_cholesky(cov, "mvn covariance", "pass a positive-definite covariance")?;
+    let chol = Spd::new(cov).map_err(EvidenceError::matrix(
+        "mvn covariance",
+        "pass a positive-definite covariance",
+    ))?;
     if lower.iter().zip(upper).any(|(a, b)| a == b) {
         return Ok(MvnProbability::exact(f64::NEG_INFINITY));
     }
     if d == 1 {
-        let s = chol.l_dirty()[(0, 0)];
+        let s = chol.l()[(0, 0)];
         let ln_p = normal::ln_interval((lower[0] - mean[0]) / s, (upper[0] - mean[0]) / s);
         return Ok(MvnProbability::exact(ln_p));
     }
@@ -573,7 +576,10 @@ mod tests {
         let bad = DMatrix::from_row_slice(2, 2, &[1.0, 2.0, 2.0, 1.0]);
         assert!(matches!(
             mvn_rectangle(&[0.0, 0.0], &[1.0, 1.0], &[0.0, 0.0], &bad, &o),
-            Err(EvidenceError::NotPositiveDefinite { .. })
+            Err(EvidenceError::Matrix {
+                source: crate::linalg::LinalgError::NotPositiveDefinite { .. },
+                ..
+            })
         ));
         let few = MvnOptions { n_shifts: 2, ..o };
         assert!(mvn_rectangle(&[0.0, 0.0], &[1.0, 1.0], &[0.0, 0.0], &cov, &few).is_err());

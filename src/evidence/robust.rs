@@ -38,7 +38,7 @@
 //! Both are deterministic given their seed.
 
 use super::EvidenceError;
-use super::linalg::forward_solve_norm2;
+use crate::linalg::{cholesky_in_place, forward_solve_norm2, ln_det_lower};
 use nalgebra::DMatrix;
 use rand::{RngExt, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
@@ -386,6 +386,23 @@ struct Fit {
     ln_det: f64,
 }
 
+impl Fit {
+    /// Factors `cov` (row-major `p × p`); `None` when a pivot falls below 1e-12 of its
+    /// diagonal entry (singular to working precision). Runs in every C-step: the
+    /// allocation-free kernel of [`crate::linalg`].
+    fn new(mean: Vec<f64>, cov: Vec<f64>, p: usize) -> Option<Self> {
+        let mut l = cov.clone();
+        cholesky_in_place(&mut l, p, 1e-12).ok()?;
+        let ln_det = ln_det_lower(&l, p);
+        Some(Self {
+            mean,
+            cov,
+            l,
+            ln_det,
+        })
+    }
+}
+
 #[derive(Default)]
 struct CStepBuffers {
     d2: Vec<(f64, usize)>,
@@ -539,13 +556,7 @@ impl Data {
 
     fn fit(&self, idx: &[usize], w: &[f64]) -> Option<Fit> {
         let (mean, cov) = self.mean_cov(idx, w);
-        let (l, ln_det) = cholesky(&cov, self.p)?;
-        Some(Fit {
-            mean,
-            cov,
-            l,
-            ln_det,
-        })
+        Fit::new(mean, cov, self.p)
     }
 
     /// A random subset of (p+1) distinct rows of `pool`, drawn with probability proportional
@@ -652,15 +663,10 @@ impl Data {
             what: self.what.into(),
             detail: detail.into(),
         };
-        let (l, ln_det) = cholesky(&raw_cov, p).ok_or_else(|| singular("raw covariance"))?;
         let raw_location = fit.mean.clone();
         let raw_cov_m = to_matrix(&raw_cov, p);
-        let mut current = Fit {
-            mean: fit.mean,
-            cov: raw_cov,
-            l,
-            ln_det,
-        };
+        let mut current =
+            Fit::new(fit.mean, raw_cov, p).ok_or_else(|| singular("raw covariance"))?;
         let factor = 0.975 / gamma_lr((p as f64 + 2.0) / 2.0, self.q975 / 2.0);
         let mut d2 = vec![0.0; self.k];
         let mut previous: Vec<usize> = Vec::new();
@@ -679,14 +685,8 @@ impl Data {
             let w: Vec<f64> = inliers.iter().map(|&i| self.w[i]).collect();
             let (mean, mut cov) = self.mean_cov(&inliers, &w);
             cov.iter_mut().for_each(|c| *c *= factor);
-            let (l, ln_det) = cholesky(&cov, p)
+            current = Fit::new(mean, cov, p)
                 .ok_or_else(|| singular("the reweighted samples lie in a hyperplane"))?;
-            current = Fit {
-                mean,
-                cov,
-                l,
-                ln_det,
-            };
             previous = inliers;
         }
         let n_inliers = previous.iter().map(|&i| self.w[i]).sum::<f64>() as usize;
@@ -698,32 +698,6 @@ impl Data {
             n_inliers,
         })
     }
-}
-
-/// Row-major Cholesky; `None` when a pivot falls below 1e-12 of its diagonal entry (singular to
-/// working precision).
-fn cholesky(a: &[f64], p: usize) -> Option<(Vec<f64>, f64)> {
-    let mut l = vec![0.0; p * p];
-    let mut ln_det = 0.0;
-    for i in 0..p {
-        for j in 0..=i {
-            let mut s = a[i * p + j];
-            for k in 0..j {
-                s -= l[i * p + k] * l[j * p + k];
-            }
-            if i == j {
-                if s.is_nan() || s <= 1e-12 * a[i * p + i] || !s.is_finite() {
-                    return None;
-                }
-                let d = s.sqrt();
-                l[i * p + i] = d;
-                ln_det += 2.0 * d.ln();
-            } else {
-                l[i * p + j] = s / l[j * p + j];
-            }
-        }
-    }
-    Some((l, ln_det))
 }
 
 /// The weighted median: the smallest value whose cumulative weight exceeds `(W − 1)/2` —

@@ -65,9 +65,9 @@
 //! its ratios are biased low (Jensen) when a step's weights are dominated by a few samples; the
 //! equalised swap rates keep adjacent rungs overlapping, which is the same condition.
 
-use super::linalg::spd_cholesky;
 use super::{EvidenceError, mvn::log_add_exp};
 use crate::density::LogDensity;
+use crate::linalg::{Spd, SpdOptions, symmetrised};
 use crate::prior::PriorKind;
 use crate::sampler::chain_rng;
 use nalgebra::DMatrix;
@@ -296,11 +296,14 @@ impl Geometry {
             m[(i, i)] += (1.0 - beta) * self.prior_prec[i];
         }
         let fix = "pass a symmetric positive definite covariance of sensible scale";
-        let prec = spd_cholesky(&m, "tempered precision β C⁻¹ + (1 − β) P⁻¹", fix)?;
-        let sigma = prec.inverse();
-        let sigma = (&sigma + sigma.transpose()) * 0.5;
-        let l = spd_cholesky(&sigma, "tempered covariance", fix)?.l();
-        let chol = (0..d * d).map(|k| l[(k / d, k % d)]).collect();
+        let prec = Spd::new(&m).map_err(EvidenceError::matrix(
+            "tempered precision β C⁻¹ + (1 − β) P⁻¹",
+            fix,
+        ))?;
+        let sigma = symmetrised(&prec.inverse());
+        let chol = Spd::new(&sigma)
+            .map_err(EvidenceError::matrix("tempered covariance", fix))?
+            .l_row_major();
         let mut cap = f64::INFINITY;
         for i in 0..d {
             cap = cap.min(self.width[i] / sigma[(i, i)].sqrt());
@@ -455,13 +458,14 @@ fn check_start(
 impl Geometry {
     /// `C⁻¹` from the posterior covariance `cov`, and the prior's precisions and widths.
     fn new(target: &dyn LogDensity, cov: &DMatrix<f64>) -> Result<Geometry, EvidenceError> {
-        let cov_chol = spd_cholesky(
-            cov,
-            "tempering proposal covariance",
-            "pass the inverse Fisher matrix or an in-model chain's sample covariance",
-        )?;
-        let cov_inv = cov_chol.inverse();
-        let cov_inv = (&cov_inv + cov_inv.transpose()) * 0.5;
+        let cov_chol = SpdOptions::default()
+            .names(target.prior().names())
+            .factor(cov)
+            .map_err(EvidenceError::matrix(
+                "tempering proposal covariance",
+                "pass the inverse Fisher matrix or an in-model chain's sample covariance",
+            ))?;
+        let cov_inv = symmetrised(&cov_chol.inverse());
         let (prior_prec, width): (Vec<f64>, Vec<f64>) = target
             .prior()
             .kinds()
@@ -1347,7 +1351,10 @@ mod tests {
         ));
         assert!(matches!(
             run_tempering(&lg, &[0.0, 0.0], &(DMatrix::identity(2, 2) * -1.0), &base),
-            Err(EvidenceError::NotPositiveDefinite { .. })
+            Err(EvidenceError::Matrix {
+                source: crate::linalg::LinalgError::NotPositiveDefinite { .. },
+                ..
+            })
         ));
         // A user-given ladder is used as given when not adapted.
         let fixed = TemperingOptions {

@@ -34,6 +34,7 @@
 use super::exact::Likelihood;
 use super::fisher::gradient_and_fisher;
 use crate::density::LogDensity;
+use crate::linalg::SpdOptions;
 use crate::prior::PriorKind;
 use nalgebra::{DMatrix, DVector};
 
@@ -297,7 +298,7 @@ pub fn refine_statistic_max(
             gi[i] += dg;
             info[(i, i)] += df;
         }
-        let Some(chol) = info.clone().cholesky() else {
+        let Ok(chol) = SpdOptions::lower().factor(&info) else {
             break;
         };
         let step = chol.solve(&gi);
@@ -455,7 +456,7 @@ impl Problem {
             let m = inactive.len();
             let fi = DMatrix::from_fn(m, m, |a, b| f[(inactive[a], inactive[b])]);
             let gi = DVector::from_fn(m, |a, _| g[inactive[a]]);
-            let chol = fi.clone().cholesky().ok_or_else(|| {
+            let chol = SpdOptions::lower().factor(&fi).map_err(|_| {
                 let names: Vec<String> = inactive.iter().map(|&i| self.names[i].clone()).collect();
                 let (detail, unconstrained) = super::fisher::describe_unconstrained(&fi, &names);
                 MapError::Singular {

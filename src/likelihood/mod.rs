@@ -17,9 +17,8 @@ pub mod statistic;
 
 pub use exact::{Likelihood, LikelihoodError};
 pub use fisher::{
-    NULL_EIGENVALUE_TOL, NullDirection, NullKind, cramer_rao, default_step, describe_unconstrained,
-    fisher_exact, fisher_numeric, format_direction, gradient_and_fisher, gradient_hessian_numeric,
-    unconstrained_directions, weakest_direction,
+    cramer_rao, default_step, describe_unconstrained, fisher_exact, fisher_numeric,
+    gradient_and_fisher, gradient_hessian_numeric,
 };
 pub use map::{
     MapError, RUNAWAY_WIDTHS, ScoringResult, fisher_scoring, fisher_scoring_unbounded,

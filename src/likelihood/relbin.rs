@@ -25,6 +25,7 @@ use super::fisher::fisher_exact;
 use super::spectra::ExperimentSpectra;
 use crate::density::LogDensity;
 use crate::hermitian;
+use crate::linalg;
 use crate::model::{Bin, MAX_CHANNELS, MAX_RESIDUALS, Model};
 use crate::prior::Prior;
 use nalgebra::DMatrix;
@@ -650,15 +651,8 @@ impl Region {
         let free: Vec<usize> = (0..np).collect();
         let f = fisher_exact(exact, fid, &free);
         // scale to unit diagonal so the eigen-decomposition is well conditioned
-        let d: Vec<f64> = (0..np).map(|i| f[(i, i)].max(0.0).sqrt()).collect();
-        let fs = DMatrix::from_fn(np, np, |i, j| {
-            if d[i] > 0.0 && d[j] > 0.0 {
-                f[(i, j)] / (d[i] * d[j])
-            } else {
-                0.0
-            }
-        });
-        let eig = fs.symmetric_eigen();
+        let (fs, d) = linalg::unit_diagonal(&f);
+        let eig = linalg::symmetric_eigen(fs);
         let lmax = eig.eigenvalues.iter().cloned().fold(0.0, f64::max);
         let mut axes = Vec::new();
         let mut sigma = vec![0.0f64; np];
@@ -710,8 +704,8 @@ impl Region {
                 "the region covariance has non-finite entries".into(),
             ));
         }
-        let sym = (cov + cov.transpose()) * 0.5;
-        let eig = sym.clone().symmetric_eigen();
+        let sym = linalg::symmetrised(cov);
+        let eig = linalg::symmetric_eigen(sym.clone());
         let lmax = eig.eigenvalues.iter().cloned().fold(0.0, f64::max);
         if eig.eigenvalues.iter().any(|&l| l < -1e-9 * lmax) || !(lmax > 0.0) {
             return Err(RelBinError::Invalid(format!(
@@ -1224,7 +1218,7 @@ mod tests {
         let (lik, truth) = low_snr();
         let free = [0usize, 1, 6];
         let f = crate::likelihood::fisher_exact(&lik, &truth, &free);
-        let cov = f.cholesky().unwrap().inverse();
+        let cov = linalg::Spd::new(&f).unwrap().inverse();
         let rb = RelBinLikelihood::with_covariance(&lik, &truth, &Default::default(), &free, &cov)
             .unwrap();
         let v = rb.validation();

@@ -227,8 +227,8 @@ pub(crate) fn ellipsoid_points(
 ) -> Vec<[f64; N_PARAMS]> {
     use rand::SeedableRng;
     use rand_distr::{Distribution, StandardNormal};
-    let cov = f.clone().cholesky().unwrap().inverse();
-    let l = cov.clone().cholesky().unwrap().l();
+    let cov = crate::linalg::Spd::new(f).unwrap().inverse();
+    let l = crate::linalg::SpdOptions::lower().factor(&cov).unwrap().l();
     let mut rng = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(seed);
     let mut dirs: Vec<Vec<f64>> = Vec::new();
     for i in 0..N_PARAMS {
@@ -313,7 +313,9 @@ fn fisher_scoring_finds_the_maximum_from_far_away() {
     assert!(r.converged, "{r:?}");
     // at the maximum the gradient vanishes: the Newton step is below 1e-4 σ
     let (g, f) = gradient_and_fisher(&lik, &r.theta, &free);
-    let step = f.cholesky().unwrap().solve(&nalgebra::DVector::from_vec(g));
+    let step = crate::linalg::Spd::new(&f)
+        .unwrap()
+        .solve(&nalgebra::DVector::from_vec(g));
     for i in 0..N_PARAMS {
         assert!(
             step[i].abs() < 1e-3 * sig[i],

@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::proposal::cholesky_in_place;
+use crate::linalg::cholesky_in_place;
 
 /// Running mean and scatter matrix of one chain's states since the adaptation started.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -82,7 +82,7 @@ impl AdaptState {
             }
             self.work[i * d + i] *= 1.0 + ridge;
         }
-        if cholesky_in_place(&mut self.work, d).is_err() {
+        if cholesky_in_place(&mut self.work, d, 0.0).is_err() {
             return false;
         }
         chol.copy_from_slice(&self.work);

@@ -124,7 +124,7 @@ impl<'a, D: LogDensity> MetropolisHastings<'a, D> {
                 ),
             });
         }
-        let proposal = GaussianProposal::new(proposal_cov)?;
+        let proposal = GaussianProposal::with_names(proposal_cov, target.prior().names())?;
         Ok(Self {
             target,
             settings,

@@ -6,6 +6,7 @@ use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 
 use super::SamplerError;
+use crate::linalg::{LinalgError, SpdOptions};
 
 /// A Metropolis–Hastings proposal `q(θ' | θ)`.
 ///
@@ -31,7 +32,8 @@ pub trait Proposal {
 
 /// Multivariate Gaussian random walk `θ' = θ + scale · L z`, `z ~ N(0, I)`, `L Lᵀ = Σ`.
 ///
-/// Σ is validated and Cholesky-factored once, in [`GaussianProposal::new`].
+/// Σ is validated and Cholesky-factored once, in [`GaussianProposal::new`] (by
+/// [`crate::linalg::Spd`]).
 ///
 /// ```
 /// use nalgebra::DMatrix;
@@ -53,10 +55,16 @@ pub struct GaussianProposal {
 }
 
 impl GaussianProposal {
-    /// Validates Σ (square, finite, positive variances, symmetric to 1e−8 relative to
-    /// `√(Σ_ii Σ_jj)`, positive definite) and factors `(Σ + Σᵀ)/2`. The symmetric tolerance
-    /// admits the round-off of a numerically inverted Fisher matrix.
+    /// Validates Σ (square, non-empty, positive variances, finite, symmetric to 1e−8 relative
+    /// to `√Σ_ii √Σ_jj`, positive definite) and factors `(Σ + Σᵀ)/2` with [`crate::linalg::Spd`].
+    /// The symmetric tolerance admits the round-off of a numerically inverted Fisher matrix.
     pub fn new(cov: &DMatrix<f64>) -> Result<Self, SamplerError> {
+        Self::with_names(cov, &[])
+    }
+
+    /// As [`GaussianProposal::new`]; when Σ is not positive definite the error names the
+    /// least-constrained direction by the parameters' `names` (Σ's rows, in order).
+    pub fn with_names(cov: &DMatrix<f64>, names: &[String]) -> Result<Self, SamplerError> {
         let d = cov.nrows();
         let bad = |problem: String| Err(SamplerError::Covariance { problem });
         if d == 0 || cov.ncols() != d {
@@ -67,11 +75,6 @@ impl GaussianProposal {
             ));
         }
         for i in 0..d {
-            for j in 0..d {
-                if !cov[(i, j)].is_finite() {
-                    return bad(format!("entry ({i}, {j}) = {} is not finite", cov[(i, j)]));
-                }
-            }
             if cov[(i, i)] <= 0.0 {
                 return bad(format!(
                     "diagonal entry ({i}, {i}) = {} must be > 0 (it is a variance)",
@@ -79,32 +82,18 @@ impl GaussianProposal {
                 ));
             }
         }
-        for i in 0..d {
-            for j in 0..i {
-                let tol = 1e-8 * (cov[(i, i)] * cov[(j, j)]).sqrt();
-                if (cov[(i, j)] - cov[(j, i)]).abs() > tol {
-                    return bad(format!(
-                        "not symmetric: ({i}, {j}) = {} but ({j}, {i}) = {}; pass (Σ + Σᵀ)/2 if the difference is round-off",
-                        cov[(i, j)],
-                        cov[(j, i)]
-                    ));
-                }
+        let spd = match SpdOptions::default().names(names).factor(cov) {
+            Ok(spd) => spd,
+            Err(e @ LinalgError::NotPositiveDefinite { .. }) => {
+                return bad(format!(
+                    "{e}; check the Fisher matrix for unconstrained or duplicated parameters"
+                ));
             }
-        }
-        let mut chol = vec![0.0; d * d];
-        for i in 0..d {
-            for j in 0..d {
-                chol[i * d + j] = 0.5 * (cov[(i, j)] + cov[(j, i)]);
-            }
-        }
-        if let Err(k) = cholesky_in_place(&mut chol, d) {
-            return bad(format!(
-                "not positive definite (Cholesky pivot {k} is not > 0); check the Fisher matrix for unconstrained or duplicated parameters"
-            ));
-        }
+            Err(e) => return bad(e.to_string()),
+        };
         Ok(Self {
             dim: d,
-            chol,
+            chol: spd.l_row_major(),
             z: vec![0.0; d],
         })
     }
@@ -156,37 +145,6 @@ impl Proposal for GaussianProposal {
     }
 }
 
-/// In-place lower Cholesky factorisation of the symmetric `n × n` row-major matrix `a` (only
-/// its lower triangle is read); the upper triangle is zeroed. Allocation-free, so the
-/// adaptation can refactor inside the chain loop. `Err(k)` names the first pivot that is not
-/// positive and finite.
-pub(crate) fn cholesky_in_place(a: &mut [f64], n: usize) -> Result<(), usize> {
-    for j in 0..n {
-        let mut s = a[j * n + j];
-        for k in 0..j {
-            s -= a[j * n + k] * a[j * n + k];
-        }
-        if !(s > 0.0 && s.is_finite()) {
-            return Err(j);
-        }
-        let l = s.sqrt();
-        a[j * n + j] = l;
-        for i in j + 1..n {
-            let mut t = a[i * n + j];
-            for k in 0..j {
-                t -= a[i * n + k] * a[j * n + k];
-            }
-            a[i * n + j] = t / l;
-        }
-    }
-    for i in 0..n {
-        for j in i + 1..n {
-            a[i * n + j] = 0.0;
-        }
-    }
-    Ok(())
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -220,6 +178,15 @@ mod tests {
                 .contains("not positive definite")
         );
         assert!(err(DMatrix::from_row_slice(2, 2, &[-1.0, 0.0, 0.0, 1.0])).contains("variance"));
+        // with names, the unconstrained direction is named
+        let names = ["a".to_string(), "b".to_string()];
+        let singular = DMatrix::from_row_slice(2, 2, &[1.0, 1.0, 1.0, 1.0]);
+        match GaussianProposal::with_names(&singular, &names) {
+            Err(SamplerError::Covariance { problem }) => {
+                assert!(problem.contains("0.71·a − 0.71·b"), "{problem}")
+            }
+            other => panic!("expected an error, got {other:?}"),
+        }
     }
 
     #[test]

@@ -10,7 +10,8 @@
 
 use super::estimate::{Grid, lae};
 use super::{Prepared, ProposalShape, RjTracePoint};
-use rand::{RngExt, SeedableRng};
+use crate::sampler::chain_rng;
+use rand::RngExt;
 use rand_distr::{ChiSquared, Distribution, StandardNormal};
 use rand_xoshiro::Xoshiro256PlusPlus;
 
@@ -218,17 +219,6 @@ pub(super) struct Chain {
     pub draw_model: Vec<i64>,
     pub draw_theta: Vec<f64>,
     pub draw_ln_l: Vec<f64>,
-}
-
-/// The random stream of chain `j`: `Xoshiro256PlusPlus::seed_from_u64(seed)` advanced by `j`
-/// calls of `jump()` (2¹²⁸ steps each), so the streams never overlap and chain 0 is the
-/// stream of a single-chain run.
-pub(super) fn chain_rng(seed: u64, j: usize) -> Xoshiro256PlusPlus {
-    let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
-    for _ in 0..j {
-        rng.jump();
-    }
-    rng
 }
 
 impl Chain {

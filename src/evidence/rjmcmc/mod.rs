@@ -131,10 +131,10 @@ mod estimate;
 #[cfg(test)]
 mod tests;
 
-use super::linalg::{forward_solve_norm2, lower_row_major, spd_cholesky};
 use super::mvn::{MvnOptions, mvn_rectangle};
 use super::{EvidenceError, LnB, Method};
 use crate::density::LogDensity;
+use crate::linalg::{SpdOptions, forward_solve_norm2};
 use chain::{Chain, Layout, Shared};
 use estimate::{GRID_OFFSETS, Pool, Sojourns};
 use nalgebra::DMatrix;
@@ -1142,13 +1142,15 @@ fn prepare<'a>(
                     lrw: vec![],
                 });
             }
-            let chol = spd_cholesky(
-                &m.cov,
-                &format!("proposal covariance of model `{}`", m.name),
-                "pass the inverse Fisher matrix or another positive-definite posterior covariance",
-            )?;
-            let l = lower_row_major(&chol);
-            let ln_det_sigma = super::linalg::ln_det(&chol);
+            let chol = SpdOptions::default()
+                .names(m.target.prior().names())
+                .factor(&m.cov)
+                .map_err(EvidenceError::matrix(
+                    format!("proposal covariance of model `{}`", m.name),
+                    "pass the inverse Fisher matrix or another positive-definite posterior covariance",
+                ))?;
+            let l = chol.l_row_major();
+            let ln_det_sigma = chol.ln_det();
             let ln_det_q = ln_det_sigma + d as f64 * c2.ln();
             let df = d as f64;
             let ln_q_norm = match opts.proposal {

@@ -132,14 +132,8 @@ fn asimov_equals_the_occam_factor_for_a_nested_truth() {
     let truth = crate::jobs::prepare::reference_point(&sn, y.model);
     let f = fisher_exact(&lik, &truth, &y.free);
     // inverse after Jacobi scaling (the diagonal spans many decades in SI units)
-    let n = f.nrows();
-    let d: Vec<f64> = (0..n).map(|i| 1.0 / f[(i, i)].sqrt()).collect();
-    let g = nalgebra::DMatrix::from_fn(n, n, |i, j| f[(i, j)] * d[i] * d[j]);
-    let gi = g
-        .cholesky()
-        .expect("Fisher of Y positive definite")
-        .inverse();
-    let cov = nalgebra::DMatrix::from_fn(n, n, |i, j| gi[(i, j)] * d[i] * d[j]);
+    let opts = crate::linalg::SpdOptions::lower().jacobi();
+    let cov = crate::linalg::spd_inverse(&f, &opts).expect("Fisher of Y positive definite");
     let names = lik.model().param_names();
     let k = y.free.iter().position(|&i| names[i] == "d21").unwrap();
     let sigma = cov[(k, k)].sqrt();

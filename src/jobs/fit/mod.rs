@@ -11,6 +11,7 @@ use crate::config::{LikelihoodKind, Study};
 use crate::density::LogDensity;
 use crate::jobs::prepare::{Prepared, default_start, model_warnings, relbin_of, truth_of};
 use crate::likelihood::{cramer_rao, fisher_exact, fisher_scoring};
+use crate::linalg::SpdOptions;
 use crate::nested::SubModel;
 use crate::report::{Table, fmt_fixed, fmt_pm, fmt_short, fmt_sig};
 use crate::sampler::{Adapt, Chains, MetropolisHastings, MhSettings, Progress, RunOutcome, Start};
@@ -146,7 +147,10 @@ pub fn run(
     }
     let seconds_map = t0.elapsed().as_secs_f64();
     let d = free.len();
-    let cov = fisher.clone().cholesky().expect("checked above").inverse()
+    let cov = SpdOptions::lower()
+        .factor(&fisher)
+        .expect("checked above")
+        .inverse()
         * (study.fit.proposal_scale * 2.38f64.powi(2) / d as f64);
     let f = &study.fit;
     let settings = MhSettings {
@@ -303,11 +307,10 @@ pub fn fix_hint(
 }
 
 /// A warning when the Fisher matrix has directions below
-/// [`crate::likelihood::NULL_EIGENVALUE_TOL`] although its Cholesky factorisation succeeded:
+/// [`crate::linalg::NULL_EIGENVALUE_TOL`] although its Cholesky factorisation succeeded:
 /// the Cramér–Rao σ and the proposal along them are set by rounding, not by the data.
 pub fn near_singular_warning(fisher: &DMatrix<f64>, free_names: &[String]) -> Option<String> {
-    let dirs =
-        crate::likelihood::unconstrained_directions(fisher, crate::likelihood::NULL_EIGENVALUE_TOL);
+    let dirs = crate::linalg::unconstrained_directions(fisher, crate::linalg::NULL_EIGENVALUE_TOL);
     if dirs.is_empty() {
         return None;
     }

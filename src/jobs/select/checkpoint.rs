@@ -7,7 +7,7 @@
 //! `f64` bit kept). It carries an identity — a hash of the resolved study (without its output
 //! directory) and of the data — and a checkpoint of another study or other data is refused.
 
-use super::model::{ModelRun, Sampled, sampled_around, spd_inverse, walk_cov};
+use super::model::{ModelRun, Sampled, sampled_around, walk_cov};
 use super::plan::ModelPlan;
 use super::{ModelOutcome, SelectError};
 use crate::config::Study;
@@ -15,6 +15,7 @@ use crate::data::dataset::Dataset;
 use crate::density::LogDensity;
 use crate::evidence::RjResult;
 use crate::likelihood::fisher_exact;
+use crate::linalg::{self, SpdOptions};
 use crate::nested::SubModel;
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
@@ -184,7 +185,12 @@ impl ModelStage {
         }
         let sub = SubModel::new(exact, spec.free.clone(), self.base.clone())
             .map_err(|e| e.to_string())?;
-        let fisher_cov = spd_inverse(&fisher_exact(exact, &self.base, &spec.free));
+        // the arithmetic of `run_model`'s proposal covariance (Jacobi-scaled inverse)
+        let fisher_cov = linalg::spd_inverse(
+            &fisher_exact(exact, &self.base, &spec.free),
+            &SpdOptions::lower().jacobi(),
+        )
+        .ok();
         let cov = walk_cov(fisher_cov.as_ref(), sub.prior());
         let (sampled, _) = sampled_around(m, &self.base, &cov);
         if matches!(sampled, Sampled::RelBin(_)) != self.relbin {

@@ -18,6 +18,7 @@ use crate::likelihood::{
     Likelihood, RelBinLikelihood, Statistic, fisher_exact, fisher_scoring,
     fisher_scoring_unbounded, refine_statistic_max,
 };
+use crate::linalg::{self, SpdOptions};
 use crate::nested::SubModel;
 use crate::prior::{Prior, PriorKind};
 use crate::sampler::{Chains, MetropolisHastings, MhSettings, RunOutcome, Start};
@@ -66,26 +67,6 @@ fn prior_sd(k: &PriorKind) -> f64 {
     }
 }
 
-/// The inverse of a symmetric positive-definite matrix whose diagonal spans many decades (a
-/// Fisher matrix in SI units: ω² and delays differ by 10¹⁸ in scale), computed after Jacobi
-/// scaling so that the Cholesky factorisation sees a matrix of unit diagonal. `None` when the
-/// matrix is not positive definite (a parameter the data do not constrain).
-pub(super) fn spd_inverse(f: &DMatrix<f64>) -> Option<DMatrix<f64>> {
-    let n = f.nrows();
-    let mut s = vec![0.0; n];
-    for i in 0..n {
-        let d = f[(i, i)];
-        if !(d.is_finite() && d > 0.0) {
-            return None;
-        }
-        s[i] = 1.0 / d.sqrt();
-    }
-    let g = DMatrix::from_fn(n, n, |i, j| f[(i, j)] * s[i] * s[j]);
-    let inv = g.cholesky()?.inverse();
-    let out = DMatrix::from_fn(n, n, |i, j| inv[(i, j)] * s[i] * s[j]);
-    out.iter().all(|v| v.is_finite()).then_some(out)
-}
-
 /// `cov` with every marginal standard deviation capped at the prior's (correlations kept):
 /// where the Fisher Gaussian is wider than the prior, the prior is the better description of
 /// the posterior, and a random walk or a start draw from the wider Gaussian almost never lands
@@ -122,7 +103,7 @@ pub(super) fn chain_starts<D: LogDensity + ?Sized>(
     seed: u64,
 ) -> Result<Vec<Vec<f64>>, String> {
     let d = centre.len();
-    let l = cov.clone().cholesky().map(|c| c.l());
+    let l = SpdOptions::lower().factor(cov).ok().map(|c| c.l());
     let ok = |th: &[f64]| target.ln_posterior(th).is_finite();
     let mut starts = Vec::with_capacity(n_chains);
     for c in 0..n_chains {
@@ -267,7 +248,7 @@ fn fisher_at(
     notes: &mut Vec<String>,
 ) -> (DMatrix<f64>, Option<DMatrix<f64>>) {
     let f_map = fisher_exact(m.exact, &map.base, &m.spec.free);
-    let fisher_cov = spd_inverse(&f_map);
+    let fisher_cov = linalg::spd_inverse(&f_map, &SpdOptions::lower().jacobi()).ok();
     if fisher_cov.is_none() {
         let (detail, named) = crate::likelihood::describe_unconstrained(&f_map, &m.free_names);
         notes.push(format!(
@@ -339,7 +320,9 @@ fn jump_proposal(
     let d = m.spec.free.len();
     let chain_moments = chains.and_then(|c| {
         let cov = DMatrix::from_row_slice(d, d, &c.covariance());
-        spd_inverse(&cov).map(|_| (c.mean(), cov))
+        linalg::spd_inverse(&cov, &SpdOptions::lower().jacobi())
+            .ok()
+            .map(|_| (c.mean(), cov))
     });
     let (jump_center, jump_cov, jump_source) = match (m.stages.jump_proposal, chain_moments) {
         (JumpProposal::Chain, Some((mu, cov))) => (mu, cov, "in-model chains"),
@@ -740,33 +723,6 @@ fn tempering(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn spd_inverse_handles_decades_of_scale_and_rejects_singular() {
-        // a Fisher matrix with ω²-like and delay-like scales (10³⁶ apart on the diagonal)
-        let s = [1e18, 1.0, 1e-2];
-        let c = [[1.0, 0.3, -0.2], [0.3, 1.0, 0.5], [-0.2, 0.5, 1.0]];
-        let f = DMatrix::from_fn(3, 3, |i, j| c[i][j] * s[i] * s[j]);
-        let inv = spd_inverse(&f).expect("positive definite");
-        // F⁻¹ = S⁻¹ C⁻¹ S⁻¹ with C the correlation matrix and S the scales
-        let cinv = DMatrix::from_fn(3, 3, |i, j| c[i][j])
-            .try_inverse()
-            .unwrap();
-        for i in 0..3 {
-            for j in 0..3 {
-                let want = cinv[(i, j)] / (s[i] * s[j]);
-                assert!(
-                    (inv[(i, j)] - want).abs() <= 1e-12 * want.abs(),
-                    "{i},{j}: {} vs {want}",
-                    inv[(i, j)]
-                );
-            }
-        }
-        let sing = DMatrix::from_row_slice(2, 2, &[1.0, 1.0, 1.0, 1.0]);
-        assert!(spd_inverse(&sing).is_none());
-        let zero = DMatrix::from_row_slice(2, 2, &[1.0, 0.0, 0.0, 0.0]);
-        assert!(spd_inverse(&zero).is_none());
-    }
 
     #[test]
     fn caps_each_marginal_at_the_prior_and_keeps_correlations() {
