@@ -5,8 +5,9 @@
 
 mod common;
 use common::occam;
-use occam::jobs::select::{Checkpointing, SelectCheckpoint, run_checkpointed};
+use occam::jobs::select::{Checkpointing, STAGE_FILE, SelectCheckpoint, run_checkpointed};
 use std::path::Path;
+use std::time::Duration;
 
 use common::{numbers, small, summary_numbers};
 
@@ -29,11 +30,15 @@ fn select_resumed_after_a_crash_in_the_reversible_jump_stage_equals_an_uninterru
         };
         let c = Checkpointing {
             path: &ck,
-            state: SelectCheckpoint::new(id.clone()),
+            state: SelectCheckpoint::new(id.clone()).save_stage_every(Duration::ZERO),
         };
         run_checkpointed(&study, &prep, Some(&mut cb), Some(c)).map(|_| ())
     }));
     assert!(crash.is_err(), "the callback must have stopped the run");
+    // the jump chains' state as of the last block before the crash
+    let stage = dir.path().join(STAGE_FILE);
+    let (kind, _) = occam::data::checkpoint::head(&stage).unwrap();
+    assert_eq!(kind, occam::evidence::rjmcmc::KIND);
     let saved = SelectCheckpoint::read(&ck, &id).unwrap();
     let names = vec!["X".to_string(), "Y".to_string()];
     assert_eq!(
@@ -44,7 +49,15 @@ fn select_resumed_after_a_crash_in_the_reversible_jump_stage_equals_an_uninterru
         path: &ck,
         state: saved,
     };
-    let resumed = run_checkpointed(&study, &prep, None, Some(c)).unwrap();
+    let mut first = None;
+    let mut seen = |p: &occam::evidence::RjProgress<'_>| {
+        first.get_or_insert(p.iteration);
+    };
+    let resumed = run_checkpointed(&study, &prep, Some(&mut seen), Some(c)).unwrap();
+    // it continued the jump chains where they stopped, not from their start
+    let first = first.unwrap();
+    assert!(first > 1000, "first progress at iteration {first}");
+    assert!(!stage.exists(), "a finished stage leaves no stage file");
     let a = numbers(serde_json::to_value(&whole).unwrap());
     let b = numbers(serde_json::to_value(&resumed).unwrap());
     assert!(a == b, "a resumed select must equal an uninterrupted one");

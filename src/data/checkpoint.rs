@@ -228,6 +228,29 @@ pub fn read<T: DeserializeOwned>(
     decode(&bytes, path, kind, version, identity)
 }
 
+/// The kind and identity of the checkpoint at `path` (its envelope only; the payload is not
+/// decoded): whether a file holds the state of a given run, before trying to resume it.
+pub fn head(path: &Path) -> Result<(String, String), CheckpointError> {
+    let file = std::fs::File::open(path).map_err(|e| CheckpointError::Io {
+        path: path.to_path_buf(),
+        what: "cannot open".into(),
+        msg: e.to_string(),
+    })?;
+    // streamed: the payload is skipped, never held
+    let reader = std::io::BufReader::new(file);
+    let head: Head = ciborium::from_reader(reader).map_err(|e| CheckpointError::Unreadable {
+        path: path.to_path_buf(),
+        msg: e.to_string(),
+    })?;
+    if head.format != FORMAT {
+        return Err(CheckpointError::Unreadable {
+            path: path.to_path_buf(),
+            msg: format!("format `{}`, expected `{FORMAT}`", head.format),
+        });
+    }
+    Ok((head.kind, head.identity))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -243,6 +266,23 @@ mod tests {
             x: vec![0.1 + 0.2, f64::NAN, f64::NEG_INFINITY, -0.0, 1e-310],
             n: 7,
         }
+    }
+
+    #[test]
+    fn head_names_kind_and_identity_without_the_payload() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("c.cbor");
+        write(&p, "stage", 3, "run-7", &vec![1.5f64; 1000]).unwrap();
+        assert_eq!(
+            head(&p).unwrap(),
+            ("stage".to_string(), "run-7".to_string())
+        );
+        std::fs::write(&p, b"not cbor").unwrap();
+        assert!(matches!(head(&p), Err(CheckpointError::Unreadable { .. })));
+        assert!(matches!(
+            head(&dir.path().join("none")),
+            Err(CheckpointError::Io { .. })
+        ));
     }
 
     #[test]

@@ -37,14 +37,15 @@ pub use laplace::{
 pub use linear_gaussian::{LinearGaussian, RandomPrior, RandomProblem, RandomSpec};
 pub use mvn::{MvnOptions, MvnProbability, mvn_rectangle};
 pub use rjmcmc::{
-    JumpRule, MAX_RUNNING_POINTS, MIN_EFFECTIVE_JUMPS, ProposalShape, RjDraws, RjModel, RjOptions,
-    RjPair, RjProgress, RjResult, RjRunningPair, RjRunningPoint, run_rjmcmc, union_columns,
+    JumpRule, MAX_RUNNING_POINTS, MIN_EFFECTIVE_JUMPS, ProposalShape, ReversibleJump, RjDraws,
+    RjModel, RjOptions, RjOutcome, RjPair, RjProgress, RjResult, RjRunningPair, RjRunningPoint,
+    run_rjmcmc, union_columns,
 };
 pub use robust::{McdOptions, MveOptions, RobustCovariance, RobustMethod, mcd, mve};
 pub use schwarz::{schwarz_ln_b, schwarz_ln_z};
 pub use tempering::{
-    SteppingStoneEstimate, TemperingOptions, TemperingResult, ThermodynamicEstimate, run_tempering,
-    run_tempering_observed,
+    ParallelTempering, SteppingStoneEstimate, TemperingOptions, TemperingOutcome, TemperingResult,
+    ThermodynamicEstimate, run_tempering, run_tempering_observed,
 };
 
 /// Which estimator produced a number.
@@ -186,6 +187,17 @@ pub enum EvidenceError {
     /// The prior could not be built.
     #[error(transparent)]
     Prior(#[from] crate::prior::PriorError),
+    /// A checkpoint cannot be read or written.
+    #[error(transparent)]
+    CheckpointFile(#[from] crate::data::checkpoint::CheckpointError),
+    /// A readable checkpoint that belongs to another run.
+    #[error("checkpoint `{path}`: {problem}")]
+    Checkpoint {
+        /// The checkpoint file.
+        path: String,
+        /// What does not match, and what to do.
+        problem: String,
+    },
 }
 
 impl EvidenceError {

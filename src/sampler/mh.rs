@@ -10,6 +10,7 @@ use super::SamplerError;
 use super::chain::{ChainState, Progress};
 use super::chains::Chains;
 use super::checkpoint::{self, CheckpointRef};
+use super::driver::{Driver, Ended, Sampler};
 use super::proposal::{GaussianProposal, Proposal};
 use super::settings::{MhSettings, Start};
 use crate::density::LogDensity;
@@ -94,6 +95,8 @@ pub struct MetropolisHastings<'a, D: LogDensity> {
     proposal: GaussianProposal,
     observer: Option<&'a (dyn Fn(&Progress) + Sync)>,
     checkpoint: Option<PathBuf>,
+    /// Save at most this often (wall-clock); zero: after every block.
+    save_every: std::time::Duration,
     /// The run's identity in its checkpoints (empty: none is checked beyond the contents).
     identity: String,
     stop: Option<&'a dyn Fn(usize) -> bool>,
@@ -131,6 +134,7 @@ impl<'a, D: LogDensity> MetropolisHastings<'a, D> {
             proposal,
             observer: None,
             checkpoint: None,
+            save_every: std::time::Duration::ZERO,
             identity: String::new(),
             stop: None,
         })
@@ -147,6 +151,14 @@ impl<'a, D: LogDensity> MetropolisHastings<'a, D> {
     /// (atomically: temporary file, then rename).
     pub fn checkpoint(mut self, path: impl Into<PathBuf>) -> Self {
         self.checkpoint = Some(path.into());
+        self
+    }
+
+    /// Writes the checkpoint at most this often (wall-clock) rather than after every block;
+    /// always before a stop and at the end. A kill then loses at most this interval and one
+    /// block.
+    pub fn save_every(mut self, interval: std::time::Duration) -> Self {
+        self.save_every = interval;
         self
     }
 
@@ -207,35 +219,67 @@ impl<'a, D: LogDensity> MetropolisHastings<'a, D> {
             s.prepare(settings);
         }
         let names = self.target.param_names();
-        let (target, observer) = (self.target, self.observer);
-        loop {
-            let done = states[0].iter;
-            if done >= settings.n_iter {
-                break;
+        let mut run = Running {
+            target: self.target,
+            settings,
+            observer: self.observer,
+            states,
+        };
+        let mut save = |r: &Running<'_, D>| match &self.checkpoint {
+            Some(path) => {
+                let ck = CheckpointRef::new(
+                    &names,
+                    self.target.prior(),
+                    settings,
+                    &self.proposal,
+                    &r.states,
+                );
+                checkpoint::write(path, &ck, &self.identity)
             }
-            let until = done
-                .saturating_add(settings.checkpoint_every)
-                .min(settings.n_iter);
-            states
-                .par_iter_mut()
-                .for_each(|s| s.advance(target, settings, until, observer));
-            if let Some(path) = &self.checkpoint {
-                let ck =
-                    CheckpointRef::new(&names, target.prior(), settings, &self.proposal, &states);
-                checkpoint::write(path, &ck, &self.identity)?;
-            }
-            if until < settings.n_iter
-                && let Some(stop) = self.stop
-                && stop(until)
-            {
-                return Ok(RunOutcome::Stopped { iterations: until });
-            }
+            None => Ok(()),
+        };
+        let mut driver = Driver::new(settings.checkpoint_every)
+            .save(&mut save)
+            .save_every(self.save_every);
+        if let Some(stop) = self.stop {
+            driver = driver.stop_when(stop);
         }
-        debug_assert!(states.iter().all(|s| s.dim() == self.proposal.dim()));
+        if let Ended::Stopped { iterations } = driver.run(&mut run)? {
+            return Ok(RunOutcome::Stopped { iterations });
+        }
+        debug_assert!(run.states.iter().all(|s| s.dim() == self.proposal.dim()));
         let chains = Chains::new(
             names,
-            states.into_iter().map(ChainState::into_chain).collect(),
+            run.states.into_iter().map(ChainState::into_chain).collect(),
         )?;
         Ok(RunOutcome::Finished(chains))
+    }
+}
+
+/// The chains of a run as the [`Driver`] advances them: in parallel, each on its own stream.
+struct Running<'r, D: LogDensity> {
+    target: &'r D,
+    settings: &'r MhSettings,
+    observer: Option<&'r (dyn Fn(&Progress) + Sync)>,
+    states: Vec<ChainState>,
+}
+
+impl<D: LogDensity> Sampler for Running<'_, D> {
+    type Error = SamplerError;
+
+    fn done(&self) -> usize {
+        self.states[0].iter
+    }
+
+    fn total(&self) -> usize {
+        self.settings.n_iter
+    }
+
+    fn advance(&mut self, until: usize) -> Result<(), SamplerError> {
+        let (target, settings, observer) = (self.target, self.settings, self.observer);
+        self.states
+            .par_iter_mut()
+            .for_each(|s| s.advance(target, settings, until, observer));
+        Ok(())
     }
 }

@@ -11,7 +11,8 @@
 //! | `anneal` | LTPDA's heat schedule β(n) and search-jump scales (ltp-model.md §9.1) |
 //! | `adapt` | Haario-style covariance adaptation, burn-in only |
 //! | `chain` | one chain's state and the allocation-free hot loop; per-chain RNG streams |
-//! | `mh` | the block driver: rayon over chains, observer, checkpoint, stop |
+//! | `driver` | the one loop of every sampler: blocks, progress, checkpoints, stopping |
+//! | `mh` | Metropolis–Hastings chains on the driver: rayon over chains, observer, checkpoint |
 //! | `chains` | the output: [`Chains`] |
 //! | `diagnostics` | ESS, integrated autocorrelation time, split-R̂, [`Warning`]s |
 //! | `checkpoint` | atomic JSON checkpoints and their match against the run |
@@ -30,8 +31,9 @@ mod bits;
 mod chain;
 mod chains;
 mod checkpoint;
-pub use checkpoint::progress as checkpoint_progress;
+pub use checkpoint::{KIND as CHECKPOINT_KIND, progress as checkpoint_progress};
 mod diagnostics;
+mod driver;
 mod mh;
 mod optimize;
 mod proposal;
@@ -45,6 +47,7 @@ mod tests;
 pub use chain::{Progress, chain_rng};
 pub use chains::{BestPoint, Chain, ChainCounts, Chains, MaxPosterior, PhaseCounts};
 pub use diagnostics::{Diagnostics, Thresholds, Warning, ess, split_rhat};
+pub use driver::{Driver, Ended, Sampler};
 pub use mh::{MetropolisHastings, RunOutcome};
 pub use optimize::{MapEstimate, Minimum, NelderMeadSettings, find_map, nelder_mead};
 pub use proposal::{GaussianProposal, Proposal};

@@ -14,6 +14,7 @@ use crate::sampler::chain_rng;
 use rand::RngExt;
 use rand_distr::{ChiSquared, Distribution, StandardNormal};
 use rand_xoshiro::Xoshiro256PlusPlus;
+use serde::{Deserialize, Serialize};
 
 /// Most regeneration units a chain keeps; beyond it adjacent units are merged pairwise (a union
 /// of consecutive cycles is still a valid unit of the regenerative variance).
@@ -69,7 +70,7 @@ impl Layout {
 
 /// Sums of the per-iteration series over a stretch of iterations: counts in linear scale, the
 /// rest as natural logs of sums of positive terms (`−∞` when empty).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub(super) struct Sums {
     pub counts: Vec<f64>,
     pub logs: Vec<f64>,
@@ -155,7 +156,7 @@ struct Proposal {
 }
 
 /// A bridge input kept during the pilot: the in-box proposal's `ln ρ` and where it belongs.
-#[derive(Clone, Copy)]
+#[derive(Clone, Copy, Serialize, Deserialize)]
 struct PilotRecord {
     t_post: usize,
     cycle: u64,
@@ -164,7 +165,9 @@ struct PilotRecord {
     ln_rho: f64,
 }
 
-/// One independent chain.
+/// One independent chain: everything needed to continue it bit for bit (the proposal's scratch
+/// buffers are rebuilt on load).
+#[derive(Serialize, Deserialize)]
 pub(super) struct Chain {
     rng: Xoshiro256PlusPlus,
     /// Iterations done.
@@ -178,8 +181,11 @@ pub(super) struct Chain {
     ll: f64,
     lq: f64,
     lg: f64,
+    #[serde(skip)]
     prop: Vec<f64>,
+    #[serde(skip)]
     z: Vec<f64>,
+    #[serde(skip)]
     scratch: Vec<f64>,
     /// Post-burn-in iterations per model.
     pub visits: Vec<u64>,
@@ -278,6 +284,35 @@ impl Chain {
             draw_theta: Vec::with_capacity(kept * sh.n_columns),
             draw_ln_l: Vec::with_capacity(kept),
         }
+    }
+
+    /// Sizes the scratch buffers for models of at most `max_dim` parameters (after a
+    /// checkpoint's load); `Err` if the loaded state does not fit this run.
+    pub fn prepare(&mut self, sh: &Shared<'_>) -> Result<(), String> {
+        let k_models = sh.prepared.len();
+        let max_dim = sh.prepared.iter().map(|p| p.dim).max().unwrap_or(0);
+        let l = &sh.layout;
+        let sums_fit = |s: &Sums| s.counts.len() == l.n_counts() && s.logs.len() == l.n_logs();
+        let fits = self.k < k_models
+            && self.t <= sh.n_iter
+            && self.cur.len() == max_dim
+            && self.visits.len() == k_models
+            && self.proposed.len() == k_models
+            && self.proposed.iter().all(|r| r.len() == k_models)
+            && sums_fit(&self.seg)
+            && sums_fit(&self.head)
+            && self.batches.iter().all(sums_fit)
+            && self.cycles.iter().all(sums_fit);
+        if !fits {
+            return Err(format!(
+                "a jump chain's state does not fit {k_models} models of at most {max_dim} parameters after {} iterations",
+                self.t
+            ));
+        }
+        for v in [&mut self.prop, &mut self.z, &mut self.scratch] {
+            v.resize(max_dim, 0.0);
+        }
+        Ok(())
     }
 
     /// Runs until `t_end` iterations are done (or the chain's end).

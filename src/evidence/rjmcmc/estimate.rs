@@ -31,7 +31,7 @@ pub(super) const GRID_OFFSETS: [f64; 11] =
     [0.0, -0.5, 0.5, -1.0, 1.0, -2.0, 2.0, -4.0, 4.0, -8.0, 8.0];
 
 /// The bridge function `h = 1/(s₁ r₀ f̃₁ + s₂ f̃₂)` of one pair at every grid point.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub(super) struct PairGrid {
     pub ln_r: Vec<f64>,
     pub ln_s1: f64,
@@ -39,7 +39,7 @@ pub(super) struct PairGrid {
 }
 
 /// Bridge functions of every pair `a < b`.
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
 pub(super) struct Grid {
     k: usize,
     pairs: Vec<PairGrid>,

@@ -128,6 +128,7 @@
 
 mod chain;
 mod estimate;
+mod run;
 #[cfg(test)]
 mod tests;
 
@@ -141,7 +142,7 @@ use nalgebra::DMatrix;
 use rand::SeedableRng;
 use rand_distr::{ChiSquared, Distribution, StandardNormal};
 use rand_xoshiro::Xoshiro256PlusPlus;
-use rayon::prelude::*;
+pub use run::{KIND, ReversibleJump, RjOutcome, run_rjmcmc};
 use serde::Serialize;
 use statrs::function::gamma::ln_gamma;
 use std::f64::consts::PI;
@@ -170,7 +171,7 @@ pub struct RjModel<'a> {
 }
 
 /// How the next model is proposed.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, serde::Deserialize)]
 pub enum JumpRule {
     /// Uniformly among the other models (the default; K = 1 means no jumps).
     UniformOthers,
@@ -182,7 +183,7 @@ pub enum JumpRule {
 }
 
 /// Shape of the independence jump proposal.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, serde::Deserialize)]
 pub enum ProposalShape {
     /// Multivariate normal.
     Gaussian,
@@ -192,7 +193,7 @@ pub enum ProposalShape {
 }
 
 /// Options of [`run_rjmcmc`].
-#[derive(Debug, Clone, PartialEq, Serialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, serde::Deserialize)]
 pub struct RjOptions {
     /// Total iterations summed over the chains (each: one in-model step and one jump attempt).
     /// Each chain runs `⌊n_iter / n_chains⌋`, its burn-in included.
@@ -540,132 +541,6 @@ impl Prepared<'_> {
     }
 }
 
-/// Runs the jump chains over `models` and estimates every pairwise Bayes factor.
-///
-/// ```
-/// use nalgebra::DMatrix;
-/// use occam::evidence::linear_gaussian::{LinearGaussian, RandomPrior, RandomSpec};
-/// use occam::evidence::mvn::MvnOptions;
-/// use occam::evidence::rjmcmc::{run_rjmcmc, RjModel, RjOptions};
-/// use occam::nested::SubModel;
-/// // y = a·x0 + b·x1 + noise with b = 0 in truth: compare {a, b} with {a}.
-/// let p = LinearGaussian::random(&RandomSpec { n_data: 30, dim: 2, snr: 5.0, n_absent: 1,
-///     sigma: 1.0, prior: RandomPrior::Uniform { lo: -3.0, hi: 3.0 }, seed: 4 }).unwrap();
-/// let lg = &p.model;
-/// let full = SubModel::new(lg, vec![0, 1], vec![0.0; 2]).unwrap();
-/// let small = SubModel::new(lg, vec![0], vec![0.0; 2]).unwrap();
-/// let model = |name: &str, t, cols: &[usize]| {
-///     let post = lg.gaussian_posterior(cols).unwrap();
-///     RjModel { name: name.into(), target: t, center: post.mean.as_slice().to_vec(), cov: post.cov }
-/// };
-/// let models = [model("full", &full, &[0, 1]), model("small", &small, &[0])];
-/// let opts = RjOptions { n_iter: 20_000, ..RjOptions::default() };
-/// let res = run_rjmcmc(&models, &opts, None).unwrap();
-/// let exact = lg.exact_ln_evidence(&[0, 1], &MvnOptions::default()).unwrap().ln_z
-///     - lg.exact_ln_evidence(&[0], &MvnOptions::default()).unwrap().ln_z;
-/// let v = res.pair(0, 1).unwrap().visits.unwrap();
-/// assert!((v.ln_b - exact).abs() < 5.0 * v.std_err.unwrap());
-/// ```
-pub fn run_rjmcmc(
-    models: &[RjModel<'_>],
-    opts: &RjOptions,
-    progress: Option<&mut dyn FnMut(&RjProgress<'_>)>,
-) -> Result<RjResult, EvidenceError> {
-    let k_models = models.len();
-    let (prior_p, jump) = validate(models, opts)?;
-    let n_chains = opts.n_chains;
-    let per_chain = opts.n_iter / n_chains;
-    let prepared = prepare(models, opts)?;
-    let boxes = box_masses(&prepared, opts)?;
-    let n_post = per_chain - opts.burn_in;
-    let model_params: Vec<&[String]> = models.iter().map(|m| m.target.prior().names()).collect();
-    let (param_names, columns) = union_columns(&model_params);
-    let mut shared = shared(
-        prepared,
-        &prior_p,
-        &jump,
-        &boxes,
-        opts,
-        per_chain,
-        (columns, param_names.len()),
-    )?;
-    let mut chains: Vec<Chain> = (0..n_chains)
-        .map(|j| Chain::new(&shared, j, opts.seed))
-        .collect();
-    run_chains(&mut chains, &mut shared, opts, per_chain, progress);
-    estimate::check_chains(&chains)?;
-
-    let totals = Totals::of(&chains, k_models);
-    let (layout, batch) = (shared.layout, shared.batch);
-    let pool = Pool::new(&chains, layout, batch);
-    let soj = Sojourns {
-        sojourns: &totals.sojourns,
-        visits: &totals.visits,
-    };
-    let est = PairEstimator {
-        prior_p: &prior_p,
-        ln_ratio: &shared.ln_ratio,
-        grid: shared.grid.as_ref().expect("set after the pilot"),
-        boxes: &boxes,
-    };
-    let pairs = pairs(models, &est, &pool, &soj, layout, &totals.accepted_post);
-    let running = estimate::running_points(
-        &chains,
-        layout,
-        batch,
-        opts.burn_in,
-        &pairs,
-        &|pool, soj, a, b| est.estimates(pool, soj, a, b),
-    );
-    let draws = opts.keep_draws.then(|| RjDraws {
-        model_names: models.iter().map(|m| m.name.clone()).collect(),
-        param_names: param_names.clone(),
-        n_chains,
-        n_draws: n_post,
-        thin: 1,
-        model_index: chains
-            .iter()
-            .flat_map(|c| c.draw_model.iter().copied())
-            .collect(),
-        samples: chains
-            .iter()
-            .flat_map(|c| c.draw_theta.iter().copied())
-            .collect(),
-        ln_likelihood: chains
-            .iter()
-            .flat_map(|c| c.draw_ln_l.iter().copied())
-            .collect(),
-    });
-    Ok(RjResult {
-        model_names: models.iter().map(|m| m.name.clone()).collect(),
-        n_iter: per_chain * n_chains,
-        n_chains,
-        burn_in: opts.burn_in,
-        defensive: opts.defensive,
-        batch_size: batch,
-        prior_model_probs: prior_p,
-        visits: totals.visits,
-        in_model_acceptance: totals
-            .rw_accepted
-            .iter()
-            .zip(&totals.rw_tried)
-            .map(|(&a, &t)| (t > 0).then(|| a as f64 / t as f64))
-            .collect(),
-        jumps_proposed: totals.proposed,
-        jumps_accepted: totals.accepted,
-        sojourns: totals.sojourns,
-        regeneration_units: pool.cycles.len(),
-        non_finite: totals.non_finite,
-        likelihood_calls: chains.iter().map(|c| c.likelihood_calls).sum(),
-        ln_box_mass: boxes.ln_p,
-        ln_box_mass_std_err: boxes.se,
-        pairs,
-        trace: totals.trace,
-        running,
-        draws,
-    })
-}
-
 /// The constants every chain reads: jump ratios and cumulative jump rows from the validated
 /// prior model probabilities `prior_p` and jump matrix `jump`, box-mass shifts, the proposal's
 /// χ² (Student-t), batch size and trace spacing; `columns` is the union of the models'
@@ -747,54 +622,6 @@ fn shared<'a>(
         columns: opts.keep_draws.then_some(columns),
         n_columns,
     })
-}
-
-/// Runs the chains to `per_chain` iterations, synchronising every 1 % (the progress callback
-/// is called there) and once at the end of the pilot, where the bridge grid is fixed and the
-/// pilot replayed into every chain's sums.
-fn run_chains(
-    chains: &mut [Chain],
-    shared: &mut Shared<'_>,
-    opts: &RjOptions,
-    per_chain: usize,
-    mut progress: Option<&mut dyn FnMut(&RjProgress<'_>)>,
-) {
-    let k_models = shared.layout.k;
-    let n_chains = chains.len();
-    let pilot = (per_chain - opts.burn_in).min(PILOT_ITERS);
-    let progress_every = (per_chain / 100).max(1);
-    let pilot_end = opts.burn_in + pilot;
-    let mut t = 0;
-    while t < per_chain {
-        let mut next = ((t / progress_every + 1) * progress_every).min(per_chain);
-        if shared.grid.is_none() && pilot_end > t && pilot_end < next {
-            next = pilot_end;
-        }
-        let sh = &*shared;
-        chains.par_iter_mut().for_each(|c| c.run_to(next, sh));
-        t = next;
-        if shared.grid.is_none() && t >= pilot_end {
-            shared.grid = Some(estimate::pilot_grid(chains, k_models, &shared.shift));
-            let sh = &*shared;
-            chains.par_iter_mut().for_each(|c| c.replay_pilot(sh));
-        }
-        if let Some(cb) = progress.as_mut()
-            && (t.is_multiple_of(progress_every) || t == per_chain)
-        {
-            let mut visits = vec![0u64; k_models];
-            for c in chains.iter() {
-                for (v, cv) in visits.iter_mut().zip(&c.visits) {
-                    *v += cv;
-                }
-            }
-            cb(&RjProgress {
-                iteration: t * n_chains,
-                n_iter: per_chain * n_chains,
-                model: chains[0].k,
-                visits: &visits,
-            });
-        }
-    }
 }
 
 /// The chains' counts, summed.

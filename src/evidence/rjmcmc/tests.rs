@@ -647,3 +647,79 @@ fn union_of_parameter_names_in_first_seen_order() {
     assert_eq!(names, s(&["a", "b", "c"]));
     assert_eq!(cols, vec![vec![0, 1], vec![2, 1], vec![]]);
 }
+
+/// Stopped on the driver before the pilot fixes the bridge grid and again after it, and resumed
+/// from its checkpoint each time, a run ends with the result and the draws of an
+/// uninterrupted run, bit for bit; a checkpoint of other options or models is refused.
+#[test]
+fn a_stopped_run_resumed_from_its_checkpoint_equals_an_uninterrupted_one() {
+    let lg = problem(5.0, 1, 21, 3.0);
+    let full = SubModel::new(&lg, vec![0, 1], vec![0.0; 2]).unwrap();
+    let small = SubModel::new(&lg, vec![0], vec![0.0; 2]).unwrap();
+    let models = [
+        rj_model(&lg, "full", &full, &[0, 1]),
+        rj_model(&lg, "small", &small, &[0]),
+    ];
+    // 140 000 per chain: the pilot (131 072 after a burn-in of 500) ends in the 94th block
+    let opts = RjOptions {
+        n_iter: 280_000,
+        burn_in: 500,
+        seed: 8,
+        keep_draws: true,
+        ..RjOptions::default()
+    };
+    let whole = run_rjmcmc(&models, &opts, None).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("rj.cbor");
+    let every = std::time::Duration::ZERO;
+    let rj = || {
+        ReversibleJump::new(&models, &opts)
+            .unwrap()
+            .checkpoint(&path, "run-1", every)
+    };
+    let before = |n: usize| n >= 50_000;
+    let out = rj().stop_when(&before).run().unwrap();
+    assert_eq!(out, RjOutcome::Stopped { iterations: 50_400 });
+    let after = |n: usize| n >= 131_600;
+    let out = rj().stop_when(&after).resume(&path).unwrap();
+    assert_eq!(
+        out,
+        RjOutcome::Stopped {
+            iterations: 131_600
+        }
+    );
+    let RjOutcome::Finished(resumed) = rj().resume(&path).unwrap() else {
+        panic!("the resumed run must finish")
+    };
+    let json = |r: &RjResult| serde_json::to_string(r).unwrap();
+    assert_eq!(json(&resumed), json(&whole));
+    let bits = |r: &RjResult| {
+        let d = r.draws.as_ref().unwrap();
+        let b = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        (d.model_index.clone(), b(&d.samples), b(&d.ln_likelihood))
+    };
+    assert!(bits(&resumed) == bits(&whole), "the draws differ");
+
+    let seed9 = RjOptions {
+        seed: 9,
+        ..opts.clone()
+    };
+    let e = ReversibleJump::new(&models, &seed9)
+        .unwrap()
+        .checkpoint(&path, "run-1", every)
+        .resume(&path)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("different options"), "{e}");
+    let swapped = [
+        rj_model(&lg, "small", &small, &[0]),
+        rj_model(&lg, "full", &full, &[0, 1]),
+    ];
+    let e = ReversibleJump::new(&swapped, &opts)
+        .unwrap()
+        .checkpoint(&path, "run-1", every)
+        .resume(&path)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("different set of models"), "{e}");
+}

@@ -66,6 +66,9 @@ pub struct SelectCheckpoint {
     /// The run's [`identity`] (the envelope's; not repeated in the payload).
     #[serde(skip)]
     identity: String,
+    /// How often the stage in progress is saved (not part of the file).
+    #[serde(skip)]
+    stage_every: Option<std::time::Duration>,
     pub(super) models: Vec<ModelStage>,
     pub(super) rj: Option<RjStage>,
 }
@@ -101,9 +104,25 @@ impl SelectCheckpoint {
     pub fn new(identity: String) -> Self {
         Self {
             identity,
+            stage_every: None,
             models: Vec::new(),
             rj: None,
         }
+    }
+
+    /// Saves the stage in progress (a sampler's state, in [`super::STAGE_FILE`]) at most this
+    /// often rather than every 20 s: a killed run loses at most this much of a stage.
+    pub fn save_stage_every(mut self, interval: std::time::Duration) -> Self {
+        self.stage_every = Some(interval);
+        self
+    }
+
+    pub(super) fn stage_every(&self) -> std::time::Duration {
+        self.stage_every.unwrap_or(super::stage::EVERY)
+    }
+
+    pub(super) fn identity(&self) -> &str {
+        &self.identity
     }
 
     /// Reads the checkpoint at `path` and checks that it belongs to the run `identity`.

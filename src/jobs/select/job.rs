@@ -21,9 +21,9 @@ impl Job for Select<'_, '_> {
     const COMMAND: &'static str = "select";
     const LEGACY_OUTPUTS: &'static [&'static str] = LEGACY_OUTPUTS;
 
-    /// Saves each finished stage to `checkpoint.cbor` (continuing from it with `ctx.resume`,
-    /// an error when there is none); the work counters count likelihood evaluations of every
-    /// stage.
+    /// Saves each finished stage to `checkpoint.cbor` and the stage in progress to
+    /// `stage.cbor` (continuing from them with `ctx.resume`, an error when there is no
+    /// checkpoint); the work counters count likelihood evaluations of every stage.
     fn run(&mut self, ctx: &Context) -> anyhow::Result<SelectSummary> {
         let (study, out) = (self.study, ctx.out);
         let ckpt_path = out.join(CHECKPOINT_FILE);
@@ -47,6 +47,8 @@ impl Job for Select<'_, '_> {
             ));
             c
         } else {
+            // a stage file of an earlier run in this directory must not be resumed
+            let _ = std::fs::remove_file(out.join(super::STAGE_FILE));
             SelectCheckpoint::new(identity)
         };
         (ctx.log)(&format!(

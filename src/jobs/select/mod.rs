@@ -14,8 +14,11 @@ mod model;
 mod output;
 mod pair;
 mod plan;
+mod stage;
 
 pub use checkpoint::{FILE as CHECKPOINT_FILE, SelectCheckpoint, identity};
+pub use stage::FILE as STAGE_FILE;
+use stage::StageFile;
 
 pub use console::console;
 pub use job::Select;
@@ -26,7 +29,7 @@ pub use pair::{EstimateKind, JumpStats, PairEstimate, PairResult};
 
 use crate::config::Study;
 use crate::density::LogDensity;
-use crate::evidence::{LaplaceEstimate, RjModel, RjOptions, RjResult, run_rjmcmc};
+use crate::evidence::{LaplaceEstimate, ReversibleJump, RjModel, RjOptions, RjOutcome, RjResult};
 use crate::jobs::prepare::{Prepared, model_warnings, truth_of};
 use crate::nested::SubModel;
 use model::{ModelRun, Sampled};
@@ -209,13 +212,25 @@ pub fn run(
     run_checkpointed(study, prep, progress, None)
 }
 
-/// Where [`run_checkpointed`] saves its finished stages, and what it resumes from.
+/// Where [`run_checkpointed`] saves its finished stages, and what it resumes from. The stage
+/// in progress is saved beside it, in [`STAGE_FILE`] (see [`SelectCheckpoint::save_stage_every`]).
 pub struct Checkpointing<'a> {
     /// The checkpoint file, rewritten (atomically) after every stage.
     pub path: &'a std::path::Path,
     /// The stages already done (from [`SelectCheckpoint::read`]), or a fresh
     /// [`SelectCheckpoint::new`].
     pub state: SelectCheckpoint,
+}
+
+impl Checkpointing<'_> {
+    /// The stage file beside the checkpoint.
+    fn stage_file(&self) -> StageFile {
+        StageFile {
+            path: self.path.with_file_name(STAGE_FILE),
+            run: self.state.identity().to_string(),
+            every: self.state.stage_every(),
+        }
+    }
 }
 
 /// [`run`], saving each finished stage to a checkpoint and skipping the stages the
@@ -282,6 +297,7 @@ fn run_models(
     ckpt: &mut Option<Checkpointing<'_>>,
     work: Option<&crate::jobs::progress::Work>,
 ) -> Result<Vec<ModelRun>, SelectError> {
+    let stage = ckpt.as_ref().map(Checkpointing::stage_file);
     let mut runs = Vec::new();
     for (k, m) in plan.models.iter().enumerate() {
         let st = &m.stages;
@@ -293,7 +309,7 @@ fn run_models(
         };
         let mut r = match saved {
             Some(stage) => stage.restore(m),
-            None => model::run_model(m),
+            None => model::run_model(m, stage.as_ref()),
         }
         .map_err(err)?;
         add_work(work, st.chains * st.iterations);
@@ -302,12 +318,19 @@ fn run_models(
         {
             c.state.models.push(checkpoint::ModelStage::of(&r, false));
             c.state.write(c.path)?;
+            stage.iter().for_each(StageFile::clear);
         }
         if !tempered {
-            model::temper(m, &mut r, &|| add_work(work, st.pt_temperatures)).map_err(err)?;
+            let mut counted = 0;
+            let mut progress = |done: usize| {
+                add_work(work, (done - counted) * st.pt_temperatures);
+                counted = done;
+            };
+            model::temper(m, &mut r, &mut progress, stage.as_ref()).map_err(err)?;
             if let Some(c) = ckpt.as_mut() {
                 c.state.models[k] = checkpoint::ModelStage::of(&r, true);
                 c.state.write(c.path)?;
+                stage.iter().for_each(StageFile::clear);
             }
         } else {
             add_work(work, st.pt_temperatures * st.pt_iterations);
@@ -387,8 +410,30 @@ fn run_rj(
             f(p);
         }
     };
-    let (mut rj, note) = match run_rjmcmc(rj_models, opts, Some(&mut observe)) {
-        Ok(r) => (Some(r), None),
+    let stage = ckpt.as_ref().map(Checkpointing::stage_file);
+    let ran = ReversibleJump::new(rj_models, opts).and_then(|rj| {
+        let rj = rj.progress(&mut observe);
+        match &stage {
+            Some(f) => {
+                let id = f.identity("all models", "rj");
+                let rj = rj.checkpoint(&f.path, id.clone(), f.every);
+                if f.holds(crate::evidence::rjmcmc::KIND, &id) {
+                    rj.resume(&f.path)
+                } else {
+                    rj.run()
+                }
+            }
+            None => rj.run(),
+        }
+    });
+    let (mut rj, note) = match ran {
+        Ok(RjOutcome::Finished(r)) => (Some(*r), None),
+        Ok(RjOutcome::Stopped { iterations }) => (
+            None,
+            Some(format!(
+                "the reversible-jump chain stopped after {iterations} iterations"
+            )),
+        ),
         Err(e) => (
             None,
             Some(format!("the reversible-jump chain did not run: {e}")),
@@ -409,6 +454,7 @@ fn run_rj(
             r.draws = stage.draws.take();
         }
         written?;
+        stage.iter().for_each(StageFile::clear);
     }
     Ok((rj, note, rate))
 }

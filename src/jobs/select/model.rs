@@ -7,12 +7,14 @@
 //! the run (nothing can be computed for it).
 
 use super::plan::{ModelPlan, StageSettings};
+use super::stage::StageFile;
 use super::{Evidence, ModelOutcome, TemperingDiagnostics};
 use crate::config::{JumpProposal, LikelihoodKind, ModelSpec};
 use crate::density::LogDensity;
+use crate::evidence::tempering::{ParallelTempering, TemperingOutcome};
 use crate::evidence::{
     LaplaceEstimate, LaplaceOptions, McdOptions, MveOptions, RobustMethod, TemperingOptions,
-    laplace_fisher, laplace_metropolis, run_tempering_observed, schwarz_ln_z,
+    laplace_fisher, laplace_metropolis, schwarz_ln_z,
 };
 use crate::likelihood::{
     Likelihood, RelBinLikelihood, Statistic, fisher_exact, fisher_scoring,
@@ -273,6 +275,7 @@ fn in_model_chains(
     centre: &[f64],
     walk_cov: &DMatrix<f64>,
     notes: &mut Vec<String>,
+    stage: Option<&StageFile>,
 ) -> Result<Option<Chains>, String> {
     let st = &m.stages;
     let starts = chain_starts(sub_s, centre, walk_cov, st.chains, m.seed)?;
@@ -287,12 +290,27 @@ fn in_model_chains(
             start: st.burn_in / 5,
             ..Default::default()
         }),
-        checkpoint_every: st.iterations,
+        // blocks between which the stage can be saved; the numbers do not depend on them
+        checkpoint_every: (st.iterations / 50).max(1),
         progress_every: st.iterations,
     };
     let prop = walk_cov * (2.38f64.powi(2) / m.spec.free.len().max(1) as f64);
     let chains = MetropolisHastings::new(sub_s, &prop, settings)
-        .and_then(|mh| mh.run(&Start::PerChain(starts)))
+        .and_then(|mh| match stage {
+            Some(f) => {
+                let id = f.identity(&m.name, "chains");
+                let mh = mh
+                    .checkpoint(&f.path)
+                    .checkpoint_identity(id.clone())
+                    .save_every(f.every);
+                if f.holds(crate::sampler::CHECKPOINT_KIND, &id) {
+                    mh.resume(&f.path)
+                } else {
+                    mh.run(&Start::PerChain(starts))
+                }
+            }
+            None => mh.run(&Start::PerChain(starts)),
+        })
         .map_err(|e| e.to_string())
         .and_then(|o| match o {
             RunOutcome::Finished(c) => Ok(c),
@@ -485,7 +503,7 @@ fn raw_assumes(statistic: Statistic, min_margin_sigma: f64) -> String {
 /// Runs every per-model stage but tempering ([`temper`]) for a competing model on its
 /// parent's exact likelihood: MAP and Fisher matrix, the sampled likelihood, the in-model
 /// chains, the jump proposal, Laplace–Fisher, Laplace–Metropolis and Schwarz.
-pub(super) fn run_model(m: &ModelPlan<'_>) -> Result<ModelRun, String> {
+pub(super) fn run_model(m: &ModelPlan<'_>, stage: Option<&StageFile>) -> Result<ModelRun, String> {
     let (exact, spec) = (m.exact, &m.spec);
     let free = &spec.free;
     let d = free.len();
@@ -510,7 +528,7 @@ pub(super) fn run_model(m: &ModelPlan<'_>) -> Result<ModelRun, String> {
 
     // in-model chains from starts inside the prior
     let centre = free_vec(&base, free);
-    let chains = in_model_chains(m, &sub_s, &centre, &walk_cov, &mut notes)?;
+    let chains = in_model_chains(m, &sub_s, &centre, &walk_cov, &mut notes, stage)?;
     let diag = chains.as_ref().and_then(|c| c.diagnostics().ok());
     let (jump_center, jump_cov, jump_source) = jump_proposal(
         m,
@@ -595,11 +613,13 @@ pub(super) fn run_model(m: &ModelPlan<'_>) -> Result<ModelRun, String> {
 /// The parallel-tempering stage of a model (thermodynamic integration and stepping-stone),
 /// run after [`run_model`]: a stage of its own so that a checkpoint can hold a model whose
 /// tempering, the longest part, has not run yet.
-/// `on_sweep` is called after every sweep of the ladder (for progress).
+/// `progress` is called with the sweeps done (for progress); with `stage` the ladder is saved
+/// as it goes and resumed from there.
 pub(super) fn temper(
     m: &ModelPlan<'_>,
     run: &mut ModelRun,
-    on_sweep: &(dyn Fn() + Sync),
+    progress: &mut dyn FnMut(usize),
+    stage: Option<&StageFile>,
 ) -> Result<(), String> {
     let exact = m.exact;
     let free = &run.spec.free;
@@ -614,10 +634,10 @@ pub(super) fn temper(
         &m.stages,
         &sub_s,
         matches!(run.sampled, Sampled::RelBin(_)).then_some(&sub_exact as &dyn LogDensity),
-        &run.tempering_start,
-        &run.jump_cov,
-        run.seed,
-        on_sweep,
+        (&run.tempering_start, &run.jump_cov),
+        (run.seed, m.name.as_str()),
+        progress,
+        stage,
     );
     run.outcome.thermodynamic = thermodynamic;
     run.outcome.stepping_stone = stepping_stone;
@@ -656,15 +676,16 @@ fn ladder_approximation_error(
 /// Thermodynamic integration and stepping-stone from one parallel-tempering run on the
 /// sampled likelihood (its own seed stream, `seed + 7919`). With `exact` (the sampled
 /// likelihood is an approximation of it), the approximation's effect along the ladder is
-/// measured at the rungs' states and added to both errors.
+/// measured at the rungs' states and added to both errors. The ladder starts at `start` with
+/// random walks shaped by `cov`; `model` names its stage in the stage file.
 fn tempering(
     st: &StageSettings,
     target: &dyn LogDensity,
     exact: Option<&dyn LogDensity>,
-    start: &[f64],
-    cov: &DMatrix<f64>,
-    seed: u64,
-    on_sweep: &(dyn Fn() + Sync),
+    (start, cov): (&[f64], &DMatrix<f64>),
+    (seed, model): (u64, &str),
+    progress: &mut dyn FnMut(usize),
+    stage: Option<&StageFile>,
 ) -> (Evidence, Evidence, Option<TemperingDiagnostics>) {
     if st.pt_temperatures == 0 {
         let off = || {
@@ -682,8 +703,23 @@ fn tempering(
         ..Default::default()
     };
     let t0 = std::time::Instant::now();
-    match run_tempering_observed(target, start, cov, &opts, on_sweep) {
-        Ok(r) => {
+    let ran = ParallelTempering::new(target, start, cov, &opts).and_then(|pt| {
+        let pt = pt.progress(progress);
+        match stage {
+            Some(f) => {
+                let id = f.identity(model, "tempering");
+                let pt = pt.checkpoint(&f.path, id.clone(), f.every);
+                if f.holds(crate::evidence::tempering::KIND, &id) {
+                    pt.resume(&f.path)
+                } else {
+                    pt.run()
+                }
+            }
+            None => pt.run(),
+        }
+    });
+    match ran {
+        Ok(TemperingOutcome::Finished(r)) => {
             let approx_err =
                 exact.map(|e| ladder_approximation_error(&r.betas, &r.rung_samples, target, e));
             let a = approx_err.unwrap_or(0.0);
@@ -712,6 +748,14 @@ fn tempering(
                 Evidence::statistical(ss),
                 Some(diag),
             )
+        }
+        Ok(TemperingOutcome::Stopped { sweeps }) => {
+            let why = || {
+                Evidence::not_applicable(format!(
+                    "parallel tempering stopped after {sweeps} sweeps"
+                ))
+            };
+            (why(), why(), None)
         }
         Err(e) => {
             let why = || Evidence::not_applicable(format!("parallel tempering: {e}"));
