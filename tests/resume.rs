@@ -214,6 +214,74 @@ fn select_killed_mid_run_and_resumed_matches_an_uninterrupted_run() {
     assert!(leftovers.is_empty(), "{leftovers:?}");
 }
 
+/// Killed inside a model's tempering stage (the stage saved after every block), `select
+/// --resume` continues that stage from `stage.cbor` instead of starting it again, and ends with
+/// the numbers and sample files of an uninterrupted run.
+#[test]
+fn select_killed_inside_a_stage_resumes_the_stage_where_it_stood() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // a tempering stage long enough (≈ a second) to be killed inside
+    let study = small().replace("pt_iterations = 1500", "pt_iterations = 40000");
+    std::fs::write(d.join("s.toml"), study).unwrap();
+    let (ok, _, err) = occam(&["select", "s.toml", "-q", "-o", "whole"], d);
+    assert!(ok, "{err}");
+
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_occam"))
+        .args(["select", "s.toml", "-q", "-o", "cut"])
+        .env("OCCAM_CHECKPOINT_SECONDS", "0")
+        .current_dir(d)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let stage = d.join("cut").join(STAGE_FILE);
+    let tempering = || {
+        occam::data::checkpoint::head(&stage)
+            .is_ok_and(|(kind, _)| kind == occam::evidence::tempering::KIND)
+    };
+    let t0 = std::time::Instant::now();
+    while !tempering() && t0.elapsed().as_secs() < 120 {
+        if child.try_wait().unwrap().is_some() {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(1));
+    }
+    let _ = child.kill();
+    child.wait().unwrap();
+    assert!(
+        tempering(),
+        "the run must have been killed inside a tempering stage"
+    );
+
+    let (ok, out, err) = occam(&["select", "s.toml", "-q", "-o", "cut", "--resume"], d);
+    assert!(ok, "{err}");
+    assert!(
+        out.contains("and the stage in progress from") && out.contains("/tempering"),
+        "{out}"
+    );
+    assert!(summary_numbers(&d.join("whole")) == summary_numbers(&d.join("cut")));
+    for f in ["table.txt", "chains_X.npz", "chains_Y.npz", "rj_chain.npz"] {
+        assert_eq!(
+            std::fs::read(d.join("whole").join(f)).unwrap(),
+            std::fs::read(d.join("cut").join(f)).unwrap(),
+            "{f}"
+        );
+    }
+    assert!(!stage.exists(), "a finished run leaves no stage file");
+
+    // a value of the variable that is not a number of seconds is refused, naming it
+    let bad = std::process::Command::new(env!("CARGO_BIN_EXE_occam"))
+        .args(["select", "s.toml", "-q", "-o", "bad"])
+        .env("OCCAM_CHECKPOINT_SECONDS", "soon")
+        .current_dir(d)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&bad.stderr);
+    assert!(!bad.status.success());
+    assert!(err.contains("OCCAM_CHECKPOINT_SECONDS = `soon`"), "{err}");
+}
+
 #[test]
 fn a_rerun_removes_the_previous_runs_files_it_does_not_write() {
     let dir = tempfile::tempdir().unwrap();

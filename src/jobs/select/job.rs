@@ -45,11 +45,24 @@ impl Job for Select<'_, '_> {
                 ckpt_path.display(),
                 c.describe(&names)
             ));
+            let stage = out.join(super::STAGE_FILE);
+            if let Ok((_, id)) = crate::data::checkpoint::head(&stage)
+                && let Some(what) = id.strip_prefix(&format!("{identity}/"))
+            {
+                (ctx.log)(&format!(
+                    "and the stage in progress from {}: {what}",
+                    stage.display()
+                ));
+            }
             c
         } else {
             // a stage file of an earlier run in this directory must not be resumed
             let _ = std::fs::remove_file(out.join(super::STAGE_FILE));
             SelectCheckpoint::new(identity)
+        };
+        let state = match super::stage::every_from_env()? {
+            Some(every) => state.save_stage_every(every),
+            None => state,
         };
         (ctx.log)(&format!(
             "data: {} ({} experiments, {} bins in band)",

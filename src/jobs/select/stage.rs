@@ -13,6 +13,24 @@ pub const FILE: &str = "stage.cbor";
 /// How often a stage in progress is saved (wall-clock).
 pub const EVERY: Duration = Duration::from_secs(20);
 
+/// The environment variable that sets how often a stage in progress is saved, in seconds.
+pub const ENV: &str = "OCCAM_CHECKPOINT_SECONDS";
+
+/// The interval [`ENV`] asks for (`None` when unset); an error names the variable and the fix
+/// when it is not a number of seconds ≥ 0.
+pub fn every_from_env() -> anyhow::Result<Option<Duration>> {
+    let Ok(v) = std::env::var(ENV) else {
+        return Ok(None);
+    };
+    match v.trim().parse::<f64>() {
+        Ok(s) if s.is_finite() && s >= 0.0 && s < 1e9 => Ok(Some(Duration::from_secs_f64(s))),
+        _ => anyhow::bail!(
+            "{ENV} = `{v}`: expected a number of seconds ≥ 0 (how often `select` saves the stage in progress; 0 saves after every block); unset it for the default of {} s",
+            EVERY.as_secs()
+        ),
+    }
+}
+
 /// Where the stage in progress is saved, for the run of one select identity.
 #[derive(Debug, Clone)]
 pub struct StageFile {
