@@ -23,7 +23,7 @@ pub fn every_from_env() -> anyhow::Result<Option<Duration>> {
         return Ok(None);
     };
     match v.trim().parse::<f64>() {
-        Ok(s) if s.is_finite() && s >= 0.0 && s < 1e9 => Ok(Some(Duration::from_secs_f64(s))),
+        Ok(s) if (0.0..1e9).contains(&s) => Ok(Some(Duration::from_secs_f64(s))),
         _ => anyhow::bail!(
             "{ENV} = `{v}`: expected a number of seconds ≥ 0 (how often `select` saves the stage in progress; 0 saves after every block); unset it for the default of {} s",
             EVERY.as_secs()
