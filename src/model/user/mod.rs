@@ -40,7 +40,7 @@
 //! parentheses, `^` with an integer literal exponent, and the names of parameters (real),
 //! constants (real), blocks, defines, `s` and `pi` (see [`expr`]).
 //!
-//! Blocks whose fields are all constant are evaluated once per bin ([`Model::bin_consts`]);
+//! Blocks whose fields are all constant are evaluated once per bin ([`Model::bin_consts`](crate::model::Model::bin_consts));
 //! blocks and defines that no coefficient uses are validated but never evaluated.
 
 pub mod block;
