@@ -37,9 +37,12 @@
 //! job is to refuse inputs that cannot fit, with a message naming the field, not to predict the
 //! peak to the byte.
 
-use super::{ConfigError, Method, NoiseSynthesis, SimulationOptions, Study};
+use super::error::ConfigError;
+pub use super::limits::MAX_NAME_LEN;
+use super::study::{SimulationOptions, Study};
 pub use crate::data::memory::{BUDGET_ENV, DEFAULT_BUDGET, GIB, budget_from_env, parse_size};
 use crate::experiment::ExperimentDesign;
+use crate::experiment::options::{Method, NoiseSynthesis};
 
 /// Most iterations (`fit.iterations`, `select.iterations`, `select.rj_iterations`,
 /// `select.pt_iterations`) a study may ask for: 10⁹. One iteration costs at least a
@@ -51,11 +54,6 @@ pub const MAX_ITERATIONS: usize = 1_000_000_000;
 /// Most chains of `fit.chains` and `select.chains` (as `select.rj_chains`): 4096. The chains
 /// run on the thread pool; more chains than that are not a sampler setting but a typo.
 pub const MAX_CHAINS: usize = 4096;
-
-/// Longest experiment or model name: 64 characters. Names become array names in the npz
-/// dataset and keys of the output tables (a 70 000-character name overflowed the zip
-/// format's 16-bit name length).
-pub const MAX_NAME_LEN: usize = 64;
 
 /// Bytes per sweep task record kept in memory (identity, outcome, error text).
 pub const SWEEP_RECORD_BYTES: f64 = 4096.0;

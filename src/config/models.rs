@@ -17,7 +17,8 @@
 //! [`crate::model::accel`]), `tied` (any model defined earlier with tied parameters,
 //! [`crate::model::tied`]) and `user` ([`crate::model::user`]).
 
-use super::ConfigError;
+use super::error::ConfigError;
+use super::limits::{DELAY_PARAMS, MAX_DELAY, MAX_NAME_LEN, check_delay};
 use crate::model::user::{UserModel, UserModelDef};
 use crate::model::{LoopResponse, LtpModel, LtpModelOptions, Model, ThrusterResponse};
 use crate::prior::{Prior, PriorKind};
@@ -268,14 +269,13 @@ impl ModelSet {
                 ));
             }
             if let ModelDef::Accel { options, .. } = &def
-                && options.tau_ifo > super::MAX_DELAY
+                && options.tau_ifo > MAX_DELAY
             {
                 return Err(bad(
                     format!("{at}.tau_ifo"),
                     format!(
                         "must be a delay in [0, {}] s (got {})",
-                        super::MAX_DELAY,
-                        options.tau_ifo
+                        MAX_DELAY, options.tau_ifo
                     ),
                 ));
             }
@@ -324,16 +324,16 @@ impl ModelSet {
             }
             if !matches!(d, ModelDef::User(_)) {
                 for (n, k) in m.param_names().iter().zip(&kinds) {
-                    if !super::DELAY_PARAMS.contains(&n.as_str()) {
+                    if !DELAY_PARAMS.contains(&n.as_str()) {
                         continue;
                     }
                     let (lo, hi) = k.bounds();
-                    if !(lo >= 0.0 && hi <= super::MAX_DELAY) {
+                    if !(lo >= 0.0 && hi <= MAX_DELAY) {
                         return Err(bad(
                             format!("prior.{n}"),
                             format!(
                                 "`{n}` is a delay: its prior must lie in [0, {}] s (got bounds [{lo}, {hi}]); use a uniform or log-uniform box there",
-                                super::MAX_DELAY
+                                MAX_DELAY
                             ),
                         ));
                     }
@@ -396,10 +396,10 @@ impl ModelSet {
 }
 
 /// Checks a model name (`[[model]]`, `[[select.model]]`): 1 to
-/// [`super::budget::MAX_NAME_LEN`] letters, digits or `_ - . +`, because names become keys
+/// [`MAX_NAME_LEN`] letters, digits or `_ - . +`, because names become keys
 /// and file names of the outputs.
 pub fn check_name(name: &str) -> Result<(), String> {
-    let max = super::budget::MAX_NAME_LEN;
+    let max = MAX_NAME_LEN;
     if name.is_empty()
         || name.chars().count() > max
         || !name
@@ -505,10 +505,8 @@ impl ModelEntry {
                     format!("must be finite (got {v})"),
                 ));
             }
-            if !matches!(set.defs[mi], ModelDef::User(_))
-                && super::DELAY_PARAMS.contains(&n.as_str())
-            {
-                super::check_delay(v).map_err(|m| bad(format!("{at}fixed.{n}"), m))?;
+            if !matches!(set.defs[mi], ModelDef::User(_)) && DELAY_PARAMS.contains(&n.as_str()) {
+                check_delay(v).map_err(|m| bad(format!("{at}fixed.{n}"), m))?;
             }
             let kind = set.priors[mi].kinds()[i];
             let (lo, hi) = kind.bounds();

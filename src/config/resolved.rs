@@ -2,7 +2,8 @@
 //! filled in, so that a run directory says exactly what was computed even when the study file
 //! has since changed or the defaults of a later occam differ.
 
-use super::{ConfigError, Study};
+use super::error::ConfigError;
+use super::study::Study;
 
 /// The file a run directory keeps its resolved study in.
 pub const RESOLVED_FILE: &str = "study.resolved.toml";

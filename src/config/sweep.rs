@@ -16,7 +16,7 @@
 //! spacing = "log"                   # or "linear"
 //! ```
 
-use super::ConfigError;
+use super::error::ConfigError;
 use serde::{Deserialize, Serialize};
 
 /// How `from`, `to` and `points` fill an axis.

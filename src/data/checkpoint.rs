@@ -214,7 +214,7 @@ pub fn read<T: DeserializeOwned>(
     let len = std::fs::metadata(path)
         .map_err(|e| io("cannot open", e.to_string()))?
         .len();
-    let budget = super::memory_budget_bytes();
+    let budget = super::memory::memory_budget_bytes();
     // the decoded payload takes a few times the file's bytes; 4× is generous for CBOR numbers
     if len.saturating_mul(4) > budget {
         return Err(io(

@@ -18,50 +18,17 @@
 //! the field checks alone. Users' own files are read by [`crate::data::DataSource`] (CSV via
 //! [`read_csv`], or npz).
 
+pub use super::error::DataError;
+use super::error::{fmt_err, io_err};
+use super::fnv::Fnv1a;
+use super::memory::{check_budget, memory_budget_bytes};
+use super::time_column::uniform_rate;
 use crate::ltp::LtpParams;
 use ndarray::Array1;
 use ndarray_npy::NpzWriter;
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
-
-/// Problems reading or writing data files; every message names the file.
-#[derive(Debug, thiserror::Error)]
-pub enum DataError {
-    #[error("{file}: {source}")]
-    Io {
-        file: String,
-        #[source]
-        source: std::io::Error,
-    },
-    #[error("{file}: {msg}")]
-    Format { file: String, msg: String },
-    /// The dataset's experiments are not the study's ([`Dataset::check_names`]); the caller
-    /// knows which files are involved and says so.
-    #[error("{msg}")]
-    Names { msg: String },
-    /// A dataset's sidecar and arrays tell different stories.
-    #[error("{json} and {npz} disagree: {msg}")]
-    Mismatch {
-        json: String,
-        npz: String,
-        msg: String,
-    },
-}
-
-fn io_err(file: &Path) -> impl FnOnce(std::io::Error) -> DataError + '_ {
-    move |source| DataError::Io {
-        file: file.display().to_string(),
-        source,
-    }
-}
-
-pub(crate) fn fmt_err(file: &Path, msg: impl Into<String>) -> DataError {
-    DataError::Format {
-        file: file.display().to_string(),
-        msg: msg.into(),
-    }
-}
 
 /// The longest experiment or channel name, in bytes: names become array names in the npz
 /// archive, whose format caps a file name at 65 535 bytes.
@@ -134,7 +101,7 @@ pub struct Sidecar {
 }
 
 /// Identifies one `dataset.npz` file: its length and 64-bit FNV-1a hash
-/// ([`crate::data::Fnv1a`]) as 16 hex digits.
+/// ([`Fnv1a`]) as 16 hex digits.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct NpzDigest {
@@ -154,8 +121,7 @@ impl NpzDigest {
     /// The digest of the file at `path`, read in pieces.
     pub fn of_file(path: &Path) -> Result<Self, DataError> {
         let f = std::fs::File::open(path).map_err(io_err(path))?;
-        let (n, h) =
-            crate::data::Fnv1a::of_reader(std::io::BufReader::new(f)).map_err(io_err(path))?;
+        let (n, h) = Fnv1a::of_reader(std::io::BufReader::new(f)).map_err(io_err(path))?;
         Ok(NpzDigest::new(n, h))
     }
 }
@@ -372,35 +338,6 @@ impl ExperimentData {
         };
         (!v.is_empty()).then_some(v.as_slice())
     }
-
-    /// Builds an experiment from two CSV files: `data` with columns `o1, o12, i1, i12` (and an
-    /// optional uniformly spaced time column `t`), and `noise` with `o1, o12` (optional `t`).
-    /// The sample rate comes from `t` when present, else from `fs`. See
-    /// [`crate::data::DataSource`] for renamed columns, npz files and further channels.
-    pub fn from_csv(
-        name: &str,
-        data: &Path,
-        noise: &Path,
-        fs: Option<f64>,
-    ) -> Result<Self, DataError> {
-        let src = crate::data::DataSource {
-            data: data.to_path_buf(),
-            columns: BTreeMap::new(),
-            fs,
-            noise_data: Some(noise.to_path_buf()),
-        };
-        let channels = FIXED_CHANNELS.map(String::from);
-        let e = src.load(name, Path::new(""), &channels)?;
-        for (c, v) in ["o1", "o12"].iter().zip(&e.noise) {
-            if v.is_empty() {
-                return Err(fmt_err(
-                    noise,
-                    format!("no column `{c}`: the noise-only stretch needs o1 and o12"),
-                ));
-            }
-        }
-        Ok(e)
-    }
 }
 
 impl Dataset {
@@ -508,7 +445,7 @@ impl Dataset {
     pub fn read(path: &Path) -> Result<Dataset, DataError> {
         let (json, npz) = Self::files(path)?;
         let jlen = std::fs::metadata(&json).map_err(io_err(&json))?.len();
-        crate::data::check_budget(&json, "the sidecar", jlen.saturating_mul(4))?;
+        check_budget(&json, "the sidecar", jlen.saturating_mul(4))?;
         let text = std::fs::read(&json).map_err(io_err(&json))?;
         let side = Self::parse_sidecar(&json, &text)?;
         if let Some(want) = &side.npz_digest {
@@ -524,7 +461,7 @@ impl Dataset {
         let (json, npz) = (Path::new("dataset.json"), Path::new("dataset.npz"));
         let side = Self::parse_sidecar(json, json_text)?;
         if let Some(want) = &side.npz_digest {
-            let have = NpzDigest::new(npz_bytes.len() as u64, crate::data::Fnv1a::of(npz_bytes));
+            let have = NpzDigest::new(npz_bytes.len() as u64, Fnv1a::of(npz_bytes));
             Self::check_digest(json, npz, want, &have)?;
         }
         let z = crate::data::npz::NpzBytes::from_bytes(npz_bytes).map_err(|m| fmt_err(npz, m))?;
@@ -632,8 +569,8 @@ impl Dataset {
             total = total.saturating_add(n);
             largest = largest.max(n);
         }
-        crate::data::check_budget(&npz, "reading its arrays", total.saturating_add(largest))?;
-        let budget = crate::data::memory_budget_bytes();
+        check_budget(&npz, "reading its arrays", total.saturating_add(largest))?;
+        let budget = memory_budget_bytes();
 
         let mut get = |key: &str| -> Result<Vec<f64>, DataError> {
             z.read_f64(key, budget).map_err(|m| fmt_err(&npz, m))
@@ -775,12 +712,12 @@ impl CsvTable {
     }
 
     /// The sample rate from a time column `t`, checking that it is uniformly spaced (see
-    /// [`crate::data::uniform_rate`]); `None` without a column `t`.
+    /// [`uniform_rate`]); `None` without a column `t`.
     pub fn sample_rate(&self) -> Result<Option<f64>, String> {
         let Some(t) = self.column("t") else {
             return Ok(None);
         };
-        crate::data::uniform_rate(t, "t", |k| format!("line {}", self.lines[k])).map(Some)
+        uniform_rate(t, "t", |k| format!("line {}", self.lines[k])).map(Some)
     }
 }
 
@@ -796,7 +733,7 @@ const CSV_MEMORY_FACTOR: u64 = 9;
 /// against the memory budget ([`crate::data::memory_budget`]) before it is read.
 pub fn read_csv(path: &Path) -> Result<CsvTable, DataError> {
     let len = std::fs::metadata(path).map_err(io_err(path))?.len();
-    crate::data::check_budget(
+    check_budget(
         path,
         &format!("reading this {len}-byte CSV file"),
         len.saturating_mul(CSV_MEMORY_FACTOR),
@@ -1067,10 +1004,7 @@ mod tests {
         let bytes = std::fs::read(&npz).unwrap();
         assert_eq!(
             side.npz_digest,
-            Some(NpzDigest::new(
-                bytes.len() as u64,
-                crate::data::Fnv1a::of(&bytes)
-            ))
+            Some(NpzDigest::new(bytes.len() as u64, Fnv1a::of(&bytes)))
         );
         // from the bytes, as from the files
         let text = std::fs::read(&json).unwrap();

@@ -2,6 +2,8 @@
 //! [`DEFAULT_BUDGET`]. The study loader sizes a whole study against it
 //! (`crate::config::budget`); the file readers check each array against it before allocating.
 
+use super::error::{DataError, fmt_err};
+
 /// One gibibyte.
 pub const GIB: f64 = 1024.0 * 1024.0 * 1024.0;
 
@@ -65,4 +67,38 @@ pub fn parse_size(s: &str) -> Result<f64, String> {
         return Err(format!("must be a finite size > 0 (got `{t}`)"));
     }
     Ok(bytes)
+}
+
+/// The memory budget for data read from files, in bytes: the one budget of the study loader
+/// ([`budget_from_env`]: `OCCAM_MEMORY_BUDGET`, else 8 GiB). Readers
+/// compare the sizes a file implies with it before allocating anything, so that a damaged or
+/// enormous file is an error naming the file rather than an abort. An unreadable value is an
+/// error naming the variable (never silently the default).
+pub fn memory_budget() -> Result<u64, String> {
+    // saturating: a budget above 2⁶⁴ bytes is no limit
+    budget_from_env().map(|b| b as u64)
+}
+
+/// [`memory_budget`], or the default budget when the variable cannot be read (for callers
+/// that have already reported that error through [`check_budget`]).
+pub fn memory_budget_bytes() -> u64 {
+    memory_budget().unwrap_or(DEFAULT_BUDGET as u64)
+}
+
+/// Checks that reading `what` of `file`, which needs `bytes` bytes, fits the memory budget.
+pub(crate) fn check_budget(
+    file: &std::path::Path,
+    what: &str,
+    bytes: u64,
+) -> Result<(), DataError> {
+    let budget = memory_budget().map_err(|m| fmt_err(file, m))?;
+    if bytes > budget {
+        return Err(fmt_err(
+            file,
+            format!(
+                "{what} needs {bytes} bytes, more than the memory budget of {budget} bytes; raise OCCAM_MEMORY_BUDGET if the machine has the memory, or split the data"
+            ),
+        ));
+    }
+    Ok(())
 }

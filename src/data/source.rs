@@ -1,6 +1,10 @@
 //! [`DataSource`]: one experiment's data read from a CSV or npz file named in the study.
+//! [`ExperimentData::from_csv`] is the shorthand for two CSV files with the fixed columns.
 
-use crate::data::dataset::{DataError, ExperimentData, check_channel_name, fmt_err, read_csv};
+use super::dataset::{ExperimentData, FIXED_CHANNELS, check_channel_name, read_csv};
+use super::error::{DataError, fmt_err};
+use super::memory::{check_budget, memory_budget_bytes};
+use super::time_column::uniform_rate;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -84,8 +88,8 @@ impl Table {
                 largest = largest.max(n);
             }
         }
-        super::check_budget(file, "reading its arrays", total.saturating_add(largest))?;
-        let budget = super::memory_budget_bytes();
+        check_budget(file, "reading its arrays", total.saturating_add(largest))?;
+        let budget = memory_budget_bytes();
         let mut columns = BTreeMap::new();
         let mut first: Option<(String, usize)> = None;
         for &w in wanted {
@@ -161,7 +165,7 @@ impl Table {
         let Some(t) = self.get(column) else {
             return Ok(None);
         };
-        super::uniform_rate(t, column, |k| self.at(k))
+        uniform_rate(t, column, |k| self.at(k))
             .map(Some)
             .map_err(|m| fmt_err(&self.file, m))
     }
@@ -193,7 +197,7 @@ impl DataSource {
         let data = base.join(&self.data);
         let mut chans: Vec<&str> = Vec::new();
         for c in channels {
-            if !crate::data::dataset::FIXED_CHANNELS.contains(&c.as_str()) {
+            if !FIXED_CHANNELS.contains(&c.as_str()) {
                 check_channel_name(c)
                     .map_err(|m| fmt_err(&data, format!("experiment `{name}`: {m}")))?;
             }
@@ -361,6 +365,37 @@ impl DataSource {
             }
         }
         e.validate(&data)?;
+        Ok(e)
+    }
+}
+
+impl ExperimentData {
+    /// Builds an experiment from two CSV files: `data` with columns `o1, o12, i1, i12` (and an
+    /// optional uniformly spaced time column `t`), and `noise` with `o1, o12` (optional `t`).
+    /// The sample rate comes from `t` when present, else from `fs`. See
+    /// [`DataSource`] for renamed columns, npz files and further channels.
+    pub fn from_csv(
+        name: &str,
+        data: &Path,
+        noise: &Path,
+        fs: Option<f64>,
+    ) -> Result<Self, DataError> {
+        let src = DataSource {
+            data: data.to_path_buf(),
+            columns: BTreeMap::new(),
+            fs,
+            noise_data: Some(noise.to_path_buf()),
+        };
+        let channels = FIXED_CHANNELS.map(String::from);
+        let e = src.load(name, Path::new(""), &channels)?;
+        for (c, v) in ["o1", "o12"].iter().zip(&e.noise) {
+            if v.is_empty() {
+                return Err(fmt_err(
+                    noise,
+                    format!("no column `{c}`: the noise-only stretch needs o1 and o12"),
+                ));
+            }
+        }
         Ok(e)
     }
 }

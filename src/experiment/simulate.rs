@@ -37,7 +37,7 @@
 //! (`g2 = u2`, `gsc = −u1` at the data samples); the noise part is computed from the noise as
 //! above, because the noise on the outputs is the continuous model's in that method too.
 
-use super::ExperimentDesign;
+use super::design::{ExperimentDesign, FORCE_CHANNELS};
 use super::options::{Actuator, MAX_AMPLITUDE, Method, NoiseSynthesis, TruthThruster};
 use crate::data::dataset::{Dataset, ExperimentData};
 use crate::hermitian;
@@ -562,7 +562,7 @@ pub fn simulate_observed(
             noise_extra.insert(name.to_string(), nv);
         }
         if let Some(q) = forces {
-            for (name, v) in super::FORCE_CHANNELS.iter().zip(q) {
+            for (name, v) in FORCE_CHANNELS.iter().zip(q) {
                 extra.insert(name.to_string(), v);
             }
         }
@@ -587,7 +587,7 @@ pub fn simulate_observed(
             "convention": "applied force per unit mass = Act(f)·g, Act(f) = gain/(1 + i f/pole)·e^{−i2πf·delay}; tm2.gain = truth.a_sus",
         },
         "telemetry_channels": TELEMETRY_CHANNELS,
-        "force_channels": super::FORCE_CHANNELS,
+        "force_channels": FORCE_CHANNELS,
         "noise_synthesis": opts.noise,
         "noise_model": sys.noise,
         "masses": sys.masses,

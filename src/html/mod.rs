@@ -6,6 +6,7 @@
 //! two runs' files), and added to the run's `manifest.json`, so that the command's next run
 //! removes the stale report with its other old outputs.
 
+mod error;
 mod escape;
 mod fit;
 mod fmt;
@@ -17,27 +18,15 @@ mod sweep;
 mod table;
 mod warnings;
 
+pub use error::ReportError;
 pub use escape::{esc, inline_svg};
 pub use run::{MAX_INLINE_BYTES, RESOLVED_STUDY, Run, RunKind};
 
-use crate::data::rundir::{MANIFEST, RunDir, RunDirError};
+use crate::data::rundir::{MANIFEST, RunDir};
 use std::path::{Path, PathBuf};
 
 /// The report's default file name inside the run directory.
 pub const REPORT: &str = "report.html";
-
-/// Why a report cannot be written.
-#[derive(Debug, thiserror::Error)]
-pub enum ReportError {
-    #[error(
-        "{0} is not an occam run directory (no manifest.json); give the directory a fit/select/sweep wrote"
-    )]
-    NotARun(PathBuf),
-    #[error("{file}: {msg}")]
-    File { file: PathBuf, msg: String },
-    #[error(transparent)]
-    RunDir(#[from] RunDirError),
-}
 
 /// Writes the report of the run in `run_dir` to `out` (default `run_dir/report.html`) and
 /// returns its path. A report inside the run directory is added to its manifest.

@@ -2,7 +2,7 @@
 //! the figures and the resolved study. Old runs (no manifest, no resolved study) are read
 //! from what they have.
 
-use super::ReportError;
+use super::error::ReportError;
 use crate::data::rundir::{MANIFEST, Manifest};
 use serde_json::Value;
 use std::path::{Path, PathBuf};

@@ -1,6 +1,6 @@
 //! `occam simulate`: the study's experiments → `dataset.npz` + `dataset.json`.
 
-use super::{Context, Job};
+use super::job::{Context, Job};
 use crate::config::Study;
 use crate::experiment::Simulation;
 use anyhow::Context as _;

@@ -3,7 +3,7 @@
 
 use nalgebra::DMatrix;
 
-use super::spd::{jacobi_scaled, symmetric_eigen};
+use super::symmetric::{jacobi_scaled, symmetric_eigen};
 
 /// Relative eigenvalue (of the Fisher matrix in correlation form, divided by its largest)
 /// below which a direction counts as unconstrained. Rounding alone leaves eigenvalues of a
@@ -136,7 +136,7 @@ pub fn weakest_direction(f: &DMatrix<f64>) -> Option<NullDirection> {
 pub fn format_direction(d: &NullDirection, names: &[String]) -> String {
     let mut s = String::new();
     for (k, &(i, w)) in d.weights.iter().enumerate() {
-        let name = super::row_name(names, i);
+        let name = row_name(names, i);
         if k == 0 {
             if w < 0.0 {
                 s.push('−');
@@ -147,6 +147,11 @@ pub fn format_direction(d: &NullDirection, names: &[String]) -> String {
         s.push_str(&format!("{:.2}·{name}", w.abs()));
     }
     s
+}
+
+/// The name of row `i`: the caller's, or `#i`.
+pub(super) fn row_name(names: &[String], i: usize) -> String {
+    names.get(i).cloned().unwrap_or_else(|| format!("#{i}"))
 }
 
 #[cfg(test)]

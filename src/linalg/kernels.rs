@@ -2,7 +2,7 @@
 //! times. Each has a slow oracle in the tests: [`super::Spd`] (nalgebra) for the factor and
 //! `ln det`, nalgebra's triangular solve for the solve.
 
-use super::LinalgError;
+use super::error::LinalgError;
 
 /// In-place lower Cholesky factorisation of the symmetric `n × n` row-major matrix `a` (only
 /// its lower triangle is read); the upper triangle is zeroed. Allocation-free.

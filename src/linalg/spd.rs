@@ -1,10 +1,11 @@
 //! Symmetric positive-definite matrices: the Cholesky factor and what it gives (inverse,
-//! solve, `ln det`), with optional Jacobi scaling; the symmetric eigen decomposition.
+//! solve, `ln det`), with optional Jacobi scaling.
 
-use nalgebra::{Cholesky, DMatrix, DVector, Dyn, SymmetricEigen};
+use nalgebra::{Cholesky, DMatrix, DVector, Dyn};
 
 use super::directions::weakest_direction;
-use super::{LinalgError, Weakest};
+use super::error::{LinalgError, Weakest};
+use super::symmetric::{jacobi_scaled, symmetrised};
 
 /// Default relative asymmetry tolerated by [`Symmetry::Within`]: far above the round-off of
 /// a numerically inverted or accumulated matrix (`AᵀA`-type products, `Σ = F⁻¹`), far below
@@ -272,40 +273,6 @@ pub fn spd_inverse(a: &DMatrix<f64>, opts: &SpdOptions) -> Result<DMatrix<f64>, 
         }
     }
     Ok(inv)
-}
-
-/// `(A + Aᵀ)/2`.
-pub fn symmetrised(a: &DMatrix<f64>) -> DMatrix<f64> {
-    (a + a.transpose()) * 0.5
-}
-
-/// `S A S` with `S = diag(s)`: entries `a_ij · s_i · s_j` (in this order of operations). With
-/// `s_i = 1/√a_ii` it is the unit-diagonal correlation form that [`Scaling::Jacobi`] factors.
-pub fn jacobi_scaled(a: &DMatrix<f64>, s: &[f64]) -> DMatrix<f64> {
-    DMatrix::from_fn(a.nrows(), a.ncols(), |i, j| a[(i, j)] * s[i] * s[j])
-}
-
-/// The unit-diagonal form by division, `a_ij / (d_i d_j)` with `d_i = √max(a_ii, 0)`, and the
-/// rows and columns with `d_i = 0` set to zero; returns it and `d`. The same matrix as
-/// [`jacobi_scaled`] with `s = 1/d` up to rounding: the relative-binning region is built on
-/// this form, and keeps it so that its numbers do not move.
-pub fn unit_diagonal(a: &DMatrix<f64>) -> (DMatrix<f64>, Vec<f64>) {
-    let n = a.nrows();
-    let d: Vec<f64> = (0..n).map(|i| a[(i, i)].max(0.0).sqrt()).collect();
-    let g = DMatrix::from_fn(n, n, |i, j| {
-        if d[i] > 0.0 && d[j] > 0.0 {
-            a[(i, j)] / (d[i] * d[j])
-        } else {
-            0.0
-        }
-    });
-    (g, d)
-}
-
-/// The eigen decomposition of the symmetric matrix `a` (nalgebra's; eigenvalues in no
-/// particular order, unit eigenvectors in the columns).
-pub fn symmetric_eigen(a: DMatrix<f64>) -> SymmetricEigen<f64, Dyn> {
-    SymmetricEigen::new(a)
 }
 
 /// The symmetric matrix whose lower triangle is `a`'s.

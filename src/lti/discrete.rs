@@ -6,7 +6,7 @@
 //! (the scipy `lfilter` convention, ascending powers of `z⁻¹` — unlike [`Rational`], whose
 //! coefficients are in descending powers of `s`). The frequency `f` maps to `z = e^{i2πf/fs}`.
 
-use crate::lti::{LtiError, Rational, StateSpace};
+use super::rational::{LtiError, Rational, StateSpace};
 use nalgebra::DMatrix;
 use num_complex::Complex64;
 use std::f64::consts::PI;

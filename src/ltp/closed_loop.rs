@@ -3,7 +3,8 @@
 //! The per-bin response is generic over the scalar type so that the same code gives values
 //! (`f64`) and exact parameter derivatives (`num_dual` dual numbers) for the Fisher matrix.
 
-use super::{Controllers, LtpParams, Masses, N_PARAMS, PARAM_NAMES};
+use super::controllers::Controllers;
+use super::params::{LtpParams, Masses, N_PARAMS, PARAM_NAMES};
 use nalgebra::DMatrix;
 use num_complex::{Complex, Complex64};
 use num_dual::DualNum;

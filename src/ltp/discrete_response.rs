@@ -44,10 +44,11 @@
 //! is 3e−4 at 1 mHz, 3e−3 (entry 22) at 10 mHz, 4e−2 at 0.1 Hz and 0.3 at 1 Hz, shrinking
 //! like `1/fs`.
 
+use super::closed_loop::{close_loop, h_io_of_loop, lift};
+use super::controllers::Controllers;
+use super::params::{Masses, N_PARAMS};
 use crate::lti::LtiError;
 use crate::lti::discrete::DiscreteTf;
-use crate::ltp::closed_loop::{close_loop, h_io_of_loop, lift};
-use crate::ltp::{Controllers, Masses, N_PARAMS};
 use num_complex::{Complex, Complex64};
 use num_dual::DualNum;
 use std::f64::consts::PI;

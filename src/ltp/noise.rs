@@ -1,6 +1,7 @@
 //! Noise sources of the 1-D LTP and their exact two-channel output CSD (ltp-model.md §5).
 
-use super::{ClosedLoop, Masses};
+use super::closed_loop::ClosedLoop;
+use super::params::Masses;
 use num_complex::Complex64;
 use serde::{Deserialize, Serialize};
 

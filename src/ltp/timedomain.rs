@@ -49,9 +49,11 @@
 //! error of about 1e−10 of the error-signal amplitude on `o12` (negligible next to any
 //! realistic noise).
 
+use super::closed_loop::{BinConsts, ClosedLoop};
+use super::controllers::Controllers;
+use super::params::{LtpParams, Masses};
 use crate::lti::LtiError;
 use crate::lti::discrete::{DiscreteTf, IirFilter, zoh};
-use crate::ltp::{BinConsts, ClosedLoop, Controllers, LtpParams, Masses};
 use nalgebra::{DMatrix, Matrix2, Matrix4, Matrix4x2, Vector2, Vector4};
 use num_complex::Complex64;
 use std::f64::consts::PI;

@@ -34,7 +34,8 @@
 //! * The pole has unity DC gain, `1/(1 + i f/f_o)`: K14's `f_o/(f − j f_o)` is a typo
 //!   (ltp-model.md §7.1).
 
-use super::{Bin, Model};
+use super::bin::Bin;
+use super::traits::Model;
 pub use crate::ltp::accel_options::{AccelOptions, Derivative};
 use crate::ltp::fpsder::fpsder_response;
 use crate::prior::PriorKind;

@@ -34,7 +34,8 @@
 //! have a fast kernel; [`Model::check`] tests the stability of the continuous loop (the discrete loop's
 //! stability depends on `fs`, which `check` does not know).
 
-use super::{Bin, BinBlock, Model};
+use super::bin::{Bin, BinBlock};
+use super::traits::{BlockKernel, Model, coefficients_batch_generic, residual_power_generic};
 use crate::hermitian;
 use crate::lti::delay;
 use crate::ltp::{
@@ -367,7 +368,7 @@ impl Model for LtpModel {
     /// response the generic per-bin path is used.
     fn residual_power(&self, theta: &[f64], b: &BinBlock) -> f64 {
         if self.opts.thruster != ThrusterResponse::None {
-            return super::residual_power_generic(self, theta, b);
+            return residual_power_generic(self, theta, b);
         }
         let th: &[f64; N_PARAMS] = match theta.try_into() {
             Ok(t) => t,
@@ -394,10 +395,7 @@ impl Model for LtpModel {
     }
 
     /// The experiments of one grid in one kernel of `super::ltp_kernel` (shared `det P`).
-    fn prepare_joint_kernel(
-        &self,
-        b: &[BinBlock],
-    ) -> Option<std::sync::Arc<dyn super::BlockKernel>> {
+    fn prepare_joint_kernel(&self, b: &[BinBlock]) -> Option<std::sync::Arc<dyn BlockKernel>> {
         if !self.is_plain_continuous() || b.len() < 2 {
             return None;
         }
@@ -424,13 +422,13 @@ impl Model for LtpModel {
                 out,
             )
         {
-            super::coefficients_batch_generic(self, th, freqs, fs, consts, comps, out)
+            coefficients_batch_generic(self, th, freqs, fs, consts, comps, out)
         }
     }
 
     /// The prepared kernel of `super::ltp_kernel` (plain loop only; `None` with a thruster
     /// response).
-    fn prepare_kernel(&self, b: &BinBlock) -> Option<std::sync::Arc<dyn super::BlockKernel>> {
+    fn prepare_kernel(&self, b: &BinBlock) -> Option<std::sync::Arc<dyn BlockKernel>> {
         if !self.is_plain_continuous() {
             return None;
         }

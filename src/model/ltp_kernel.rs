@@ -41,7 +41,8 @@
 //! `BLOCK` fine phasors built by doubling from 8 exact `sin_cos` (at most 8 roundings), so the
 //! phasor of every bin carries ~10 roundings, nothing accumulates along the band.
 
-use super::{BinBlock, BlockKernel};
+use super::bin::BinBlock;
+use super::traits::BlockKernel;
 use crate::ltp::Masses;
 use num_complex::Complex64;
 use std::f64::consts::PI;

@@ -15,7 +15,8 @@
 //! its prior is taken by name like any model's. Its evidence is that of the parent restricted
 //! to the subspace `a2 = a1`, with the prior of `a1` alone.
 
-use super::{Bin, BinBlock, BlockKernel, Model};
+use super::bin::{Bin, BinBlock};
+use super::traits::{BlockKernel, Model};
 use num_complex::{Complex, Complex64};
 use num_dual::Dual64;
 use std::sync::Arc;

@@ -6,8 +6,8 @@
 //! told apart by colour (Okabe–Ito), marker shape and dash pattern, so they survive
 //! grey-scale printing and colour-vision deficiencies.
 
-use super::ReportError;
 use super::axis::Axis;
+use super::error::ReportError;
 use super::plots::{DrawResult, Figure, MeshText, Ticked, bad_input, chart, mesh, render};
 use super::style::{self, ZONES, colour, dash, marker as marker_shape};
 use crate::numfmt::format::fmt_sig;

@@ -1,7 +1,7 @@
 //! Bar chart of how often each model was visited (the paper's Fig. 4).
 
-use super::ReportError;
 use super::axis::Axis;
+use super::error::ReportError;
 use super::plots::{DrawResult, Figure, bad_input, chart, render, text, y_label_area};
 use super::style;
 use crate::numfmt::format::fmt_sig;

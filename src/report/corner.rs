@@ -1,9 +1,9 @@
 //! Corner plot: 1-D marginals with their 16/50/84 % quantiles on the diagonal, 1σ and 2σ
 //! credible contours of every pair below it, truth and MAP marked.
 
-use super::ReportError;
 use super::axis::Axis;
 use super::contour::{SIGMA_MASS, contour_segments, hdr_levels, quantiles_16_50_84, smooth};
+use super::error::ReportError;
 use super::plots::{
     DrawResult, Figure, MeshText, bad_input, chart, check_truth, mesh, render, text,
 };

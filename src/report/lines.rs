@@ -1,8 +1,8 @@
 //! Line plots: a generic one (ln B against SNR or injection frequency, PSDs) and the Bayes
 //! factor against iteration (the paper's Fig. 2).
 
-use super::ReportError;
 use super::axis::{Axis, decimate, segments};
+use super::error::ReportError;
 use super::plots::{
     DrawResult, Figure, MeshText, bad_input, chart, mesh, render, text, y_label_area,
 };

@@ -25,6 +25,7 @@ mod bands;
 mod bars;
 mod contour;
 mod corner;
+mod error;
 mod lines;
 mod plots;
 pub mod residual_psd;
@@ -35,8 +36,6 @@ mod table;
 mod tests;
 mod trace;
 
-use std::path::PathBuf;
-
 pub use crate::numfmt::{
     fmt_bayes_factor, fmt_fixed, fmt_pm, fmt_roundtrip, fmt_short, fmt_short_sig, fmt_sig,
     kass_raftery, kass_raftery_named,
@@ -44,56 +43,8 @@ pub use crate::numfmt::{
 pub use bands::{BandPlot, BandSeries, HeatMap, band_plot, heat_map};
 pub use bars::model_histogram;
 pub use corner::{CornerPlot, corner_plot, draw_corner};
+pub use error::ReportError;
 pub use lines::{LinePlot, bayes_factor_evolution, line_plot};
 pub use running::{RunningSeries, running_bayes_factor};
 pub use table::Table;
 pub use trace::{TracePlot, draw_trace, trace_plot};
-
-/// What went wrong while writing a report.
-#[derive(Debug, thiserror::Error)]
-pub enum ReportError {
-    /// The data handed to a plot function cannot be drawn.
-    #[error("cannot draw {}: `{field}` {problem}", file.display())]
-    InvalidInput {
-        /// The figure, as `<dir>/<stem>.{png,svg}`.
-        file: PathBuf,
-        /// The argument (and index) at fault, e.g. `chains[1][40]`.
-        field: String,
-        /// What is wrong and how to fix it.
-        problem: String,
-    },
-    /// Creating, writing or renaming a file failed.
-    #[error("cannot write {}: {source}", file.display())]
-    Io {
-        /// The file being written.
-        file: PathBuf,
-        /// The operating-system error.
-        #[source]
-        source: std::io::Error,
-    },
-    /// The plotting library failed while rendering.
-    #[error("rendering {} failed: {message}", file.display())]
-    Draw {
-        /// The file being rendered.
-        file: PathBuf,
-        /// The plotting library's message.
-        message: String,
-    },
-    /// The font compiled into the binary could not be parsed (a corrupt build).
-    #[error(
-        "the embedded font assets/DejaVuSans.ttf could not be parsed; rebuild with an intact copy"
-    )]
-    Font,
-    /// A table row has the wrong number of cells.
-    #[error(
-        "table row {row} has {found} cells but the header has {expected}; give one cell per column"
-    )]
-    RowWidth {
-        /// Index of the offending row (0 = first row after the header).
-        row: usize,
-        /// Number of header columns.
-        expected: usize,
-        /// Number of cells given.
-        found: usize,
-    },
-}

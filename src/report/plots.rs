@@ -1,8 +1,8 @@
 //! Shared plotting machinery: the embedded font, rendering one figure to both PNG and SVG
 //! atomically, and input-error helpers (colours and sizes are in [`super::style`]).
 
-use super::ReportError;
 use super::axis::Axis;
+use super::error::ReportError;
 use super::style;
 use crate::atomic;
 use plotters::coord::Shift;

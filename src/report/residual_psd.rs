@@ -2,7 +2,7 @@
 //! the read-outs alone, one plot per experiment (`residual_psd_<experiment>.png/.svg`), and the
 //! arrays in `residual_psd.npz`.
 
-use super::ReportError;
+use super::error::ReportError;
 use super::lines::{LinePlot, line_plot};
 use crate::likelihood::residual_psd::ResidualPsd;
 use ndarray::Array1;

@@ -7,7 +7,8 @@
 //! listed as "(no values)"); this module turns running estimates into its series and names what
 //! is missing.
 
-use super::{BandPlot, BandSeries, ReportError, band_plot};
+use super::bands::{BandPlot, BandSeries, band_plot};
+use super::error::ReportError;
 use std::path::Path;
 
 /// One estimator's running `ln B`: `(iteration, Some((ln B, σ)))`, `None` where it had no value

@@ -1,6 +1,6 @@
 //! A small table of strings that renders as aligned plain text or as Markdown.
 
-use super::ReportError;
+use super::error::ReportError;
 use std::fmt;
 
 /// A table: one header row and any number of body rows, all cells strings.

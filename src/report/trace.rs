@@ -1,8 +1,8 @@
 //! Trace plots: every parameter and the ln posterior against iteration, one colour per chain,
 //! the burn-in marked.
 
-use super::ReportError;
 use super::axis::{Axis, decimate, segments};
+use super::error::ReportError;
 use super::plots::{
     DrawResult, Figure, MeshText, bad_input, chart, check_truth, mesh, render, text, y_label_area,
 };

@@ -9,7 +9,7 @@ use std::sync::Arc;
 use num_complex::Complex64;
 use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
 
-use super::{SignalError, check_finite, check_fs};
+use super::error::{SignalError, check_finite, check_fs};
 
 /// A forward/inverse real FFT of one fixed length `n`, planned once, with its buffers.
 ///

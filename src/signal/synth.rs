@@ -25,8 +25,8 @@ use rand::Rng;
 use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 
+use super::error::{SignalError, check_fs};
 use super::fft::RealFft;
-use super::{SignalError, check_fs};
 
 /// How the synthesis grid relates to the output series.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]

@@ -15,9 +15,9 @@
 use num_complex::Complex64;
 use serde::{Deserialize, Serialize};
 
+use super::error::{SignalError, check_finite, check_fs};
 use super::fft::RealFft;
 use super::window::Window;
-use super::{SignalError, check_finite, check_fs};
 
 /// Per-segment detrending before windowing.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]

@@ -13,7 +13,7 @@ use std::str::FromStr;
 
 use serde::{Deserialize, Serialize};
 
-use super::SignalError;
+use super::error::SignalError;
 
 /// Cosine-sum coefficients `a_j` of the 4-term Blackman–Harris window with −92 dB sidelobes
 /// (Harris 1978, Table 1; LTPDA `specwin` "BH92").

@@ -3,7 +3,7 @@
 
 use super::{CHECKPOINT_FILE, FitOutcome, LEGACY_OUTPUTS};
 use crate::config::Study;
-use crate::jobs::{Context, Job};
+use crate::jobs::job::{Context, Job};
 use anyhow::Context as _;
 use std::path::Path;
 use std::sync::atomic::{AtomicU64, Ordering};

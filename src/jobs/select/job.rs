@@ -4,7 +4,7 @@
 use super::{CHECKPOINT_FILE, Checkpointing, LEGACY_OUTPUTS, SelectCheckpoint, SelectSummary};
 use crate::config::Study;
 use crate::evidence::RjProgress;
-use crate::jobs::{Context, Job};
+use crate::jobs::job::{Context, Job};
 use anyhow::Context as _;
 use std::path::Path;
 

@@ -1,10 +1,12 @@
 //! Validation and compilation of a [`UserModelDef`] into a [`UserModel`].
 
 use super::block::{Block, MAX_S_POWER};
+use super::compiled::{MAX_SLOTS, UserModel};
+use super::def::{BlockDef, RealValue, UserModelDef};
 use super::expr::{self, MAX_STACK, Node, Op, Operand};
 use super::real::{self, RealExpr, VarSrc};
-use super::{BlockDef, MAX_SLOTS, RealValue, UserModel, UserModelDef};
-use crate::model::{MAX_CHANNELS, MAX_CONSTS, MAX_RESIDUALS};
+use crate::model::bin::{MAX_CHANNELS, MAX_CONSTS, MAX_RESIDUALS};
+use crate::model::checks::validate_shape;
 use std::collections::HashMap;
 use std::f64::consts::PI;
 
@@ -57,7 +59,7 @@ impl UserModel {
         let order = scope.define_order(&defines)?;
         let reach = scope.reach(&blocks, &defines, &coefs)?;
         let model = scope.program(blocks, &defines, &coefs, order, &reach)?;
-        crate::model::validate_shape(&model)?;
+        validate_shape(&model)?;
         Ok(model)
     }
 }

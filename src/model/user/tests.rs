@@ -1,6 +1,9 @@
 use super::*;
 use crate::ltp::LtpParams;
-use crate::model::{BinBlock, LtpModel, coefficients_at, residual_power_generic};
+use crate::model::{Bin, BinBlock, LtpModel, Model, coefficients_at, residual_power_generic};
+use num_complex::{Complex, Complex64};
+use num_dual::Dual64;
+use std::f64::consts::PI;
 
 /// The `[[model]]` table of the example study, without `kind`.
 fn example_def() -> UserModelDef {

@@ -1,0 +1,1285 @@
+//! Reading a study: [`Study::load`] parses the TOML and [`StudyFile::resolve`] validates every
+//! field (errors name the file, the field and the fix) and resolves built-in designs, injection
+//! files and data files.
+
+use super::budget;
+use super::error::ConfigError;
+use super::limits::{
+    DELAY_PARAMS, MAX_ASD, MAX_CORNER, MAX_DELAY, MAX_NAME_LEN, MAX_TARGET_SNR, MIN_ASD,
+    check_delay, finite_pos,
+};
+use super::models::{self, ModelDef, ModelEntry, ModelSet, ModelSpec};
+use super::study::{
+    AnalysisOptions, ExperimentEntry, FitOptions, InjectionEntry, SelectModel, SelectOptions,
+    SimulationOptions, Study, StudyFile,
+};
+use crate::experiment::options::{MAX_AMPLITUDE, Method};
+use crate::experiment::{ExperimentDesign, SineSegment, Waveform};
+use crate::ltp::{Controllers, LtpParams, Masses, NoiseModel, check_stable};
+use std::path::Path;
+
+impl Study {
+    /// Reads and validates a study file.
+    pub fn load(path: &Path) -> Result<Study, ConfigError> {
+        let file = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
+            file: file.clone(),
+            source,
+        })?;
+        let base = path.parent().unwrap_or(Path::new("."));
+        Self::from_toml(&text, &file, base)
+    }
+
+    /// Parses and validates TOML text; `file` names it in messages and `base` resolves
+    /// relative injection-file paths.
+    pub fn from_toml(text: &str, file: &str, base: &Path) -> Result<Study, ConfigError> {
+        let raw: StudyFile = toml::from_str(text).map_err(|e| ConfigError::Parse {
+            file: file.into(),
+            msg: e.to_string().trim_end().to_string(),
+        })?;
+        raw.resolve(file, base)
+    }
+}
+
+/// The invalid `field` of `file`, and why.
+fn invalid(file: &str, field: String, msg: String) -> ConfigError {
+    ConfigError::Invalid {
+        file: file.into(),
+        field,
+        msg,
+    }
+}
+
+/// The `[[experiment]]` tables, resolved.
+struct Experiments {
+    /// The designs of the simulated experiments, built-ins resolved and overrides applied.
+    designs: Vec<ExperimentDesign>,
+    /// The experiments read from files, by name.
+    data_sources: Vec<(String, crate::data::DataSource)>,
+    /// Every experiment name in file order.
+    names: Vec<String>,
+}
+
+impl StudyFile {
+    /// Validates every field and resolves designs.
+    pub fn resolve(self, file: &str, base: &Path) -> Result<Study, ConfigError> {
+        let as_parsed = self.clone();
+        let bad = |field: String, msg: String| invalid(file, field, msg);
+        let budget = budget::budget_from_env()
+            .map_err(|m| bad(format!("{} (environment)", budget::BUDGET_ENV), m))?;
+        check_truth(&self.truth, file)?;
+        check_noise(&self.noise, file)?;
+        check_masses(&self.masses, file)?;
+        check_delay(self.oms_delay).map_err(|m| bad("oms_delay".into(), m))?;
+        check_stable(&self.truth, &Controllers::default(), &self.masses)
+            .map_err(|e| bad("truth".into(), e.to_string()))?;
+        check_simulation(&self.simulation, file)?;
+        let experiments = self.resolve_experiments(file, base, budget)?;
+        validate_analysis(&self.analysis, file)?;
+        self.check_bands(&experiments.designs, file)?;
+        let models = self.resolve_models(file)?;
+        let fit_model = self.resolve_fit(&models, file)?;
+        let select_models = self.resolve_select(&models, file)?;
+        if let Some(sw) = &self.sweep {
+            let names: Vec<&str> = select_models.iter().map(|m| m.name.as_str()).collect();
+            sw.validate(&names, file)?;
+        }
+        let study = Study {
+            sweep: self.sweep,
+            select: self.select,
+            select_models,
+            design: self.design,
+            analysis: self.analysis,
+            models,
+            fit: self.fit,
+            fit_model,
+            seed: self.seed,
+            output: self.output,
+            truth: self.truth,
+            noise: self.noise,
+            masses: self.masses,
+            oms_delay: self.oms_delay,
+            simulation: self.simulation,
+            experiments: experiments.designs,
+            data_sources: experiments.data_sources,
+            experiment_names: experiments.names,
+            base_dir: base.to_path_buf(),
+            source: file.into(),
+            file: as_parsed,
+        };
+        budget::check_study(&study, budget)?;
+        Ok(study)
+    }
+
+    /// `[[experiment]]`: at least one, unique names; read ones become data sources, simulated
+    /// ones designs (checked against the data budget in file order).
+    fn resolve_experiments(
+        &self,
+        file: &str,
+        base: &Path,
+        budget: f64,
+    ) -> Result<Experiments, ConfigError> {
+        let sim = &self.simulation;
+        if self.experiment.is_empty() {
+            return Err(invalid(
+                file,
+                "experiment".into(),
+                "at least one [[experiment]] table is needed".into(),
+            ));
+        }
+        let mut experiments = Vec::new();
+        let mut data_sources: Vec<(String, crate::data::DataSource)> = Vec::new();
+        let mut experiment_names: Vec<String> = Vec::new();
+        let mut data_bytes = 0.0;
+        for (k, e) in self.experiment.iter().enumerate() {
+            let at = |f: &str| format!("experiment[{k}].{f}");
+            check_experiment_name(e, &experiment_names, &at, file)?;
+            experiment_names.push(e.name.clone());
+            if let Some(path) = &e.data {
+                data_sources.push((e.name.clone(), data_source(e, path, &at, file)?));
+                continue;
+            }
+            let d = simulated_design(e, sim.method, base, &at, file)?;
+            // sized before anything is rendered (validate_waveforms renders file injections'
+            // checks only; sine lengths are analytic)
+            data_bytes += budget::check_experiment(&d, k, sim, data_bytes, budget, file)?;
+            validate_waveforms(&d, file, &at(""), e.amplitude_scale.is_none())?;
+            experiments.push(scale_amplitudes(d, e.amplitude_scale, &at, file)?);
+        }
+        Ok(Experiments {
+            designs: experiments,
+            data_sources,
+            names: experiment_names,
+        })
+    }
+
+    /// Written bands inside (0, Nyquist] of every experiment whose rate is known now (a
+    /// written band is an error there, not a silent clip; the defaults are clipped as before).
+    fn check_bands(&self, experiments: &[ExperimentDesign], file: &str) -> Result<(), ConfigError> {
+        let sim = &self.simulation;
+        let defaults = (AnalysisOptions::default(), SimulationOptions::default());
+        let rates: Vec<(usize, f64)> = self
+            .experiment
+            .iter()
+            .enumerate()
+            .filter_map(|(k, e)| {
+                experiments
+                    .iter()
+                    .find(|d| d.name == e.name)
+                    .map(|d| d.fs)
+                    .or(e.fs)
+                    .map(|fs| (k, fs))
+            })
+            .collect();
+        let simulated: Vec<(usize, f64)> = rates
+            .iter()
+            .copied()
+            .filter(|(k, _)| self.experiment[*k].data.is_none())
+            .collect();
+        for (field, band, given, list) in [
+            (
+                "analysis.band",
+                self.analysis.band,
+                self.analysis.band != defaults.0.band,
+                &rates,
+            ),
+            (
+                "simulation.snr_band",
+                sim.snr_band,
+                sim.snr_band != defaults.1.snr_band,
+                &simulated,
+            ),
+        ] {
+            if !given {
+                continue;
+            }
+            if let Some((k, fs)) = list.iter().copied().find(|&(_, fs)| !(band[1] <= fs / 2.0)) {
+                return Err(invalid(
+                    file,
+                    field.into(),
+                    format!(
+                        "[{}, {}] Hz reaches outside (0, {}] Hz, the frequencies up to the Nyquist frequency of experiment `{}` (fs = {fs} Hz): lower its upper edge",
+                        band[0],
+                        band[1],
+                        fs / 2.0,
+                        short(&self.experiment[k].name)
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// `[[model]]` and `[prior]`: every model resolved with its prior, user-defined models
+    /// checked on a log grid over the fit band, where they must act.
+    fn resolve_models(&self, file: &str) -> Result<ModelSet, ConfigError> {
+        let ltp_defaults = crate::model::LtpModelOptions {
+            masses: self.masses,
+            oms_delay: self.oms_delay,
+            ..Default::default()
+        };
+        let [blo, bhi] = self.analysis.band;
+        let check_fs = self.experiment.iter().find_map(|e| e.fs).unwrap_or(10.0);
+        let bhi = if bhi.min(0.49 * check_fs) > blo {
+            bhi.min(0.49 * check_fs)
+        } else {
+            10.0 * blo
+        };
+        let check_freqs: Vec<f64> = (0..40)
+            .map(|i| blo * (bhi / blo).powf(i as f64 / 39.0))
+            .collect();
+        let accel_defaults = crate::model::AccelOptions {
+            d21: self.truth.d21,
+            tau_ifo: self.oms_delay,
+            ..Default::default()
+        };
+        ModelSet::resolve(
+            &self.model,
+            &self.prior,
+            &ltp_defaults,
+            &accel_defaults,
+            &check_freqs,
+            check_fs,
+            file,
+        )
+    }
+
+    /// `[fit]`: its model, its options, and a stable loop with its fixed values.
+    fn resolve_fit(&self, models: &ModelSet, file: &str) -> Result<ModelSpec, ConfigError> {
+        let fit_model = ModelEntry {
+            model: self.fit.model.clone(),
+            free: self.fit.free.clone(),
+            fixed: self.fit.fixed.clone(),
+        }
+        .resolve(models, file, "fit.")?;
+        validate_fit(&self.fit, models, file)?;
+        check_fixed_loop(
+            &self.fit.fixed,
+            &fit_model,
+            models,
+            &self.truth,
+            &self.masses,
+        )
+        .map_err(|(n, m)| invalid(file, format!("fit.fixed.{n}"), m))?;
+        Ok(fit_model)
+    }
+
+    /// `[select]`: its options and models, and a stable loop with each model's fixed values.
+    fn resolve_select(
+        &self,
+        models: &ModelSet,
+        file: &str,
+    ) -> Result<Vec<SelectModel>, ConfigError> {
+        let select_models = validate_select(&self.select, models, file)?;
+        for (k, (m, sm)) in self.select.model.iter().zip(&select_models).enumerate() {
+            check_fixed_loop(&m.fixed, &sm.spec, models, &self.truth, &self.masses)
+                .map_err(|(n, e)| invalid(file, format!("select.model[{k}].fixed.{n}"), e))?;
+        }
+        Ok(select_models)
+    }
+}
+
+/// `[truth]`: finite values, plausible delays.
+fn check_truth(truth: &LtpParams, file: &str) -> Result<(), ConfigError> {
+    if let Some(n) = truth.non_finite() {
+        return Err(invalid(
+            file,
+            format!("truth.{n}"),
+            "must be a finite number".into(),
+        ));
+    }
+    for (n, v) in [("dt1", truth.dt1), ("dt2", truth.dt2)] {
+        check_delay(v).map_err(|m| invalid(file, format!("truth.{n}"), m))?;
+    }
+    Ok(())
+}
+
+/// `[noise]`: finite levels ≥ 0, plausible source ASDs and corner frequencies.
+fn check_noise(nz: &NoiseModel, file: &str) -> Result<(), ConfigError> {
+    let bad = |field: String, msg: String| invalid(file, field, msg);
+    if let Some((n, v)) = nz.invalid_field() {
+        return Err(bad(
+            format!("noise.{n}"),
+            format!("must be a finite number ≥ 0 (got {v})"),
+        ));
+    }
+    for (n, v) in [
+        ("readout_o1", nz.readout_o1),
+        ("readout_o12", nz.readout_o12),
+        ("thruster_force", nz.thruster_force),
+        ("tm_accel", nz.tm_accel),
+    ] {
+        if v > MAX_ASD || (v != 0.0 && v < MIN_ASD) {
+            return Err(bad(
+                format!("noise.{n}"),
+                format!(
+                    "{v} is not a plausible noise level: a source ASD is 0 (off) or in [{MIN_ASD:e}, {MAX_ASD}] (LPF's are 1e-15 to 1e-7); larger levels overflow the CSD"
+                ),
+            ));
+        }
+    }
+    for (n, v) in [
+        ("readout_corner", nz.readout_corner),
+        ("tm_corner", nz.tm_corner),
+    ] {
+        if v > MAX_CORNER {
+            return Err(bad(
+                format!("noise.{n}"),
+                format!("must be a corner frequency ≤ {MAX_CORNER} Hz, or 0 for none (got {v})"),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// `[masses]`: finite and positive.
+fn check_masses(masses: &Masses, file: &str) -> Result<(), ConfigError> {
+    for (n, v) in [("m1", masses.m1), ("m2", masses.m2), ("msc", masses.msc)] {
+        if !finite_pos(v) {
+            return Err(invalid(
+                file,
+                format!("masses.{n}"),
+                format!("must be a finite mass > 0 kg (got {v})"),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// `[simulation]`: the thruster response, the actuators, the SNR target, oversampling and
+/// the SNR band.
+fn check_simulation(sim: &SimulationOptions, file: &str) -> Result<(), ConfigError> {
+    let bad = |field: &str, msg: String| invalid(file, field.into(), msg);
+    if let Some(t) = &sim.thruster {
+        use crate::model::ThrusterResponse as R;
+        let ok = match t.response {
+            R::None => true,
+            R::Delay => t.value.is_finite() && (0.0..=MAX_DELAY).contains(&t.value),
+            R::Pole => finite_pos(t.value),
+        };
+        if !ok {
+            return Err(bad(
+                "simulation.thruster.value",
+                format!(
+                    "must be a delay in [0, {MAX_DELAY}] s (response = \"delay\") or a pole frequency > 0 Hz (response = \"pole\"); got {}",
+                    t.value
+                ),
+            ));
+        }
+        if t.response != R::None && sim.method == Method::Time {
+            return Err(bad(
+                "simulation.thruster",
+                "a thruster response is simulated in the frequency domain only; use method = \"frequency\"".into(),
+            ));
+        }
+    }
+    sim.actuators.validate(sim.method, file)?;
+    if let Some(t) = sim.target_snr
+        && !(finite_pos(t) && t <= MAX_TARGET_SNR)
+    {
+        return Err(bad(
+            "simulation.target_snr",
+            format!("must be an SNR in (0, {MAX_TARGET_SNR:e}] (got {t})"),
+        ));
+    }
+    if !(1..=1000).contains(&sim.oversample) {
+        return Err(bad(
+            "simulation.oversample",
+            format!("must be an integer in 1..=1000 (got {})", sim.oversample),
+        ));
+    }
+    let [lo, hi] = sim.snr_band;
+    if !(finite_pos(lo) && hi.is_finite() && hi > lo) {
+        return Err(bad(
+            "simulation.snr_band",
+            format!("must be [lo, hi] with 0 < lo < hi (got [{lo}, {hi}])"),
+        ));
+    }
+    Ok(())
+}
+
+/// An experiment's name: 1 to [`MAX_NAME_LEN`] letters, digits, `_` or `-`, not one
+/// of the names `before` it.
+fn check_experiment_name(
+    e: &ExperimentEntry,
+    before: &[String],
+    at: &dyn Fn(&str) -> String,
+    file: &str,
+) -> Result<(), ConfigError> {
+    if e.name.is_empty()
+        || e.name.chars().count() > MAX_NAME_LEN
+        || !e
+            .name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+    {
+        return Err(invalid(
+            file,
+            at("name"),
+            format!(
+                "`{}`: use 1 to {} letters, digits, `_` or `-` (it names arrays in the dataset)",
+                short(&e.name),
+                MAX_NAME_LEN
+            ),
+        ));
+    }
+    if before.contains(&e.name) {
+        return Err(invalid(
+            file,
+            at("name"),
+            format!("`{}` is used twice", e.name),
+        ));
+    }
+    Ok(())
+}
+
+/// An experiment read from `path`: no simulation fields, a positive rate if given, valid
+/// channel names.
+fn data_source(
+    e: &ExperimentEntry,
+    path: &Path,
+    at: &dyn Fn(&str) -> String,
+    file: &str,
+) -> Result<crate::data::DataSource, ConfigError> {
+    // read, not simulated: no injection design applies
+    for (f, given) in [
+        ("design", e.design.is_some()),
+        ("x1", e.x1.is_some()),
+        ("x12", e.x12.is_some()),
+        ("f1", e.f1.is_some()),
+        ("f2", e.f2.is_some()),
+        ("fsc", e.fsc.is_some()),
+        ("pre_pad", e.pre_pad.is_some()),
+        ("post_pad", e.post_pad.is_some()),
+        ("noise_duration", e.noise_duration.is_some()),
+        ("amplitude_scale", e.amplitude_scale.is_some()),
+    ] {
+        if given {
+            return Err(invalid(
+                file,
+                at(f),
+                format!(
+                    "experiment `{}` reads its data from {}; `{f}` describes a simulation and does not apply: remove it",
+                    e.name,
+                    path.display()
+                ),
+            ));
+        }
+    }
+    if let Some(fs) = e.fs
+        && !finite_pos(fs)
+    {
+        return Err(invalid(
+            file,
+            at("fs"),
+            format!("must be > 0 Hz (got {fs})"),
+        ));
+    }
+    for ch in e.columns.keys() {
+        if ch != "t" {
+            crate::data::dataset::check_channel_name(ch)
+                .map_err(|m| invalid(file, at(&format!("columns.{ch}")), m))?;
+        }
+    }
+    Ok(crate::data::DataSource {
+        data: path.to_path_buf(),
+        columns: e.columns.clone(),
+        fs: e.fs,
+        noise_data: e.noise_data.clone(),
+    })
+}
+
+/// The design of a simulated experiment: a built-in one or the defaults, with the table's
+/// rate, durations and injections (force injections need `method = "frequency"`).
+fn simulated_design(
+    e: &ExperimentEntry,
+    method: Method,
+    base: &Path,
+    at: &dyn Fn(&str) -> String,
+    file: &str,
+) -> Result<ExperimentDesign, ConfigError> {
+    let bad = |field: String, msg: String| invalid(file, field, msg);
+    if !e.columns.is_empty() || e.noise_data.is_some() {
+        return Err(bad(
+            at(if e.noise_data.is_some() {
+                "noise_data"
+            } else {
+                "columns"
+            }),
+            "only an experiment that reads its data (`data = \"file.csv\"`) takes `columns` and `noise_data`".into(),
+        ));
+    }
+    let mut d = match &e.design {
+        Some(n) => ExperimentDesign::builtin(n).ok_or_else(|| {
+            bad(
+                at("design"),
+                format!(
+                    "unknown design `{n}`; built-in designs are {:?}",
+                    ExperimentDesign::BUILTINS
+                ),
+            )
+        })?,
+        None => ExperimentDesign {
+            name: String::new(),
+            fs: 10.0,
+            pre_pad: 2000.0,
+            post_pad: 8000.0,
+            noise_duration: 20000.0,
+            x1: Waveform::None,
+            x12: Waveform::None,
+            f1: Waveform::None,
+            f2: Waveform::None,
+            fsc: Waveform::None,
+        },
+    };
+    d.name = e.name.clone();
+    if let Some(fs) = e.fs {
+        if !finite_pos(fs) {
+            return Err(bad(at("fs"), format!("must be > 0 Hz (got {fs})")));
+        }
+        d.fs = fs;
+    }
+    for (f, src, dst) in [
+        ("pre_pad", e.pre_pad, &mut d.pre_pad),
+        ("post_pad", e.post_pad, &mut d.post_pad),
+        ("noise_duration", e.noise_duration, &mut d.noise_duration),
+    ] {
+        if let Some(v) = src {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(bad(at(f), format!("must be a duration ≥ 0 s (got {v})")));
+            }
+            *dst = v;
+        }
+    }
+    if d.noise_duration * d.fs < 64.0 {
+        return Err(bad(
+            at("noise_duration"),
+            format!(
+                "the noise-only stretch needs at least 64 samples for noise estimation (got {} s at {} Hz)",
+                d.noise_duration, d.fs
+            ),
+        ));
+    }
+    for (ch, entry, dst) in [
+        ("x1", &e.x1, &mut d.x1),
+        ("x12", &e.x12, &mut d.x12),
+        ("f1", &e.f1, &mut d.f1),
+        ("f2", &e.f2, &mut d.f2),
+        ("fsc", &e.fsc, &mut d.fsc),
+    ] {
+        if let Some(entry) = entry {
+            *dst = to_waveform(entry, base, file, &at(ch))?;
+        }
+    }
+    if method == Method::Time
+        && let Some((ch, _)) = [("f1", &d.f1), ("f2", &d.f2), ("fsc", &d.fsc)]
+            .into_iter()
+            .find(|(_, w)| !w.is_none())
+    {
+        return Err(bad(
+            at(ch),
+            "force injections are supported with method = \"frequency\" only (the discretised loop of method = \"time\" takes guidance injections x1, x12)".into(),
+        ));
+    }
+    Ok(d)
+}
+
+/// `d` with `amplitude_scale` applied, if given: finite, and keeping every amplitude within
+/// [`MAX_AMPLITUDE`].
+fn scale_amplitudes(
+    d: ExperimentDesign,
+    amplitude_scale: Option<f64>,
+    at: &dyn Fn(&str) -> String,
+    file: &str,
+) -> Result<ExperimentDesign, ConfigError> {
+    let Some(s) = amplitude_scale else {
+        return Ok(d);
+    };
+    if !s.is_finite() {
+        return Err(invalid(
+            file,
+            at("amplitude_scale"),
+            format!("must be finite (got {s})"),
+        ));
+    }
+    let scaled = d.scaled(s);
+    if let Some(a) = max_amplitude(&scaled)
+        && !(a <= MAX_AMPLITUDE)
+    {
+        return Err(invalid(
+            file,
+            at("amplitude_scale"),
+            format!(
+                "{s} scales the largest injection amplitude to {a:e}, above the plausible {MAX_AMPLITUDE} (m or m s⁻²); lower it"
+            ),
+        ));
+    }
+    Ok(scaled)
+}
+
+/// Checks that the fixed values of a sub-model of the closed loop (an `ltp` model or a
+/// `tied` one) leave the loop stable with the other parameters at `[truth]`; the error names
+/// the fixed parameter that alone destabilises it (or the first one, if only their
+/// combination does) and the message.
+fn check_fixed_loop(
+    fixed: &std::collections::BTreeMap<String, f64>,
+    spec: &ModelSpec,
+    models: &ModelSet,
+    truth: &LtpParams,
+    masses: &Masses,
+) -> Result<(), (String, String)> {
+    if !matches!(
+        models.defs[spec.model],
+        ModelDef::Ltp { .. } | ModelDef::Tied(_)
+    ) {
+        return Ok(());
+    }
+    let names = crate::ltp::PARAM_NAMES;
+    let with = |only: Option<&str>| {
+        let mut a = truth.to_array();
+        for (n, &v) in fixed {
+            if only.is_some_and(|o| o != n) {
+                continue;
+            }
+            if let Some(i) = names.iter().position(|p| p == n) {
+                a[i] = v;
+            }
+        }
+        LtpParams::from_array(&a)
+    };
+    let ctrl = Controllers::default();
+    if let Err(e) = check_stable(&with(None), &ctrl, masses) {
+        let culprit = fixed
+            .keys()
+            .filter(|n| names.contains(&n.as_str()))
+            .find(|n| check_stable(&with(Some(n)), &ctrl, masses).is_err())
+            .or_else(|| fixed.keys().find(|n| names.contains(&n.as_str())))
+            .cloned()
+            .unwrap_or_default();
+        return Err((
+            culprit,
+            format!(
+                "these fixed values make the closed loop unstable with the other parameters at [truth]: {e}; a sub-model must describe a working loop"
+            ),
+        ));
+    }
+    Ok(())
+}
+
+fn validate_analysis(a: &AnalysisOptions, file: &str) -> Result<(), ConfigError> {
+    let bad = |field: &str, msg: String| ConfigError::Invalid {
+        file: file.into(),
+        field: format!("analysis.{field}"),
+        msg,
+    };
+    let [lo, hi] = a.band;
+    if !(finite_pos(lo) && hi.is_finite() && hi > lo) {
+        return Err(bad(
+            "band",
+            format!("must be [lo, hi] with 0 < lo < hi Hz (got [{lo}, {hi}])"),
+        ));
+    }
+    if a.welch_averages == 0 {
+        return Err(bad("welch_averages", "must be ≥ 1".into()));
+    }
+    if !finite_pos(a.relbin_sigma) {
+        return Err(bad(
+            "relbin_sigma",
+            format!("must be > 0 (got {})", a.relbin_sigma),
+        ));
+    }
+    if !finite_pos(a.relbin_tolerance) {
+        return Err(bad(
+            "relbin_tolerance",
+            format!("must be > 0 (got {})", a.relbin_tolerance),
+        ));
+    }
+    if a.log_periodogram.averages == 0 {
+        return Err(bad("log_periodogram.averages", "must be ≥ 1".into()));
+    }
+    if a.log_periodogram.decimate == Some(0) {
+        return Err(bad(
+            "log_periodogram.decimate",
+            "must be ≥ 1 (1 keeps every Welch bin)".into(),
+        ));
+    }
+    if a.statistic == crate::likelihood::Statistic::StudentT
+        && a.noise == crate::likelihood::NoiseSource::Model
+    {
+        return Err(bad(
+            "statistic",
+            "\"student_t\" marginalises the uncertainty of the Welch noise estimate, and noise = \"model\" has none: use noise = \"welch\" or statistic = \"whittle\"".into(),
+        ));
+    }
+    Ok(())
+}
+
+fn validate_fit(f: &FitOptions, models: &ModelSet, file: &str) -> Result<(), ConfigError> {
+    let bad = |field: &str, msg: String| ConfigError::Invalid {
+        file: file.into(),
+        field: format!("fit.{field}"),
+        msg,
+    };
+    if f.chains == 0 {
+        return Err(bad("chains", "must be ≥ 1".into()));
+    }
+    if f.iterations == 0 || f.burn_in >= f.iterations {
+        return Err(bad(
+            "burn_in",
+            format!(
+                "must be smaller than `iterations` (got burn_in = {}, iterations = {})",
+                f.burn_in, f.iterations
+            ),
+        ));
+    }
+    if f.chains > budget::MAX_CHAINS {
+        return Err(bad(
+            "chains",
+            format!("must be at most {} (got {})", budget::MAX_CHAINS, f.chains),
+        ));
+    }
+    if f.iterations > budget::MAX_ITERATIONS {
+        return Err(bad(
+            "iterations",
+            format!(
+                "must be at most {:e}, beyond which a run does not end (got {})",
+                budget::MAX_ITERATIONS as f64,
+                f.iterations
+            ),
+        ));
+    }
+    if f.thin == 0 || f.thin > f.iterations - f.burn_in {
+        return Err(bad(
+            "thin",
+            format!(
+                "must be ≥ 1 and keep at least one draw of the {} after the burn-in (got {})",
+                f.iterations - f.burn_in,
+                f.thin
+            ),
+        ));
+    }
+    if f.checkpoint_every == 0 {
+        return Err(bad(
+            "checkpoint_every",
+            "must be ≥ 1 iteration between checkpoints".into(),
+        ));
+    }
+    if !finite_pos(f.proposal_scale) {
+        return Err(bad(
+            "proposal_scale",
+            format!("must be > 0 (got {})", f.proposal_scale),
+        ));
+    }
+    if let Some(start) = &f.start {
+        for (n, v) in start {
+            // the start applies to every model that has the parameter (`select` too)
+            if !models.models.iter().any(|m| m.param_names().contains(n)) {
+                return Err(bad(
+                    &format!("start.{n}"),
+                    format!(
+                        "not a parameter of any model; the parameters are {:?}",
+                        models.all_param_names()
+                    ),
+                ));
+            }
+            if !v.is_finite() {
+                return Err(bad(
+                    &format!("start.{n}"),
+                    format!("must be finite (got {v})"),
+                ));
+            }
+            let delay_of_builtin =
+                DELAY_PARAMS.contains(&n.as_str())
+                    && models.defs.iter().zip(&models.models).any(|(d, m)| {
+                        !matches!(d, ModelDef::User(_)) && m.param_names().contains(n)
+                    });
+            if delay_of_builtin {
+                check_delay(*v).map_err(|m| bad(&format!("start.{n}"), m))?;
+            }
+        }
+    }
+    Ok(())
+}
+
+fn validate_select(
+    s: &SelectOptions,
+    models: &ModelSet,
+    file: &str,
+) -> Result<Vec<SelectModel>, ConfigError> {
+    let bad = |field: String, msg: String| ConfigError::Invalid {
+        file: file.into(),
+        field,
+        msg,
+    };
+    if s.rj_iterations == 0 || s.rj_burn_in >= s.rj_iterations {
+        return Err(bad(
+            "select.rj_burn_in".into(),
+            format!(
+                "must be smaller than `rj_iterations` (got {} and {})",
+                s.rj_burn_in, s.rj_iterations
+            ),
+        ));
+    }
+    for (f, v) in [
+        ("rj_iterations", s.rj_iterations),
+        ("iterations", s.iterations),
+        ("pt_iterations", s.pt_iterations),
+    ] {
+        if v > budget::MAX_ITERATIONS {
+            return Err(bad(
+                format!("select.{f}"),
+                format!(
+                    "must be at most {:e}, beyond which a run does not end (got {v})",
+                    budget::MAX_ITERATIONS as f64
+                ),
+            ));
+        }
+    }
+    if s.chains > budget::MAX_CHAINS {
+        return Err(bad(
+            "select.chains".into(),
+            format!("must be at most {} (got {})", budget::MAX_CHAINS, s.chains),
+        ));
+    }
+    if s.iterations == 0 || s.burn_in >= s.iterations || s.chains == 0 {
+        return Err(bad(
+            "select.burn_in".into(),
+            format!(
+                "need chains ≥ 1 and burn_in < iterations (got chains = {}, burn_in = {}, iterations = {})",
+                s.chains, s.burn_in, s.iterations
+            ),
+        ));
+    }
+    if s.pt_temperatures != 0
+        && (s.pt_temperatures < 3 || s.pt_burn_in >= s.pt_iterations || s.pt_temperatures > 200)
+    {
+        return Err(bad(
+            "select.pt_temperatures".into(),
+            format!(
+                "parallel tempering needs 3 to 200 rungs (0 turns it off) and pt_burn_in < pt_iterations (got {} rungs, pt_burn_in = {}, pt_iterations = {})",
+                s.pt_temperatures, s.pt_burn_in, s.pt_iterations
+            ),
+        ));
+    }
+    if !(s.defensive >= 0.0 && s.defensive < 1.0) {
+        return Err(bad(
+            "select.defensive".into(),
+            format!(
+                "the prior's weight in the jump proposal must be in [0, 1) (got {})",
+                s.defensive
+            ),
+        ));
+    }
+    if s.pt_temperatures != 0 && s.pt_iterations - s.pt_burn_in < 100 {
+        return Err(bad(
+            "select.pt_iterations".into(),
+            format!(
+                "parallel tempering needs at least 100 sweeps after pt_burn_in (got pt_iterations = {}, pt_burn_in = {})",
+                s.pt_iterations, s.pt_burn_in
+            ),
+        ));
+    }
+    if s.rj_chains == 0
+        || s.rj_chains > 4096
+        || s.rj_iterations / s.rj_chains.max(1) < s.rj_burn_in + 100
+    {
+        return Err(bad(
+            "select.rj_chains".into(),
+            format!(
+                "need 1 to 4096 chains, each at least 100 iterations longer than rj_burn_in, i.e. rj_iterations ≥ rj_chains × (rj_burn_in + 100) (got {} chains of {} iterations, rj_burn_in = {})",
+                s.rj_chains,
+                s.rj_iterations / s.rj_chains.max(1),
+                s.rj_burn_in
+            ),
+        ));
+    }
+    if !finite_pos(s.jump_scale) {
+        return Err(bad(
+            "select.jump_scale".into(),
+            format!("must be > 0 (got {})", s.jump_scale),
+        ));
+    }
+    if !(s.student_t == 0.0 || (s.student_t.is_finite() && s.student_t > 0.0)) {
+        return Err(bad(
+            "select.student_t".into(),
+            format!(
+                "degrees of freedom must be > 0, or 0 for a Gaussian (got {})",
+                s.student_t
+            ),
+        ));
+    }
+    if let Some(n) = s.schwarz_n
+        && !(n.is_finite() && n > 1.0)
+    {
+        return Err(bad(
+            "select.schwarz_n".into(),
+            format!("must be > 1 (got {n})"),
+        ));
+    }
+    let mut out: Vec<SelectModel> = Vec::new();
+    for (k, m) in s.model.iter().enumerate() {
+        let at = format!("select.model[{k}].");
+        models::check_name(&m.name).map_err(|e| bad(format!("{at}name"), e))?;
+        if out.iter().any(|o| o.name == m.name) {
+            return Err(bad(
+                format!("{at}name"),
+                format!("`{}` must be unique", m.name),
+            ));
+        }
+        let spec = ModelEntry {
+            model: m.model.clone(),
+            free: m.free.clone(),
+            fixed: m.fixed.clone(),
+        }
+        .resolve(models, file, &at)?;
+        let p = m.prior_probability.unwrap_or(1.0);
+        if !finite_pos(p) {
+            return Err(bad(
+                format!("{at}prior_probability"),
+                format!("must be > 0 (got {p})"),
+            ));
+        }
+        out.push(SelectModel {
+            name: m.name.clone(),
+            spec,
+            prior_probability: p,
+        });
+    }
+    if out.len() == 1 {
+        return Err(bad(
+            "select.model".into(),
+            "model selection needs at least two [[select.model]] tables".into(),
+        ));
+    }
+    let total: f64 = out.iter().map(|m| m.prior_probability).sum();
+    for m in &mut out {
+        m.prior_probability /= total;
+    }
+    Ok(out)
+}
+
+fn to_waveform(
+    e: &InjectionEntry,
+    base: &Path,
+    file: &str,
+    field: &str,
+) -> Result<Waveform, ConfigError> {
+    Ok(match e {
+        InjectionEntry::None {} => Waveform::None,
+        InjectionEntry::SineTrain { segments, gap } => Waveform::SineTrain {
+            segments: segments.clone(),
+            gap: *gap,
+        },
+        InjectionEntry::Sine {
+            freq,
+            amplitude,
+            duration,
+        } => Waveform::Sine(SineSegment {
+            freq: *freq,
+            amplitude: *amplitude,
+            duration: *duration,
+        }),
+        InjectionEntry::File { path, column } => {
+            let p = base.join(path);
+            let table = crate::data::dataset::read_csv(&p).map_err(|e| ConfigError::Invalid {
+                file: file.into(),
+                field: format!("{field}.path"),
+                msg: e.to_string(),
+            })?;
+            let col = match column {
+                Some(c) => table.column(c).ok_or_else(|| ConfigError::Invalid {
+                    file: file.into(),
+                    field: format!("{field}.column"),
+                    msg: format!(
+                        "no column `{c}` in {}; it has {:?}",
+                        p.display(),
+                        table.names
+                    ),
+                })?,
+                None if table.names.len() == 1 => &table.columns[0],
+                None => {
+                    return Err(ConfigError::Invalid {
+                        file: file.into(),
+                        field: format!("{field}.column"),
+                        msg: format!(
+                            "{} has several columns {:?}: name one with `column = \"...\"`",
+                            p.display(),
+                            table.names
+                        ),
+                    });
+                }
+            };
+            Waveform::Samples {
+                values: col.clone(),
+            }
+        }
+    })
+}
+
+/// The largest |amplitude| of a design's injections (sine amplitudes and file samples), `None`
+/// without any; NaN if one is NaN.
+fn max_amplitude(d: &ExperimentDesign) -> Option<f64> {
+    let mut out: Option<f64> = None;
+    for w in [&d.x1, &d.x12, &d.f1, &d.f2, &d.fsc] {
+        let vals: Vec<f64> = match w {
+            Waveform::Samples { values } => values.iter().map(|v| v.abs()).collect(),
+            _ => w.segments().iter().map(|s| s.amplitude.abs()).collect(),
+        };
+        for a in vals {
+            out = Some(match out {
+                Some(m) if !(a > m) && !a.is_nan() => m,
+                _ => a,
+            });
+            if a.is_nan() {
+                return Some(a);
+            }
+        }
+    }
+    out
+}
+
+/// A user string shortened for a message (a 70 000-character name must not fill the screen).
+fn short(s: &str) -> String {
+    const KEEP: usize = 40;
+    if s.chars().count() <= KEEP {
+        s.to_string()
+    } else {
+        let head: String = s.chars().take(KEEP).collect();
+        format!("{head}… ({} characters)", s.chars().count())
+    }
+}
+
+/// Validates the injections of `d`; `bound` also checks every amplitude against
+/// [`MAX_AMPLITUDE`] (the caller checks it after `amplitude_scale` otherwise).
+fn validate_waveforms(
+    d: &ExperimentDesign,
+    file: &str,
+    at: &str,
+    bound: bool,
+) -> Result<(), ConfigError> {
+    let nyq = d.fs / 2.0;
+    for (ch, w) in [
+        ("x1", &d.x1),
+        ("x12", &d.x12),
+        ("f1", &d.f1),
+        ("f2", &d.f2),
+        ("fsc", &d.fsc),
+    ] {
+        let bad = |f: String, msg: String| ConfigError::Invalid {
+            file: file.into(),
+            field: format!("{at}{ch}{f}"),
+            msg,
+        };
+        if let Waveform::SineTrain { gap, .. } = w
+            && !(gap.is_finite() && *gap >= 0.0)
+        {
+            return Err(bad(".gap".into(), format!("must be ≥ 0 s (got {gap})")));
+        }
+        let train = matches!(w, Waveform::SineTrain { .. });
+        for (i, s) in w.segments().iter().enumerate() {
+            let seg = if train {
+                format!(".segments[{i}]")
+            } else {
+                String::new()
+            };
+            if !finite_pos(s.freq) || s.freq >= nyq {
+                return Err(bad(
+                    format!("{seg}.freq"),
+                    format!(
+                        "must be in (0, {nyq}) Hz, below the Nyquist frequency of fs = {} Hz (got {})",
+                        d.fs, s.freq
+                    ),
+                ));
+            }
+            if !s.amplitude.is_finite() || (bound && s.amplitude.abs() > MAX_AMPLITUDE) {
+                return Err(bad(
+                    format!("{seg}.amplitude"),
+                    format!(
+                        "must be finite with |amplitude| ≤ {MAX_AMPLITUDE} (m on x1, x12; m s⁻² on f1, f2, fsc), got {}",
+                        s.amplitude
+                    ),
+                ));
+            }
+            if !finite_pos(s.duration) || 2.0 * s.freq * s.duration < 1.0 {
+                return Err(bad(
+                    format!("{seg}.duration"),
+                    format!(
+                        "must hold at least half a cycle of {} Hz, i.e. ≥ {} s (got {})",
+                        s.freq,
+                        0.5 / s.freq,
+                        s.duration
+                    ),
+                ));
+            }
+        }
+        if let Waveform::Samples { values } = w
+            && let Some(i) = values.iter().position(|v| !v.is_finite())
+        {
+            return Err(bad(
+                String::new(),
+                format!("sample {i} of the injection file is not finite"),
+            ));
+        }
+        if let Waveform::Samples { values } = w
+            && bound
+            && let Some(i) = values.iter().position(|v| v.abs() > MAX_AMPLITUDE)
+        {
+            return Err(bad(
+                String::new(),
+                format!(
+                    "sample {i} of the injection file is {}, above the plausible {MAX_AMPLITUDE} (m or m s⁻²)",
+                    values[i]
+                ),
+            ));
+        }
+    }
+    if [&d.x1, &d.x12, &d.f1, &d.f2, &d.fsc]
+        .iter()
+        .all(|w| w.is_empty(d.fs))
+    {
+        return Err(ConfigError::Invalid {
+            file: file.into(),
+            field: format!("{at}x1"),
+            msg: "the experiment injects nothing: give `x1` or `x12` (or a `design`), or a force injection `f1`, `f2` or `fsc`".into(),
+        });
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::JumpProposal;
+
+    fn load(s: &str) -> Result<Study, ConfigError> {
+        Study::from_toml(s, "study.toml", Path::new("."))
+    }
+
+    const OK: &str = r#"
+seed = 1
+output = "out"
+[[experiment]]
+name = "inv1"
+design = "tn3045_x1"
+"#;
+
+    #[test]
+    fn minimal_study_uses_defaults() {
+        let s = load(OK).unwrap();
+        assert_eq!(s.truth, LtpParams::default());
+        assert_eq!(s.experiments[0].fs, 10.0);
+    }
+
+    fn err(s: &str) -> String {
+        load(s).unwrap_err().to_string()
+    }
+
+    #[test]
+    fn errors_name_file_and_field() {
+        let e = err(&format!("{OK}\nbogus = 3\n"));
+        assert!(e.contains("study.toml") && e.contains("bogus"), "{e}");
+        let e = err(&OK.replace("seed = 1", "seed = \"x\""));
+        assert!(e.contains("seed"), "{e}");
+        let e = err(&OK.replace("seed = 1\n", ""));
+        assert!(e.contains("seed"), "{e}");
+        let e = err(&format!("{OK}pre_pad = -5.0\n"));
+        assert!(
+            e.contains("experiment[0].pre_pad") && e.contains("≥ 0"),
+            "{e}"
+        );
+        let e = err(&format!(
+            "{OK}x12 = {{ kind = \"sine\", freq = 6.0, amplitude = 1e-6, duration = 100.0 }}\n"
+        ));
+        assert!(
+            e.contains("experiment[0].x12.freq") && e.contains("Nyquist"),
+            "{e}"
+        );
+        let e = err(&format!("{OK}[truth]\na_df = nan\n"));
+        assert!(e.contains("truth.a_df"), "{e}");
+        let e = err(&format!("{OK}[truth]\na_df = -0.5\n"));
+        assert!(e.contains("unstable"), "{e}");
+        let e = err(&format!("{OK}[noise]\ntm_accel = -1.0\n"));
+        assert!(e.contains("noise.tm_accel"), "{e}");
+        let e = err(&OK.replace("tn3045_x1", "nope"));
+        assert!(
+            e.contains("experiment[0].design") && e.contains("tn3045_x12"),
+            "{e}"
+        );
+        let e = err(&format!("{OK}[simulation]\ntarget_snr = inf\n"));
+        assert!(e.contains("simulation.target_snr"), "{e}");
+    }
+
+    #[test]
+    fn jump_proposal_source_is_chosen_by_name() {
+        let with = |v: &str| {
+            let t = OK.replacen(
+                "[[experiment]]",
+                &format!("[select]\njump_proposal = {v}\n[[experiment]]"),
+                1,
+            );
+            load(&t)
+        };
+        assert_eq!(load(OK).unwrap().select.jump_proposal, JumpProposal::Chain);
+        assert_eq!(
+            with("\"fisher\"").unwrap().select.jump_proposal,
+            JumpProposal::Fisher
+        );
+        let e = with("\"prior\"").unwrap_err().to_string();
+        assert!(e.contains("jump_proposal") && e.contains("chain"), "{e}");
+    }
+
+    /// `kind = "accel"` and `kind = "tied"` models: parameters, defaults from the study, and the
+    /// messages for a bad parent, a bad tie and an unphysical option.
+    #[test]
+    fn acceleration_domain_and_tied_models() {
+        let models = r#"
+[[model]]
+kind = "accel"
+name = "full"
+delay = true
+[[model]]
+kind = "tied"
+name = "sym"
+of = "full"
+tie = { a2 = "a1", f_o2 = "f_o1", tau_c2 = "tau_c1" }
+[fit]
+model = "sym"
+"#;
+        let s = load(&format!("oms_delay = 0.3\n{OK}{models}")).unwrap();
+        let full = &s.models.models[s.models.index("full").unwrap()];
+        assert_eq!(full.param_names().len(), 8);
+        match &s.models.defs[s.models.index("full").unwrap()] {
+            ModelDef::Accel { options, .. } => {
+                assert_eq!(options.tau_ifo, 0.3);
+                assert_eq!(options.d21, s.truth.d21);
+            }
+            d => panic!("{d:?}"),
+        }
+        let sym = &s.models.models[s.fit_model.model];
+        assert_eq!(sym.param_names(), ["w1sq", "w2sq", "a1", "f_o1", "tau_c1"]);
+        // the tied model's priors are its parent's defaults, by name
+        assert_eq!(
+            s.models.priors[s.fit_model.model].names(),
+            sym.param_names()
+        );
+
+        let bad = |m: &str| err(&format!("{OK}{m}"));
+        let e = bad(
+            "[[model]]\nkind = \"tied\"\nname = \"t\"\nof = \"nothing\"\ntie = { a2 = \"a1\" }\n",
+        );
+        assert!(e.contains("model[0]") && e.contains("nothing"), "{e}");
+        let e = bad(
+            "[[model]]\nkind = \"accel\"\nname = \"a\"\n[[model]]\nkind = \"tied\"\nname = \"t\"\nof = \"a\"\ntie = { a3 = \"a1\" }\n",
+        );
+        assert!(
+            e.contains("model[1]") && e.contains("`a3` is not a parameter"),
+            "{e}"
+        );
+        let e = bad("[[model]]\nkind = \"accel\"\nname = \"a\"\ntau_ifo = -1.0\n");
+        assert!(e.contains("model[0]") && e.contains("tau_ifo"), "{e}");
+        let e = bad("[[model]]\nkind = \"accel\"\nname = \"a\"\npoles = true\n");
+        assert!(e.contains("model[0]") && e.contains("poles"), "{e}");
+        let e = bad("[[model]]\nkind = \"acel\"\nname = \"a\"\n");
+        assert!(e.contains("\"accel\""), "{e}");
+    }
+}

@@ -1,0 +1,565 @@
+//! The study's types: [`StudyFile`] as parsed from TOML (serde's defaults filled in), its
+//! option tables, and the validated [`Study`]. Validation is in `load.rs`.
+
+use super::design;
+use super::error::ConfigError;
+use super::limits::{check_delay, finite_pos};
+use super::models::{ModelSet, ModelSpec};
+use super::sweep::SweepOptions;
+use crate::experiment::options::{Actuator, Method, NoiseSynthesis, TruthThruster};
+use crate::experiment::{ExperimentDesign, SineSegment};
+use crate::ltp::{Controllers, LtpParams, Masses, NoiseModel};
+use crate::prior::PriorKind;
+use serde::{Deserialize, Serialize};
+use std::path::PathBuf;
+
+/// `[simulation]` options.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SimulationOptions {
+    /// A thruster response of the simulated system (default none): the truth of the
+    /// thruster-response models (`[[model]] kind = "ltp"`, `thruster = "delay" | "pole"`).
+    pub thruster: Option<TruthThruster>,
+    pub method: Method,
+    pub noise: NoiseSynthesis,
+    /// If set, every injection amplitude is scaled by one common factor so that the optimal
+    /// SNR ρ_opt = √⟨h|h⟩ of the whole study (all experiments, `snr_band`) equals this.
+    pub target_snr: Option<f64>,
+    /// Band (Hz) over which ρ_opt is computed: exactly two numbers `[lo, hi]` with
+    /// `0 < lo < hi ≤` the Nyquist frequency of every simulated experiment. The default
+    /// `[1e-4, 1.0]` is clipped to each experiment's Nyquist frequency instead.
+    #[serde(deserialize_with = "two_numbers")]
+    pub snr_band: [f64; 2],
+    /// `method = "time"` only: run the discretised loop at `oversample × fs` and keep every
+    /// `oversample`-th output sample. 1 is the real 10 Hz loop; its zero-order hold lags by half a
+    /// sample, which puts it 3.3e−3 from the continuous model at 10 mHz; 10 brings that to
+    /// 3.3e−4.
+    pub oversample: usize,
+    /// `[simulation.actuators]`: the true capacitive actuators of the two test masses (default:
+    /// flat, both with the gain `[truth].a_sus`, which is the system of K14).
+    #[serde(skip_serializing_if = "ActuatorOptions::is_default")]
+    pub actuators: ActuatorOptions,
+}
+
+/// One test mass's actuator as written in `[simulation.actuators]`:
+/// `tm1 = { gain = 1.08, pole = 1.963, delay = 0.0 }`, `tm2 = { pole = 1.963 }`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields, default)]
+pub struct ActuatorEntry {
+    /// DC gain (TM1 only; absent: `[truth].a_sus`, symmetric actuators). TM2's gain is the
+    /// closed loop's `[truth].a_sus` and cannot be set here.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gain: Option<f64>,
+    /// Frequency (Hz) of a single real pole `1/(1 + i f/f_o)` with unity DC gain; absent: none.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub pole: Option<f64>,
+    /// Delay τ (s) between the commanded and the applied force, `e^{−i2πfτ}`; default 0.
+    pub delay: f64,
+}
+
+/// `[simulation.actuators]`: the true actuators of TM1 and TM2.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields, default)]
+pub struct ActuatorOptions {
+    pub tm1: ActuatorEntry,
+    pub tm2: ActuatorEntry,
+}
+
+impl ActuatorOptions {
+    /// Whether nothing is set (today's system: flat actuators with gain `a_sus`).
+    pub fn is_default(&self) -> bool {
+        *self == Self::default()
+    }
+
+    /// Whether either actuator has a pole or a delay (dynamics beyond a gain).
+    pub fn has_dynamics(&self) -> bool {
+        [self.tm1, self.tm2]
+            .iter()
+            .any(|a| a.pole.is_some() || a.delay != 0.0)
+    }
+
+    /// The actuators `[TM1, TM2]` of a system whose suspension gain is `a_sus`.
+    pub fn resolve(&self, a_sus: f64) -> [Actuator; 2] {
+        [
+            Actuator {
+                gain: self.tm1.gain.unwrap_or(a_sus),
+                pole: self.tm1.pole,
+                delay: self.tm1.delay,
+            },
+            Actuator {
+                gain: a_sus,
+                pole: self.tm2.pole,
+                delay: self.tm2.delay,
+            },
+        ]
+    }
+
+    pub(super) fn validate(&self, method: Method, file: &str) -> Result<(), ConfigError> {
+        let bad = |field: &str, msg: String| ConfigError::Invalid {
+            file: file.into(),
+            field: format!("simulation.actuators.{field}"),
+            msg,
+        };
+        if let Some(g) = self.tm2.gain {
+            return Err(bad(
+                "tm2.gain",
+                format!(
+                    "TM2's actuator gain is the closed loop's suspension gain [truth].a_sus: set a_sus there and remove `gain = {g}` here (only tm1 takes a gain, for A1 ≠ A2)"
+                ),
+            ));
+        }
+        for (tm, a) in [("tm1", &self.tm1), ("tm2", &self.tm2)] {
+            if let Some(g) = a.gain
+                && !finite_pos(g)
+            {
+                return Err(bad(
+                    &format!("{tm}.gain"),
+                    format!("must be a finite gain > 0 (got {g})"),
+                ));
+            }
+            if let Some(p) = a.pole
+                && !finite_pos(p)
+            {
+                return Err(bad(
+                    &format!("{tm}.pole"),
+                    format!(
+                        "must be a finite pole frequency > 0 Hz (got {p}); leave it out for no pole"
+                    ),
+                ));
+            }
+            check_delay(a.delay).map_err(|m| bad(&format!("{tm}.delay"), m))?;
+            if method == Method::Time {
+                let field = if a.pole.is_some() {
+                    Some("pole")
+                } else if a.delay != 0.0 {
+                    Some("delay")
+                } else {
+                    None
+                };
+                if let Some(f) = field {
+                    return Err(bad(
+                        &format!("{tm}.{f}"),
+                        "an actuator pole or delay is supported with method = \"frequency\" only (the discretised loop of method = \"time\" has flat actuators)".into(),
+                    ));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+impl Default for SimulationOptions {
+    fn default() -> Self {
+        Self {
+            thruster: None,
+            oversample: 1,
+            method: Method::Frequency,
+            noise: NoiseSynthesis::Circular,
+            target_snr: None,
+            snr_band: [1e-4, 1.0],
+            actuators: ActuatorOptions::default(),
+        }
+    }
+}
+
+/// An injection as written in the study file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum InjectionEntry {
+    /// No injection. A struct variant, not a unit one: serde lets a unit variant of a tagged
+    /// enum ignore every other key, so `{ kind = "none", amplitude = 1e-6 }` was accepted.
+    None {},
+    SineTrain {
+        segments: Vec<SineSegment>,
+        #[serde(default)]
+        gap: f64,
+    },
+    Sine {
+        freq: f64,
+        amplitude: f64,
+        duration: f64,
+    },
+    /// A one-column (or named-column) CSV file of samples at the experiment's `fs`: metres on
+    /// `x1`, `x12`; m s⁻² on the force channels `f1`, `f2`, `fsc`.
+    File {
+        path: PathBuf,
+        #[serde(default)]
+        column: Option<String>,
+    },
+}
+
+/// One `[[experiment]]` table.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ExperimentEntry {
+    pub name: String,
+    /// A built-in design to start from (`tn3045_x1`, `tn3045_x12`).
+    #[serde(default)]
+    pub design: Option<String>,
+    #[serde(default)]
+    pub fs: Option<f64>,
+    #[serde(default)]
+    pub pre_pad: Option<f64>,
+    #[serde(default)]
+    pub post_pad: Option<f64>,
+    #[serde(default)]
+    pub noise_duration: Option<f64>,
+    #[serde(default)]
+    pub x1: Option<InjectionEntry>,
+    #[serde(default)]
+    pub x12: Option<InjectionEntry>,
+    /// Commanded force per unit mass injected on TM1 (m s⁻²; `method = "frequency"` only).
+    #[serde(default)]
+    pub f1: Option<InjectionEntry>,
+    /// Commanded force per unit mass injected on TM2 (m s⁻²; `method = "frequency"` only).
+    #[serde(default)]
+    pub f2: Option<InjectionEntry>,
+    /// Commanded force per unit mass injected on the spacecraft (m s⁻²; `method = "frequency"`
+    /// only).
+    #[serde(default)]
+    pub fsc: Option<InjectionEntry>,
+    /// Multiplies every amplitude of this experiment.
+    #[serde(default)]
+    pub amplitude_scale: Option<f64>,
+    /// Read the experiment's data from this `.csv` or `.npz` file (relative to the study
+    /// file) instead of simulating it; see [`crate::data::DataSource`].
+    #[serde(default)]
+    pub data: Option<PathBuf>,
+    /// Channel → column header / array name of `data` (default: the channel's own name).
+    #[serde(default)]
+    pub columns: std::collections::BTreeMap<String, String>,
+    /// A noise-only stretch for the Welch noise estimate (same column map).
+    #[serde(default)]
+    pub noise_data: Option<PathBuf>,
+}
+
+/// Which likelihood the samplers use.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum LikelihoodKind {
+    /// Relative binning around the MAP (fast; `|Δ ln L| < 0.01` in the 5σ region).
+    #[default]
+    Relbin,
+    /// Every in-band bin.
+    Exact,
+}
+
+/// `[analysis]`: how data become a likelihood (shared by `fit` and `select`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct AnalysisOptions {
+    /// A dataset directory written by `occam simulate` (relative to the working directory).
+    /// Without it the study is simulated on the fly.
+    pub dataset: Option<PathBuf>,
+    /// Fit band (Hz): exactly two numbers `[lo, hi]` with `0 < lo < hi ≤` the Nyquist
+    /// frequency of every experiment whose sample rate the study gives. The default
+    /// `[1e-4, 1.0]` is clipped to the data's frequencies instead.
+    #[serde(deserialize_with = "two_numbers")]
+    pub band: [f64; 2],
+    /// Window applied to data and injections before the DFT.
+    pub window: crate::signal::Window,
+    /// Noise CSD: `welch` (from the noise-only stretch) or `model`.
+    pub noise: crate::likelihood::NoiseSource,
+    pub welch_averages: usize,
+    pub welch_window: crate::signal::Window,
+    pub likelihood: LikelihoodKind,
+    /// Relative-binning accuracy: region radius (σ) and per-bin template error.
+    pub relbin_sigma: f64,
+    pub relbin_tolerance: f64,
+    /// The statistic `ln L` is: `whittle` (default; the residual PSD from the noise-only
+    /// stretch, held fixed), `student_t` (that estimate's uncertainty marginalised) or
+    /// `log_periodogram` (the residual's own Welch periodogram, noise level unknown). See
+    /// [`crate::likelihood::statistic`]. With a statistic other than `whittle` relative
+    /// binning (a Gaussian approximation) is not used.
+    pub statistic: crate::likelihood::Statistic,
+    /// `[analysis.log_periodogram]`: Welch settings of the log-periodogram statistic.
+    pub log_periodogram: crate::likelihood::LogPeriodogramOptions,
+}
+
+impl Default for AnalysisOptions {
+    fn default() -> Self {
+        let s = crate::likelihood::SpectraOptions::default();
+        let r = crate::likelihood::RelBinOptions::default();
+        Self {
+            dataset: None,
+            band: s.band,
+            window: s.window,
+            noise: s.noise,
+            welch_averages: s.welch_averages,
+            welch_window: s.welch_window,
+            likelihood: LikelihoodKind::Relbin,
+            relbin_sigma: r.n_sigma,
+            relbin_tolerance: r.tolerance,
+            statistic: Default::default(),
+            log_periodogram: Default::default(),
+        }
+    }
+}
+
+/// `[fit]`: MCMC parameter estimation of one model.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct FitOptions {
+    /// The model to fit (default: the built-in closed loop `ltp`).
+    pub model: Option<String>,
+    /// Free parameter names (default: all of the model's).
+    pub free: Option<Vec<String>>,
+    /// Values of the parameters that are not free.
+    pub fixed: std::collections::BTreeMap<String, f64>,
+    pub chains: usize,
+    pub iterations: usize,
+    pub burn_in: usize,
+    pub thin: usize,
+    /// Seed of the chains (default: the study seed + 1).
+    pub seed: Option<u64>,
+    /// Adapt the proposal covariance during the burn-in.
+    pub adapt: bool,
+    /// Iterations between checkpoints.
+    pub checkpoint_every: usize,
+    /// Multiplies the proposal covariance `(2.38²/D) F⁻¹`.
+    pub proposal_scale: f64,
+    /// Start of the MAP search (default: the centre of each prior box, or the mean of a
+    /// Gaussian prior).
+    pub start: Option<std::collections::BTreeMap<String, f64>>,
+}
+
+impl Default for FitOptions {
+    fn default() -> Self {
+        Self {
+            model: None,
+            free: None,
+            fixed: Default::default(),
+            chains: 4,
+            iterations: 20_000,
+            burn_in: 5_000,
+            thin: 1,
+            seed: None,
+            adapt: true,
+            checkpoint_every: 5_000,
+            proposal_scale: 1.0,
+            start: None,
+        }
+    }
+}
+
+/// One competing model of `[[select.model]]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SelectModelEntry {
+    pub name: String,
+    /// The model this is a sub-model of (default: the built-in closed loop `ltp`).
+    #[serde(default)]
+    pub model: Option<String>,
+    /// Free parameter names (default: all of the model's).
+    #[serde(default)]
+    pub free: Option<Vec<String>>,
+    /// Values of the parameters that are not free.
+    #[serde(default)]
+    pub fixed: std::collections::BTreeMap<String, f64>,
+    /// Prior model probability (default: equal).
+    #[serde(default)]
+    pub prior_probability: Option<f64>,
+}
+
+/// Location and covariance of a model's reversible-jump proposal.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum JumpProposal {
+    /// The mean and covariance of the model's in-model chains (default): right also where
+    /// the posterior fills its prior box and the Fisher Gaussian overhangs it.
+    Chain,
+    /// The MAP and the inverse Fisher matrix there (K14's choice).
+    Fisher,
+}
+
+/// `[select]`: Bayes factors between two or more nested models with every estimator.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SelectOptions {
+    pub model: Vec<SelectModelEntry>,
+    /// Reversible-jump iterations (each: an in-model step and a jump attempt).
+    pub rj_iterations: usize,
+    pub rj_burn_in: usize,
+    /// `c` of the jump proposals `N(μ_k, c² Σ_k)`.
+    pub jump_scale: f64,
+    /// Where `μ_k, Σ_k` of the jump proposals come from.
+    pub jump_proposal: JumpProposal,
+    /// Weight of each model's own prior in its jump proposal (a defensive mixture component
+    /// that keeps the proposal positive wherever the prior is), in [0, 1).
+    pub defensive: f64,
+    /// Independent reversible-jump chains (run in parallel, combined; `rj_iterations` is
+    /// their total).
+    pub rj_chains: usize,
+    /// Degrees of freedom of a Student-t jump proposal; 0 for Gaussian.
+    pub student_t: f64,
+    /// Metropolis–Hastings per model for Laplace–Metropolis: chains, iterations, burn-in.
+    pub chains: usize,
+    pub iterations: usize,
+    pub burn_in: usize,
+    /// Parallel tempering per model (thermodynamic integration and stepping-stone): rungs
+    /// including β = 0 and 1 (0 turns it off), sweeps and burn-in sweeps.
+    pub pt_temperatures: usize,
+    pub pt_iterations: usize,
+    pub pt_burn_in: usize,
+    /// Seed of the samplers (default: the study seed + 2).
+    pub seed: Option<u64>,
+    /// `n` of the Schwarz criterion (default: the number of real data values in the
+    /// likelihood, 4 × in-band bins).
+    pub schwarz_n: Option<f64>,
+}
+
+impl Default for SelectOptions {
+    fn default() -> Self {
+        Self {
+            model: Vec::new(),
+            rj_iterations: 100_000,
+            rj_burn_in: 2_000,
+            jump_scale: 1.2,
+            jump_proposal: JumpProposal::Chain,
+            defensive: 0.1,
+            rj_chains: 2,
+            student_t: 0.0,
+            chains: 2,
+            iterations: 12_000,
+            burn_in: 4_000,
+            pt_temperatures: 32,
+            pt_iterations: 40_000,
+            pt_burn_in: 8_000,
+            seed: None,
+            schwarz_n: None,
+        }
+    }
+}
+
+/// A validated competing model.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SelectModel {
+    pub name: String,
+    pub spec: ModelSpec,
+    pub prior_probability: f64,
+}
+
+/// The study file as written.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StudyFile {
+    pub seed: u64,
+    pub output: PathBuf,
+    #[serde(default)]
+    pub truth: LtpParams,
+    #[serde(default)]
+    pub noise: NoiseModel,
+    #[serde(default)]
+    pub masses: Masses,
+    /// Fixed OMS processing delay τ_o (s), default 0.
+    #[serde(default)]
+    pub oms_delay: f64,
+    #[serde(default)]
+    pub simulation: SimulationOptions,
+    #[serde(default)]
+    pub analysis: AnalysisOptions,
+    /// Normalised priors by parameter name (defaults: the built-in model's boxes, see
+    /// [`crate::model::LtpModel::default_priors`]); every parameter of a user-defined model
+    /// needs one.
+    #[serde(default)]
+    pub prior: std::collections::BTreeMap<String, PriorKind>,
+    /// `[[model]]` tables: built-in closed loops with options and user-defined models.
+    #[serde(default)]
+    pub model: Vec<toml::Table>,
+    #[serde(default)]
+    pub fit: FitOptions,
+    #[serde(default)]
+    pub select: SelectOptions,
+    /// `[sweep]`: the grid of `occam sweep` (ignored by the other commands).
+    #[serde(default)]
+    pub sweep: Option<SweepOptions>,
+    /// `[design]`: the injection-design search of `occam design` (`crate::jobs::design`).
+    #[serde(default)]
+    pub design: Option<design::DesignOptions>,
+    pub experiment: Vec<ExperimentEntry>,
+}
+
+/// A validated study, with built-in designs and injection files resolved.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Study {
+    pub seed: u64,
+    pub output: PathBuf,
+    pub truth: LtpParams,
+    pub noise: NoiseModel,
+    pub masses: Masses,
+    pub oms_delay: f64,
+    pub simulation: SimulationOptions,
+    pub experiments: Vec<ExperimentDesign>,
+    /// Experiments read from files (`[[experiment]] data = …`), by name.
+    pub data_sources: Vec<(String, crate::data::DataSource)>,
+    /// Every experiment name in the order of the study file.
+    pub experiment_names: Vec<String>,
+    /// The directory of the study file (relative data paths start there).
+    pub base_dir: PathBuf,
+    pub analysis: AnalysisOptions,
+    /// Every model with its validated prior.
+    pub models: ModelSet,
+    pub fit: FitOptions,
+    /// The validated `[fit]` model.
+    pub fit_model: ModelSpec,
+    pub select: SelectOptions,
+    /// The validated `[[select.model]]` list (empty if none).
+    pub select_models: Vec<SelectModel>,
+    /// `[sweep]` as written (validated against the select models).
+    pub sweep: Option<SweepOptions>,
+    /// `[design]` as written (validated by [`design::DesignOptions::validate`]).
+    pub design: Option<design::DesignOptions>,
+    /// The file it came from (for messages).
+    pub source: String,
+    /// The study file as parsed, serde's defaults filled in
+    /// ([`resolved_toml`](crate::config::resolved_toml)); not part of the study's identity
+    /// (checkpoints hash the serialised study).
+    #[serde(skip)]
+    pub file: StudyFile,
+}
+
+impl Study {
+    /// The true system of the study (`[truth]`, `[masses]`, `[noise]`, the OMS delay and the
+    /// `[simulation]` thruster and actuators).
+    pub fn system(&self) -> crate::experiment::System {
+        crate::experiment::System {
+            truth: self.truth,
+            controllers: Controllers::default(),
+            masses: self.masses,
+            noise: self.noise,
+            oms_delay: self.oms_delay,
+            thruster: self.simulation.thruster,
+            actuators: self.simulation.actuators.resolve(self.truth.a_sus),
+        }
+    }
+
+    /// What the simulator needs of the study, as plain values.
+    pub fn simulation_plan(&self) -> crate::experiment::SimulationPlan {
+        let o = &self.simulation;
+        crate::experiment::SimulationPlan {
+            source: self.source.clone(),
+            seed: self.seed,
+            system: self.system(),
+            experiments: self.experiments.clone(),
+            method: o.method,
+            noise: o.noise,
+            target_snr: o.target_snr,
+            snr_band: o.snr_band,
+            oversample: o.oversample,
+        }
+    }
+}
+
+/// A band `[lo, hi]` from exactly two numbers: serde's fixed-size arrays take the first two
+/// elements of a longer TOML array and drop the rest silently (a three-number band fitted
+/// 1 % of the intended bins), so the band is read as a list and its length checked.
+fn two_numbers<'de, D: serde::Deserializer<'de>>(d: D) -> Result<[f64; 2], D::Error> {
+    let v: Vec<f64> = Vec::deserialize(d)?;
+    match v[..] {
+        [lo, hi] => Ok([lo, hi]),
+        _ => Err(serde::de::Error::custom(format!(
+            "a band is exactly two numbers [lo, hi] in Hz (got {} numbers: {v:?})",
+            v.len()
+        ))),
+    }
+}

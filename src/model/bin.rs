@@ -1,0 +1,77 @@
+//! What a model sees of the data: one frequency [`Bin`], a contiguous [`BinBlock`] of them, the
+//! residual `r = M d` and its quadratic form, and the size limits of a model.
+
+use num_complex::Complex64;
+
+/// Most data channels a model may read.
+pub const MAX_CHANNELS: usize = 8;
+/// Most residual channels a model may produce (the likelihood's noise matrix is 2×2 at most).
+pub const MAX_RESIDUALS: usize = 2;
+/// Most θ-independent complex constants per bin.
+pub const MAX_CONSTS: usize = 64;
+
+/// One frequency bin as a model sees it.
+#[derive(Debug, Clone, Copy)]
+pub struct Bin<'a> {
+    /// Frequency (Hz).
+    pub f: f64,
+    /// Sample rate of the experiment (Hz), for models with a discrete-time response.
+    pub fs: f64,
+    /// The model's own θ-independent constants at `f` (from [`Model::bin_consts`](crate::model::Model::bin_consts)).
+    pub consts: &'a [Complex64],
+}
+
+/// A contiguous run of DFT bins of one experiment with everything the likelihood needs:
+/// `f_k = f0 + k·df`, the data DFTs, the inverse noise matrices and the model's constants.
+///
+/// Models with a fast kernel ([`Model::residual_power`](crate::model::Model::residual_power)) read it directly.
+#[derive(Debug, Clone, Copy)]
+pub struct BinBlock<'a> {
+    /// Frequency of the first bin (Hz).
+    pub f0: f64,
+    /// Bin spacing (Hz).
+    pub df: f64,
+    /// Sample rate (Hz).
+    pub fs: f64,
+    /// Number of bins.
+    pub n: usize,
+    /// Data DFTs, `n × C`, bin-major, in the order of [`Model::data_channels`](crate::model::Model::data_channels).
+    pub data: &'a [Complex64],
+    /// Inverse residual-noise matrix per bin, packed `(a, b, c)` = `[[a, b], [b*, c]]`. For a
+    /// one-residual model only `a` is used (`b = c = 0`).
+    pub cinv: &'a [(f64, Complex64, f64)],
+    /// The model's constants, `n × n_consts`, bin-major.
+    pub consts: &'a [Complex64],
+}
+
+impl BinBlock<'_> {
+    /// The [`Bin`] of bin `k`.
+    #[inline(always)]
+    pub fn bin(&self, k: usize, n_consts: usize) -> Bin<'_> {
+        Bin {
+            f: self.f0 + k as f64 * self.df,
+            fs: self.fs,
+            consts: &self.consts[k * n_consts..(k + 1) * n_consts],
+        }
+    }
+}
+
+/// `rᴴ C⁻¹ r` for a packed Hermitian inverse.
+#[inline(always)]
+pub fn quad(cinv: &(f64, Complex64, f64), r: [Complex64; 2]) -> f64 {
+    crate::hermitian::quad(cinv, r)
+}
+
+/// `r = M d` for `nr` rows (the second component is zero for a one-residual model).
+#[inline(always)]
+pub fn residual(coef: &[Complex64], nr: usize, d: &[Complex64]) -> [Complex64; 2] {
+    let nc = d.len();
+    let mut r = [Complex64::new(0.0, 0.0); 2];
+    for (ri, slot) in r.iter_mut().enumerate().take(nr) {
+        let row = &coef[ri * nc..(ri + 1) * nc];
+        for (m, x) in row.iter().zip(d) {
+            *slot += m * x;
+        }
+    }
+    r
+}

@@ -1,0 +1,179 @@
+//! The [`Model`] trait (a linear frequency-response model, see the module docs of
+//! [`crate::model`]), the prepared [`BlockKernel`], and the default implementations of the
+//! trait's batch methods.
+
+use super::bin::{Bin, BinBlock, MAX_CHANNELS, MAX_RESIDUALS, quad, residual};
+use num_complex::{Complex, Complex64};
+use num_dual::Dual64;
+
+/// A linear frequency-response model (see the module docs).
+///
+/// Implementors provide the coefficient matrix once, generically, and expose it through
+/// [`Model::coefficients`] and [`Model::coefficients_dual`]. Everything else has a default.
+///
+/// ```
+/// use occam::model::{Bin, Model};
+/// use num_complex::{Complex, Complex64};
+/// use num_dual::Dual64;
+///
+/// /// r = o − a·i: one gain between an injection and an output.
+/// #[derive(Debug)]
+/// struct Gain { names: Vec<String>, data: Vec<String>, res: Vec<String> }
+/// impl Model for Gain {
+///     fn name(&self) -> &str { "gain" }
+///     fn param_names(&self) -> &[String] { &self.names }
+///     fn data_channels(&self) -> &[String] { &self.data }
+///     fn residual_channels(&self) -> &[String] { &self.res }
+///     fn coefficients(&self, th: &[f64], _: &Bin, out: &mut [Complex64]) {
+///         out[0] = Complex64::new(1.0, 0.0);
+///         out[1] = Complex64::new(-th[0], 0.0);
+///     }
+///     fn coefficients_dual(&self, th: &[Dual64], _: &Bin, out: &mut [Complex<Dual64>]) {
+///         out[0] = Complex::new(Dual64::from(1.0), Dual64::from(0.0));
+///         out[1] = Complex::new(-th[0], Dual64::from(0.0));
+///     }
+/// }
+/// let m = Gain { names: vec!["a".into()], data: vec!["o1".into(), "i1".into()], res: vec!["o1".into()] };
+/// let mut c = [Complex64::new(0.0, 0.0); 2];
+/// m.coefficients(&[2.0], &Bin { f: 0.1, fs: 10.0, consts: &[] }, &mut c);
+/// assert_eq!(c[1].re, -2.0);
+/// ```
+pub trait Model: Send + Sync + std::fmt::Debug {
+    /// A short name for messages and outputs.
+    fn name(&self) -> &str;
+
+    /// Parameter names, in the order of θ.
+    fn param_names(&self) -> &[String];
+
+    /// SI unit of each parameter, in the order of θ, for axis labels and tables: `"s⁻²"`,
+    /// `"s"`, `"Hz"`; an empty string for a dimensionless parameter or an unknown unit. The
+    /// default knows no units, so models written before units existed keep working.
+    fn param_units(&self) -> Vec<String> {
+        vec![String::new(); self.param_names().len()]
+    }
+
+    /// Data channels `d_c` the model reads (columns of `M`), at most [`MAX_CHANNELS`].
+    fn data_channels(&self) -> &[String];
+
+    /// Residual channels `r_r` (rows of `M`), one or two.
+    fn residual_channels(&self) -> &[String];
+
+    /// Number of θ-independent complex constants per bin.
+    fn n_consts(&self) -> usize {
+        0
+    }
+
+    /// Fills `out` (length [`Model::n_consts`]) with the constants at `f` for data sampled at
+    /// `fs`.
+    fn bin_consts(&self, _f: f64, _fs: f64, _out: &mut [Complex64]) {}
+
+    /// `M_rc(f; θ)`, row-major: `out[r·C + c]`, `C = data_channels().len()`.
+    fn coefficients(&self, theta: &[f64], bin: &Bin, out: &mut [Complex64]);
+
+    /// As [`Model::coefficients`] with dual-number parameters (exact derivatives).
+    fn coefficients_dual(&self, theta: &[Dual64], bin: &Bin, out: &mut [Complex<Dual64>]);
+
+    /// Selected components `comps` (indices `r·C + c` of [`Model::coefficients`]) of
+    /// `M(f_e; θ)` at many frequencies `freqs` (constants `consts`, `freqs.len() ×
+    /// n_consts`, bin-major) into `out[e·comps.len() + i]`: what relative binning needs per θ
+    /// at its coarse-bin edges.
+    ///
+    /// The default loops over [`Model::coefficients`]; a model may override it with a batch
+    /// that computes only the requested components (the LTP closed loop does), and must then
+    /// give the same values to rounding.
+    fn coefficients_batch(
+        &self,
+        theta: &[f64],
+        freqs: &[f64],
+        fs: f64,
+        consts: &[Complex64],
+        comps: &[usize],
+        out: &mut [Complex64],
+    ) {
+        coefficients_batch_generic(self, theta, freqs, fs, consts, comps, out)
+    }
+
+    /// Whether the model is physically valid at θ (e.g. a stable loop); the message says why
+    /// not. The likelihood does not call it per evaluation; `fit` and `select` warn when the
+    /// start of a model's MAP search (its fixed values and start values) fails it.
+    fn check(&self, _theta: &[f64]) -> Result<(), String> {
+        Ok(())
+    }
+
+    /// `Σ_k r_kᴴ C_k⁻¹ r_k` over a block of bins: the hot path of the exact likelihood.
+    ///
+    /// The default evaluates [`Model::coefficients`] bin by bin; models with a faster kernel
+    /// (the LTP closed loop) override it and are tested against the default.
+    fn residual_power(&self, theta: &[f64], block: &BinBlock) -> f64 {
+        residual_power_generic(self, theta, block)
+    }
+
+    /// A kernel for one block of bins, prepared once (it may precompute anything that does not
+    /// depend on θ, data included) and then evaluated for many θ, like an FFT plan. `None`
+    /// (the default) means [`Model::residual_power`] is used. A prepared kernel must give the
+    /// same value as [`residual_power_generic`] to rounding; its tests say how close.
+    fn prepare_kernel(&self, _block: &BinBlock) -> Option<std::sync::Arc<dyn BlockKernel>> {
+        None
+    }
+
+    /// One kernel for several blocks at once (the experiments of a likelihood), which may
+    /// share work between them (the LTP closed loop computes `det P` once for experiments on
+    /// one grid). `None` (the default) means per-block kernels ([`Model::prepare_kernel`]).
+    /// Its value is the sum over the blocks.
+    fn prepare_joint_kernel(
+        &self,
+        _blocks: &[BinBlock],
+    ) -> Option<std::sync::Arc<dyn BlockKernel>> {
+        None
+    }
+}
+
+/// A prepared per-block evaluation of `Σ_k r_kᴴ C_k⁻¹ r_k` (see [`Model::prepare_kernel`]).
+pub trait BlockKernel: Send + Sync + std::fmt::Debug {
+    /// `Σ_k r_kᴴ C_k⁻¹ r_k` at θ. Allocation-free.
+    fn residual_power(&self, theta: &[f64]) -> f64;
+}
+
+/// The default [`Model::residual_power`]: coefficients bin by bin. Kept callable so fast
+/// kernels can be tested against it.
+pub fn residual_power_generic<M: Model + ?Sized>(m: &M, theta: &[f64], b: &BinBlock) -> f64 {
+    let nc = m.data_channels().len();
+    let nr = m.residual_channels().len();
+    let ncst = m.n_consts();
+    let mut coef = [Complex64::new(0.0, 0.0); MAX_CHANNELS * MAX_RESIDUALS];
+    let mut s = 0.0;
+    for k in 0..b.n {
+        m.coefficients(theta, &b.bin(k, ncst), &mut coef[..nr * nc]);
+        let d = &b.data[k * nc..(k + 1) * nc];
+        let r = residual(&coef, nr, d);
+        s += quad(&b.cinv[k], r);
+    }
+    s
+}
+
+/// The default [`Model::coefficients_batch`]: [`Model::coefficients`] frequency by frequency.
+pub fn coefficients_batch_generic<M: Model + ?Sized>(
+    m: &M,
+    theta: &[f64],
+    freqs: &[f64],
+    fs: f64,
+    consts: &[Complex64],
+    comps: &[usize],
+    out: &mut [Complex64],
+) {
+    let ncoef = m.data_channels().len() * m.residual_channels().len();
+    let ncst = m.n_consts();
+    let nc = comps.len();
+    let mut coef = [Complex64::new(0.0, 0.0); MAX_CHANNELS * MAX_RESIDUALS];
+    for (e, &f) in freqs.iter().enumerate() {
+        let bin = Bin {
+            f,
+            fs,
+            consts: &consts[e * ncst..(e + 1) * ncst],
+        };
+        m.coefficients(theta, &bin, &mut coef[..ncoef]);
+        for (o, &c) in out[e * nc..(e + 1) * nc].iter_mut().zip(comps) {
+            *o = coef[c];
+        }
+    }
+}

@@ -1,0 +1,127 @@
+//! [`UserModel`]: a compiled user-defined model, evaluated through the [`Model`] trait.
+
+use super::block::Block;
+use super::expr::{self, Op};
+use crate::model::bin::Bin;
+use crate::model::traits::Model;
+use num_complex::{Complex, Complex64};
+use num_dual::{Dual64, DualNum};
+use std::f64::consts::PI;
+
+/// Most blocks and defines (together) a model may evaluate.
+pub const MAX_SLOTS: usize = 256;
+
+/// A compiled user-defined model.
+#[derive(Debug, Clone)]
+pub struct UserModel {
+    pub(super) name: String,
+    pub(super) params: Vec<String>,
+    pub(super) data: Vec<String>,
+    pub(super) res: Vec<String>,
+    /// Blocks some coefficient uses; block `k` lives in slot `k`.
+    pub(super) blocks: Vec<(String, Block)>,
+    /// Per used block: its index among the per-bin constants, if θ-independent.
+    pub(super) const_of: Vec<Option<usize>>,
+    pub(super) n_consts: usize,
+    /// Defines (stored into slots after the blocks) then coefficients (`Out`).
+    pub(super) ops: Vec<Op>,
+    pub(super) n_slots: usize,
+}
+
+impl UserModel {
+    fn fill<T: DualNum<Primitive = f64> + Copy>(
+        &self,
+        th: &[T],
+        bin: &Bin,
+        out: &mut [Complex<T>],
+    ) {
+        match self.n_slots {
+            0..=16 => self.fill_n::<T, 16>(th, bin, out),
+            17..=64 => self.fill_n::<T, 64>(th, bin, out),
+            _ => self.fill_n::<T, MAX_SLOTS>(th, bin, out),
+        }
+    }
+
+    #[inline]
+    fn fill_n<T: DualNum<Primitive = f64> + Copy, const N: usize>(
+        &self,
+        th: &[T],
+        bin: &Bin,
+        out: &mut [Complex<T>],
+    ) {
+        let zero = Complex::new(T::zero(), T::zero());
+        let mut slots = [zero; N];
+        for (k, (_, b)) in self.blocks.iter().enumerate() {
+            slots[k] = match self.const_of[k] {
+                Some(c) => expr::lift(bin.consts[c]),
+                None => b.eval(th, bin.f),
+            };
+        }
+        out.fill(zero);
+        expr::run(&self.ops, th, 2.0 * PI * bin.f, &mut slots, out);
+    }
+}
+
+impl Model for UserModel {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn param_names(&self) -> &[String] {
+        &self.params
+    }
+
+    fn data_channels(&self) -> &[String] {
+        &self.data
+    }
+
+    fn residual_channels(&self) -> &[String] {
+        &self.res
+    }
+
+    fn n_consts(&self) -> usize {
+        self.n_consts
+    }
+
+    fn bin_consts(&self, f: f64, _fs: f64, out: &mut [Complex64]) {
+        for ((_, b), c) in self.blocks.iter().zip(&self.const_of) {
+            if let Some(c) = *c {
+                out[c] = b.eval::<f64>(&[], f);
+            }
+        }
+    }
+
+    fn coefficients(&self, theta: &[f64], bin: &Bin, out: &mut [Complex64]) {
+        self.fill(theta, bin, out);
+    }
+
+    fn coefficients_dual(&self, theta: &[Dual64], bin: &Bin, out: &mut [Complex<Dual64>]) {
+        self.fill(theta, bin, out);
+    }
+
+    /// θ has the right length and finite values, and every θ-dependent block field is
+    /// possible (pole frequencies and quality factors > 0, delays ≥ 0, a denominator that is
+    /// not identically zero).
+    fn check(&self, theta: &[f64]) -> Result<(), String> {
+        let m = &self.name;
+        if theta.len() != self.params.len() {
+            return Err(format!(
+                "user model `{m}`: θ has {} values for {} parameters",
+                theta.len(),
+                self.params.len()
+            ));
+        }
+        if let Some((p, x)) = self.params.iter().zip(theta).find(|(_, x)| !x.is_finite()) {
+            return Err(format!(
+                "user model `{m}`: parameter `{p}` is {x}, not finite"
+            ));
+        }
+        for (bn, b) in &self.blocks {
+            b.check_values(&|v| Some(v.eval::<f64>(theta)))
+                .map_err(|(field, msg)| {
+                    format!("user model `{m}`: blocks.{bn}.{field} {msg} at this θ")
+                })?;
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,59 @@
+//! The `[[model]]` table of kind `user` as written: [`UserModelDef`] and its blocks.
+
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// A real field of a block: a number or an expression string of parameters and constants.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum RealValue {
+    Number(f64),
+    Expr(String),
+}
+
+/// One named block of `[model.blocks]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum BlockDef {
+    /// `N(s)/D(s)`, coefficients in descending powers of `s`.
+    Rational {
+        num: Vec<RealValue>,
+        den: Vec<RealValue>,
+    },
+    /// A real gain.
+    Gain { value: RealValue },
+    /// `e^{−s τ}`.
+    Delay { tau: RealValue },
+    /// `1/(1 + s/(2π f))`.
+    Pole { f: RealValue },
+    /// `1 + s/(2π f)`.
+    Zero { f: RealValue },
+    /// `ω0²/(s² + s ω0/q + ω0²)`, `ω0 = 2π f`.
+    ComplexPole { f: RealValue, q: RealValue },
+    /// `s^n`.
+    SPower { n: i32 },
+}
+
+/// A `[[model]]` table of kind `user` (without the `kind` key).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct UserModelDef {
+    pub name: String,
+    /// Parameter names, in θ order.
+    pub parameters: Vec<String>,
+    /// Data channels (columns of `M`).
+    pub data: Vec<String>,
+    /// Residual channels (rows of `M`).
+    pub residual: Vec<String>,
+    /// Named real constants.
+    #[serde(default)]
+    pub constants: BTreeMap<String, f64>,
+    /// Named complex blocks.
+    #[serde(default)]
+    pub blocks: BTreeMap<String, BlockDef>,
+    /// Named intermediate complex expressions (evaluated in dependency order).
+    #[serde(default)]
+    pub define: BTreeMap<String, String>,
+    /// Residual channel → data channel → complex expression; missing entries are 0.
+    pub coefficients: BTreeMap<String, BTreeMap<String, String>>,
+}
