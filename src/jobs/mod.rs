@@ -11,6 +11,7 @@
 //! directory only on the root rank, so it keeps its own driver ([`sweep`]); the design search
 //! writes several studies ([`design`]).
 
+pub mod chains_npz;
 pub mod demo;
 pub mod design;
 pub mod exec;

@@ -401,3 +401,30 @@ pub fn model_warnings(study: &Study, mi: usize, dataset: &Dataset) -> Vec<String
     }
     w
 }
+
+/// A hash of what a run's numbers depend on: the resolved study without its output directory
+/// and file name, and every sample of the data (the identity of `select`'s and `fit`'s
+/// checkpoints).
+pub fn identity(study: &Study, data: &Dataset) -> String {
+    let mut v = serde_json::to_value(study).expect("a study serialises");
+    if let Some(o) = v.as_object_mut() {
+        o.remove("output");
+        o.remove("source");
+        o.remove("base_dir");
+    }
+    let mut h = crate::data::Fnv1a::default();
+    h.update(&serde_json::to_vec(&v).expect("a study serialises"));
+    for e in &data.experiments {
+        h.update(e.name.as_bytes());
+        h.update(&e.fs.to_bits().to_le_bytes());
+        let named = e.extra.iter().chain(&e.noise_extra);
+        let fixed = e.o.iter().chain(&e.i).chain(&e.noise);
+        for s in fixed.chain(named.map(|(_, s)| s)) {
+            h.update(&(s.len() as u64).to_le_bytes());
+            for x in s {
+                h.update(&x.to_bits().to_le_bytes());
+            }
+        }
+    }
+    format!("{:016x}", h.finish())
+}

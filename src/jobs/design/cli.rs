@@ -1,7 +1,10 @@
 //! `occam design STUDY [-o DIR] [--validate R]`: search, print, write `design.toml`,
 //! `baseline.toml` and `design.json`, and optionally validate by full model selection.
 
-use super::{DesignError, DesignPlan, ProxyScore, SearchResult, asimov_score, search, study_with};
+use super::search::{
+    DesignError, DesignPlan, ProxyScore, SearchResult, asimov_score, realisation_seed, search,
+    study_with,
+};
 use crate::config::Study;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -66,7 +69,7 @@ pub fn validate(
     let t = &study.select_models[plan.true_index].name;
     for k in 0..r {
         let mut s = study_with(study, plan.experiments(segs), false);
-        s.seed = super::realisation_seed(study.seed, k);
+        s.seed = realisation_seed(study.seed, k);
         s.select.seed = None;
         seeds.push(s.seed);
         let prep = crate::jobs::prepare::prepare(&s)

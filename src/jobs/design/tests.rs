@@ -1,4 +1,7 @@
 use super::*;
+use crate::config::Study;
+use crate::experiment::{ExperimentDesign, Waveform};
+use crate::jobs::prepare::{likelihood_of, load_data};
 use crate::likelihood::fisher_exact;
 use std::path::Path;
 

@@ -1,7 +1,9 @@
 //! `occam fit` as a [`Job`]: prepare the data, run the sampler with checkpoints, write the
 //! Table I layout, chains and plots.
 
-use super::{CHECKPOINT_FILE, FitOutcome, LEGACY_OUTPUTS};
+use super::output::{LEGACY_OUTPUTS, write_outputs};
+use super::run::{CHECKPOINT_FILE, run};
+use super::summary::FitOutcome;
 use crate::config::Study;
 use crate::jobs::job::{Context, Job};
 use anyhow::Context as _;
@@ -72,7 +74,7 @@ impl Job for Fit<'_> {
                 w.done.store(done, Ordering::Relaxed);
             }
         };
-        let outcome = super::run(study, &prep, out, Some(&observer), ctx.resume)?;
+        let outcome = run(study, &prep, out, Some(&observer), ctx.resume)?;
         Ok(Fitted {
             outcome,
             origin: prep.origin,
@@ -80,7 +82,7 @@ impl Job for Fit<'_> {
     }
 
     fn write(&self, fitted: &Fitted, staging: &Path) -> anyhow::Result<()> {
-        super::write_outputs(&fitted.outcome, staging)?;
+        write_outputs(&fitted.outcome, staging)?;
         crate::config::write_resolved(self.study, staging)?;
         Ok(())
     }

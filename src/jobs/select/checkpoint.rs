@@ -7,11 +7,10 @@
 //! `f64` bit kept). It carries an identity — a hash of the resolved study (without its output
 //! directory) and of the data — and a checkpoint of another study or other data is refused.
 
+use super::error::SelectError;
 use super::model::{ModelRun, Sampled, sampled_around, walk_cov};
+use super::outcome::ModelOutcome;
 use super::plan::ModelPlan;
-use super::{ModelOutcome, SelectError};
-use crate::config::Study;
-use crate::data::dataset::Dataset;
 use crate::density::LogDensity;
 use crate::evidence::RjResult;
 use crate::likelihood::fisher_exact;
@@ -63,7 +62,7 @@ pub(super) struct RjStage {
 /// The saved stages of one select run.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct SelectCheckpoint {
-    /// The run's [`identity`] (the envelope's; not repeated in the payload).
+    /// The run's [`identity`](crate::jobs::prepare::identity) (the envelope's; not repeated in the payload).
     #[serde(skip)]
     identity: String,
     /// How often the stage in progress is saved (not part of the file).
@@ -73,34 +72,8 @@ pub struct SelectCheckpoint {
     pub(super) rj: Option<RjStage>,
 }
 
-/// A hash of what a select run's numbers depend on: the resolved study without its output
-/// directory and file name, and every sample of the data.
-pub fn identity(study: &Study, data: &Dataset) -> String {
-    let mut v = serde_json::to_value(study).expect("a study serialises");
-    if let Some(o) = v.as_object_mut() {
-        o.remove("output");
-        o.remove("source");
-        o.remove("base_dir");
-    }
-    let mut h = crate::data::Fnv1a::default();
-    h.update(&serde_json::to_vec(&v).expect("a study serialises"));
-    for e in &data.experiments {
-        h.update(e.name.as_bytes());
-        h.update(&e.fs.to_bits().to_le_bytes());
-        let named = e.extra.iter().chain(&e.noise_extra);
-        let fixed = e.o.iter().chain(&e.i).chain(&e.noise);
-        for s in fixed.chain(named.map(|(_, s)| s)) {
-            h.update(&(s.len() as u64).to_le_bytes());
-            for x in s {
-                h.update(&x.to_bits().to_le_bytes());
-            }
-        }
-    }
-    format!("{:016x}", h.finish())
-}
-
 impl SelectCheckpoint {
-    /// An empty checkpoint of the run with this [`identity`].
+    /// An empty checkpoint of the run with this [`identity`](crate::jobs::prepare::identity).
     pub fn new(identity: String) -> Self {
         Self {
             identity,

@@ -2,12 +2,13 @@
 //! posterior model probabilities and the SNR (the command line prints it; the warnings go to
 //! standard error separately).
 
-use super::SelectSummary;
+use super::output::table;
+use super::summary::SelectSummary;
 
 /// The lines printed after a select run (without its warnings).
 pub fn console(s: &SelectSummary) -> String {
     let mut out: Vec<String> = Vec::new();
-    out.push(super::table(s).to_string());
+    out.push(table(s).to_string());
     let yes_no = |b: bool| if b { "yes" } else { "no" };
     for p in &s.pairs {
         out.push(format!(

@@ -1,10 +1,15 @@
 //! `occam select` as a [`Job`]: prepare the data, run every model's stages and the reversible
 //! jump with checkpoints, write Table II, the figures and the samples.
 
-use super::{CHECKPOINT_FILE, Checkpointing, LEGACY_OUTPUTS, SelectCheckpoint, SelectSummary};
+use super::checkpoint::{FILE as CHECKPOINT_FILE, SelectCheckpoint};
+use super::output::{LEGACY_OUTPUTS, write_outputs};
+use super::run::{Checkpointing, run_observed};
+use super::stage::{self, FILE as STAGE_FILE};
+use super::summary::SelectSummary;
 use crate::config::Study;
 use crate::evidence::RjProgress;
 use crate::jobs::job::{Context, Job};
+use crate::jobs::prepare::identity;
 use anyhow::Context as _;
 use std::path::Path;
 
@@ -36,7 +41,7 @@ impl Job for Select<'_, '_> {
         }
         let prep = crate::jobs::prepare::prepare(study)
             .with_context(|| format!("preparing the data of {}", study.source))?;
-        let identity = super::identity(study, &prep.dataset);
+        let identity = identity(study, &prep.dataset);
         let state = if ctx.resume {
             let c = SelectCheckpoint::read(&ckpt_path, &identity)?;
             let names: Vec<String> = study.select_models.iter().map(|m| m.name.clone()).collect();
@@ -45,7 +50,7 @@ impl Job for Select<'_, '_> {
                 ckpt_path.display(),
                 c.describe(&names)
             ));
-            let stage = out.join(super::STAGE_FILE);
+            let stage = out.join(STAGE_FILE);
             if let Ok((_, id)) = crate::data::checkpoint::head(&stage)
                 && let Some(what) = id.strip_prefix(&format!("{identity}/"))
             {
@@ -57,10 +62,10 @@ impl Job for Select<'_, '_> {
             c
         } else {
             // a stage file of an earlier run in this directory must not be resumed
-            let _ = std::fs::remove_file(out.join(super::STAGE_FILE));
+            let _ = std::fs::remove_file(out.join(STAGE_FILE));
             SelectCheckpoint::new(identity)
         };
-        let state = match super::stage::every_from_env()? {
+        let state = match stage::every_from_env()? {
             Some(every) => state.save_stage_every(every),
             None => state,
         };
@@ -75,17 +80,11 @@ impl Job for Select<'_, '_> {
             state,
         };
         let on_rj = self.on_rj.take();
-        Ok(super::run_observed(
-            study,
-            &prep,
-            on_rj,
-            ctx.work,
-            Some(ckpt),
-        )?)
+        Ok(run_observed(study, &prep, on_rj, ctx.work, Some(ckpt))?)
     }
 
     fn write(&self, summary: &SelectSummary, staging: &Path) -> anyhow::Result<()> {
-        super::write_outputs(summary, staging)?;
+        write_outputs(summary, staging)?;
         crate::config::write_resolved(self.study, staging)?;
         Ok(())
     }

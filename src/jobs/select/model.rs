@@ -6,9 +6,9 @@
 //! distinct samples. Only a model with no point inside its prior where `ln L` is finite stops
 //! the run (nothing can be computed for it).
 
+use super::outcome::{Evidence, ModelOutcome, TemperingDiagnostics};
 use super::plan::{ModelPlan, StageSettings};
 use super::stage::StageFile;
-use super::{Evidence, ModelOutcome, TemperingDiagnostics};
 use crate::config::{JumpProposal, LikelihoodKind, ModelSpec};
 use crate::density::LogDensity;
 use crate::evidence::tempering::{ParallelTempering, TemperingOutcome};

@@ -1,6 +1,8 @@
 //! The Table II layout and the files of a select run.
 
-use super::{EstimateKind, SelectError, SelectSummary};
+use super::error::SelectError;
+use super::pair::EstimateKind;
+use super::summary::SelectSummary;
 use crate::report::{Table, fmt_bayes_factor, fmt_fixed};
 use std::path::Path;
 
@@ -92,7 +94,7 @@ pub fn write_outputs(s: &SelectSummary, out: &Path) -> Result<(), SelectError> {
     for (name, chains) in &s.model_chains {
         if let Some(c) = chains {
             let p = out.join(chains_file(name));
-            crate::data::npz_write::write_npz_file(&p, &crate::jobs::fit::chains_arrays(c))
+            crate::data::npz_write::write_npz_file(&p, &crate::jobs::chains_npz::chains_arrays(c))
                 .map_err(|e| io(&p, e))?;
         }
     }

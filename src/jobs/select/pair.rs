@@ -19,7 +19,7 @@
 //! and stays finite when a model is never visited; the tempering estimators need no jump at
 //! all, so they take over when the jump chain is not informative.
 
-use super::{Evidence, ModelOutcome};
+use super::outcome::{Evidence, ModelOutcome};
 use crate::evidence::{LnB, RjResult};
 use crate::report::kass_raftery_named;
 use serde::Serialize;

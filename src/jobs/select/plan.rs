@@ -3,7 +3,7 @@
 //! per-model pipeline ([`super::model`]) and the checkpoint's restore read these, never the
 //! study.
 
-use super::SelectError;
+use super::error::SelectError;
 use crate::config::{JumpProposal, LikelihoodKind, ModelSpec, Study};
 use crate::evidence::{ProposalShape, RjOptions};
 use crate::jobs::prepare::{Prepared, default_start, likelihood_of, relbin_options, sampled_kind};

@@ -36,7 +36,7 @@ pub fn every_from_env() -> anyhow::Result<Option<Duration>> {
 pub struct StageFile {
     /// The file.
     pub path: PathBuf,
-    /// The select run's identity ([`super::identity`]).
+    /// The select run's identity ([`crate::jobs::prepare::identity`]).
     pub run: String,
     /// How often to save.
     pub every: Duration,

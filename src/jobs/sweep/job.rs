@@ -2,7 +2,8 @@
 //! executor it runs on, the run directory held on the root rank, the resume check, and the
 //! published outputs. `main.rs` only parses, prints and draws the progress bar.
 
-use super::{Sweep, SweepArgs, SweepResult, grid};
+use super::grid;
+use super::study::{Sweep, SweepArgs, SweepResult};
 use crate::data::rundir::RunDir;
 use crate::jobs::exec::Executor;
 use crate::jobs::progress::Work;
@@ -135,7 +136,7 @@ pub fn run(
     };
     let table = super::output::table(&sweep, &result);
     let run = run.expect("the root holds the run directory");
-    let written = super::publish(&sweep, &result, &run)?;
+    let written = super::output::publish(&sweep, &result, &run)?;
     Ok(Some(SweepDone {
         result,
         table,

@@ -2,7 +2,7 @@
 //! `table.txt` and the plots.
 
 use super::stats::REFERENCE;
-use super::{Sweep, SweepResult};
+use super::study::{Sweep, SweepResult};
 use anyhow::Context;
 use ndarray::{Array, ArrayD, IxDyn};
 use std::path::{Path, PathBuf};

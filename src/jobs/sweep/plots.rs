@@ -2,7 +2,7 @@
 //! band over the Kass–Raftery zones (the paper's Fig. 5 and 6), and a map of the reference's
 //! median ln B over a 2-D grid.
 
-use super::{Sweep, SweepResult};
+use super::study::{Sweep, SweepResult};
 use crate::jobs::select::EstimateKind;
 use crate::report::{BandPlot, BandSeries, HeatMap, band_plot, heat_map};
 use std::path::{Path, PathBuf};

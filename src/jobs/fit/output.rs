@@ -1,0 +1,151 @@
+//! The fit's outputs: Table I, the summary, chains on disk and plots.
+
+use super::summary::{FitError, FitOutcome, FitSummary};
+use crate::jobs::chains_npz::chains_arrays;
+use crate::report::{Table, fmt_fixed, fmt_pm, fmt_short, fmt_sig};
+use crate::sampler::Chains;
+use std::path::Path;
+
+/// R-hat for the table: 4 decimals, `∞ (stuck)` when it is infinite (zero within-chain
+/// variance: the chains did not move; `sd` 0: not even between chains), `NaN` when it could
+/// not be computed.
+pub fn fmt_rhat(rhat: f64, sd: f64) -> String {
+    if rhat == f64::INFINITY {
+        if sd == 0.0 {
+            "∞ (stuck, sd 0)".into()
+        } else {
+            "∞ (stuck)".into()
+        }
+    } else {
+        fmt_fixed(rhat, 4)
+    }
+}
+
+/// The Table I layout as a text table.
+pub fn table(s: &FitSummary) -> Table {
+    let mut t = Table::new([
+        "parameter",
+        "truth",
+        "MAP",
+        "estimate ± σ",
+        "Cramér-Rao σ",
+        "σ/CR",
+        "R-hat",
+        "ESS",
+    ]);
+    for r in &s.rows {
+        t.push_row([
+            r.name.clone(),
+            r.truth.map_or("–".into(), |v| fmt_sig(v, 4)),
+            fmt_sig(r.map, 6),
+            fmt_pm(r.mean, r.sd),
+            fmt_short(r.cramer_rao),
+            fmt_fixed(r.sd / r.cramer_rao, 3),
+            fmt_rhat(r.rhat, r.sd),
+            fmt_fixed(r.ess, 0),
+        ])
+        .expect("row width matches the header");
+    }
+    t
+}
+
+/// What a fit directory held before `manifest.json` existed: the files a new run removes when
+/// it does not write them itself ([`crate::data::rundir::RunDir::publish`]).
+pub const LEGACY_OUTPUTS: &[&str] = &[
+    "summary.json",
+    "table.txt",
+    "table.md",
+    "chains.npz",
+    "trace.png",
+    "trace.svg",
+    "corner.png",
+    "corner.svg",
+    // `occam report` records its page in the manifest; in an older directory only this finds it
+    "report.html",
+];
+
+/// Writes `summary.json`, `table.txt`, `table.md`, `chains.npz` and the trace and corner plots
+/// into `out`; every file atomically.
+pub fn write_outputs(o: &FitOutcome, out: &Path) -> Result<(), FitError> {
+    let io = |p: &Path, e: std::io::Error| FitError::Other(format!("{}: {e}", p.display()));
+    std::fs::create_dir_all(out).map_err(|e| io(out, e))?;
+    let json = serde_json::to_string_pretty(&o.summary).expect("summary serialises") + "\n";
+    let p = out.join("summary.json");
+    crate::atomic::write_bytes(&p, json.as_bytes()).map_err(|e| io(&p, e))?;
+    let t = table(&o.summary);
+    let p = out.join("table.txt");
+    crate::atomic::write_bytes(&p, t.to_text().as_bytes()).map_err(|e| io(&p, e))?;
+    let p = out.join("table.md");
+    crate::atomic::write_bytes(&p, t.to_markdown().as_bytes()).map_err(|e| io(&p, e))?;
+    write_chains_npz(&o.chains, &out.join("chains.npz"))?;
+    let names = o.chains.names().to_vec();
+    let per_chain: Vec<Vec<Vec<f64>>> = o
+        .chains
+        .chains()
+        .iter()
+        .map(|c| c.samples.chunks(names.len()).map(|s| s.to_vec()).collect())
+        .collect();
+    // NaN marks a parameter whose true value is unknown; the plots leave it unmarked.
+    let truth: Option<Vec<f64>> = o.summary.rows.iter().any(|r| r.truth.is_some()).then(|| {
+        o.summary
+            .rows
+            .iter()
+            .map(|r| r.truth.unwrap_or(f64::NAN))
+            .collect()
+    });
+    // Units by name: the chains hold the free parameters, the rows say what each one is.
+    let units: Vec<String> = names
+        .iter()
+        .map(|n| {
+            o.summary
+                .rows
+                .iter()
+                .find(|r| &r.name == n)
+                .map(|r| r.unit.clone())
+                .unwrap_or_default()
+        })
+        .collect();
+    let ln_posterior: Vec<Vec<f64>> = o
+        .chains
+        .chains()
+        .iter()
+        .map(|c| c.ln_posterior.clone())
+        .collect();
+    crate::report::draw_trace(
+        out,
+        "trace",
+        &crate::report::TracePlot {
+            names: &names,
+            units: &units,
+            chains: &per_chain,
+            ln_posterior: &ln_posterior,
+            truth: truth.as_deref(),
+            iterations: Some((o.summary.burn_in, o.summary.thin)),
+        },
+    )?;
+    let map: Option<Vec<f64>> = names
+        .iter()
+        .map(|n| o.summary.rows.iter().find(|r| &r.name == n).map(|r| r.map))
+        .collect();
+    let pooled: Vec<Vec<f64>> = per_chain.iter().flatten().cloned().collect();
+    let step = (pooled.len() / 20_000).max(1);
+    let thinned: Vec<Vec<f64>> = pooled.into_iter().step_by(step).collect();
+    crate::report::draw_corner(
+        out,
+        "corner",
+        &crate::report::CornerPlot {
+            names: &names,
+            units: &units,
+            samples: &thinned,
+            truth: truth.as_deref(),
+            map: map.as_deref(),
+        },
+    )?;
+    Ok(())
+}
+
+/// Writes a run's chains as `chains.npz` (see [`chains_arrays`]), atomically.
+pub fn write_chains_npz(chains: &Chains, path: &Path) -> Result<(), FitError> {
+    crate::data::npz_write::write_npz_file(path, &chains_arrays(chains))
+        .map_err(|e| FitError::Other(format!("{}: {e}", path.display())))
+}

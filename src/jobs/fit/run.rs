@@ -1,0 +1,287 @@
+//! The fit pipeline: MAP, Fisher matrix, Cramér–Rao bounds and the Metropolis–Hastings chains,
+//! checkpointed and resumable.
+
+use super::summary::{FitError, FitOutcome, FitSummary, ParamRow, non_finite_warnings};
+use crate::config::{LikelihoodKind, Study};
+use crate::density::LogDensity;
+use crate::jobs::prepare::{Prepared, default_start, model_warnings, relbin_of, truth_of};
+use crate::likelihood::{cramer_rao, fisher_exact, fisher_scoring};
+use crate::linalg::SpdOptions;
+use crate::nested::SubModel;
+use crate::sampler::{Adapt, Chains, MetropolisHastings, MhSettings, Progress, RunOutcome, Start};
+use nalgebra::DMatrix;
+use std::path::Path;
+use std::time::Instant;
+
+/// The fit's checkpoint inside its run directory ([`crate::data::checkpoint`], kind `mh`).
+pub const CHECKPOINT_FILE: &str = "checkpoint.cbor";
+
+/// Runs the fit of `study`'s `[fit]` model on prepared data; writes a checkpoint into `out`
+/// while it runs (and resumes from it if `resume`).
+pub fn run(
+    study: &Study,
+    prep: &Prepared,
+    out: &Path,
+    observer: Option<&(dyn Fn(&Progress) + Sync)>,
+    resume: bool,
+) -> Result<FitOutcome, FitError> {
+    let exact = &prep.likelihood;
+    let model = &study.fit_model;
+    let free = &model.free;
+    let names = exact.model().param_names().to_vec();
+    let t0 = Instant::now();
+    let start = default_start(study, model);
+    let free_names: Vec<String> = free.iter().map(|&i| names[i].clone()).collect();
+    let value_of = |n: &str| names.iter().position(|p| p == n).map(|i| start[i]);
+    let map = fisher_scoring(exact, &start, free, 1e-3, 200).map_err(|e| match e {
+        crate::likelihood::MapError::Singular {
+            unconstrained,
+            detail,
+        } => FitError::Other(format!(
+            "MAP search: the Fisher matrix is singular: {detail}. {}",
+            fix_hint(&free_names, &unconstrained, &value_of)
+        )),
+        e => FitError::Map(e),
+    })?;
+    let mut warnings = model_warnings(study, model.model, &prep.dataset);
+    if !map.converged {
+        warnings.push(format!(
+            "the MAP search stopped after {} iterations without converging; the chains may start far from the mode",
+            map.iterations
+        ));
+    }
+    let at_bound = map.bound_report(&names, exact.prior().kinds(), free);
+    if !at_bound.is_empty() {
+        warnings.push(format!(
+            "the MAP is on a bound of the prior box: {}. The posterior is cut by the prior there, and the Cramér–Rao σ and the pulls assume an interior maximum",
+            at_bound.join("; ")
+        ));
+    }
+    let fisher = fisher_exact(exact, &map.theta, free);
+    let value_of = |n: &str| names.iter().position(|p| p == n).map(|i| map.theta[i]);
+    let cr = cramer_rao(&fisher)
+        .ok_or_else(|| FitError::Other(singular_message(&fisher, &free_names, "MAP", &value_of)))?;
+    if let Some(w) = near_singular_warning(&fisher, &free_names) {
+        warnings.push(w);
+    }
+    let seconds_map = t0.elapsed().as_secs_f64();
+    let d = free.len();
+    let cov = SpdOptions::lower()
+        .factor(&fisher)
+        .expect("checked above")
+        .inverse()
+        * (study.fit.proposal_scale * 2.38f64.powi(2) / d as f64);
+    let f = &study.fit;
+    let settings = MhSettings {
+        n_iter: f.iterations,
+        burn_in: f.burn_in,
+        thin: f.thin,
+        n_chains: f.chains,
+        seed: f.seed.unwrap_or(study.seed.wrapping_add(1)),
+        anneal: None,
+        adapt: f.adapt.then(|| Adapt {
+            start: f.burn_in / 5,
+            ..Default::default()
+        }),
+        checkpoint_every: f.checkpoint_every,
+        progress_every: 200,
+    };
+    let t1 = Instant::now();
+    let statistic = exact.statistic();
+    let (kind, why) = crate::jobs::prepare::sampled_kind(study, exact);
+    warnings.extend(why);
+    // the checkpoint belongs to this study, these data and this likelihood kind (a resumed
+    // fit must not continue relative-binned chains as exact ones, or the other way round)
+    let identity = format!(
+        "{}-{kind:?}",
+        crate::jobs::prepare::identity(study, &prep.dataset)
+    );
+    let ckpt = Checkpoint {
+        out,
+        resume,
+        identity: &identity,
+    };
+    let (chains, n_coarse) = match kind {
+        LikelihoodKind::Exact => (
+            sample(exact, model, &map.theta, &cov, settings, &ckpt, observer)?,
+            None,
+        ),
+        LikelihoodKind::Relbin => {
+            let rb = relbin_of(study, exact, &map.theta)?;
+            let n = rb.n_coarse();
+            (
+                sample(&rb, model, &map.theta, &cov, settings, &ckpt, observer)?,
+                Some(n),
+            )
+        }
+    };
+    let seconds_mcmc = t1.elapsed().as_secs_f64();
+    let diag = chains.diagnostics()?;
+    warnings.extend(diag.warnings().iter().map(|w| w.to_string()));
+    let truth = truth_of(study, model.model, &prep.dataset);
+    let units = exact.model().param_units();
+    let rows = free
+        .iter()
+        .enumerate()
+        .map(|(k, &i)| {
+            let tr = truth.as_ref().and_then(|t| t[i]);
+            ParamRow {
+                name: names[i].clone(),
+                unit: units.get(i).cloned().unwrap_or_default(),
+                truth: tr,
+                map: map.theta[i],
+                mean: diag.mean[k],
+                sd: diag.sd[k],
+                cramer_rao: cr[k],
+                rhat: diag.rhat[k],
+                ess: diag.ess[k],
+                pull: tr.map(|t| (diag.mean[k] - t) / diag.sd[k]),
+            }
+        })
+        .collect();
+    let total_iter = (f.iterations * f.chains) as f64;
+    let mut summary = FitSummary {
+        origin: prep.origin.clone(),
+        model: exact.model().name().to_string(),
+        statistic,
+        likelihood: kind,
+        n_bins: exact.n_bins(),
+        n_coarse_bins: n_coarse,
+        rho_opt_at_map: exact.snr(&map.theta),
+        // of the statistic, at the (Whittle) MAP the chains start from
+        map_ln_posterior: exact.ln_posterior(&map.theta),
+        map_iterations: map.iterations,
+        rows,
+        acceptance: diag.acceptance.clone(),
+        non_finite: diag.non_finite.clone(),
+        warnings,
+        chains: f.chains,
+        kept_per_chain: chains.n_kept(),
+        burn_in: f.burn_in,
+        thin: f.thin,
+        seconds_map,
+        seconds_mcmc,
+        iterations_per_second: total_iter / seconds_mcmc,
+        fisher: (0..d)
+            .map(|i| (0..d).map(|j| fisher[(i, j)]).collect())
+            .collect(),
+    };
+    let extra = non_finite_warnings(&summary);
+    summary.warnings.extend(extra);
+    Ok(FitOutcome {
+        summary,
+        chains,
+        map_full: map.theta,
+        fisher,
+    })
+}
+
+/// The error of a singular Fisher matrix at `at` ("MAP"): which parameters the data do not
+/// constrain (its null directions) and what to change ([`fix_hint`]; `value_of` gives the
+/// value to suggest for a parameter).
+pub fn singular_message(
+    fisher: &DMatrix<f64>,
+    free_names: &[String],
+    at: &str,
+    value_of: &dyn Fn(&str) -> Option<f64>,
+) -> String {
+    let (detail, named) = crate::likelihood::describe_unconstrained(fisher, free_names);
+    format!(
+        "the Fisher matrix at the {at} is singular: {detail}. {}",
+        fix_hint(free_names, &named, value_of)
+    )
+}
+
+/// What to change in the study when the parameters `named` (of the free ones, `free_names`)
+/// are unconstrained: the `[fit]` lines that fix them at the values `value_of` suggests, or
+/// an experiment that excites them.
+pub fn fix_hint(
+    free_names: &[String],
+    named: &[String],
+    value_of: &dyn Fn(&str) -> Option<f64>,
+) -> String {
+    let them = if named.len() == 1 { "it" } else { "them" };
+    let keep: Vec<String> = free_names
+        .iter()
+        .filter(|n| !named.contains(n))
+        .map(|n| format!("\"{n}\""))
+        .collect();
+    if keep.is_empty() || named.is_empty() {
+        return format!(
+            "Add an experiment that excites {them}, or fix some of them in [fit] fixed"
+        );
+    }
+    let fixed = named
+        .iter()
+        .map(|n| match value_of(n) {
+            Some(v) => format!("{n} = {}", crate::report::fmt_roundtrip(v)),
+            None => format!("{n} = <value>"),
+        })
+        .collect::<Vec<_>>()
+        .join(", ");
+    format!(
+        "Fix {them}, e.g. [fit] free = [{}] and fixed = {{ {fixed} }} (values of the search; use known values where you have them), or add an experiment that excites {them}",
+        keep.join(", ")
+    )
+}
+
+/// A warning when the Fisher matrix has directions below
+/// [`crate::linalg::NULL_EIGENVALUE_TOL`] although its Cholesky factorisation succeeded:
+/// the Cramér–Rao σ and the proposal along them are set by rounding, not by the data.
+pub fn near_singular_warning(fisher: &DMatrix<f64>, free_names: &[String]) -> Option<String> {
+    let dirs = crate::linalg::unconstrained_directions(fisher, crate::linalg::NULL_EIGENVALUE_TOL);
+    if dirs.is_empty() {
+        return None;
+    }
+    let (detail, _) = crate::likelihood::describe_unconstrained(fisher, free_names);
+    Some(format!(
+        "the Fisher matrix at the MAP is nearly singular: {detail}; their Cramér–Rao σ and the proposal along that direction come from rounding, not from the data: fix one of them ([fit] fixed) or add an experiment that separates them"
+    ))
+}
+
+/// Where a fit checkpoints and whether it continues from there.
+struct Checkpoint<'a> {
+    out: &'a Path,
+    resume: bool,
+    /// The run's identity in the checkpoint (study, data and likelihood kind).
+    identity: &'a str,
+}
+
+fn sample<D: LogDensity>(
+    parent: &D,
+    model: &crate::config::ModelSpec,
+    map: &[f64],
+    cov: &DMatrix<f64>,
+    settings: MhSettings,
+    ck: &Checkpoint,
+    observer: Option<&(dyn Fn(&Progress) + Sync)>,
+) -> Result<Chains, FitError> {
+    let (out, resume) = (ck.out, ck.resume);
+    let mut base = model.base.clone();
+    for &i in &model.free {
+        base[i] = map[i];
+    }
+    let sub = SubModel::new(parent, model.free.clone(), base)?;
+    std::fs::create_dir_all(out).map_err(|e| FitError::Other(format!("{}: {e}", out.display())))?;
+    let ckpt = out.join(CHECKPOINT_FILE);
+    let mut mh = MetropolisHastings::new(&sub, cov, settings)?
+        .checkpoint(&ckpt)
+        .checkpoint_identity(ck.identity);
+    if let Some(o) = observer {
+        mh = mh.observer(o);
+    }
+    let outcome = if resume && ckpt.exists() {
+        mh.resume(&ckpt)?
+    } else {
+        mh.run(&Start::Around {
+            centre: model.free.iter().map(|&i| map[i]).collect(),
+            spread: 2.0,
+        })?
+    };
+    match outcome {
+        RunOutcome::Finished(c) => Ok(c),
+        RunOutcome::Stopped { iterations } => Err(FitError::Other(format!(
+            "stopped after {iterations} iterations; run again with --resume"
+        ))),
+    }
+}

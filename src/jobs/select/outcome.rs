@@ -1,0 +1,120 @@
+//! What each model's stages estimate: its evidences by every method, its MAP and the
+//! diagnostics of its tempering ladder.
+
+use crate::evidence::LaplaceEstimate;
+use serde::Serialize;
+
+/// A per-model `ln Z` estimate, or why the estimator does not apply.
+#[derive(Debug, Clone, Serialize, serde::Deserialize)]
+pub struct Evidence {
+    pub ln_z: Option<f64>,
+    /// Monte-Carlo standard error (statistical estimators only).
+    pub std_err: Option<f64>,
+    /// Quadrature error of a systematic estimator's box mass (not a statistical error).
+    pub integration_err: Option<f64>,
+    /// What a systematic estimator assumes.
+    pub assumes: Option<String>,
+    /// Why there is no number (the estimator's own error), or a caveat.
+    pub note: Option<String>,
+}
+
+impl Evidence {
+    /// A Monte-Carlo estimate with its standard error.
+    pub(super) fn statistical(r: Result<(f64, f64, Option<f64>), String>) -> Self {
+        match r {
+            Ok((ln_z, se, integration_err)) => Self {
+                ln_z: Some(ln_z),
+                std_err: Some(se),
+                integration_err,
+                assumes: None,
+                note: None,
+            },
+            Err(m) => Self::not_applicable(m),
+        }
+    }
+
+    pub(super) fn not_applicable(note: String) -> Self {
+        Self {
+            ln_z: None,
+            std_err: None,
+            integration_err: None,
+            assumes: None,
+            note: Some(note),
+        }
+    }
+
+    /// A Laplace-type estimate: its error is the failure of `assumes`, not a ± value.
+    pub(super) fn systematic(r: Result<LaplaceEstimate, String>, assumes: String) -> Self {
+        match r {
+            Ok(e) => Self {
+                ln_z: Some(e.ln_z),
+                std_err: None,
+                integration_err: e.std_err,
+                assumes: Some(assumes),
+                note: None,
+            },
+            Err(m) => Self::not_applicable(m),
+        }
+    }
+}
+
+/// Per-model results.
+#[derive(Debug, Clone, Serialize, serde::Deserialize)]
+pub struct ModelOutcome {
+    pub name: String,
+    /// The model this is a sub-model of.
+    pub model: String,
+    /// That model's parameters (the order of `map` and `unbounded_max`).
+    pub params: Vec<String>,
+    pub free: Vec<String>,
+    pub prior_probability: f64,
+    /// MAP (full parameter vector of the model), inside the prior box; the search's start
+    /// point when `map_found` is false.
+    pub map: Vec<f64>,
+    pub map_found: bool,
+    /// Free parameters whose MAP value is on a bound of the prior box.
+    pub map_at_bound: Vec<String>,
+    /// How well relative binning reproduces the exact `ln L` where the samplers go (absent
+    /// when the samplers ran on the exact likelihood).
+    pub relbin: Option<crate::likelihood::RelBinValidation>,
+    pub ln_l_map: f64,
+    /// Unconstrained maximum of `ln L` (the box-corrected Laplace expansion point), when found.
+    pub unbounded_max: Option<Vec<f64>>,
+    /// Smallest distance of the MAP from a prior bound, in Fisher σ.
+    pub min_margin_sigma: f64,
+    pub laplace_fisher_raw: Evidence,
+    pub laplace_fisher_box: Evidence,
+    pub laplace_metropolis_mve: Evidence,
+    pub laplace_metropolis_mcd: Evidence,
+    /// Thermodynamic integration; `std_err` combines the Monte-Carlo error and the
+    /// discretisation error (`integration_err`).
+    pub thermodynamic: Evidence,
+    pub stepping_stone: Evidence,
+    /// The tempering run: final ladder, swap rate per adjacent pair, acceptance per rung.
+    pub tempering: Option<TemperingDiagnostics>,
+    pub schwarz_ln_z: f64,
+    /// In-model MCMC: acceptance per chain and worst R-hat (absent when the chains failed).
+    pub mcmc_acceptance: Vec<f64>,
+    pub mcmc_max_rhat: Option<f64>,
+    /// Where the reversible-jump proposal of this model comes from.
+    pub jump_proposal: String,
+    /// Stages that did not apply, and why.
+    pub notes: Vec<String>,
+}
+
+/// What a parallel-tempering run of one model looked like.
+#[derive(Debug, Clone, Serialize, serde::Deserialize)]
+pub struct TemperingDiagnostics {
+    pub betas: Vec<f64>,
+    /// Swap acceptance of each adjacent pair of rungs.
+    pub swap_acceptance: Vec<f64>,
+    pub in_rung_acceptance: Vec<f64>,
+    pub sweeps: usize,
+    pub burn_in: usize,
+    pub ln_l_evals: u64,
+    /// Bound on the shift of `ln Z` by relative binning along the ladder (the rungs' kept
+    /// states, exact against relative-binned `ln L`, trapezoid-weighted), added in quadrature
+    /// to the thermodynamic and stepping-stone errors; absent on the exact likelihood.
+    pub approximation_err: Option<f64>,
+    pub seconds: f64,
+}

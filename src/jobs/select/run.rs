@@ -1,0 +1,349 @@
+//! The select pipeline: every model's stages in turn (each restored from the checkpoint or run
+//! and saved), then the reversible jump over all models, then the summary.
+
+use super::checkpoint::{self, SelectCheckpoint};
+use super::error::SelectError;
+use super::model::{self, ModelRun, Sampled};
+use super::outcome::ModelOutcome;
+use super::output;
+use super::pair;
+use super::plan::{Parents, SelectPlan};
+use super::stage::{FILE as STAGE_FILE, StageFile};
+use super::summary::SelectSummary;
+use crate::config::Study;
+use crate::density::LogDensity;
+use crate::evidence::{ReversibleJump, RjModel, RjOptions, RjOutcome, RjResult};
+use crate::jobs::prepare::{Prepared, model_warnings, truth_of};
+use crate::nested::SubModel;
+use std::time::Instant;
+
+/// Runs every estimator on the study's `[[select.model]]` list. Each competing model is a
+/// sub-model of one of the study's models; each of those gets its own exact likelihood on the
+/// data (the `[fit]` model's is `prep.likelihood`).
+pub fn run(
+    study: &Study,
+    prep: &Prepared,
+    progress: Option<&mut dyn FnMut(&crate::evidence::RjProgress<'_>)>,
+) -> Result<SelectSummary, SelectError> {
+    run_checkpointed(study, prep, progress, None)
+}
+
+/// Where [`run_checkpointed`] saves its finished stages, and what it resumes from. The stage
+/// in progress is saved beside it, in [`STAGE_FILE`] (see [`SelectCheckpoint::save_stage_every`]).
+pub struct Checkpointing<'a> {
+    /// The checkpoint file, rewritten (atomically) after every stage.
+    pub path: &'a std::path::Path,
+    /// The stages already done (from [`SelectCheckpoint::read`]), or a fresh
+    /// [`SelectCheckpoint::new`].
+    pub state: SelectCheckpoint,
+}
+
+impl Checkpointing<'_> {
+    /// The stage file beside the checkpoint.
+    fn stage_file(&self) -> StageFile {
+        StageFile {
+            path: self.path.with_file_name(STAGE_FILE),
+            run: self.state.identity().to_string(),
+            every: self.state.stage_every(),
+        }
+    }
+}
+
+/// [`run`], saving each finished stage to a checkpoint and skipping the stages the
+/// checkpoint already holds; the numbers are those of an uninterrupted run, bit for bit.
+pub fn run_checkpointed(
+    study: &Study,
+    prep: &Prepared,
+    progress: Option<&mut dyn FnMut(&crate::evidence::RjProgress<'_>)>,
+    ckpt: Option<Checkpointing<'_>>,
+) -> Result<SelectSummary, SelectError> {
+    run_observed(study, prep, progress, None, ckpt)
+}
+
+/// Likelihood evaluations a select run of `study` makes, as [`run_observed`] counts them:
+/// per model its Metropolis–Hastings chains and its tempering ladder (every rung each sweep),
+/// then the reversible-jump iterations.
+pub fn work_units(study: &Study) -> u64 {
+    let s = &study.select;
+    let per_model = s.chains * s.iterations + s.pt_temperatures * s.pt_iterations;
+    (study.select_models.len() * per_model + s.rj_iterations) as u64
+}
+
+/// [`run_checkpointed`], counting its work ([`work_units`]) into `work` as it goes, so that a
+/// progress bar can follow every stage, not only the reversible jump.
+pub fn run_observed(
+    study: &Study,
+    prep: &Prepared,
+    progress: Option<&mut dyn FnMut(&crate::evidence::RjProgress<'_>)>,
+    work: Option<&crate::jobs::progress::Work>,
+    mut ckpt: Option<Checkpointing<'_>>,
+) -> Result<SelectSummary, SelectError> {
+    if let Some(w) = work {
+        w.start(work_units(study));
+    }
+    let t0 = Instant::now();
+    if study.select_models.len() < 2 {
+        return Err(SelectError::Config(format!(
+            "{}: `select.model`: model selection needs at least two [[select.model]] tables",
+            study.source
+        )));
+    }
+    // one exact likelihood per parent model in use
+    let parents = Parents::new(study, prep)?;
+    let plan = SelectPlan::new(study, &parents);
+    let runs = run_models(&plan, &mut ckpt, work)?;
+    let rj = reversible_jump(&plan, &parents, &runs, &mut ckpt, progress, work)?;
+    let mut out = summarise(study, prep, &plan, &parents, runs, rj)?;
+    out.seconds = t0.elapsed().as_secs_f64();
+    Ok(out)
+}
+
+/// Counts `n` more likelihood evaluations into `work`.
+fn add_work(work: Option<&crate::jobs::progress::Work>, n: usize) {
+    if let Some(w) = work {
+        w.done
+            .fetch_add(n as u64, std::sync::atomic::Ordering::Relaxed);
+    }
+}
+
+/// Every model's stages in turn — the in-model stage, then its tempering — each restored from
+/// the checkpoint where it holds it, and saved to it once done.
+fn run_models(
+    plan: &SelectPlan<'_>,
+    ckpt: &mut Option<Checkpointing<'_>>,
+    work: Option<&crate::jobs::progress::Work>,
+) -> Result<Vec<ModelRun>, SelectError> {
+    let stage = ckpt.as_ref().map(Checkpointing::stage_file);
+    let mut runs = Vec::new();
+    for (k, m) in plan.models.iter().enumerate() {
+        let st = &m.stages;
+        let saved = ckpt.as_ref().and_then(|c| c.state.models.get(k).cloned());
+        let tempered = saved.as_ref().is_some_and(|s| s.tempered);
+        let err = |msg| SelectError::Model {
+            model: m.name.clone(),
+            msg,
+        };
+        let mut r = match saved {
+            Some(stage) => stage.restore(m),
+            None => model::run_model(m, stage.as_ref()),
+        }
+        .map_err(err)?;
+        add_work(work, st.chains * st.iterations);
+        if let Some(c) = ckpt.as_mut()
+            && c.state.models.len() == k
+        {
+            c.state.models.push(checkpoint::ModelStage::of(&r, false));
+            c.state.write(c.path)?;
+            stage.iter().for_each(StageFile::clear);
+        }
+        if !tempered {
+            let mut counted = 0;
+            let mut progress = |done: usize| {
+                add_work(work, (done - counted) * st.pt_temperatures);
+                counted = done;
+            };
+            model::temper(m, &mut r, &mut progress, stage.as_ref()).map_err(err)?;
+            if let Some(c) = ckpt.as_mut() {
+                c.state.models[k] = checkpoint::ModelStage::of(&r, true);
+                c.state.write(c.path)?;
+                stage.iter().for_each(StageFile::clear);
+            }
+        } else {
+            add_work(work, st.pt_temperatures * st.pt_iterations);
+        }
+        runs.push(r);
+    }
+    Ok(runs)
+}
+
+/// The reversible-jump run and why it did not run, and its iterations per second.
+type RjStage = (Option<RjResult>, Option<String>, f64);
+
+/// The reversible jump over all models, each on its own sampled likelihood: restored from
+/// the checkpoint where it holds it, else run and saved.
+fn reversible_jump(
+    plan: &SelectPlan<'_>,
+    parents: &Parents<'_>,
+    runs: &[ModelRun],
+    ckpt: &mut Option<Checkpointing<'_>>,
+    progress: Option<&mut dyn FnMut(&crate::evidence::RjProgress<'_>)>,
+    work: Option<&crate::jobs::progress::Work>,
+) -> Result<RjStage, SelectError> {
+    let rj_base = work.map_or(0, |w| w.done.load(std::sync::atomic::Ordering::Relaxed));
+    let targets: Vec<&dyn LogDensity> = runs
+        .iter()
+        .map(|r| match &r.sampled {
+            Sampled::RelBin(rb) => rb.as_ref() as &dyn LogDensity,
+            Sampled::Exact(mi) => parents.of(*mi) as &dyn LogDensity,
+        })
+        .collect();
+    let subs: Vec<SubModel<&dyn LogDensity>> = runs
+        .iter()
+        .zip(&targets)
+        .map(|(r, t)| SubModel::new(*t, r.spec.free.clone(), r.base.clone()))
+        .collect::<Result<_, _>>()
+        .map_err(|e| SelectError::Config(e.to_string()))?;
+    let rj_models: Vec<RjModel<'_>> = runs
+        .iter()
+        .zip(&subs)
+        .zip(&plan.models)
+        .map(|((r, s), m)| RjModel {
+            name: m.name.clone(),
+            target: s as &dyn LogDensity,
+            center: r.jump_center.clone(),
+            cov: r.jump_cov.clone(),
+        })
+        .collect();
+    if let Some(s) = ckpt.as_ref().and_then(|c| c.state.rj.clone()) {
+        let mut rj = s.rj;
+        if let Some(r) = rj.as_mut() {
+            r.draws = s.draws;
+        }
+        return Ok((rj, s.note, s.rate));
+    }
+    run_rj(&rj_models, &plan.rj, ckpt, progress, work, rj_base)
+}
+
+/// Runs the reversible jump on `rj_models` (work counted from `rj_base` on) and saves it to
+/// the checkpoint.
+fn run_rj(
+    rj_models: &[RjModel<'_>],
+    opts: &RjOptions,
+    ckpt: &mut Option<Checkpointing<'_>>,
+    mut progress: Option<&mut dyn FnMut(&crate::evidence::RjProgress<'_>)>,
+    work: Option<&crate::jobs::progress::Work>,
+    rj_base: u64,
+) -> Result<RjStage, SelectError> {
+    let t_rj = Instant::now();
+    let mut observe = |p: &crate::evidence::RjProgress<'_>| {
+        if let Some(w) = work {
+            w.done.store(
+                rj_base + p.iteration as u64,
+                std::sync::atomic::Ordering::Relaxed,
+            );
+        }
+        if let Some(f) = progress.as_mut() {
+            f(p);
+        }
+    };
+    let stage = ckpt.as_ref().map(Checkpointing::stage_file);
+    let ran = ReversibleJump::new(rj_models, opts).and_then(|rj| {
+        let rj = rj.progress(&mut observe);
+        match &stage {
+            Some(f) => {
+                let id = f.identity("all models", "rj");
+                let rj = rj.checkpoint(&f.path, id.clone(), f.every);
+                if f.holds(crate::evidence::rjmcmc::KIND, &id) {
+                    rj.resume(&f.path)
+                } else {
+                    rj.run()
+                }
+            }
+            None => rj.run(),
+        }
+    });
+    let (mut rj, note) = match ran {
+        Ok(RjOutcome::Finished(r)) => (Some(*r), None),
+        Ok(RjOutcome::Stopped { iterations }) => (
+            None,
+            Some(format!(
+                "the reversible-jump chain stopped after {iterations} iterations"
+            )),
+        ),
+        Err(e) => (
+            None,
+            Some(format!("the reversible-jump chain did not run: {e}")),
+        ),
+    };
+    let rate = opts.n_iter as f64 / t_rj.elapsed().as_secs_f64();
+    if let Some(c) = ckpt.as_mut() {
+        // the draws move into the checkpoint for writing and back out (no copy)
+        let draws = rj.as_mut().and_then(|r| r.draws.take());
+        c.state.rj = Some(checkpoint::RjStage {
+            rj: rj.clone(),
+            note: note.clone(),
+            rate,
+            draws,
+        });
+        let written = c.state.write(c.path);
+        if let (Some(r), Some(stage)) = (rj.as_mut(), c.state.rj.as_mut()) {
+            r.draws = stage.draws.take();
+        }
+        written?;
+        stage.iter().for_each(StageFile::clear);
+    }
+    Ok((rj, note, rate))
+}
+
+/// The summary of a finished run: pairs, warnings (models, data, estimators), residual PSDs
+/// (Fig. 3) and the optimal SNR; `seconds` is left 0 for the caller.
+fn summarise(
+    study: &Study,
+    prep: &Prepared,
+    plan: &SelectPlan<'_>,
+    parents: &Parents<'_>,
+    runs: Vec<ModelRun>,
+    (rj, rj_note, rj_rate): RjStage,
+) -> Result<SelectSummary, SelectError> {
+    let mut model_chains = Vec::with_capacity(runs.len());
+    let mut models: Vec<ModelOutcome> = Vec::with_capacity(runs.len());
+    for r in runs {
+        model_chains.push((r.outcome.name.clone(), r.chains));
+        models.push(r.outcome);
+    }
+    let mut pairs = Vec::new();
+    for x in 0..models.len() {
+        for y in x + 1..models.len() {
+            pairs.push(pair::pair(&models, rj.as_ref(), rj_note.as_deref(), x, y));
+        }
+    }
+    let mut warnings: Vec<String> = parents
+        .indices()
+        .flat_map(|mi| model_warnings(study, mi, &prep.dataset))
+        .collect();
+    for m in &models {
+        warnings.extend(m.notes.iter().map(|n| format!("model `{}`: {n}", m.name)));
+    }
+    warnings.extend(rj_note.clone());
+    warnings.extend(rj.as_ref().map(output::fig2_warnings).unwrap_or_default());
+    for p in &pairs {
+        if let Some(w) = &p.jumps.warning {
+            warnings.push(format!("{}/{}: {w}", p.x, p.y));
+        }
+    }
+    // the paper's Fig. 3: each model's residual PSD at its MAP
+    let mut residual_psd = Vec::new();
+    for (m, pm) in models.iter().zip(&plan.models) {
+        match crate::likelihood::residual_psd::residual_psds(
+            pm.exact,
+            &prep.dataset.experiments,
+            &m.map,
+        ) {
+            Ok(c) => residual_psd.push((m.name.clone(), c)),
+            Err(e) => warnings.push(format!("model `{}`: no residual PSD: {e}", m.name)),
+        }
+    }
+    // ρ_opt at the truth where the first model has every true value, else at its MAP
+    let first = plan.models[0].exact;
+    let truth_snr = truth_of(study, plan.models[0].spec.model, &prep.dataset)
+        .and_then(|t| t.into_iter().collect::<Option<Vec<f64>>>())
+        .map(|t| first.snr(&t));
+    Ok(SelectSummary {
+        origin: prep.origin.clone(),
+        rho_opt_simulated: prep.dataset.extra.get("snr_total").and_then(|v| v.as_f64()),
+        rho_opt: truth_snr.unwrap_or_else(|| first.snr(&models[0].map)),
+        n_bins: first.n_bins(),
+        statistic: first.statistic(),
+        schwarz_n: plan.n_sbic,
+        posterior_model_probabilities: pair::posterior_probabilities(&models, &pairs),
+        models,
+        pairs,
+        rj,
+        rj_note,
+        rj_iterations_per_second: rj_rate,
+        seconds: 0.0,
+        warnings,
+        residual_psd,
+        model_chains,
+    })
+}

@@ -1,0 +1,42 @@
+//! Everything `occam select` reports.
+
+use super::outcome::ModelOutcome;
+use super::pair::PairResult;
+use crate::evidence::RjResult;
+use serde::Serialize;
+
+/// Everything `occam select` reports.
+#[derive(Debug, Clone, Serialize)]
+pub struct SelectSummary {
+    pub origin: String,
+    /// ρ_opt of the injections under the simulation's exact noise model (when simulated).
+    pub rho_opt_simulated: Option<f64>,
+    /// ρ_opt = √⟨h|h⟩ at the truth (or the first model's MAP) under the analysis's noise
+    /// estimate (Welch by default), which differs from the model noise at low frequencies;
+    /// NaN (null) for a model that reads no noiseless input channel.
+    pub rho_opt: f64,
+    pub n_bins: usize,
+    /// The statistic of every `ln L` and evidence (`[analysis] statistic`).
+    pub statistic: crate::likelihood::Statistic,
+    pub schwarz_n: f64,
+    pub models: Vec<ModelOutcome>,
+    pub pairs: Vec<PairResult>,
+    /// `P(k|y)` from the reference `ln B` of every pair with the first model and the prior
+    /// model probabilities (`None` when a pair has no reference number).
+    pub posterior_model_probabilities: Option<Vec<f64>>,
+    /// The reversible-jump run (absent when it could not run: see `rj_note`).
+    pub rj: Option<RjResult>,
+    pub rj_note: Option<String>,
+    pub rj_iterations_per_second: f64,
+    pub seconds: f64,
+    /// Warnings about the models, the data and the estimators.
+    pub warnings: Vec<String>,
+    /// Each model's residual PSD at its MAP (Fig. 3), written to `residual_psd.npz` and
+    /// plotted, not into `summary.json`.
+    #[serde(skip)]
+    pub residual_psd: Vec<(String, Vec<crate::likelihood::residual_psd::ResidualPsd>)>,
+    /// Each model's in-model chains (`None` where they did not run), written to
+    /// `chains_<model>.npz`, not into `summary.json`.
+    #[serde(skip)]
+    pub model_chains: Vec<(String, Option<crate::sampler::Chains>)>,
+}
