@@ -26,9 +26,10 @@
 //! linear-Gaussian family it is exact. Without the correction a θ̂ on or outside a bound is an
 //! error, and [`LaplaceEstimate::min_margin_sigma`] reports how close θ̂ is to a bound.
 
+use super::error::EvidenceError;
+use super::method::Method;
 use super::mvn::{MvnOptions, mvn_rectangle};
 use super::robust::{RobustMethod, robust_covariance};
-use super::{EvidenceError, Method};
 use crate::density::LogDensity;
 use crate::linalg::SpdOptions;
 use crate::prior::{Prior, PriorKind};

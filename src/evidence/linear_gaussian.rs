@@ -24,8 +24,9 @@
 //! absent); for an all-uniform prior it is §11's box formula (`m = θ̂`, `A⁻¹ = σ² G⁻¹`). The box
 //! probability comes from [`mvn_rectangle`] and carries its quasi-Monte-Carlo error.
 
+use super::error::EvidenceError;
+use super::method::Method;
 use super::mvn::{MvnOptions, mvn_rectangle};
-use super::{EvidenceError, Method};
 use crate::density::LogDensity;
 use crate::linalg::{Spd, SpdOptions};
 use crate::prior::{Prior, PriorKind};

@@ -23,7 +23,8 @@
 //! draws, so that tiny masses (a Gaussian hundreds of σ outside a box) stay finite and keep
 //! their relative precision.
 
-use super::{EvidenceError, normal};
+use super::error::EvidenceError;
+use super::normal;
 use crate::linalg::Spd;
 use nalgebra::DMatrix;
 use rand::{RngExt, SeedableRng};

@@ -37,7 +37,7 @@
 //!
 //! Both are deterministic given their seed.
 
-use super::EvidenceError;
+use super::error::EvidenceError;
 use crate::linalg::{cholesky_in_place, forward_solve_norm2, ln_det_lower};
 use nalgebra::DMatrix;
 use rand::{RngExt, SeedableRng};

@@ -9,7 +9,9 @@
 //! `(S − ln B)/ln B` vanishes as n → ∞ (Kass & Raftery 1995), but the absolute error is O(1):
 //! the prior volume never enters. Written with ln L, so no χ² sign pitfall.
 
-use super::{EvidenceError, LnB, Method};
+use super::error::EvidenceError;
+use super::ln_b::LnB;
+use super::method::Method;
 
 /// The Schwarz proxy of one model, `ln L̂ − (D/2) ln n`.
 pub fn schwarz_ln_z(ln_l_hat: f64, dim: usize, n: f64) -> Result<f64, EvidenceError> {

@@ -4,9 +4,9 @@ use rand::{RngExt, SeedableRng};
 use rand_xoshiro::Xoshiro256PlusPlus;
 use serde::{Deserialize, Serialize};
 
-use super::SamplerError;
 use super::adapt::AdaptState;
 use super::chains::{BestPoint, Chain, ChainCounts};
+use super::error::SamplerError;
 use super::proposal::{GaussianProposal, Proposal};
 use super::settings::{MhSettings, Start};
 use crate::density::LogDensity;

@@ -2,8 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::SamplerError;
-use super::diagnostics::{Diagnostics, Thresholds};
+use super::error::SamplerError;
 
 /// Proposal outcomes in one phase of a chain (burn-in or sampling).
 ///
@@ -284,16 +283,6 @@ impl Chains {
         let denom = n.saturating_sub(1).max(1) as f64;
         c.iter_mut().for_each(|x| *x /= denom);
         c
-    }
-
-    /// Diagnostics with the default [`Thresholds`].
-    pub fn diagnostics(&self) -> Result<Diagnostics, SamplerError> {
-        Diagnostics::compute(self, Thresholds::default())
-    }
-
-    /// Diagnostics with the given thresholds for [`Diagnostics::warnings`].
-    pub fn diagnostics_with(&self, thresholds: Thresholds) -> Result<Diagnostics, SamplerError> {
-        Diagnostics::compute(self, thresholds)
     }
 }
 

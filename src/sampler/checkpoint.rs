@@ -9,8 +9,8 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use super::SamplerError;
 use super::chain::ChainState;
+use super::error::SamplerError;
 use super::proposal::GaussianProposal;
 use super::settings::{Adapt, Anneal, MhSettings};
 use crate::density::LogDensity;

@@ -20,8 +20,8 @@ use realfft::num_complex::Complex;
 use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
 use statrs::function::erf::erfc_inv;
 
-use super::SamplerError;
 use super::chains::Chains;
+use super::error::SamplerError;
 
 /// Limits beyond which [`Diagnostics::warnings`] complains.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -162,6 +162,18 @@ impl fmt::Display for Warning {
                 }
             }
         }
+    }
+}
+
+impl Chains {
+    /// Diagnostics with the default [`Thresholds`].
+    pub fn diagnostics(&self) -> Result<Diagnostics, SamplerError> {
+        Diagnostics::compute(self, Thresholds::default())
+    }
+
+    /// Diagnostics with the given thresholds for [`Diagnostics::warnings`].
+    pub fn diagnostics_with(&self, thresholds: Thresholds) -> Result<Diagnostics, SamplerError> {
+        Diagnostics::compute(self, thresholds)
     }
 }
 

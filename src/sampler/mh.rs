@@ -6,11 +6,11 @@ use std::path::{Path, PathBuf};
 use nalgebra::DMatrix;
 use rayon::prelude::*;
 
-use super::SamplerError;
 use super::chain::{ChainState, Progress};
 use super::chains::Chains;
 use super::checkpoint::{self, CheckpointRef};
 use super::driver::{Driver, Ended, Sampler};
+use super::error::SamplerError;
 use super::proposal::{GaussianProposal, Proposal};
 use super::settings::{MhSettings, Start};
 use crate::density::LogDensity;

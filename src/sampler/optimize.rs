@@ -17,7 +17,7 @@
 //!   restart improves `f` by no more than `f_atol`, after `max_restarts` restarts, or when
 //!   `max_evals` is used up.
 
-use super::SamplerError;
+use super::error::SamplerError;
 use crate::density::LogDensity;
 
 /// Nelder–Mead settings.

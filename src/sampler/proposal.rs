@@ -5,7 +5,7 @@ use rand::Rng;
 use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 
-use super::SamplerError;
+use super::error::SamplerError;
 use crate::linalg::{LinalgError, SpdOptions};
 
 /// A Metropolis–Hastings proposal `q(θ' | θ)`.

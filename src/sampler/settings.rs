@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::SamplerError;
+use super::error::SamplerError;
 
 /// LTPDA's annealed search phase (ltp-model.md §9.1), run at the start of the burn-in.
 ///

@@ -8,8 +8,12 @@
 //! once it is known). Memory is `O(√N + cycles cap + pilot)` per chain, plus the post-burn-in
 //! draws themselves (model, parameters, `ln L`) when [`Shared::columns`] asks for them.
 
-use super::estimate::{Grid, lae};
-use super::{Prepared, ProposalShape, RjTracePoint};
+use super::bridge::{GRID_OFFSETS, Grid};
+use super::logsum::lae;
+use super::options::{ProposalShape, RjOptions};
+use super::prepare::{BoxMasses, Prepared};
+use super::result::RjTracePoint;
+use crate::evidence::error::EvidenceError;
 use crate::sampler::chain_rng;
 use rand::RngExt;
 use rand_distr::{ChiSquared, Distribution, StandardNormal};
@@ -22,7 +26,7 @@ const MAX_CYCLE_UNITS: usize = 1024;
 
 /// Index layout of [`Sums`] for `k` models and `g` bridge grid points.
 #[derive(Debug, Clone, Copy)]
-pub(super) struct Layout {
+pub(crate) struct Layout {
     pub k: usize,
     pub g: usize,
 }
@@ -71,7 +75,7 @@ impl Layout {
 /// Sums of the per-iteration series over a stretch of iterations: counts in linear scale, the
 /// rest as natural logs of sums of positive terms (`−∞` when empty).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub(super) struct Sums {
+pub(crate) struct Sums {
     pub counts: Vec<f64>,
     pub logs: Vec<f64>,
 }
@@ -105,7 +109,7 @@ impl Sums {
 }
 
 /// What every chain reads: the models and the constants of the run.
-pub(super) struct Shared<'a> {
+pub(crate) struct Shared<'a> {
     pub prepared: Vec<Prepared<'a>>,
     pub shape: ProposalShape,
     pub chi2: Option<ChiSquared<f64>>,
@@ -145,6 +149,89 @@ impl Shared<'_> {
     }
 }
 
+/// The constants every chain reads: jump ratios and cumulative jump rows from the validated
+/// prior model probabilities `prior_p` and jump matrix `jump`, box-mass shifts, the proposal's
+/// χ² (Student-t), batch size and trace spacing; `columns` is the union of the models'
+/// parameters (each model's columns and the union's width).
+pub(crate) fn shared<'a>(
+    prepared: Vec<Prepared<'a>>,
+    prior_p: &[f64],
+    jump: &[Vec<f64>],
+    boxes: &BoxMasses,
+    opts: &RjOptions,
+    per_chain: usize,
+    columns: (Vec<Vec<usize>>, usize),
+) -> Result<Shared<'a>, EvidenceError> {
+    let k_models = prior_p.len();
+    let (ln_box, ln_box_g) = (&boxes.ln_p, &boxes.ln_p_g);
+    let n_post = per_chain - opts.burn_in;
+    let batch = opts
+        .batch_size
+        .unwrap_or((n_post as f64).sqrt() as usize)
+        .max(1);
+    let trace_every = if opts.trace_every == 0 {
+        (n_post / 1000).max(1)
+    } else {
+        opts.trace_every
+    };
+    // ln R[k][l] = ln P(l) + ln j(k|l) − ln P(k) − ln j(l|k).
+    let ln_ratio: Vec<Vec<f64>> = (0..k_models)
+        .map(|k| {
+            (0..k_models)
+                .map(|l| prior_p[l].ln() + jump[l][k].ln() - prior_p[k].ln() - jump[k][l].ln())
+                .collect()
+        })
+        .collect();
+    let cumulative: Vec<Vec<f64>> = jump
+        .iter()
+        .map(|row| {
+            row.iter()
+                .scan(0.0, |s, &p| {
+                    *s += p;
+                    Some(*s)
+                })
+                .collect()
+        })
+        .collect();
+    let shift: Vec<Vec<f64>> = (0..k_models)
+        .map(|k| (0..k_models).map(|l| ln_box[l] - ln_box[k]).collect())
+        .collect();
+    let shift_g: Vec<Vec<f64>> = (0..k_models)
+        .map(|k| (0..k_models).map(|l| ln_box[l] - ln_box_g[k]).collect())
+        .collect();
+    let chi2 =
+        match opts.proposal {
+            ProposalShape::StudentT { nu } => Some(ChiSquared::new(nu).map_err(|_| {
+                EvidenceError::option("proposal nu", nu, "ν must be finite and > 0")
+            })?),
+            ProposalShape::Gaussian => None,
+        };
+    let w = opts.defensive;
+    let (columns, n_columns) = columns;
+    Ok(Shared {
+        prepared,
+        shape: opts.proposal,
+        chi2,
+        defensive: (w, (1.0 - w).ln(), w.ln()),
+        ln_ratio,
+        cumulative,
+        shift,
+        shift_g,
+        burn_in: opts.burn_in,
+        n_iter: per_chain,
+        batch,
+        trace_every,
+        start_model: opts.start_model,
+        layout: Layout {
+            k: k_models,
+            g: GRID_OFFSETS.len(),
+        },
+        grid: None,
+        columns: opts.keep_draws.then_some(columns),
+        n_columns,
+    })
+}
+
 /// One post-burn-in jump proposal, as the accumulators need it.
 struct Proposal {
     from: usize,
@@ -168,7 +255,7 @@ struct PilotRecord {
 /// One independent chain: everything needed to continue it bit for bit (the proposal's scratch
 /// buffers are rebuilt on load).
 #[derive(Serialize, Deserialize)]
-pub(super) struct Chain {
+pub(crate) struct Chain {
     rng: Xoshiro256PlusPlus,
     /// Iterations done.
     pub t: usize,

@@ -1,112 +1,16 @@
 //! Bayes-factor estimators from the chains' streaming sums, and their errors.
 
+use super::bridge::{GRID_OFFSETS, Grid, PairGrid, fixed_point};
 use super::chain::{Chain, Layout, Sums};
-use super::{
-    EvidenceError, LnB, MAX_RUNNING_POINTS, Method, RjPair, RjRunningPair, RjRunningPoint,
-};
-
-/// `ln(eᵃ + eᵇ)`, exact for `−∞` arguments.
-#[inline]
-pub(super) fn lae(a: f64, b: f64) -> f64 {
-    if a == f64::NEG_INFINITY {
-        return b;
-    }
-    if b == f64::NEG_INFINITY {
-        return a;
-    }
-    if a >= b {
-        a + (b - a).exp().ln_1p()
-    } else {
-        b + (a - b).exp().ln_1p()
-    }
-}
-
-fn log_sum_exp(it: impl Iterator<Item = f64>) -> f64 {
-    it.fold(f64::NEG_INFINITY, lae)
-}
-
-/// Offsets (nat) of the bridge grid around the pilot's fixed point; the first is the pilot
-/// value itself.
-pub(super) const GRID_OFFSETS: [f64; 11] =
-    [0.0, -0.5, 0.5, -1.0, 1.0, -2.0, 2.0, -4.0, 4.0, -8.0, 8.0];
-
-/// The bridge function `h = 1/(s₁ r₀ f̃₁ + s₂ f̃₂)` of one pair at every grid point.
-#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
-pub(super) struct PairGrid {
-    pub ln_r: Vec<f64>,
-    pub ln_s1: f64,
-    pub ln_s2: f64,
-}
-
-/// Bridge functions of every pair `a < b`.
-#[derive(Debug, Clone, serde::Serialize, serde::Deserialize)]
-pub(super) struct Grid {
-    k: usize,
-    pairs: Vec<PairGrid>,
-}
-
-impl Grid {
-    pub fn pair(&self, a: usize, b: usize) -> &PairGrid {
-        &self.pairs[a * self.k + b]
-    }
-}
-
-/// The optimal bridge's fixed point on raw draws `x` (from `f₁`) and `y` (from `f₂`), both in
-/// the orientation `ρ = f₂/f₁` (shifted by the box masses); `None` when it does not converge.
-pub(super) fn fixed_point(x: &[f64], y: &[f64]) -> Option<f64> {
-    let (n1, n2) = (x.len() as f64, y.len() as f64);
-    if n2 == 0.0 {
-        return Some(log_sum_exp(x.iter().copied()) - n1.ln());
-    }
-    if n1 == 0.0 {
-        return Some(-(log_sum_exp(y.iter().map(|&v| -v)) - n2.ln()));
-    }
-    let (ls1, ls2) = ((n1 / (n1 + n2)).ln(), (n2 / (n1 + n2)).ln());
-    let mean_num = |lr: f64| log_sum_exp(x.iter().map(|&xi| num_term(lr, ls1, ls2, xi))) - n1.ln();
-    let mean_den = |lr: f64| log_sum_exp(y.iter().map(|&yj| den_term(lr, ls1, ls2, yj))) - n2.ln();
-    let mut lr = log_sum_exp(x.iter().copied()) - n1.ln();
-    if !lr.is_finite() {
-        lr = -(log_sum_exp(y.iter().map(|&v| -v)) - n2.ln());
-    }
-    if !lr.is_finite() {
-        lr = 0.0;
-    }
-    for _ in 0..10_000 {
-        let next = mean_num(lr) - mean_den(lr);
-        if !next.is_finite() {
-            return None;
-        }
-        let done = (next - lr).abs() < 1e-10;
-        lr = next;
-        if done {
-            return Some(lr);
-        }
-    }
-    None
-}
-
-#[inline]
-pub(super) fn num_term(lr: f64, ls1: f64, ls2: f64, x: f64) -> f64 {
-    if x == f64::NEG_INFINITY {
-        f64::NEG_INFINITY
-    } else {
-        x - lae(ls1 + lr, ls2 + x)
-    }
-}
-
-#[inline]
-pub(super) fn den_term(lr: f64, ls1: f64, ls2: f64, y: f64) -> f64 {
-    if y == f64::INFINITY {
-        f64::NEG_INFINITY
-    } else {
-        -lae(ls1 + lr, ls2 + y)
-    }
-}
+use super::result::{MAX_RUNNING_POINTS, RjPair, RjRunningPair, RjRunningPoint};
+use crate::evidence::error::EvidenceError;
+use crate::evidence::ln_b::LnB;
+use crate::evidence::method::Method;
 
 /// Fixes the bridge function of every pair from the pooled pilot draws: `s_i` are the pilot's
 /// draw fractions and the grid is centred on the pilot's optimal fixed point. When the pilot is
 /// the whole run the grid's first point *is* the optimal bridge of Meng & Wong.
-pub(super) fn pilot_grid(chains: &[Chain], k: usize, shift: &[Vec<f64>]) -> Grid {
+pub(crate) fn pilot_grid(chains: &[Chain], k: usize, shift: &[Vec<f64>]) -> Grid {
     let mut pairs = Vec::with_capacity(k * k);
     for a in 0..k {
         for b in 0..k {
@@ -147,7 +51,7 @@ pub(super) fn pilot_grid(chains: &[Chain], k: usize, shift: &[Vec<f64>]) -> Grid
 }
 
 /// The pooled units of all chains.
-pub(super) struct Pool<'a> {
+pub(crate) struct Pool<'a> {
     pub layout: Layout,
     pub total: Sums,
     pub n: f64,
@@ -215,12 +119,12 @@ impl<'a> Pool<'a> {
 }
 
 /// What the visit estimator's error floor needs: sojourns and visits per model.
-pub(super) struct Sojourns<'a> {
+pub(crate) struct Sojourns<'a> {
     pub sojourns: &'a [u64],
     pub visits: &'a [u64],
 }
 
-pub(super) fn visit_estimate(
+pub(crate) fn visit_estimate(
     pool: &Pool<'_>,
     k: usize,
     l: usize,
@@ -248,7 +152,7 @@ pub(super) fn visit_estimate(
 /// for two models is the exact asymptotic variance `2(2 − a − β)/n_switches` of the two-state
 /// Markov chain. Sojourns whose leave probability varies (with θ) are mixtures of geometric
 /// lengths, whose coefficient of variation is larger, so this is a lower bound.
-pub(super) fn markov_floor(k: usize, l: usize, s: &Sojourns<'_>) -> f64 {
+pub(crate) fn markov_floor(k: usize, l: usize, s: &Sojourns<'_>) -> f64 {
     let (mk, ml) = (s.sojourns[k] as f64, s.sojourns[l] as f64);
     if mk == 0.0 || ml == 0.0 {
         return 0.0;
@@ -258,7 +162,7 @@ pub(super) fn markov_floor(k: usize, l: usize, s: &Sojourns<'_>) -> f64 {
     (1.0 / mk + 1.0 / ml) * (1.0 - 0.5 * (ak + al)).max(0.0)
 }
 
-pub(super) fn acceptance_estimate(
+pub(crate) fn acceptance_estimate(
     pool: &Pool<'_>,
     k: usize,
     l: usize,
@@ -303,7 +207,7 @@ pub(super) fn acceptance_estimate(
 }
 
 /// The bridge for the pair `k < l`; see the module docs.
-pub(super) fn bridge_estimate(
+pub(crate) fn bridge_estimate(
     pool: &Pool<'_>,
     grid: &Grid,
     k: usize,
@@ -368,7 +272,7 @@ pub(super) fn bridge_estimate(
 }
 
 /// Checks shared by the estimators' inputs.
-pub(super) fn check_chains(chains: &[Chain]) -> Result<(), EvidenceError> {
+pub(crate) fn check_chains(chains: &[Chain]) -> Result<(), EvidenceError> {
     if chains.iter().any(|c| !c.pilot_done) {
         return Err(EvidenceError::option(
             "rjmcmc pilot",
@@ -380,14 +284,14 @@ pub(super) fn check_chains(chains: &[Chain]) -> Result<(), EvidenceError> {
 }
 
 /// The visit-ratio, Rao-Blackwell and bridge estimates of one pair.
-pub(super) type PairEstimates = (Option<LnB>, Option<LnB>, Option<LnB>);
+pub(crate) type PairEstimates = (Option<LnB>, Option<LnB>, Option<LnB>);
 
-/// The estimates along the run ([`super::RjResult::running`]): at up to
+/// The estimates along the run ([`super::result::RjResult::running`]): at up to
 /// [`MAX_RUNNING_POINTS`] prefixes of `b` batches (evenly spread, each pooling every chain's
 /// head stretch and first `b` batches, errors from those batch means), then the whole run
 /// (`final_pairs`, the pooled result itself). A prefix of fewer than 2 batches in all has no
 /// error and is skipped.
-pub(super) fn running_points(
+pub(crate) fn running_points(
     chains: &[Chain],
     layout: Layout,
     batch: usize,

@@ -1,14 +1,15 @@
 //! Running the jump chains: fresh or from a checkpoint, on the one sampler [`Driver`], and the
 //! estimates of the finished chains.
 
-use super::chain::{Chain, Shared};
+use super::bridge::Grid;
+use super::chain::{Chain, Shared, shared};
 use super::estimate::{self, Pool, Sojourns};
-use super::{
-    BoxMasses, PILOT_ITERS, PairEstimator, RjDraws, RjModel, RjOptions, RjProgress, RjResult,
-    Totals, box_masses, pairs, prepare, shared, union_columns, validate,
-};
+use super::options::{PILOT_ITERS, RjModel, RjOptions, validate};
+use super::pairs::{PairEstimator, Totals, pairs};
+use super::prepare::{BoxMasses, box_masses, prepare};
+use super::result::{RjDraws, RjProgress, RjResult, union_columns};
 use crate::data::checkpoint;
-use crate::evidence::EvidenceError;
+use crate::evidence::error::EvidenceError;
 use crate::sampler::{Driver, Ended, Sampler};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -56,7 +57,7 @@ fn keys(models: &[RjModel<'_>]) -> Vec<ModelKey> {
 struct SavedRef<'a> {
     opts: &'a RjOptions,
     models: &'a [ModelKey],
-    grid: &'a Option<estimate::Grid>,
+    grid: &'a Option<Grid>,
     chains: &'a [Chain],
 }
 
@@ -64,7 +65,7 @@ struct SavedRef<'a> {
 struct Saved {
     opts: RjOptions,
     models: Vec<ModelKey>,
-    grid: Option<estimate::Grid>,
+    grid: Option<Grid>,
     chains: Vec<Chain>,
 }
 

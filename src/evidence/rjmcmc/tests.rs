@@ -1,7 +1,13 @@
+use super::estimate::Sojourns;
 use super::*;
+use crate::density::LogDensity;
+use crate::evidence::EvidenceError;
 use crate::evidence::linear_gaussian::{LinearGaussian, RandomPrior, RandomSpec};
+use crate::evidence::mvn::MvnOptions;
 use crate::nested::SubModel;
+use nalgebra::DMatrix;
 use rand::SeedableRng;
+use rand_xoshiro::Xoshiro256PlusPlus;
 
 fn exact(lg: &LinearGaussian, a: &[usize], b: &[usize]) -> f64 {
     let o = MvnOptions::default();

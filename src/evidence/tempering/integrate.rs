@@ -36,7 +36,7 @@ pub struct SteppingStoneEstimate {
 
 /// Per rung: the post-burn-in mean and variance of `ln L` and the mean's batch-means error
 /// (NaN where the mean is not finite).
-pub(super) fn rung_moments(
+pub(crate) fn rung_moments(
     series: &[f64],
     n_t: usize,
     n_post: usize,
@@ -106,7 +106,7 @@ pub(crate) fn hermite_with_error(betas: &[f64], f: &[f64], fp: &[f64]) -> (f64, 
 }
 
 /// Thermodynamic integration over the post-burn-in series (or why it does not apply).
-pub(super) fn thermodynamic(
+pub(crate) fn thermodynamic(
     betas: &[f64],
     mean: &[f64],
     var: &[f64],
@@ -154,7 +154,7 @@ pub(super) fn thermodynamic(
 }
 
 /// The stepping-stone estimate over the post-burn-in series (or why it does not apply).
-pub(super) fn stepping_stone(
+pub(crate) fn stepping_stone(
     betas: &[f64],
     series: &[f64],
     batch: usize,

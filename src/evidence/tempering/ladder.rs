@@ -5,7 +5,7 @@
 
 use super::options::{LADDER_KAPPA, N_PILOT, SNAPSHOTS, TemperingOptions};
 use crate::density::LogDensity;
-use crate::evidence::EvidenceError;
+use crate::evidence::error::EvidenceError;
 use crate::linalg::{Spd, SpdOptions, symmetrised};
 use crate::prior::PriorKind;
 use crate::sampler::{Sampler, chain_rng};
@@ -19,26 +19,26 @@ use serde::{Deserialize, Serialize};
 /// One rung's chain: its state, random stream, proposal and counters (everything a checkpoint
 /// needs; the proposal's scratch buffers are rebuilt on load).
 #[derive(Serialize, Deserialize)]
-pub(super) struct Rung {
-    pub(super) beta: f64,
-    pub(super) theta: Vec<f64>,
-    pub(super) ln_l: f64,
+pub(crate) struct Rung {
+    pub(crate) beta: f64,
+    pub(crate) theta: Vec<f64>,
+    pub(crate) ln_l: f64,
     ln_prior: f64,
     rng: Xoshiro256PlusPlus,
     /// Row-major lower Cholesky factor of `Σ_i`.
     chol: Vec<f64>,
     /// `ln s_i`.
-    pub(super) ln_scale: f64,
+    pub(crate) ln_scale: f64,
     /// Largest allowed `ln s_i`.
     ln_scale_max: f64,
     #[serde(skip)]
     prop: Vec<f64>,
     #[serde(skip)]
     z: Vec<f64>,
-    pub(super) tried: u64,
-    pub(super) accepted: u64,
-    pub(super) non_finite: u64,
-    pub(super) evals: u64,
+    pub(crate) tried: u64,
+    pub(crate) accepted: u64,
+    pub(crate) non_finite: u64,
+    pub(crate) evals: u64,
 }
 
 impl Rung {
@@ -51,7 +51,7 @@ impl Rung {
 
     /// One sweep's move on this rung: an exact prior draw at β = 0, else a random-walk
     /// Metropolis step on `L^β π`.
-    pub(super) fn step(&mut self, target: &dyn LogDensity) {
+    pub(crate) fn step(&mut self, target: &dyn LogDensity) {
         let prior = target.prior();
         if self.beta == 0.0 {
             self.theta = prior.sample(&mut self.rng);
@@ -105,7 +105,7 @@ impl Rung {
 }
 
 /// Per-rung proposal geometry: `C⁻¹`, the prior precisions and widths.
-pub(super) struct Geometry {
+pub(crate) struct Geometry {
     dim: usize,
     cov_inv: DMatrix<f64>,
     prior_prec: Vec<f64>,
@@ -115,7 +115,7 @@ pub(super) struct Geometry {
 
 impl Geometry {
     /// Row-major Cholesky factor of `Σ_β = (β C⁻¹ + (1 − β) P⁻¹)⁻¹` and the largest `ln s`.
-    pub(super) fn rung(&self, beta: f64) -> Result<(Vec<f64>, f64), EvidenceError> {
+    pub(crate) fn rung(&self, beta: f64) -> Result<(Vec<f64>, f64), EvidenceError> {
         let d = self.dim;
         let mut m = &self.cov_inv * beta;
         for i in 0..d {
@@ -140,7 +140,7 @@ impl Geometry {
 
 impl Geometry {
     /// `C⁻¹` from the posterior covariance `cov`, and the prior's precisions and widths.
-    pub(super) fn new(
+    pub(crate) fn new(
         target: &dyn LogDensity,
         cov: &DMatrix<f64>,
     ) -> Result<Geometry, EvidenceError> {
@@ -173,17 +173,17 @@ impl Geometry {
 }
 
 /// The initial ladder and what choosing it cost.
-pub(super) struct Pilot {
-    pub(super) betas: Vec<f64>,
+pub(crate) struct Pilot {
+    pub(crate) betas: Vec<f64>,
     /// Likelihood evaluations of the pilot draws.
-    pub(super) evals: u64,
+    pub(crate) evals: u64,
     /// Pilot draws whose `ln L` was NaN or `+∞`.
-    pub(super) non_finite: u64,
+    pub(crate) non_finite: u64,
 }
 
 /// The geometric ladder from the pilot `β_1 = 1/sd_π(ln L)` (from [`N_PILOT`] prior draws on
 /// stream `N + 1`; capped at `1/(N−1)`) to 1.
-pub(super) fn pilot_ladder(target: &dyn LogDensity, opts: &TemperingOptions) -> Pilot {
+pub(crate) fn pilot_ladder(target: &dyn LogDensity, opts: &TemperingOptions) -> Pilot {
     let prior = target.prior();
     let n_t = opts.n_temps;
     let mut evals = 0u64;
@@ -351,34 +351,34 @@ fn adapt(
 
 /// A tempering run between sweeps: everything needed to continue it bit for bit.
 #[derive(Serialize, Deserialize)]
-pub(super) struct Ladder {
-    pub(super) rungs: Vec<Rung>,
+pub(crate) struct Ladder {
+    pub(crate) rungs: Vec<Rung>,
     /// The current ladder (adapted during the burn-in, frozen afterwards).
-    pub(super) betas: Vec<f64>,
+    pub(crate) betas: Vec<f64>,
     swap_rng: Xoshiro256PlusPlus,
     /// Sweeps done.
-    pub(super) t: usize,
+    pub(crate) t: usize,
     /// `ln L` of every rung after each post-burn-in sweep, sweep-major (`[t * n_t + i]`).
-    pub(super) series: Vec<f64>,
-    pub(super) swaps_tried: Vec<u64>,
-    pub(super) swaps_acc: Vec<u64>,
+    pub(crate) series: Vec<f64>,
+    pub(crate) swaps_tried: Vec<u64>,
+    pub(crate) swaps_acc: Vec<u64>,
     /// Swap counts of the current adaptation window.
     win_tried: Vec<u64>,
     win_acc: Vec<u64>,
     /// Each rung's `(tried, accepted)` at the start of the current window.
     win_rung: Vec<(u64, u64)>,
-    pub(super) rung_samples: Vec<Vec<Vec<f64>>>,
+    pub(crate) rung_samples: Vec<Vec<Vec<f64>>>,
     /// Adaptation steps done.
     update: usize,
     /// What choosing the initial ladder cost.
-    pub(super) pilot_evals: u64,
-    pub(super) pilot_non_finite: u64,
+    pub(crate) pilot_evals: u64,
+    pub(crate) pilot_non_finite: u64,
 }
 
 impl Ladder {
     /// A ladder on `pilot.betas` with every rung at `start` (`(ln L, ln π)` there), before its
     /// first sweep; rung 0 has drawn its first prior point.
-    pub(super) fn new(
+    pub(crate) fn new(
         target: &dyn LogDensity,
         pilot: Pilot,
         geom: &Geometry,
@@ -410,7 +410,7 @@ impl Ladder {
 
     /// `Err(problem)` if a loaded state does not fit `opts` and dimension `d`; otherwise sizes
     /// its buffers.
-    pub(super) fn check_and_prepare(
+    pub(crate) fn check_and_prepare(
         &mut self,
         opts: &TemperingOptions,
         d: usize,
@@ -505,11 +505,11 @@ impl Ladder {
 }
 
 /// The ladder with what it sweeps on, as the [`Driver`](crate::sampler::Driver) runs it.
-pub(super) struct Sweeping<'a> {
-    pub(super) target: &'a dyn LogDensity,
-    pub(super) geom: &'a Geometry,
-    pub(super) opts: &'a TemperingOptions,
-    pub(super) ladder: Ladder,
+pub(crate) struct Sweeping<'a> {
+    pub(crate) target: &'a dyn LogDensity,
+    pub(crate) geom: &'a Geometry,
+    pub(crate) opts: &'a TemperingOptions,
+    pub(crate) ladder: Ladder,
 }
 
 impl Sampler for Sweeping<'_> {

@@ -1,12 +1,12 @@
 //! The options of a tempering run and their validation.
 
-use crate::evidence::EvidenceError;
+use crate::evidence::error::EvidenceError;
 use serde::{Deserialize, Serialize};
 
 /// Prior draws used to choose the initial `β_1`.
-pub(super) const N_PILOT: usize = 256;
+pub(crate) const N_PILOT: usize = 256;
 /// Initial step size `κ₀` of the ladder adaptation (in `ln ΔT` per unit swap-rate difference).
-pub(super) const LADDER_KAPPA: f64 = 0.5;
+pub(crate) const LADDER_KAPPA: f64 = 0.5;
 
 /// States kept per rung in [`TemperingResult::rung_samples`](super::TemperingResult::rung_samples).
 pub const SNAPSHOTS: usize = 8;
@@ -62,7 +62,7 @@ impl Default for TemperingOptions {
 }
 
 /// Checks the options before anything runs.
-pub(super) fn validate(opts: &TemperingOptions) -> Result<(), EvidenceError> {
+pub(crate) fn validate(opts: &TemperingOptions) -> Result<(), EvidenceError> {
     if opts.n_temps < 3 {
         return Err(EvidenceError::option(
             "tempering n_temps",

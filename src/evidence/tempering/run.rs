@@ -8,7 +8,7 @@ use super::ladder::{Geometry, Ladder, Pilot, Sweeping, pilot_ladder};
 use super::options::{TemperingOptions, validate};
 use crate::data::checkpoint;
 use crate::density::LogDensity;
-use crate::evidence::EvidenceError;
+use crate::evidence::error::EvidenceError;
 use crate::sampler::{Driver, Ended};
 use nalgebra::DMatrix;
 use serde::{Deserialize, Serialize};
