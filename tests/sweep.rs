@@ -152,6 +152,89 @@ fn a_2d_sweep_is_the_same_on_any_number_of_threads_and_resumes_where_it_stopped(
     );
 }
 
+/// A sweep killed inside a task (the task's select saves its stage in progress after every
+/// block) continues that task from its own checkpoint and stage file on the rerun, ends with
+/// the numbers of an uninterrupted sweep, and leaves only the task's record behind.
+#[test]
+fn a_sweep_killed_inside_a_task_continues_the_task() {
+    let d = tempfile::tempdir().unwrap();
+    let one_task = SMALL
+        .replace("realisations = 2", "realisations = 1")
+        .replace("values = [20.0, 3000.0]", "values = [3000.0]")
+        .replace("values = [0.1, 0.3]", "values = [0.3]")
+        .replace(
+            "pt_temperatures = 0",
+            "pt_temperatures = 6\npt_iterations = 40000\npt_burn_in = 300",
+        );
+    std::fs::write(d.path().join("s.toml"), &one_task).unwrap();
+    let sweep = |out: &str| {
+        let mut c = std::process::Command::new(env!("CARGO_BIN_EXE_occam"));
+        c.args(["sweep", "s.toml", "-q", "-o", out])
+            .env("OCCAM_CHECKPOINT_SECONDS", "0")
+            .current_dir(d.path())
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::piped());
+        c
+    };
+    let whole = sweep("whole").output().unwrap();
+    assert!(
+        whole.status.success(),
+        "{}",
+        String::from_utf8_lossy(&whole.stderr)
+    );
+
+    let mut child = sweep("cut").spawn().unwrap();
+    let tasks = d.path().join("cut/tasks");
+    // inside a later stage: a finished stage saved and the next one in progress
+    let in_task = || {
+        let has = |end: &str| {
+            std::fs::read_dir(&tasks).is_ok_and(|rd| {
+                rd.flatten()
+                    .any(|e| e.file_name().to_string_lossy().ends_with(end))
+            })
+        };
+        has(".select.cbor") && has(".stage.cbor")
+    };
+    let t0 = std::time::Instant::now();
+    while !in_task() && t0.elapsed().as_secs() < 120 {
+        if child.try_wait().unwrap().is_some() {
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(1));
+    }
+    let _ = child.kill();
+    child.wait().unwrap();
+    assert!(in_task(), "the sweep must have been killed inside its task");
+    let names = |dir: &Path| {
+        let mut v: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .flatten()
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    };
+
+    let rerun = sweep("cut").output().unwrap();
+    assert!(
+        rerun.status.success(),
+        "{}",
+        String::from_utf8_lossy(&rerun.stderr)
+    );
+    for f in ["sweep.json", "sweep.npz", "table.txt"] {
+        assert!(
+            bytes(&d.path().join("whole"), f) == bytes(&d.path().join("cut"), f),
+            "{f} differs from the uninterrupted sweep"
+        );
+    }
+    let left = names(&tasks);
+    assert_eq!(left.len(), 1, "{left:?}");
+    assert!(
+        left[0].ends_with(".cbor") && !left[0].contains(".select."),
+        "{left:?}"
+    );
+}
+
 #[test]
 fn a_bad_key_or_value_is_an_error_before_anything_runs() {
     let d = tempfile::tempdir().unwrap();

@@ -68,6 +68,9 @@ pub struct SelectCheckpoint {
     /// How often the stage in progress is saved (not part of the file).
     #[serde(skip)]
     stage_every: Option<std::time::Duration>,
+    /// Where the stage in progress is saved, when not `stage.cbor` beside the checkpoint.
+    #[serde(skip)]
+    stage_path: Option<std::path::PathBuf>,
     pub(super) models: Vec<ModelStage>,
     pub(super) rj: Option<RjStage>,
 }
@@ -78,6 +81,7 @@ impl SelectCheckpoint {
         Self {
             identity,
             stage_every: None,
+            stage_path: None,
             models: Vec::new(),
             rj: None,
         }
@@ -88,6 +92,17 @@ impl SelectCheckpoint {
     pub fn save_stage_every(mut self, interval: std::time::Duration) -> Self {
         self.stage_every = Some(interval);
         self
+    }
+
+    /// Saves the stage in progress to `path` rather than to `stage.cbor` beside the
+    /// checkpoint (for runs that share a directory, such as a sweep's tasks).
+    pub fn stage_file_at(mut self, path: impl Into<std::path::PathBuf>) -> Self {
+        self.stage_path = Some(path.into());
+        self
+    }
+
+    pub(super) fn stage_path(&self) -> Option<&Path> {
+        self.stage_path.as_deref()
     }
 
     pub(super) fn stage_every(&self) -> std::time::Duration {

@@ -22,7 +22,7 @@ mod summary;
 
 pub use crate::jobs::prepare::identity;
 pub use checkpoint::{FILE as CHECKPOINT_FILE, SelectCheckpoint};
-pub use stage::FILE as STAGE_FILE;
+pub use stage::{FILE as STAGE_FILE, every_from_env as stage_every_from_env};
 
 pub use console::console;
 pub use error::SelectError;

@@ -42,7 +42,10 @@ impl Checkpointing<'_> {
     /// The stage file beside the checkpoint.
     fn stage_file(&self) -> StageFile {
         StageFile {
-            path: self.path.with_file_name(STAGE_FILE),
+            path: match self.state.stage_path() {
+                Some(p) => p.to_path_buf(),
+                None => self.path.with_file_name(STAGE_FILE),
+            },
             run: self.state.identity().to_string(),
             every: self.state.stage_every(),
         }

@@ -6,6 +6,7 @@ use super::record::{self, Outcome, TaskId, TaskRecord};
 use super::stats::{self, PointStats};
 use crate::config::{Study, StudyFile};
 use crate::jobs::exec::Executor;
+use crate::jobs::select::{Checkpointing, SelectCheckpoint};
 use anyhow::{Context, bail};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -211,7 +212,18 @@ impl Sweep {
         let result = (|| -> anyhow::Result<Outcome> {
             let study = self.study_at(p, r)?;
             let prep = crate::jobs::prepare::prepare(&study)?;
-            let s = crate::jobs::select::run(&study, &prep, None)?;
+            let (ck, stage) = self.task_checkpoints(t);
+            let id = crate::jobs::prepare::identity(&study, &prep.dataset);
+            // a task killed part-way continues from its stages (a damaged file: afresh)
+            let state = SelectCheckpoint::read(&ck, &id)
+                .unwrap_or_else(|_| SelectCheckpoint::new(id))
+                .stage_file_at(stage);
+            let state = match crate::jobs::select::stage_every_from_env()? {
+                Some(every) => state.save_stage_every(every),
+                None => state,
+            };
+            let ckpt = Checkpointing { path: &ck, state };
+            let s = crate::jobs::select::run_checkpointed(&study, &prep, None, Some(ckpt))?;
             Ok(Outcome::from_summary(&s))
         })();
         let (outcome, error) = match result {
@@ -223,6 +235,16 @@ impl Sweep {
             outcome,
             error,
         }
+    }
+
+    /// Task `t`'s select checkpoint and stage file while it runs (`tasks/<hash>.select.cbor`,
+    /// `tasks/<hash>.stage.cbor`), removed once its record is written.
+    pub fn task_checkpoints(&self, t: usize) -> (PathBuf, PathBuf) {
+        let record = self.id(t).path(&self.out);
+        (
+            record.with_extension("select.cbor"),
+            record.with_extension("stage.cbor"),
+        )
     }
 
     /// How many of the sweep's tasks are finished in its run directory (what `--resume`
@@ -299,6 +321,10 @@ impl Sweep {
             let path = rec.id.path(&self.out);
             crate::atomic::write_bytes(&path, &bytes)
                 .with_context(|| format!("writing {}", path.display()))?;
+            // the record holds the task now; absent files are fine
+            for f in <[PathBuf; 2]>::from(self.task_checkpoints(t)) {
+                let _ = std::fs::remove_file(f);
+            }
             if let Some(w) = work {
                 w.done.fetch_add(1, Ordering::Relaxed);
             }
