@@ -367,3 +367,90 @@ fn relative_binning_handles_a_coefficient_that_vanishes_at_the_fiducial_point() 
     eprintln!("vanishing coefficient: worst |Δ ln L| = {worst:.2e}");
     assert!(worst < 0.01, "worst |Δ ln L| = {worst}");
 }
+
+/// A model on channels of the user's own naming: `x` (a read-out), `u` and `v` (two injected
+/// signals), `r = x − a·u − b·v`.
+const OWN_CHANNELS: &str = r#"
+[[model]]
+kind = "user"
+name = "g"
+parameters = ["a", "b"]
+data = ["x", "u", "v"]
+residual = ["x"]
+[model.coefficients.x]
+x = "1"
+u = "-a"
+v = "-b"
+[prior]
+a = { kind = "uniform", lo = -10.0, hi = 10.0 }
+b = { kind = "uniform", lo = -10.0, hi = 10.0 }
+"#;
+
+/// A job reads only the channels of the models it uses: a user model on its own channels
+/// `x, u, v` fits and selects from files without the LTP columns `o1, o12, i1, i12`, which the
+/// built-in model (unused) would read. A channel a used model reads and the file lacks is an
+/// error naming the experiment, the model, the channel and the columns the file has.
+#[test]
+fn a_job_reads_only_the_channels_of_the_models_it_uses() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let sim = format!("seed = 8\noutput = \"sim\"\n{FIT}{DESIGNS}");
+    std::fs::write(d.join("sim.toml"), &sim).unwrap();
+    let (ok, _, err) = occam(&["simulate", "sim.toml"], d);
+    assert!(ok, "{err}");
+    let ds = occam::data::dataset::Dataset::read(&d.join("sim")).unwrap();
+    let mut exps = String::new();
+    for e in &ds.experiments {
+        write_csv(
+            &d.join(format!("{}.csv", e.name)),
+            &["time_s", "x", "u", "v"],
+            &[&e.o[0], &e.i[0], &e.i[1]],
+            e.fs,
+        );
+        write_csv(
+            &d.join(format!("{}_quiet.csv", e.name)),
+            &["time_s", "x"],
+            &[&e.noise[0]],
+            e.fs,
+        );
+        write!(
+            exps,
+            "[[experiment]]\nname = \"{n}\"\ndata = \"{n}.csv\"\nnoise_data = \"{n}_quiet.csv\"\ncolumns = {{ t = \"time_s\" }}\n",
+            n = e.name
+        )
+        .unwrap();
+    }
+    let study = format!(
+        "seed = 3\noutput = \"out\"\n[analysis]\nband = [1e-3, 0.4]\n\
+         [fit]\nmodel = \"g\"\nchains = 2\niterations = 2000\nburn_in = 500\n\
+         [select]\nrj_iterations = 4000\nrj_burn_in = 500\niterations = 2000\nburn_in = 500\n\
+         pt_temperatures = 0\n\
+         [[select.model]]\nname = \"ab\"\nmodel = \"g\"\nfree = [\"a\", \"b\"]\n\
+         [[select.model]]\nname = \"a\"\nmodel = \"g\"\nfree = [\"a\"]\nfixed = {{ b = 0.0 }}\n\
+         {OWN_CHANNELS}{exps}"
+    );
+    std::fs::write(d.join("own.toml"), &study).unwrap();
+    for cmd in ["fit", "select"] {
+        let (ok, _, err) = occam(&[cmd, "own.toml", "-q"], d);
+        assert!(ok, "{cmd}: {err}");
+    }
+    assert!(d.join("out/fit/summary.json").exists());
+    assert!(d.join("out/select/summary.json").exists());
+
+    // the file of the first experiment without `v`
+    let first = &ds.experiments[0];
+    write_csv(
+        &d.join(format!("{}.csv", first.name)),
+        &["time_s", "x", "u"],
+        &[&first.o[0], &first.i[0]],
+        first.fs,
+    );
+    let (ok, _, err) = occam(&["fit", "own.toml", "-q"], d);
+    assert!(!ok);
+    assert!(
+        err.contains(&format!("experiment `{}`", first.name))
+            && err.contains("model `g` reads channel `v`")
+            && err.contains("`time_s`, `x`, `u`"),
+        "{err}"
+    );
+}

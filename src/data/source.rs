@@ -194,9 +194,30 @@ impl DataSource {
         base: &Path,
         channels: &[String],
     ) -> Result<ExperimentData, DataError> {
+        let read: Vec<(String, String)> = channels
+            .iter()
+            .map(|c| (c.clone(), "a model".to_string()))
+            .collect();
+        self.load_read_by(name, base, &read)
+    }
+
+    /// [`load`](Self::load), with each channel paired with who reads it (`model `a``), which
+    /// the error names when the data file lacks the channel.
+    pub fn load_read_by(
+        &self,
+        name: &str,
+        base: &Path,
+        channels: &[(String, String)],
+    ) -> Result<ExperimentData, DataError> {
         let data = base.join(&self.data);
         let mut chans: Vec<&str> = Vec::new();
-        for c in channels {
+        let reader = |c: &str| {
+            channels
+                .iter()
+                .find(|(k, _)| k == c)
+                .map_or("", |(_, by)| by.as_str())
+        };
+        for (c, _) in channels {
             if !FIXED_CHANNELS.contains(&c.as_str()) {
                 check_channel_name(c)
                     .map_err(|m| fmt_err(&data, format!("experiment `{name}`: {m}")))?;
@@ -244,7 +265,8 @@ impl DataSource {
                 fmt_err(
                     &data,
                     format!(
-                        "experiment `{name}` needs channel `{c}`: no {} `{col}` (the file has {} {}){hint}",
+                        "experiment `{name}`: {} reads channel `{c}`, but the file has no {} `{col}` (it has {} {}){hint}",
+                        reader(c),
                         table.kind().trim_end_matches('s'),
                         table.kind(),
                         table.listing()

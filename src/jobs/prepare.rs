@@ -28,19 +28,54 @@ pub enum AnalysisError {
     RelBin(#[from] crate::likelihood::RelBinError),
 }
 
-/// Data and the likelihood of the `[fit]` model, ready for samplers.
+/// Data and the likelihood of a job's first model, ready for samplers.
 #[derive(Debug, Clone)]
 pub struct Prepared {
     pub dataset: Dataset,
     /// Where the data came from (a path, or "simulated from <study>").
     pub origin: String,
-    /// The exact likelihood of the `[fit]` model.
+    /// The exact likelihood of model [`model`](Self::model).
     pub likelihood: Likelihood,
+    /// The index (in the study's models) of the model `likelihood` is of: the `[fit]` model's
+    /// for `fit`, the first compared model's for `select`.
+    pub model: usize,
 }
 
 /// The data of a study and where they came from: the `[analysis] dataset` directory, or every
 /// `[[experiment]]` simulated or read from its `data` file, in the order of the study file.
+/// A data file must hold the channels of every model of the study; a job that uses only some
+/// of them reads only theirs with [`load_data_for`].
 pub fn load_data(study: &Study) -> Result<(Dataset, String), AnalysisError> {
+    let all: Vec<usize> = (0..study.models.models.len()).collect();
+    load_data_for(study, &all)
+}
+
+/// The channels models `models` read, each with the models that read it (`model `a`, model
+/// `b``), in first-use order.
+fn channels_of(study: &Study, models: &[usize]) -> Vec<(String, String)> {
+    let mut channels: Vec<(String, Vec<String>)> = Vec::new();
+    for &mi in models {
+        let name = format!("`{}`", study.models.defs[mi].name());
+        for c in study.models.models[mi].data_channels() {
+            match channels.iter_mut().find(|(k, _)| k == c) {
+                Some((_, by)) if !by.contains(&name) => by.push(name.clone()),
+                Some(_) => {}
+                None => channels.push((c.clone(), vec![name.clone()])),
+            }
+        }
+    }
+    channels
+        .into_iter()
+        .map(|(c, by)| {
+            let what = if by.len() == 1 { "model" } else { "models" };
+            (c, format!("{what} {}", by.join(", ")))
+        })
+        .collect()
+}
+
+/// [`load_data`] for a job that uses only the models `models` (indices into the study's
+/// models): a data file needs only the channels those models read.
+pub fn load_data_for(study: &Study, models: &[usize]) -> Result<(Dataset, String), AnalysisError> {
     if let Some(p) = &study.analysis.dataset {
         // the key and the study file first: the path may be a typo the user must find
         let d = Dataset::read(p).map_err(|e| {
@@ -71,20 +106,12 @@ pub fn load_data(study: &Study) -> Result<(Dataset, String), AnalysisError> {
             format!("simulated from {} (seed {})", study.source, study.seed),
         ));
     }
-    // every data channel any model reads
-    let mut channels: Vec<String> = Vec::new();
-    for m in &study.models.models {
-        for c in m.data_channels() {
-            if !channels.contains(c) {
-                channels.push(c.clone());
-            }
-        }
-    }
+    let channels = channels_of(study, models);
     let mut experiments = Vec::new();
     let mut files = Vec::new();
     for name in &study.experiment_names {
         if let Some((_, src)) = study.data_sources.iter().find(|(n, _)| n == name) {
-            experiments.push(src.load(name, &study.base_dir, &channels)?);
+            experiments.push(src.load_read_by(name, &study.base_dir, &channels)?);
             files.push(src.data.display().to_string());
         } else {
             let s = sim.as_mut().expect("simulated experiments exist");
@@ -121,15 +148,50 @@ pub fn load_data(study: &Study) -> Result<(Dataset, String), AnalysisError> {
     ))
 }
 
-/// Loads or simulates the data and builds the exact likelihood of the `[fit]` model.
+/// Loads or simulates the data and builds the exact likelihood of the `[fit]` model; a data
+/// file needs only the channels that model reads.
 pub fn prepare(study: &Study) -> Result<Prepared, AnalysisError> {
-    let (dataset, origin) = load_data(study)?;
-    let likelihood = likelihood_of(study, study.fit_model.model, &dataset)?;
+    prepare_for(study, &[study.fit_model.model])
+}
+
+/// Loads or simulates the data a job on models `models` (indices into the study's models, at
+/// least one) needs — the channels those models read — and builds the exact likelihood of the
+/// first of them.
+pub fn prepare_for(study: &Study, models: &[usize]) -> Result<Prepared, AnalysisError> {
+    let first = *models
+        .first()
+        .ok_or_else(|| AnalysisError::Likelihood("a job needs at least one model".into()))?;
+    let (dataset, origin) = load_data_for(study, models)?;
+    let likelihood = likelihood_of(study, first, &dataset)?;
     Ok(Prepared {
         dataset,
         origin,
         likelihood,
+        model: first,
     })
+}
+
+/// The models a `select` of `study` uses: the `[fit]` model when some `[[select.model]]` is a
+/// sub-model of it (so that its prepared likelihood is reused), then every other parent model,
+/// ascending.
+pub fn select_models(study: &Study) -> Vec<usize> {
+    let mut parents: Vec<usize> = study.select_models.iter().map(|m| m.spec.model).collect();
+    parents.sort_unstable();
+    parents.dedup();
+    if let Some(k) = parents.iter().position(|&m| m == study.fit_model.model) {
+        parents[..=k].rotate_right(1);
+    }
+    parents
+}
+
+/// [`prepare_for`] the models `select` compares ([`select_models`]); the `[fit]` model when
+/// the study has no `[[select.model]]` (which `select` then refuses with its own message).
+pub fn prepare_select(study: &Study) -> Result<Prepared, AnalysisError> {
+    let models = select_models(study);
+    if models.is_empty() {
+        return prepare(study);
+    }
+    prepare_for(study, &models)
 }
 
 /// The spectral options of a study.

@@ -72,7 +72,7 @@ pub fn validate(
         s.seed = realisation_seed(study.seed, k);
         s.select.seed = None;
         seeds.push(s.seed);
-        let prep = crate::jobs::prepare::prepare(&s)
+        let prep = crate::jobs::prepare::prepare_select(&s)
             .map_err(|e| DesignError::Proxy(format!("{label}, realisation {k}: {e}")))?;
         let sum = crate::jobs::select::run(&s, &prep, None)
             .map_err(|e| DesignError::Proxy(format!("{label}, realisation {k}: {e}")))?;

@@ -39,7 +39,7 @@ impl Job for Select<'_, '_> {
                 CHECKPOINT_FILE
             );
         }
-        let prep = crate::jobs::prepare::prepare(study)
+        let prep = crate::jobs::prepare::prepare_select(study)
             .with_context(|| format!("preparing the data of {}", study.source))?;
         let identity = identity(study, &prep.dataset);
         let state = if ctx.resume {

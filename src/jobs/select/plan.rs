@@ -11,7 +11,7 @@ use crate::likelihood::{Likelihood, RelBinOptions};
 use std::borrow::Cow;
 
 /// One exact likelihood per parent model in use (a model some `[[select.model]]` is a
-/// sub-model of), by ascending model index; the `[fit]` model's is the prepared one.
+/// sub-model of), by ascending model index; the prepared one is reused.
 pub(super) struct Parents<'a> {
     exacts: Vec<(usize, Cow<'a, Likelihood>)>,
 }
@@ -24,7 +24,7 @@ impl<'a> Parents<'a> {
         parents.dedup();
         let mut exacts: Vec<(usize, Cow<Likelihood>)> = Vec::new();
         for &mi in &parents {
-            let lik = if mi == study.fit_model.model {
+            let lik = if mi == prep.model {
                 Cow::Borrowed(&prep.likelihood)
             } else {
                 Cow::Owned(likelihood_of(study, mi, &prep.dataset).map_err(|e| {

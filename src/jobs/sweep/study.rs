@@ -211,7 +211,7 @@ impl Sweep {
         let (p, r) = (t / self.realisations, t % self.realisations);
         let result = (|| -> anyhow::Result<Outcome> {
             let study = self.study_at(p, r)?;
-            let prep = crate::jobs::prepare::prepare(&study)?;
+            let prep = crate::jobs::prepare::prepare_select(&study)?;
             let (ck, stage) = self.task_checkpoints(t);
             let id = crate::jobs::prepare::identity(&study, &prep.dataset);
             // a task killed part-way continues from its stages (a damaged file: afresh)
