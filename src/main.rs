@@ -207,6 +207,26 @@ fn simulate(path: PathBuf, output: Option<PathBuf>, flags: RunFlags) -> Result<(
     Ok(())
 }
 
+/// On Ctrl-C: says what the run kept and how to continue, then exits with 130 (128 + SIGINT,
+/// as shells expect). Checkpoints are written atomically, so stopping at any instant is safe.
+fn on_interrupt(what: String) {
+    // one handler per process: a command sets it once
+    let _ = ctrlc::set_handler(move || {
+        eprintln!("\ninterrupted: {what}");
+        std::process::exit(130);
+    });
+}
+
+/// What `fit` or `select` keeps when interrupted, and the command that continues it.
+fn resume_hint(command: &str, study: &Path, out: &Path) -> String {
+    format!(
+        "{} keeps the checkpoint of the work done; continue with `occam {command} {} -o {} --resume`",
+        out.display(),
+        study.display(),
+        out.display()
+    )
+}
+
 /// `dir/{a, b, …}`: the files a run published.
 fn listing(dir: &Path, names: &[String]) -> String {
     format!("{}/{{{}}}", dir.display(), names.join(", "))
@@ -216,6 +236,7 @@ fn fit(path: PathBuf, output: Option<PathBuf>, resume: bool, flags: RunFlags) ->
     let t0 = Instant::now();
     let study = Study::load(&path)?;
     let out = output.unwrap_or_else(|| study.output.join("fit"));
+    on_interrupt(resume_hint("fit", &path, &out));
     let work = Arc::new(Work::default());
     let bar = Bar::start(work.clone(), "iterations", flags.quiet);
     let say = |line: &str| match &bar {
@@ -273,6 +294,7 @@ fn fit(path: PathBuf, output: Option<PathBuf>, resume: bool, flags: RunFlags) ->
 fn select(path: PathBuf, output: Option<PathBuf>, resume: bool, flags: RunFlags) -> Result<()> {
     let study = Study::load(&path)?;
     let out = output.unwrap_or_else(|| study.output.join("select"));
+    on_interrupt(resume_hint("select", &path, &out));
     run_select(&study, &out, resume, flags.quiet)
 }
 
@@ -372,6 +394,11 @@ fn sweep(cli: SweepCli) -> Result<()> {
     };
     let planned = plan(&req, exec.as_ref())?;
     let out = planned.sweep.out.clone();
+    on_interrupt(format!(
+        "{} keeps every finished task, and each task in flight its checkpoint; rerun the same \
+         `occam sweep` command to continue",
+        out.display()
+    ));
     if exec.is_root() {
         let (resume_lines, summary) = planned.lines.split_at(planned.lines.len() - 1);
         for l in resume_lines {

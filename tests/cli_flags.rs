@@ -49,3 +49,39 @@ fn the_thread_count_changes_no_number() {
     let (ok, _, err) = occam(&["simulate", "s.toml", "--threads", "0", "-q"], dir.path());
     assert!(ok, "{err}");
 }
+
+/// Errors a new user meets first say it once and point the way: a missing study file's I/O
+/// error is not repeated, an unknown key gets the likely intended one, and `occam report` on a
+/// study's output directory names the runs inside it.
+#[test]
+fn first_errors_say_it_once_and_point_the_way() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let (ok, _, err) = occam(&["fit", "nope.toml"], d);
+    assert!(!ok);
+    assert_eq!(err.matches("No such file or directory").count(), 1, "{err}");
+
+    std::fs::write(
+        d.join("typo.toml"),
+        "seed = 1\noutput = \"o\"\n[analysys]\nband = [1e-3, 0.4]\n",
+    )
+    .unwrap();
+    let (ok, _, err) = occam(&["fit", "typo.toml"], d);
+    assert!(!ok);
+    assert!(err.contains("did you mean `analysis`?"), "{err}");
+
+    std::fs::create_dir_all(d.join("runs/x/select")).unwrap();
+    let (ok, _, err) = occam(&["report", "runs/x"], d);
+    assert!(!ok);
+    assert!(
+        err.contains("give the directory a fit/select/sweep wrote"),
+        "{err}"
+    );
+    std::fs::write(d.join("runs/x/select/manifest.json"), "{}").unwrap();
+    let (ok, _, err) = occam(&["report", "runs/x"], d);
+    assert!(!ok);
+    assert!(
+        err.contains("it holds the runs `runs/x/select`: give one of them"),
+        "{err}"
+    );
+}

@@ -214,9 +214,10 @@ fn select_killed_mid_run_and_resumed_matches_an_uninterrupted_run() {
     assert!(leftovers.is_empty(), "{leftovers:?}");
 }
 
-/// Killed inside a model's tempering stage (the stage saved after every block), `select
-/// --resume` continues that stage from `stage.cbor` instead of starting it again, and ends with
-/// the numbers and sample files of an uninterrupted run.
+/// Interrupted (Ctrl-C) inside a model's tempering stage (the stage saved after every block),
+/// `select` says what it kept and how to continue and exits with 130; `select --resume`
+/// continues that stage from `stage.cbor` instead of starting it again, and ends with the
+/// numbers and sample files of an uninterrupted run.
 #[test]
 fn select_killed_inside_a_stage_resumes_the_stage_where_it_stood() {
     let dir = tempfile::tempdir().unwrap();
@@ -232,7 +233,7 @@ fn select_killed_inside_a_stage_resumes_the_stage_where_it_stood() {
         .env("OCCAM_CHECKPOINT_SECONDS", "0")
         .current_dir(d)
         .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
     let stage = d.join("cut").join(STAGE_FILE);
@@ -247,11 +248,20 @@ fn select_killed_inside_a_stage_resumes_the_stage_where_it_stood() {
         }
         std::thread::sleep(Duration::from_millis(1));
     }
-    let _ = child.kill();
-    child.wait().unwrap();
+    // Ctrl-C: the run says what it kept and how to continue, and exits with 130
+    // SAFETY: kill(2) on the pid of the child this test spawned and has not reaped
+    assert_eq!(unsafe { libc::kill(child.id() as i32, libc::SIGINT) }, 0);
+    let ended = child.wait_with_output().unwrap();
     assert!(
         tempering(),
-        "the run must have been killed inside a tempering stage"
+        "the run must have been interrupted inside a tempering stage"
+    );
+    assert_eq!(ended.status.code(), Some(130));
+    let said = String::from_utf8_lossy(&ended.stderr);
+    assert!(
+        said.contains("interrupted: cut keeps the checkpoint")
+            && said.contains("`occam select s.toml -o cut --resume`"),
+        "{said}"
     );
 
     let (ok, out, err) = occam(&["select", "s.toml", "-q", "-o", "cut", "--resume"], d);

@@ -22,9 +22,9 @@ impl Study {
     /// Reads and validates a study file.
     pub fn load(path: &Path) -> Result<Study, ConfigError> {
         let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
+        let text = std::fs::read_to_string(path).map_err(|error| ConfigError::Io {
             file: file.clone(),
-            source,
+            error,
         })?;
         let base = path.parent().unwrap_or(Path::new("."));
         Self::from_toml(&text, &file, base)
@@ -35,7 +35,7 @@ impl Study {
     pub fn from_toml(text: &str, file: &str, base: &Path) -> Result<Study, ConfigError> {
         let raw: StudyFile = toml::from_str(text).map_err(|e| ConfigError::Parse {
             file: file.into(),
-            msg: e.to_string().trim_end().to_string(),
+            msg: super::suggest::did_you_mean(e.to_string().trim_end()),
         })?;
         raw.resolve(file, base)
     }

@@ -39,6 +39,7 @@ mod models;
 mod reference;
 mod resolved;
 mod study;
+mod suggest;
 mod sweep;
 pub use error::ConfigError;
 pub use limits::{DELAY_PARAMS, MAX_ASD, MAX_CORNER, MAX_DELAY, MAX_TARGET_SNR, MIN_ASD};

@@ -32,7 +32,7 @@ pub const REPORT: &str = "report.html";
 /// returns its path. A report inside the run directory is added to its manifest.
 pub fn write_report(run_dir: &Path, out: Option<&Path>) -> Result<PathBuf, ReportError> {
     if !run_dir.is_dir() {
-        return Err(ReportError::NotARun(run_dir.to_path_buf()));
+        return Err(ReportError::not_a_run(run_dir));
     }
     // refuse a non-run before taking the lock: the lock file would be created in a directory
     // that is none of occam's
@@ -40,7 +40,7 @@ pub fn write_report(run_dir: &Path, out: Option<&Path>) -> Result<PathBuf, Repor
         && !run_dir.join("summary.json").is_file()
         && !run_dir.join("sweep.json").is_file()
     {
-        return Err(ReportError::NotARun(run_dir.to_path_buf()));
+        return Err(ReportError::not_a_run(run_dir));
     }
     let path = out.map_or_else(|| run_dir.join(REPORT), Path::to_path_buf);
     let lock = RunDir::lock(run_dir)?;

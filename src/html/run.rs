@@ -135,7 +135,7 @@ impl Run {
     /// Reads the run in `dir`; the error says why it is not a run directory.
     pub fn read(dir: &Path) -> Result<Run, ReportError> {
         if !dir.is_dir() {
-            return Err(ReportError::NotARun(dir.to_path_buf()));
+            return Err(ReportError::not_a_run(dir));
         }
         let mpath = dir.join(MANIFEST);
         let manifest: Option<Manifest> = if mpath.is_file() {
@@ -184,7 +184,7 @@ impl Run {
             }
             None => match kind_from_files(dir)? {
                 Some((k, n, v)) => (k, Some((n, v))),
-                None => return Err(ReportError::NotARun(dir.to_path_buf())),
+                None => return Err(ReportError::not_a_run(dir)),
             },
         };
         // the run's files: the manifest's, else what the directory holds
