@@ -6,7 +6,7 @@ use anyhow::Context;
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use occam::config::{ModelSpec, Study};
 use occam::density::LogDensity;
-use occam::jobs::prepare::{default_start, likelihood_of, load_data, model_warnings, truth_of};
+use occam::jobs::prepare::{default_start, likelihood_of, load_data_for, model_warnings, truth_of};
 use occam::likelihood::{Likelihood, fisher_exact};
 use occam::nested::SubModel;
 use occam::prior::PriorKind;
@@ -82,7 +82,8 @@ fn build(path: &Path, model: Option<&str>) -> anyhow::Result<Built> {
         }
     };
     let context = || format!("preparing the data of {}", path.display());
-    let (dataset, _origin) = load_data(&study).with_context(context)?;
+    // only the channels this model reads
+    let (dataset, _origin) = load_data_for(&study, &[spec.model]).with_context(context)?;
     let exact = likelihood_of(&study, spec.model, &dataset)
         .map_err(|e| anyhow::anyhow!("model `{}`: {e}", study.models.defs[spec.model].name()))
         .with_context(context)?;
