@@ -609,7 +609,7 @@ mod tests {
         let err = load_err(&s, dir.path(), &["o1", "o12", "g2"]);
         assert!(
             err.contains("run.npz")
-                && err.contains("channel `g2`: no array `g2`")
+                && err.contains("reads channel `g2`, but the file has no array `g2`")
                 && err.contains("arrays `o1`, `x12`"),
             "{err}"
         );
