@@ -93,6 +93,16 @@ pub trait Model: Send + Sync + std::fmt::Debug {
         coefficients_batch_generic(self, theta, freqs, fs, consts, comps, out)
     }
 
+    /// The one-sided CSD matrix `S_d(f)` of the noise of the data channels at `bin`, row-major
+    /// `C × C` in the order of [`Model::data_channels`] (zero rows and columns for noiseless
+    /// channels such as commanded injections), when the model knows its own noise — a
+    /// state-space model with noise inputs. `false` (the default) means it does not, and the
+    /// likelihood takes the noise from the Welch estimate of the noise-only stretch or from
+    /// the study's noise model.
+    fn data_noise_csd(&self, _theta: &[f64], _bin: &Bin, _out: &mut [Complex64]) -> bool {
+        false
+    }
+
     /// Whether the model is physically valid at θ (e.g. a stable loop); the message says why
     /// not. The likelihood does not call it per evaluation; `fit` and `select` warn when the
     /// start of a model's MAP search (its fixed values and start values) fails it.
