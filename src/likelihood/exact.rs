@@ -6,8 +6,7 @@ use super::statistic::{
 };
 use crate::data::dataset::ExperimentData;
 use crate::density::LogDensity;
-use crate::hermitian;
-use crate::model::{BlockKernel, MAX_CHANNELS, MAX_RESIDUALS, Model, residual};
+use crate::model::{BlockKernel, MAX_CHANNELS, MAX_RESIDUALS, Model, residual_into, with_buffer};
 use crate::prior::Prior;
 use num_complex::Complex64;
 use std::sync::Arc;
@@ -109,10 +108,16 @@ impl Likelihood {
                     want: model.data_channels().to_vec(),
                 });
             }
-            for &(a, b, c) in &e.cinv {
-                // det C = 1/det C⁻¹
-                let det_inv = if nr == 2 { a * c - b.norm_sqr() } else { a };
-                ln_norm -= nr as f64 * std::f64::consts::PI.ln() - det_inv.ln();
+            if nr <= 2 {
+                for &(a, b, c) in &e.cinv {
+                    // det C = 1/det C⁻¹
+                    let det_inv = if nr == 2 { a * c - b.norm_sqr() } else { a };
+                    ln_norm -= nr as f64 * std::f64::consts::PI.ln() - det_inv.ln();
+                }
+            } else {
+                for &ld in &e.ln_det {
+                    ln_norm -= nr as f64 * std::f64::consts::PI.ln() + ld;
+                }
             }
         }
         let blocks: Vec<_> = spectra.iter().map(|e| e.block()).collect();
@@ -297,44 +302,49 @@ impl Likelihood {
         let nc = m.data_channels().len();
         let nr = m.residual_channels().len();
         let ncst = m.n_consts();
-        let mut coef = [Complex64::new(0.0, 0.0); MAX_CHANNELS * MAX_RESIDUALS];
-        let mut s = 0.0;
-        for (e, &v) in self.spectra.iter().zip(nu) {
-            for k in 0..e.len() {
-                m.coefficients(th, &e.bin(k, ncst), &mut coef[..nr * nc]);
-                let q = hermitian::quad(&e.cinv[k], residual(&coef, nr, e.data_at(k)));
-                s -= student_t_shape(q, nr, v);
+        let mut r = [Complex64::new(0.0, 0.0); MAX_RESIDUALS];
+        let r = &mut r[..nr];
+        with_buffer(nr * nc, |coef| {
+            let mut s = 0.0;
+            for (e, &v) in self.spectra.iter().zip(nu) {
+                for k in 0..e.len() {
+                    m.coefficients(th, &e.bin(k, ncst), coef);
+                    residual_into(coef, e.data_at(k), r);
+                    s -= student_t_shape(e.quad(k, r), nr, v);
+                }
             }
-        }
-        s
+            s
+        })
     }
 
     /// The residual `r_k(θ)` and the signal `s_k(θ)` (the part of the residual from the known
-    /// input channels) of every bin of experiment `e`, through `visit(k, r, s)`.
+    /// input channels) of every bin of experiment `e`, through `visit(k, r, s)` (`R` values
+    /// each).
     pub fn visit_residuals(
         &self,
         e: &ExperimentSpectra,
         th: &[f64],
-        mut visit: impl FnMut(usize, [Complex64; 2], [Complex64; 2]),
+        mut visit: impl FnMut(usize, &[Complex64], &[Complex64]),
     ) {
         let m = &self.model;
         let nc = m.data_channels().len();
         let nr = m.residual_channels().len();
         let ncst = m.n_consts();
-        let mut coef = [Complex64::new(0.0, 0.0); MAX_CHANNELS * MAX_RESIDUALS];
-        let mut din = [Complex64::new(0.0, 0.0); MAX_CHANNELS];
-        for k in 0..e.len() {
-            m.coefficients(th, &e.bin(k, ncst), &mut coef[..nr * nc]);
-            let d = e.data_at(k);
-            for c in 0..nc {
-                din[c] = if e.is_input[c] {
-                    d[c]
-                } else {
-                    Complex64::new(0.0, 0.0)
-                };
+        let zero = Complex64::new(0.0, 0.0);
+        let mut din = [zero; MAX_CHANNELS];
+        let (mut r, mut sig) = ([zero; MAX_RESIDUALS], [zero; MAX_RESIDUALS]);
+        with_buffer(nr * nc, |coef| {
+            for k in 0..e.len() {
+                m.coefficients(th, &e.bin(k, ncst), coef);
+                let d = e.data_at(k);
+                for c in 0..nc {
+                    din[c] = if e.is_input[c] { d[c] } else { zero };
+                }
+                residual_into(coef, d, &mut r[..nr]);
+                residual_into(coef, &din[..nc], &mut sig[..nr]);
+                visit(k, &r[..nr], &sig[..nr]);
             }
-            visit(k, residual(&coef, nr, d), residual(&coef, nr, &din[..nc]));
-        }
+        })
     }
 
     /// Optimal SNR `ρ_opt = √⟨s|s⟩ = √(2 Σ s_kᴴ C_k⁻¹ s_k)` of the signal at θ: the model's
@@ -349,7 +359,7 @@ impl Likelihood {
         let mut s = 0.0;
         for e in &self.spectra {
             self.visit_residuals(e, th, |k, _, sig| {
-                s += 2.0 * hermitian::quad(&e.cinv[k], sig);
+                s += 2.0 * e.quad(k, sig);
             });
         }
         s.sqrt()

@@ -11,14 +11,18 @@ use crate::linalg::{
     NULL_EIGENVALUE_TOL, NullKind, SpdOptions, format_direction, unconstrained_directions,
     weakest_direction,
 };
-use crate::model::{MAX_CHANNELS, MAX_RESIDUALS, Model, residual};
+use crate::model::{MAX_RESIDUALS, Model, residual_into};
 use nalgebra::DMatrix;
 use num_complex::{Complex, Complex64};
 use num_dual::Dual64;
 
 const ZERO: Complex64 = Complex64::new(0.0, 0.0);
 
-/// `(r_k, ∂_a r_k)` at bin `k` by forward-mode dual numbers in the direction of parameter `a`.
+/// One residual vector (`R` values used).
+type Res = [Complex64; MAX_RESIDUALS];
+
+/// `(r_k, ∂_a r_k)` at bin `k` by forward-mode dual numbers in the direction of parameter `a`
+/// (`coef` holds the `R·C` dual coefficients).
 fn dual_residual(
     m: &dyn Model,
     e: &ExperimentSpectra,
@@ -26,19 +30,19 @@ fn dual_residual(
     th: &[f64],
     a: usize,
     buf: &mut [Dual64],
-) -> ([Complex64; 2], [Complex64; 2]) {
+    coef: &mut [Complex<Dual64>],
+) -> (Res, Res) {
     let nc = m.data_channels().len();
     let nr = m.residual_channels().len();
     for (b, &t) in buf.iter_mut().zip(th) {
         *b = Dual64::from(t);
     }
     buf[a] = Dual64::from(th[a]).derivative();
-    let z = Complex::new(Dual64::from(0.0), Dual64::from(0.0));
-    let mut coef = [z; MAX_CHANNELS * MAX_RESIDUALS];
-    m.coefficients_dual(buf, &e.bin(k, m.n_consts()), &mut coef[..nr * nc]);
+    coef.fill(Complex::new(Dual64::from(0.0), Dual64::from(0.0)));
+    m.coefficients_dual(buf, &e.bin(k, m.n_consts()), coef);
     let d = e.data_at(k);
-    let mut r = [ZERO; 2];
-    let mut dr = [ZERO; 2];
+    let mut r = [ZERO; MAX_RESIDUALS];
+    let mut dr = [ZERO; MAX_RESIDUALS];
     for i in 0..nr {
         for c in 0..nc {
             let x = coef[i * nc + c];
@@ -47,6 +51,30 @@ fn dual_residual(
         }
     }
     (r, dr)
+}
+
+/// `Re(xᴴ C_k⁻¹ y)` for `R ≤ 2` (packed); for more, `x` and `y` are already whitened
+/// ([`whiten_all`]) and it is `Re(xᴴ y)`.
+#[inline]
+fn inner(e: &ExperimentSpectra, k: usize, nr: usize, x: &Res, y: &Res) -> f64 {
+    if nr <= 2 {
+        return e.inner(k, &x[..nr], &y[..nr]);
+    }
+    x[..nr]
+        .iter()
+        .zip(&y[..nr])
+        .map(|(a, b)| (a.conj() * b).re)
+        .sum()
+}
+
+/// Replaces `r` and every `dr[i]` by `W_k r`, `W_k dr[i]`.
+fn whiten_all(e: &ExperimentSpectra, k: usize, nr: usize, r: &mut Res, dr: &mut [Res]) {
+    let w = e.whitener(k);
+    let mut out = [ZERO; MAX_RESIDUALS];
+    for x in std::iter::once(r).chain(dr.iter_mut()) {
+        hermitian::whiten(w, &x[..nr], &mut out[..nr]);
+        x[..nr].copy_from_slice(&out[..nr]);
+    }
 }
 
 /// Fisher matrix over the parameters `free` (indices into θ) at `th`, with exact derivatives.
@@ -64,26 +92,33 @@ pub fn gradient_and_fisher(
     free: &[usize],
 ) -> (Vec<f64>, DMatrix<f64>) {
     let m = lik.model().as_ref();
+    let nr = m.residual_channels().len();
     let d = free.len();
     let mut g = vec![0.0; d];
     let mut f = DMatrix::<f64>::zeros(d, d);
-    let mut dr = vec![[ZERO; 2]; d];
+    let mut dr = vec![[ZERO; MAX_RESIDUALS]; d];
     let mut buf = vec![Dual64::from(0.0); th.len()];
+    let z = Complex::new(Dual64::from(0.0), Dual64::from(0.0));
+    let mut coef = vec![z; nr * m.data_channels().len()];
     for e in lik.spectra() {
         for k in 0..e.len() {
-            let mut r = [ZERO; 2];
+            let mut r = [ZERO; MAX_RESIDUALS];
             for (i, &a) in free.iter().enumerate() {
-                let (rk, drk) = dual_residual(m, e, k, th, a, &mut buf);
+                let (rk, drk) = dual_residual(m, e, k, th, a, &mut buf, &mut coef);
                 r = rk;
                 dr[i] = drk;
             }
             if d == 0 {
                 continue;
             }
+            if nr > 2 {
+                // whiten once per bin: the products are then plain dot products
+                whiten_all(e, k, nr, &mut r, &mut dr);
+            }
             for i in 0..d {
-                g[i] -= 2.0 * hermitian::inner(&e.cinv[k], dr[i], r);
+                g[i] -= 2.0 * inner(e, k, nr, &dr[i], &r);
                 for j in i..d {
-                    f[(i, j)] += 2.0 * hermitian::inner(&e.cinv[k], dr[i], dr[j]);
+                    f[(i, j)] += 2.0 * inner(e, k, nr, &dr[i], &dr[j]);
                 }
             }
         }
@@ -123,7 +158,8 @@ pub fn fisher_numeric(
     let nr = m.residual_channels().len();
     let d = free.len();
     let mut f = DMatrix::<f64>::zeros(d, d);
-    let mut dr = vec![[ZERO; 2]; d];
+    let mut dr = vec![[ZERO; MAX_RESIDUALS]; d];
+    let (mut rp, mut rm) = ([ZERO; MAX_RESIDUALS], [ZERO; MAX_RESIDUALS]);
     let mut cp = vec![ZERO; nr * nc];
     let mut cm = vec![ZERO; nr * nc];
     for e in lik.spectra() {
@@ -137,13 +173,18 @@ pub fn fisher_numeric(
                 q[a] -= h;
                 m.coefficients(&p, &bin, &mut cp);
                 m.coefficients(&q, &bin, &mut cm);
-                let rp = residual(&cp, nr, e.data_at(k));
-                let rm = residual(&cm, nr, e.data_at(k));
-                dr[i] = [0, 1].map(|c| (rp[c] - rm[c]) / (2.0 * h));
+                residual_into(&cp, e.data_at(k), &mut rp[..nr]);
+                residual_into(&cm, e.data_at(k), &mut rm[..nr]);
+                for c in 0..nr {
+                    dr[i][c] = (rp[c] - rm[c]) / (2.0 * h);
+                }
+            }
+            if nr > 2 {
+                whiten_all(e, k, nr, &mut rp, &mut dr);
             }
             for i in 0..d {
                 for j in i..d {
-                    f[(i, j)] += 2.0 * hermitian::inner(&e.cinv[k], dr[i], dr[j]);
+                    f[(i, j)] += 2.0 * inner(e, k, nr, &dr[i], &dr[j]);
                 }
             }
         }

@@ -10,6 +10,7 @@
 mod exact;
 mod fisher;
 mod map;
+mod noise_matrix;
 mod relbin;
 pub mod residual_psd;
 mod spectra;
@@ -30,6 +31,8 @@ pub use spectra::{
 };
 pub use statistic::{LogPeriodogramOptions, Statistic};
 
+#[cfg(test)]
+mod nch_tests;
 #[cfg(test)]
 mod statistic_tests;
 #[cfg(test)]

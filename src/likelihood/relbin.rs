@@ -26,7 +26,7 @@ use super::spectra::ExperimentSpectra;
 use crate::density::LogDensity;
 use crate::hermitian;
 use crate::linalg;
-use crate::model::{Bin, MAX_CHANNELS, MAX_RESIDUALS, Model};
+use crate::model::{Bin, MAX_CHANNELS, MAX_RESIDUALS, Model, residual_into, tri_len};
 use crate::prior::Prior;
 use nalgebra::DMatrix;
 use num_complex::Complex64;
@@ -177,8 +177,10 @@ struct Summary {
     fs: f64,
 }
 
-/// Edges per chunk of the batched evaluation (stack buffer of coefficients).
-const EDGE_CHUNK: usize = 64;
+/// Edges per chunk of the batched evaluation (stack buffer of coefficients), plus one: the
+/// buffers of `δ` also hold the edge before the chunk. Up to 16 components; wider models take
+/// shorter chunks (`eval`'s `EC1`).
+const CHUNK1: usize = 65;
 
 /// `ln L` by relative binning around a fiducial point; same value convention as
 /// [`Likelihood`].
@@ -364,8 +366,9 @@ impl RelBinLikelihood {
         if th.len() != self.fiducial.len() {
             return f64::NAN;
         }
-        // stack buffers sized for the widest experiment (zeroing them is not free)
-        let small = self.exps.iter().all(|s| s.comps.len() <= 4);
+        // stack buffers sized for the widest experiment (zeroing them is not free); wide ones
+        // take shorter chunks of edges so the buffers stay within ~150 KiB of stack
+        let widest = self.exps.iter().map(|s| s.comps.len()).max().unwrap_or(0);
         #[cfg(target_arch = "x86_64")]
         {
             if std::arch::is_x86_feature_detected!("avx2")
@@ -373,34 +376,37 @@ impl RelBinLikelihood {
             {
                 // SAFETY: the CPU has the features the functions are compiled for.
                 return unsafe {
-                    if small {
-                        self.eval_avx2::<4>(th)
-                    } else {
-                        self.eval_avx2::<MAX_COMPS>(th)
+                    match widest {
+                        0..=4 => self.eval_avx2::<4, CHUNK1>(th),
+                        5..=16 => self.eval_avx2::<16, CHUNK1>(th),
+                        17..=64 => self.eval_avx2::<64, 33>(th),
+                        _ => self.eval_avx2::<MAX_COMPS, 9>(th),
                     }
                 };
             }
         }
-        if small {
-            self.eval::<4>(th)
-        } else {
-            self.eval::<MAX_COMPS>(th)
+        match widest {
+            0..=4 => self.eval::<4, CHUNK1>(th),
+            5..=16 => self.eval::<16, CHUNK1>(th),
+            17..=64 => self.eval::<64, 33>(th),
+            _ => self.eval::<MAX_COMPS, 9>(th),
         }
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma")]
-    fn eval_avx2<const NB: usize>(&self, th: &[f64]) -> f64 {
-        self.eval::<NB>(th)
+    fn eval_avx2<const NB: usize, const EC1: usize>(&self, th: &[f64]) -> f64 {
+        self.eval::<NB, EC1>(th)
     }
 
-    /// The batched evaluation with buffers for at most `NB` components.
+    /// The batched evaluation with buffers for at most `NB` components and chunks of
+    /// `EC1 − 1` edges.
     #[inline(always)]
-    fn eval<const NB: usize>(&self, th: &[f64]) -> f64 {
-        let mut buf = [[ZERO; EDGE_CHUNK]; NB];
+    fn eval<const NB: usize, const EC1: usize>(&self, th: &[f64]) -> f64 {
+        let mut buf = [[ZERO; EC1]; NB];
         // δ per component, structure of arrays; index 0 is the edge before the chunk
-        let mut dre = [[0.0; EDGE_CHUNK + 1]; NB];
-        let mut dim = [[0.0; EDGE_CHUNK + 1]; NB];
+        let mut dre = [[0.0; EC1]; NB];
+        let mut dim = [[0.0; EC1]; NB];
         let mut lin = 0.0;
         let mut quad = 0.0;
         for s in &self.exps {
@@ -418,14 +424,14 @@ impl RelBinLikelihood {
 
     /// The linear and quadratic terms of one experiment (`nc` components).
     #[inline(always)]
-    fn eval_exp<const NB: usize>(
+    fn eval_exp<const NB: usize, const EC1: usize>(
         &self,
         s: &Summary,
         th: &[f64],
         nc: usize,
-        buf: &mut [[Complex64; EDGE_CHUNK]; NB],
-        dre: &mut [[f64; EDGE_CHUNK + 1]; NB],
-        dim: &mut [[f64; EDGE_CHUNK + 1]; NB],
+        buf: &mut [[Complex64; EC1]; NB],
+        dre: &mut [[f64; EC1]; NB],
+        dim: &mut [[f64; EC1]; NB],
     ) -> (f64, f64) {
         let m = self.model.as_ref();
         let ncst = m.n_consts();
@@ -433,7 +439,7 @@ impl RelBinLikelihood {
         let (mut lin, mut quad) = (0.0, 0.0);
         let mut e0 = 0;
         while e0 < ne {
-            let len = EDGE_CHUNK.min(ne - e0);
+            let len = (EC1 - 1).min(ne - e0);
             let d = &mut buf.as_flattened_mut()[..len * nc];
             m.coefficients_batch(
                 th,
@@ -539,18 +545,18 @@ fn soa(v: &[Complex64], n: usize, m: usize, part: impl Fn(&Complex64) -> f64) ->
 /// component `c` at edge `e0 + i` is `(dre, dim)[c][1 + i]`, at the edge before the chunk
 /// `[c][0]`. Loops run over edges, so they vectorise.
 #[inline(always)]
-fn contract<const NB: usize>(
+fn contract<const NB: usize, const EC1: usize>(
     nc: usize,
     s: &Summary,
     e0: usize,
     len: usize,
-    dre: &[[f64; EDGE_CHUNK + 1]; NB],
-    dim: &[[f64; EDGE_CHUNK + 1]; NB],
+    dre: &[[f64; EC1]; NB],
+    dim: &[[f64; EC1]; NB],
 ) -> (f64, f64) {
     let ne = s.edge_f.len();
     let nb = ne - 1;
-    let mut lb = [0.0; EDGE_CHUNK];
-    let mut qb = [0.0; EDGE_CHUNK];
+    let mut lb = [0.0; EC1];
+    let mut qb = [0.0; EC1];
     let (lb, qb) = (&mut lb[..len], &mut qb[..len]);
     for c in 0..nc {
         let (dr, di) = (&dre[c][1..=len], &dim[c][1..=len]);
@@ -797,6 +803,44 @@ impl Region {
     }
 }
 
+/// `C_k⁻¹` (`R × R` row-major) into `cinv` and `C_k⁻¹ r0`: from the packed inverse for
+/// `R ≤ 2` (the arithmetic of every result so far), else `WᴴW` and `Wᴴ(W r0)`.
+fn inverse_at(
+    e: &ExperimentSpectra,
+    k: usize,
+    nr: usize,
+    r0: &[Complex64; MAX_RESIDUALS],
+    cinv: &mut [Complex64],
+) -> [Complex64; MAX_RESIDUALS] {
+    let mut cr0 = [ZERO; MAX_RESIDUALS];
+    if nr <= 2 {
+        // C⁻¹ = [[a, b], [b*, c]]
+        let (ca, cb, cc) = e.cinv[k];
+        let c2 = [
+            [Complex64::new(ca, 0.0), cb],
+            [cb.conj(), Complex64::new(cc, 0.0)],
+        ];
+        for i in 0..nr {
+            cr0[i] = c2[i][0] * r0[0] + c2[i][1] * r0[1];
+            for j in 0..nr {
+                cinv[i * nr + j] = c2[i][j];
+            }
+        }
+        return cr0;
+    }
+    let w = e.whitener(k);
+    let at = |i: usize, j: usize| w[tri_len(i) + j];
+    let mut wr = [ZERO; MAX_RESIDUALS];
+    hermitian::whiten(w, &r0[..nr], &mut wr[..nr]);
+    for i in 0..nr {
+        for j in 0..nr {
+            cinv[i * nr + j] = (i.max(j)..nr).map(|l| at(l, i).conj() * at(l, j)).sum();
+        }
+        cr0[i] = (i..nr).map(|l| at(l, i).conj() * wr[l]).sum();
+    }
+    cr0
+}
+
 /// Summary data of one experiment; returns it and `Σ r0ᴴ C⁻¹ r0`.
 fn summarise(
     m: &dyn Model,
@@ -887,7 +931,7 @@ fn summarise(
             let mut s = 0.0;
             for k in k0 + 1..k1 {
                 let x = (e.freqs[k] - e.freqs[k0]) / (e.freqs[k1] - e.freqs[k0]);
-                let mut err = [ZERO; 2];
+                let mut err = [ZERO; MAX_RESIDUALS];
                 for (c, &idx) in comps.iter().enumerate() {
                     let a = dr[(p * nk + k0) * nc + c];
                     let b = dr[(p * nk + k1) * nc + c];
@@ -895,7 +939,7 @@ fn summarise(
                     err[idx / ndc] +=
                         (dr[(p * nk + k) * nc + c] - lin) * scale(k, c) * e.data_at(k)[idx % ndc];
                 }
-                s += hermitian::quad(&e.cinv[k], err);
+                s += e.quad(k, &err[..nr]);
             }
             worst = worst.max(s);
         }
@@ -956,6 +1000,7 @@ fn summarise(
     let mut r0sum = 0.0;
     let mut bin = 0;
     let mut g = [ZERO; MAX_COMPS];
+    let mut cinv = vec![ZERO; nr * nr];
     for k in 0..nk {
         let f = e.freqs[k];
         while bin + 1 < nb && f >= edge_f[bin + 1] {
@@ -966,18 +1011,10 @@ fn summarise(
         for (c, &idx) in comps.iter().enumerate() {
             g[c] = scale(k, c) * d[idx % ndc];
         }
-        let r0 = crate::model::residual(&m0[k * ncoef..(k + 1) * ncoef], nr, d);
-        let (ca, cb, cc) = e.cinv[k];
-        r0sum += hermitian::quad(&e.cinv[k], r0);
-        // C⁻¹ = [[a, b], [b*, c]]
-        let cinv = [
-            [Complex64::new(ca, 0.0), cb],
-            [cb.conj(), Complex64::new(cc, 0.0)],
-        ];
-        let cr0 = [
-            cinv[0][0] * r0[0] + cinv[0][1] * r0[1],
-            cinv[1][0] * r0[0] + cinv[1][1] * r0[1],
-        ];
+        let mut r0 = [ZERO; MAX_RESIDUALS];
+        residual_into(&m0[k * ncoef..(k + 1) * ncoef], d, &mut r0[..nr]);
+        r0sum += e.quad(k, &r0[..nr]);
+        let cr0 = inverse_at(e, k, nr, &r0, &mut cinv);
         let xp = [1.0, x, x * x];
         let y = 1.0 - x;
         for c in 0..nc {
@@ -990,7 +1027,7 @@ fn summarise(
             w[(bin + 1) * nc + c] += t * x;
             for c2 in 0..nc {
                 let i2 = comps[c2] / ndc;
-                let t = g[c].conj() * cinv[i][i2] * g[c2];
+                let t = g[c].conj() * cinv[i * nr + i2] * g[c2];
                 let slot = &mut b[(bin * nc + c) * nc + c2];
                 for p in 0..3 {
                     slot[p] += t * xp[p];

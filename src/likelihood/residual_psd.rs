@@ -124,7 +124,11 @@ pub fn residual_psds(
             plan.eval(m, theta, Some(&mut |j, v: [Complex64; 3]| s[j] = v[0].re));
             s
         };
-        let plan = LogPgExperiment::new(e, sp, model.as_ref(), &opts)?;
+        let plan = if sp.nr <= 2 {
+            LogPgExperiment::new(e, sp, model.as_ref(), &opts)?
+        } else {
+            LogPgExperiment::first_channel(e, sp, model.as_ref(), &opts)?
+        };
         out.push(ResidualPsd {
             experiment: sp.name.clone(),
             channel: model.residual_channels()[0].clone(),
@@ -134,7 +138,7 @@ pub fn residual_psds(
             // read-out-only model as well
             readout: readout_model.as_deref().map(|m| welch(&plan, m)),
             reference_freqs: sp.freqs.clone(),
-            reference: sp.csd.iter().map(|s| s[0][0].re).collect(),
+            reference: (0..sp.len()).map(|k| sp.csd_at(k)[0].re).collect(),
         });
     }
     Ok(out)

@@ -2,6 +2,7 @@
 //! noise matrix per bin, and the θ-independent closed-loop factors.
 
 use crate::data::dataset::ExperimentData;
+use super::noise_matrix::{factorise, model_noise, residual_csd};
 use crate::hermitian::{self, Mat2};
 use crate::model::{Bin, BinBlock, Model};
 use crate::signal::{RealFft, SignalError, WelchConfig, Window, welch_csd2};
@@ -16,7 +17,8 @@ pub enum NoiseSource {
     /// (the paper's procedure).
     #[default]
     Welch,
-    /// The exact CSD of the noise model (for known-answer tests).
+    /// The exact CSD of the noise: the model's own ([`Model::data_noise_csd`]) when it knows
+    /// it, else the study's noise model of `o1, o12` (for known-answer tests).
     Model,
 }
 
@@ -91,10 +93,18 @@ pub struct ExperimentSpectra {
     pub channels: Vec<String>,
     /// DFTs of the data channels, `len × C`, bin-major.
     pub data: Vec<Complex64>,
-    /// `C_k⁻¹` packed as `(a, b, c)`, `C_k = (fs/2) Σw² S_r,k`.
+    /// Number of residual channels `R` of the model.
+    pub nr: usize,
+    /// `C_k⁻¹` packed as `(a, b, c)`, `C_k = (fs/2) Σw² S_r,k`, for `R ≤ 2`; empty for more.
     pub cinv: Vec<(f64, Complex64, f64)>,
-    /// The residual-noise CSD `S_r,k` used (one-sided; for one residual channel only `[0][0]`).
-    pub csd: Vec<Mat2>,
+    /// The inverse Cholesky factor `W_k` of `C_k` (`C_k⁻¹ = W_kᴴW_k`), packed lower triangle,
+    /// `R(R+1)/2` per bin, for every `R` ([`crate::hermitian::whitener`]).
+    pub whiten: Vec<Complex64>,
+    /// `ln det C_k` per bin.
+    pub ln_det: Vec<f64>,
+    /// The residual-noise CSD `S_r,k` used (one-sided), `R × R` row-major per bin
+    /// ([`ExperimentSpectra::csd_at`]).
+    pub csd: Vec<Complex64>,
     /// The model's θ-independent constants, `len × n_consts`, bin-major.
     pub consts: Vec<Complex64>,
     /// Which data channels carry anything in band.
@@ -108,8 +118,9 @@ pub struct ExperimentSpectra {
 
 impl ExperimentSpectra {
     /// Prepares one experiment for `model`, with the residual noise evaluated at `theta_ref`.
-    /// `model_csd` supplies the CSD of the measured outputs `(o1, o12)` when
-    /// `opts.noise == NoiseSource::Model`.
+    /// With `opts.noise == NoiseSource::Model` the data-channel CSD is the model's own
+    /// ([`Model::data_noise_csd`]) if it knows it, else `model_csd`'s CSD of the measured
+    /// outputs `(o1, o12)`.
     pub fn new(
         e: &ExperimentData,
         opts: &SpectraOptions,
@@ -187,31 +198,19 @@ impl ExperimentSpectra {
             )));
         }
         let freqs: Vec<f64> = ks.iter().map(|&k| k as f64 * df).collect();
+        let ncst = model.n_consts();
+        let mut consts = vec![Complex64::new(0.0, 0.0); freqs.len() * ncst];
+        for (k, &f) in freqs.iter().enumerate() {
+            model.bin_consts(f, fs, &mut consts[k * ncst..(k + 1) * ncst]);
+        }
         // the CSD of the measured channels, S_d, over the noisy channels
         let mut noise_dof = None;
         let (noisy, sd): (Vec<usize>, Vec<Vec<Complex64>>) = match opts.noise {
             NoiseSource::Model => {
-                let f = model_csd.ok_or_else(|| {
-                    inv("noise = \"model\" needs the noise model of the study".into())
-                })?;
-                let idx: Vec<usize> = ["o1", "o12"]
-                    .iter()
-                    .map(|o| channels.iter().position(|c| c == o))
-                    .collect::<Option<_>>()
-                    .ok_or_else(|| {
-                        inv(format!(
-                            "noise = \"model\" knows the noise of `o1` and `o12` only, and model `{}` does not read both; use noise = \"welch\"",
-                            model.name()
-                        ))
-                    })?;
-                let sd = freqs
-                    .iter()
-                    .map(|&x| {
-                        let s = f(x);
-                        vec![s[0][0], s[0][1], s[1][0], s[1][1]]
-                    })
-                    .collect();
-                (idx, sd)
+                match model_noise(model, theta_ref, fs, &freqs, &consts).map_err(&inv)? {
+                    Some(x) => x,
+                    None => study_noise(model, &channels, &freqs, model_csd).map_err(&inv)?,
+                }
             }
             NoiseSource::Welch => {
                 let noisy: Vec<usize> = (0..nc)
@@ -234,54 +233,22 @@ impl ExperimentSpectra {
             }
         };
         let nr = model.residual_channels().len();
-        let ncst = model.n_consts();
-        let mut consts = vec![Complex64::new(0.0, 0.0); freqs.len() * ncst];
         let mut coef = vec![Complex64::new(0.0, 0.0); nr * nc];
-        let mut csd = Vec::with_capacity(freqs.len());
+        let mut csd = vec![Complex64::new(0.0, 0.0); freqs.len() * nr * nr];
         let scale = fs / 2.0 * sum_w2;
-        let mut cinv = Vec::with_capacity(ks.len());
-        let nn = noisy.len();
+        let mut cinv = Vec::with_capacity(if nr <= 2 { ks.len() } else { 0 });
+        let mut whiten = Vec::with_capacity(ks.len() * hermitian::tri_len(nr));
+        let mut ln_det = Vec::with_capacity(ks.len());
         for (k, &f) in freqs.iter().enumerate() {
-            let cst = &mut consts[k * ncst..(k + 1) * ncst];
-            model.bin_consts(f, fs, cst);
+            let cst = &consts[k * ncst..(k + 1) * ncst];
             model.coefficients(theta_ref, &Bin { f, fs, consts: cst }, &mut coef);
-            // S_r = M S_d Mᴴ over the noisy channels
-            let mut s: Mat2 = [[Complex64::new(0.0, 0.0); 2]; 2];
-            for r1 in 0..nr {
-                for r2 in 0..nr {
-                    let mut acc = Complex64::new(0.0, 0.0);
-                    for (a, &ca) in noisy.iter().enumerate() {
-                        for (b, &cb) in noisy.iter().enumerate() {
-                            acc +=
-                                coef[r1 * nc + ca] * sd[k][a * nn + b] * coef[r2 * nc + cb].conj();
-                        }
-                    }
-                    s[r1][r2] = acc;
-                }
-            }
-            let bad = || {
-                inv(format!(
-                    "the residual noise CSD is singular (or not positive definite) at {f:.6e} Hz: S11 = {:.3e}, S22 = {:.3e}, |S12| = {:.3e}; a channel without noise cannot be fitted: check the noise-only stretch or the noise levels",
-                    s[0][0].re,
-                    s[1][1].re,
-                    s[0][1].norm()
-                ))
-            };
-            let packed = if nr == 2 {
-                let c = [
-                    [s[0][0] * scale, s[0][1] * scale],
-                    [s[1][0] * scale, s[1][1] * scale],
-                ];
-                hermitian::inverse(&c).ok_or_else(bad)?
-            } else {
-                let v = s[0][0].re * scale;
-                if !(v > 0.0 && v.is_finite()) {
-                    return Err(bad());
-                }
-                (1.0 / v, Complex64::new(0.0, 0.0), 0.0)
-            };
-            cinv.push(packed);
-            csd.push(s);
+            let s = &mut csd[k * nr * nr..(k + 1) * nr * nr];
+            residual_csd(&coef, nr, nc, &noisy, &sd[k], s);
+            let (packed, w, ld) =
+                factorise(s, nr, scale, f, model.residual_channels()).map_err(&inv)?;
+            cinv.extend(packed);
+            whiten.extend_from_slice(&w);
+            ln_det.push(ld);
         }
         let mut data = Vec::with_capacity(ks.len() * nc);
         for &k in &ks {
@@ -302,7 +269,10 @@ impl ExperimentSpectra {
             freqs,
             channels,
             data,
+            nr,
             cinv,
+            whiten,
+            ln_det,
             csd,
             consts,
             active,
@@ -330,7 +300,42 @@ impl ExperimentSpectra {
             n: self.len(),
             data: &self.data,
             cinv: &self.cinv,
+            whiten: &self.whiten,
             consts: &self.consts,
+        }
+    }
+
+    /// The residual-noise CSD `S_r` of bin `k`, `R × R` row-major.
+    pub fn csd_at(&self, k: usize) -> &[Complex64] {
+        let n = self.nr * self.nr;
+        &self.csd[k * n..(k + 1) * n]
+    }
+
+    /// The inverse Cholesky factor `W_k` of bin `k` (`C_k⁻¹ = W_kᴴW_k`, packed lower triangle).
+    pub fn whitener(&self, k: usize) -> &[Complex64] {
+        let n = hermitian::tri_len(self.nr);
+        &self.whiten[k * n..(k + 1) * n]
+    }
+
+    /// `rᴴ C_k⁻¹ r` (`r.len() = R`): the packed inverse for `R ≤ 2` (the arithmetic of every
+    /// result so far), the Cholesky factor for more.
+    #[inline]
+    pub fn quad(&self, k: usize, r: &[Complex64]) -> f64 {
+        match r.len() {
+            1 => hermitian::quad(&self.cinv[k], [r[0], Complex64::new(0.0, 0.0)]),
+            2 => hermitian::quad(&self.cinv[k], [r[0], r[1]]),
+            _ => hermitian::quad_whitened(self.whitener(k), r),
+        }
+    }
+
+    /// `Re(xᴴ C_k⁻¹ y)`, as [`ExperimentSpectra::quad`].
+    #[inline]
+    pub fn inner(&self, k: usize, x: &[Complex64], y: &[Complex64]) -> f64 {
+        let z = Complex64::new(0.0, 0.0);
+        match x.len() {
+            1 => hermitian::inner(&self.cinv[k], [x[0], z], [y[0], z]),
+            2 => hermitian::inner(&self.cinv[k], [x[0], x[1]], [y[0], y[1]]),
+            _ => hermitian::inner_whitened(self.whitener(k), x, y),
         }
     }
 
@@ -348,6 +353,40 @@ impl ExperimentSpectra {
             consts: &self.consts[k * n_consts..(k + 1) * n_consts],
         }
     }
+}
+
+/// The study's noise model of the outputs `(o1, o12)` (`model_csd`) as the CSD of the noisy
+/// channels of `model`, per frequency.
+fn study_noise(
+    model: &dyn Model,
+    channels: &[String],
+    freqs: &[f64],
+    model_csd: Option<&dyn Fn(f64) -> Mat2>,
+) -> Result<(Vec<usize>, Vec<Vec<Complex64>>), String> {
+    let f = model_csd.ok_or_else(|| {
+        format!(
+            "noise = \"model\" needs the noise model of the study (model `{}` does not know the noise of its data channels)",
+            model.name()
+        )
+    })?;
+    let idx: Vec<usize> = ["o1", "o12"]
+        .iter()
+        .map(|o| channels.iter().position(|c| c == o))
+        .collect::<Option<_>>()
+        .ok_or_else(|| {
+            format!(
+                "noise = \"model\" knows the noise of `o1` and `o12` only, and model `{}` does not read both; use noise = \"welch\"",
+                model.name()
+            )
+        })?;
+    let sd = freqs
+        .iter()
+        .map(|&x| {
+            let s = f(x);
+            vec![s[0][0], s[0][1], s[1][0], s[1][1]]
+        })
+        .collect();
+    Ok((idx, sd))
 }
 
 /// The Welch segment length for a noise-only series of `len` samples: `welch_averages`

@@ -56,7 +56,7 @@
 
 use super::spectra::ExperimentSpectra;
 use crate::data::dataset::ExperimentData;
-use crate::model::{Bin, MAX_CHANNELS, MAX_RESIDUALS, Model, residual};
+use crate::model::{Bin, Model, residual, with_buffer};
 use crate::signal::{WelchConfig, Window};
 use num_complex::Complex64;
 use realfft::{ComplexToReal, RealFftPlanner, RealToComplex};
@@ -174,7 +174,10 @@ pub(crate) struct LogPgExperiment {
     n: usize,
     fs: f64,
     nc: usize,
+    /// Residual channels averaged (the first one or two of the model's).
     nr: usize,
+    /// Residual channels of the model (rows of its coefficients).
+    nr_model: usize,
     /// Unwindowed DFTs of the data channels at every bin `0 … n/2`, bin-major.
     data: Vec<Complex64>,
     /// The model's constants at every bin, bin-major (bin 0 unused).
@@ -230,12 +233,42 @@ fn grow<T: Clone + Default>(v: &mut Vec<T>, n: usize) {
 }
 
 impl LogPgExperiment {
-    /// Prepares experiment `e` (whose in-band spectra are `sp`) for `model`.
+    /// Prepares experiment `e` (whose in-band spectra are `sp`) for `model`: the statistic,
+    /// which is refused for more than two residual channels.
     pub(crate) fn new(
         e: &ExperimentData,
         sp: &ExperimentSpectra,
         model: &dyn Model,
         opts: &LogPeriodogramOptions,
+    ) -> Result<Self, String> {
+        let nr = model.residual_channels().len();
+        if nr > 2 {
+            return Err(format!(
+                "model `{}` has {nr} residual channels and the log-periodogram likelihood is implemented for one or two: with R channels it is −M_eff Σ ln det of the R×R Welch matrix of the residual, which is singular unless every retained bin has at least R effective averages, and its marginalisation over one noise level per bin has been checked for 2×2 only; use statistic = \"whittle\" or \"student_t\"",
+                model.name()
+            ));
+        }
+        Self::build(e, sp, model, opts, nr)
+    }
+
+    /// As [`LogPgExperiment::new`] averaging the first residual channel only (any number of
+    /// channels): the residual PSD of the model's first channel.
+    pub(crate) fn first_channel(
+        e: &ExperimentData,
+        sp: &ExperimentSpectra,
+        model: &dyn Model,
+        opts: &LogPeriodogramOptions,
+    ) -> Result<Self, String> {
+        Self::build(e, sp, model, opts, 1)
+    }
+
+    /// Prepares the Welch averages of the first `nr` (≤ 2) residual channels.
+    fn build(
+        e: &ExperimentData,
+        sp: &ExperimentSpectra,
+        model: &dyn Model,
+        opts: &LogPeriodogramOptions,
+        nr: usize,
     ) -> Result<Self, String> {
         let series: Vec<&[f64]> = model
             .data_channels()
@@ -322,14 +355,14 @@ impl LogPgExperiment {
         }
         let window = opts.window.values(seg);
         let s2: f64 = window.iter().map(|v| v * v).sum();
-        let nr = model.residual_channels().len();
+        let nr_model = model.residual_channels().len();
         // the reference PSD of residual channel r at frequency f: the fit bin on the same DFT
         // grid, the band's edge value outside it
         let s_ref = |r: usize, f: f64| -> f64 {
             let k = ((f - sp.freqs[0]) / sp.df)
                 .round()
                 .clamp(0.0, (sp.len() - 1) as f64);
-            sp.csd[k as usize][r][r].re
+            sp.csd_at(k as usize)[r * nr_model + r].re
         };
         let (mut whiten, mut recolour) = ([Vec::new(), Vec::new()], [Vec::new(), Vec::new()]);
         if opts.whiten {
@@ -355,6 +388,7 @@ impl LogPgExperiment {
             fs,
             nc,
             nr,
+            nr_model,
             data,
             consts,
             seg,
@@ -403,26 +437,27 @@ impl LogPgExperiment {
             );
             grow(&mut s.acc, self.bins.len());
             // residual spectrum at every bin
-            let mut coef = [zero; MAX_CHANNELS * MAX_RESIDUALS];
             for r in 0..nr {
                 s.spec[r][0] = zero;
             }
             let df = self.fs / n as f64;
-            for k in 1..m {
-                let bin = Bin {
-                    f: k as f64 * df,
-                    fs: self.fs,
-                    consts: &self.consts[k * ncst..(k + 1) * ncst],
-                };
-                model.coefficients(th, &bin, &mut coef[..nr * nc]);
-                let rk = residual(&coef, nr, &self.data[k * nc..(k + 1) * nc]);
-                for r in 0..nr {
-                    s.spec[r][k] = match self.whiten[r].get(k) {
-                        Some(w) => rk[r] * *w,
-                        None => rk[r],
+            with_buffer(self.nr_model * nc, |coef| {
+                for k in 1..m {
+                    let bin = Bin {
+                        f: k as f64 * df,
+                        fs: self.fs,
+                        consts: &self.consts[k * ncst..(k + 1) * ncst],
                     };
+                    model.coefficients(th, &bin, coef);
+                    let rk = residual(coef, nr, &self.data[k * nc..(k + 1) * nc]);
+                    for r in 0..nr {
+                        s.spec[r][k] = match self.whiten[r].get(k) {
+                            Some(w) => rk[r] * *w,
+                            None => rk[r],
+                        };
+                    }
                 }
-            }
+            });
             for r in 0..nr {
                 if n.is_multiple_of(2) {
                     s.spec[r][m - 1].im = 0.0;

@@ -403,7 +403,7 @@ fn one_residual_model_is_the_marginal_of_the_first_channel() {
         for e in two.spectra() {
             let scale = e.fs / 2.0 * e.n as f64;
             two.visit_residuals(e, &th, |k, r, _| {
-                let c11 = e.csd[k][0][0].re * scale;
+                let c11 = e.csd_at(k)[0].re * scale;
                 want -= r[0].norm_sqr() / c11 + (std::f64::consts::PI * c11).ln();
             });
         }

@@ -1,12 +1,13 @@
 //! What a model sees of the data: one frequency [`Bin`], a contiguous [`BinBlock`] of them, the
 //! residual `r = M d` and its quadratic form, and the size limits of a model.
 
+pub use crate::hermitian::tri_len;
 use num_complex::Complex64;
 
 /// Most data channels a model may read.
-pub const MAX_CHANNELS: usize = 8;
-/// Most residual channels a model may produce (the likelihood's noise matrix is 2×2 at most).
-pub const MAX_RESIDUALS: usize = 2;
+pub const MAX_CHANNELS: usize = 32;
+/// Most residual channels a model may produce (the likelihood's noise matrix is `R×R`).
+pub const MAX_RESIDUALS: usize = 16;
 /// Most θ-independent complex constants per bin.
 pub const MAX_CONSTS: usize = 64;
 
@@ -37,9 +38,13 @@ pub struct BinBlock<'a> {
     pub n: usize,
     /// Data DFTs, `n × C`, bin-major, in the order of [`Model::data_channels`](crate::model::Model::data_channels).
     pub data: &'a [Complex64],
-    /// Inverse residual-noise matrix per bin, packed `(a, b, c)` = `[[a, b], [b*, c]]`. For a
-    /// one-residual model only `a` is used (`b = c = 0`).
+    /// Inverse residual-noise matrix per bin, packed `(a, b, c)` = `[[a, b], [b*, c]]`, for one
+    /// or two residual channels (for one only `a` is used, `b = c = 0`); empty for more.
     pub cinv: &'a [(f64, Complex64, f64)],
+    /// For any number `R` of residual channels: the inverse Cholesky factor `W` of `C_k`
+    /// (`C_k⁻¹ = WᴴW`, lower triangular, packed row by row, [`tri_len`]`(R)` entries per bin;
+    /// [`crate::hermitian::whitener`]). Empty when the block was built without it.
+    pub whiten: &'a [Complex64],
     /// The model's constants, `n × n_consts`, bin-major.
     pub consts: &'a [Complex64],
 }
@@ -60,6 +65,43 @@ impl BinBlock<'_> {
 #[inline(always)]
 pub fn quad(cinv: &(f64, Complex64, f64), r: [Complex64; 2]) -> f64 {
     crate::hermitian::quad(cinv, r)
+}
+
+/// `rᴴ C⁻¹ r` for the inverse Cholesky factor `w` of `C` (`R = r.len()`, see
+/// [`BinBlock::whiten`]).
+#[inline(always)]
+pub fn quad_whitened(w: &[Complex64], r: &[Complex64]) -> f64 {
+    crate::hermitian::quad_whitened(w, r)
+}
+
+/// `r = M d` into `out` (its length is the number of rows): the same sums as [`residual`], for
+/// any number of rows.
+#[inline(always)]
+pub fn residual_into(coef: &[Complex64], d: &[Complex64], out: &mut [Complex64]) {
+    let nc = d.len();
+    for (ri, slot) in out.iter_mut().enumerate() {
+        let row = &coef[ri * nc..(ri + 1) * nc];
+        let mut acc = Complex64::new(0.0, 0.0);
+        for (m, x) in row.iter().zip(d) {
+            acc += m * x;
+        }
+        *slot = acc;
+    }
+}
+
+/// Calls `f` with a zeroed stack buffer of `n ≤ MAX_CHANNELS·MAX_RESIDUALS` complex values,
+/// sized to the smallest of 16, 64 or the maximum that holds `n`: zeroing the largest (8 KiB)
+/// for a small model would cost more than its coefficients.
+#[inline(always)]
+pub fn with_buffer<T>(n: usize, f: impl FnOnce(&mut [Complex64]) -> T) -> T {
+    const Z: Complex64 = Complex64::new(0.0, 0.0);
+    if n <= 16 {
+        f(&mut [Z; 16][..n])
+    } else if n <= 64 {
+        f(&mut [Z; 64][..n])
+    } else {
+        f(&mut [Z; MAX_CHANNELS * MAX_RESIDUALS][..n])
+    }
 }
 
 /// `r = M d` for `nr` rows (the second component is zero for a one-residual model).

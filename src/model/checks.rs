@@ -6,14 +6,14 @@ use super::traits::Model;
 use num_complex::{Complex, Complex64};
 use num_dual::Dual64;
 
-/// Checks that a model's shape is usable by the likelihood: names unique and non-empty, one or
-/// two residual channels, at most [`MAX_CHANNELS`] data channels and [`MAX_CONSTS`] constants.
+/// Checks that a model's shape is usable by the likelihood: names unique and non-empty, 1 to
+/// [`MAX_RESIDUALS`] residual channels, at most [`MAX_CHANNELS`] data channels and [`MAX_CONSTS`] constants.
 pub fn validate_shape(m: &dyn Model) -> Result<(), String> {
     let name = m.name();
     let nr = m.residual_channels().len();
     if nr == 0 || nr > MAX_RESIDUALS {
         return Err(format!(
-            "model `{name}` has {nr} residual channels; one or two are supported"
+            "model `{name}` has {nr} residual channels; 1 to {MAX_RESIDUALS} are supported"
         ));
     }
     let nc = m.data_channels().len();

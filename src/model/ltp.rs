@@ -488,6 +488,7 @@ mod tests {
             n,
             data: &data,
             cinv: &cinv,
+            whiten: &[],
             consts: &consts,
         };
         let fast = m.residual_power(&th, &b);

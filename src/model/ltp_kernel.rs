@@ -978,6 +978,7 @@ mod tests {
                 n,
                 data: &data,
                 cinv: &cinv,
+                whiten: &[],
                 consts: &consts,
             };
             let k = m.prepare_kernel(&b).unwrap();
@@ -1008,6 +1009,7 @@ mod tests {
             n,
             data: &data,
             cinv: &cinv,
+            whiten: &[],
             consts: &consts,
         };
         assert!(mt.prepare_kernel(&b).is_none());

@@ -31,8 +31,14 @@ mod traits;
 pub mod user;
 
 pub use accel::{AccelModel, AccelOptions};
-pub use bin::{Bin, BinBlock, MAX_CHANNELS, MAX_CONSTS, MAX_RESIDUALS, quad, residual};
+pub use bin::{
+    Bin, BinBlock, MAX_CHANNELS, MAX_CONSTS, MAX_RESIDUALS, quad, quad_whitened, residual,
+    residual_into, tri_len, with_buffer,
+};
 pub use checks::{check_identifiable, coefficients_at, validate_shape};
 pub use ltp::{LoopResponse, LtpModel, LtpModelOptions, ThrusterResponse};
 pub use tied::TiedModel;
-pub use traits::{BlockKernel, Model, coefficients_batch_generic, residual_power_generic};
+pub use traits::{
+    BlockKernel, Model, coefficients_batch_generic, residual_power_generic,
+    residual_power_whitened,
+};

@@ -2,7 +2,10 @@
 //! [`crate::model`]), the prepared [`BlockKernel`], and the default implementations of the
 //! trait's batch methods.
 
-use super::bin::{Bin, BinBlock, MAX_CHANNELS, MAX_RESIDUALS, quad, residual};
+use super::bin::{
+    Bin, BinBlock, MAX_RESIDUALS, quad, quad_whitened, residual, residual_into,
+    tri_len, with_buffer,
+};
 use num_complex::{Complex, Complex64};
 use num_dual::Dual64;
 
@@ -55,7 +58,7 @@ pub trait Model: Send + Sync + std::fmt::Debug {
     /// Data channels `d_c` the model reads (columns of `M`), at most [`MAX_CHANNELS`].
     fn data_channels(&self) -> &[String];
 
-    /// Residual channels `r_r` (rows of `M`), one or two.
+    /// Residual channels `r_r` (rows of `M`), 1 to [`MAX_RESIDUALS`].
     fn residual_channels(&self) -> &[String];
 
     /// Number of θ-independent complex constants per bin.
@@ -145,20 +148,48 @@ pub trait BlockKernel: Send + Sync + std::fmt::Debug {
 }
 
 /// The default [`Model::residual_power`]: coefficients bin by bin. Kept callable so fast
-/// kernels can be tested against it.
+/// kernels can be tested against it. One or two residual channels use the packed inverse
+/// ([`BinBlock::cinv`], the arithmetic of every result so far), more the inverse Cholesky
+/// factor ([`residual_power_whitened`]).
 pub fn residual_power_generic<M: Model + ?Sized>(m: &M, theta: &[f64], b: &BinBlock) -> f64 {
+    let nr = m.residual_channels().len();
+    if nr > 2 {
+        return residual_power_whitened(m, theta, b);
+    }
+    let nc = m.data_channels().len();
+    let ncst = m.n_consts();
+    with_buffer(nr * nc, |coef| {
+        let mut s = 0.0;
+        for k in 0..b.n {
+            m.coefficients(theta, &b.bin(k, ncst), coef);
+            let d = &b.data[k * nc..(k + 1) * nc];
+            let r = residual(coef, nr, d);
+            s += quad(&b.cinv[k], r);
+        }
+        s
+    })
+}
+
+/// `Σ_k r_kᴴ C_k⁻¹ r_k = Σ_k |W_k r_k|²` through the inverse Cholesky factors
+/// ([`BinBlock::whiten`]), for any number of residual channels: the general path, which for
+/// one or two channels agrees with the packed one to rounding. Allocation-free.
+pub fn residual_power_whitened<M: Model + ?Sized>(m: &M, theta: &[f64], b: &BinBlock) -> f64 {
     let nc = m.data_channels().len();
     let nr = m.residual_channels().len();
     let ncst = m.n_consts();
-    let mut coef = [Complex64::new(0.0, 0.0); MAX_CHANNELS * MAX_RESIDUALS];
-    let mut s = 0.0;
-    for k in 0..b.n {
-        m.coefficients(theta, &b.bin(k, ncst), &mut coef[..nr * nc]);
-        let d = &b.data[k * nc..(k + 1) * nc];
-        let r = residual(&coef, nr, d);
-        s += quad(&b.cinv[k], r);
-    }
-    s
+    let nw = tri_len(nr);
+    assert_eq!(b.whiten.len(), b.n * nw, "the block has no whitening factors");
+    let mut r = [Complex64::new(0.0, 0.0); MAX_RESIDUALS];
+    let r = &mut r[..nr];
+    with_buffer(nr * nc, |coef| {
+        let mut s = 0.0;
+        for k in 0..b.n {
+            m.coefficients(theta, &b.bin(k, ncst), coef);
+            residual_into(coef, &b.data[k * nc..(k + 1) * nc], r);
+            s += quad_whitened(&b.whiten[k * nw..(k + 1) * nw], r);
+        }
+        s
+    })
 }
 
 /// The default [`Model::coefficients_batch`]: [`Model::coefficients`] frequency by frequency.
@@ -174,16 +205,17 @@ pub fn coefficients_batch_generic<M: Model + ?Sized>(
     let ncoef = m.data_channels().len() * m.residual_channels().len();
     let ncst = m.n_consts();
     let nc = comps.len();
-    let mut coef = [Complex64::new(0.0, 0.0); MAX_CHANNELS * MAX_RESIDUALS];
-    for (e, &f) in freqs.iter().enumerate() {
-        let bin = Bin {
-            f,
-            fs,
-            consts: &consts[e * ncst..(e + 1) * ncst],
-        };
-        m.coefficients(theta, &bin, &mut coef[..ncoef]);
-        for (o, &c) in out[e * nc..(e + 1) * nc].iter_mut().zip(comps) {
-            *o = coef[c];
+    with_buffer(ncoef, |coef| {
+        for (e, &f) in freqs.iter().enumerate() {
+            let bin = Bin {
+                f,
+                fs,
+                consts: &consts[e * ncst..(e + 1) * ncst],
+            };
+            m.coefficients(theta, &bin, coef);
+            for (o, &c) in out[e * nc..(e + 1) * nc].iter_mut().zip(comps) {
+                *o = coef[c];
+            }
         }
-    }
+    })
 }

@@ -135,6 +135,7 @@ fn generic_residual_power_matches_the_builtin_model() {
         n,
         data: &data,
         cinv: &cinv,
+        whiten: &[],
         consts: c,
     };
     let pu = residual_power_generic(&u, &th, &block(&cu));
