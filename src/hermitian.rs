@@ -184,7 +184,9 @@ mod tests {
     fn random_hpd(n: usize, seed: u64) -> Vec<Complex64> {
         let mut x = seed;
         let mut u = || {
-            x = x.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             (x >> 11) as f64 / (1u64 << 53) as f64 - 0.5
         };
         let a: Vec<Complex64> = (0..n * n).map(|_| Complex64::new(u(), u())).collect();
@@ -210,7 +212,10 @@ mod tests {
             let inv = dense.clone().try_inverse().unwrap();
             let det = dense.determinant();
             assert!(det.im.abs() < 1e-10 * det.re.abs());
-            assert!((ln_det - det.re.ln()).abs() < 1e-12 * ln_det.abs().max(1.0), "{n}");
+            assert!(
+                (ln_det - det.re.ln()).abs() < 1e-12 * ln_det.abs().max(1.0),
+                "{n}"
+            );
             let r: Vec<Complex64> = (0..n)
                 .map(|i| Complex64::new(i as f64 - 1.3, 0.7 * i as f64 + 0.2))
                 .collect();
@@ -220,7 +225,10 @@ mod tests {
             let want = (rv.adjoint() * &inv * &rv)[(0, 0)].re;
             let want_xy = (rv.adjoint() * &inv * &yv)[(0, 0)].re;
             let got = quad_whitened(&w, &r);
-            assert!((got - want).abs() < 1e-12 * want.abs(), "{n}: {got} vs {want}");
+            assert!(
+                (got - want).abs() < 1e-12 * want.abs(),
+                "{n}: {got} vs {want}"
+            );
             let got_xy = inner_whitened(&w, &r, &y);
             assert!((got_xy - want_xy).abs() < 1e-12 * want.abs(), "{n}");
             let mut wr = vec![Complex64::new(0.0, 0.0); n];

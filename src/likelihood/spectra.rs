@@ -1,8 +1,8 @@
 //! Per-experiment spectra in the fit band: DFTs of the outputs and injections, the inverse
 //! noise matrix per bin, and the θ-independent closed-loop factors.
 
-use crate::data::dataset::ExperimentData;
 use super::noise_matrix::{factorise, model_noise, residual_csd};
+use crate::data::dataset::ExperimentData;
 use crate::hermitian::{self, Mat2};
 use crate::model::{Bin, BinBlock, Model};
 use crate::signal::{RealFft, SignalError, WelchConfig, Window, welch_csd2};

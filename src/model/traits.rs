@@ -3,8 +3,8 @@
 //! trait's batch methods.
 
 use super::bin::{
-    Bin, BinBlock, MAX_RESIDUALS, quad, quad_whitened, residual, residual_into,
-    tri_len, with_buffer,
+    Bin, BinBlock, MAX_RESIDUALS, quad, quad_whitened, residual, residual_into, tri_len,
+    with_buffer,
 };
 use num_complex::{Complex, Complex64};
 use num_dual::Dual64;
@@ -178,7 +178,11 @@ pub fn residual_power_whitened<M: Model + ?Sized>(m: &M, theta: &[f64], b: &BinB
     let nr = m.residual_channels().len();
     let ncst = m.n_consts();
     let nw = tri_len(nr);
-    assert_eq!(b.whiten.len(), b.n * nw, "the block has no whitening factors");
+    assert_eq!(
+        b.whiten.len(),
+        b.n * nw,
+        "the block has no whitening factors"
+    );
     let mut r = [Complex64::new(0.0, 0.0); MAX_RESIDUALS];
     let r = &mut r[..nr];
     with_buffer(nr * nc, |coef| {

@@ -7,7 +7,7 @@
 //! name = "cl_user"
 //! parameters = ["w1sq", "a_df", "dt1"] # θ order
 //! data = ["o1", "i1"]                 # data channels d_c (columns of M), at most 8
-//! residual = ["o1"]                   # residual channels r_r (rows of M), 1 or 2
+//! residual = ["o1"]                   # residual channels r_r (rows of M), 1 to 16
 //! [model.constants]                   # named real constants
 //! e1 = 0.0046
 //! [model.blocks]                      # named complex blocks of s = i2πf
