@@ -13,6 +13,10 @@ use num_complex::Complex64;
 /// The factorised noise of one bin: `(packed inverse for R ≤ 2, W packed, ln det C)`.
 pub(super) type BinFactors = (Option<(f64, Complex64, f64)>, Vec<Complex64>, f64);
 
+/// The noisy data channels (indices into the model's) and their CSD `S_d` per bin
+/// (`noisy.len()²`, row-major).
+pub(super) type DataNoise = (Vec<usize>, Vec<Vec<Complex64>>);
+
 /// `S_r = M S_d Mᴴ` over the noisy channels `noisy` (indices into the `nc` data channels;
 /// `sd` is their CSD, `noisy.len()²`, row-major), `nr × nr` row-major into `out`.
 pub(super) fn residual_csd(
@@ -90,7 +94,7 @@ pub(super) fn model_noise(
     fs: f64,
     freqs: &[f64],
     consts: &[Complex64],
-) -> Result<Option<(Vec<usize>, Vec<Vec<Complex64>>)>, String> {
+) -> Result<Option<DataNoise>, String> {
     let nc = model.data_channels().len();
     let ncst = model.n_consts();
     let mut full = Vec::with_capacity(freqs.len());

@@ -1,7 +1,7 @@
 //! Per-experiment spectra in the fit band: DFTs of the outputs and injections, the inverse
 //! noise matrix per bin, and the θ-independent closed-loop factors.
 
-use super::noise_matrix::{factorise, model_noise, residual_csd};
+use super::noise_matrix::{DataNoise, factorise, model_noise, residual_csd};
 use crate::data::dataset::ExperimentData;
 use crate::hermitian::{self, Mat2};
 use crate::model::{Bin, BinBlock, Model};
@@ -205,7 +205,7 @@ impl ExperimentSpectra {
         }
         // the CSD of the measured channels, S_d, over the noisy channels
         let mut noise_dof = None;
-        let (noisy, sd): (Vec<usize>, Vec<Vec<Complex64>>) = match opts.noise {
+        let (noisy, sd): DataNoise = match opts.noise {
             NoiseSource::Model => {
                 match model_noise(model, theta_ref, fs, &freqs, &consts).map_err(&inv)? {
                     Some(x) => x,
@@ -362,7 +362,7 @@ fn study_noise(
     channels: &[String],
     freqs: &[f64],
     model_csd: Option<&dyn Fn(f64) -> Mat2>,
-) -> Result<(Vec<usize>, Vec<Vec<Complex64>>), String> {
+) -> Result<DataNoise, String> {
     let f = model_csd.ok_or_else(|| {
         format!(
             "noise = \"model\" needs the noise model of the study (model `{}` does not know the noise of its data channels)",
