@@ -67,8 +67,9 @@ pub enum SpectraError {
 }
 
 /// One experiment reduced to what the likelihood needs, per in-band bin `k`: the DFTs of the
-/// model's data channels, the packed inverse residual-noise matrix `C_k⁻¹` and the model's
-/// θ-independent constants.
+/// model's data channels, the inverse residual-noise matrix `C_k⁻¹` (packed for one or two
+/// residual channels; the inverse Cholesky factor and `ln det C_k` for any number) and the
+/// model's θ-independent constants.
 ///
 /// # Residual noise
 /// The residual `r = Σ_c M_c d_c` carries the noise of the measured channels through the

@@ -6,7 +6,7 @@
 //! kind = "user"                       # stripped by the study-file parser
 //! name = "cl_user"
 //! parameters = ["w1sq", "a_df", "dt1"] # θ order
-//! data = ["o1", "i1"]                 # data channels d_c (columns of M), at most 8
+//! data = ["o1", "i1"]                 # data channels d_c (columns of M), at most 32
 //! residual = ["o1"]                   # residual channels r_r (rows of M), 1 to 16
 //! [model.constants]                   # named real constants
 //! e1 = 0.0046

@@ -356,16 +356,28 @@ fn bad_definitions_name_the_model_the_entry_and_what_is_allowed() {
         (
             base("", "").replace(
                 "residual = [\"o1\", \"o12\"]",
-                "residual = [\"o1\", \"o12\", \"o3\"]",
+                &format!(
+                    "residual = [\"o1\", \"o12\", {}]",
+                    (3..=17)
+                        .map(|i| format!("\"o{i}\""))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
             ),
-            vec!["residual", "3 channels; at most 2"],
+            vec!["residual", "17 channels; at most 16"],
         ),
         (
             base("", "").replace(
                 "data = [\"o1\", \"o12\", \"i1\"]",
-                "data = [\"o1\", \"o12\", \"i1\", \"a\", \"b\", \"c\", \"d\", \"e\", \"f\"]",
+                &format!(
+                    "data = [\"o1\", \"o12\", \"i1\", {}]",
+                    (0..30)
+                        .map(|i| format!("\"d{i}\""))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
             ),
-            vec!["data", "at most 8"],
+            vec!["data", "33 channels; at most 32"],
         ),
         // names
         (
