@@ -202,6 +202,10 @@ impl Model for TiedModel {
         self.parent.check(&self.expand(theta))
     }
 
+    fn data_noise_csd(&self, theta: &[f64], bin: &Bin, out: &mut [Complex64]) -> bool {
+        self.parent.data_noise_csd(&self.expand(theta), bin, out)
+    }
+
     fn residual_power(&self, theta: &[f64], block: &BinBlock) -> f64 {
         let mut buf = [0.0; MAX_TIED_PARENT];
         let n = self.source.len();
