@@ -628,6 +628,9 @@ fn check_fixed_loop(
     truth: &LtpParams,
     masses: &Masses,
 ) -> Result<(), (String, String)> {
+    if let ModelDef::StateSpace(_) = models.defs[spec.model] {
+        return check_fixed_state_space(fixed, spec, models);
+    }
     if !matches!(
         models.defs[spec.model],
         ModelDef::Ltp { .. } | ModelDef::Tied(_)
@@ -664,6 +667,34 @@ fn check_fixed_loop(
         ));
     }
     Ok(())
+}
+
+/// Checks that the fixed values of a sub-model of a state-space model leave it stable with the
+/// free parameters at their prior centre; the error names the first fixed parameter.
+fn check_fixed_state_space(
+    fixed: &std::collections::BTreeMap<String, f64>,
+    spec: &ModelSpec,
+    models: &ModelSet,
+) -> Result<(), (String, String)> {
+    if fixed.is_empty() {
+        return Ok(());
+    }
+    let m = &models.models[spec.model];
+    let mut th = spec.base.clone();
+    for &i in &spec.free {
+        th[i] = models.priors[spec.model].kinds()[i].centre();
+    }
+    m.check(&th).map_err(|e| {
+        let first = fixed.keys().next().cloned().unwrap_or_default();
+        (
+            first,
+            format!(
+                "{e}; checked at the fixed values with the free parameters at their prior \
+                 centre ({}): a sub-model must describe a stable system",
+                super::models::fmt_point(m.param_names(), &th)
+            ),
+        )
+    })
 }
 
 fn validate_analysis(a: &AnalysisOptions, file: &str) -> Result<(), ConfigError> {
@@ -788,11 +819,12 @@ fn validate_fit(f: &FitOptions, models: &ModelSet, file: &str) -> Result<(), Con
                     format!("must be finite (got {v})"),
                 ));
             }
-            let delay_of_builtin =
-                DELAY_PARAMS.contains(&n.as_str())
-                    && models.defs.iter().zip(&models.models).any(|(d, m)| {
-                        !matches!(d, ModelDef::User(_)) && m.param_names().contains(n)
-                    });
+            let delay_of_builtin = DELAY_PARAMS.contains(&n.as_str())
+                && models
+                    .defs
+                    .iter()
+                    .zip(&models.models)
+                    .any(|(d, m)| !d.is_user_defined() && m.param_names().contains(n));
             if delay_of_builtin {
                 check_delay(*v).map_err(|m| bad(&format!("start.{n}"), m))?;
             }
