@@ -262,13 +262,12 @@ fn state_names(s: &Scope, n: usize) -> Result<Vec<String>, String> {
     Ok(names.clone())
 }
 
+/// The noise part of a model: `g`, `h` and the PSDs, row-major.
+type NoiseInputs = (Vec<RealExpr>, Vec<RealExpr>, Vec<RealExpr>);
+
 /// `g`, `h` and `noise`: all absent, or `g` (states × q) with `noise` (q PSDs ≥ 0) and
 /// optionally `h` (outputs × q).
-fn noise_inputs(
-    s: &Scope,
-    n: usize,
-    p: usize,
-) -> Result<(Vec<RealExpr>, Vec<RealExpr>, Vec<RealExpr>), String> {
+fn noise_inputs(s: &Scope, n: usize, p: usize) -> Result<NoiseInputs, String> {
     let def = s.def;
     let (g, noise) = match (&def.g, &def.noise) {
         (None, None) => {

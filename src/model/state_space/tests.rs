@@ -275,7 +275,8 @@ fn errors_name_the_entry() {
         edit(&mut d);
         StateSpaceModel::new(&d).unwrap_err()
     };
-    let cases: Vec<(Box<dyn Fn(&mut StateSpaceDef)>, &[&str])> = vec![
+    type Edit = Box<dyn Fn(&mut StateSpaceDef)>;
+    let cases: Vec<(Edit, &[&str])> = vec![
         (
             Box::new(|d| d.a[1].pop().map(|_| ()).unwrap()),
             &["a[1]", "2 × 2"],
