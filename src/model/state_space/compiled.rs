@@ -63,7 +63,9 @@ pub struct StateSpaceModel {
 
 /// Buffers of the elimination: `lu` (n²) and `x` (n × inputs).
 pub(super) struct Work<'a, T> {
+    /// The matrix being factored.
     pub lu: &'a mut [Complex<T>],
+    /// The right-hand sides, then the solution.
     pub x: &'a mut [Complex<T>],
 }
 

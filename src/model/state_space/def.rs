@@ -23,6 +23,7 @@ pub type MatrixDef = Vec<Vec<RealValue>>;
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct StateSpaceDef {
+    /// The model's name.
     pub name: String,
     /// Parameter names, in θ order.
     pub parameters: Vec<String>,
@@ -69,6 +70,7 @@ pub struct StateSpaceDef {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TransferMatrixDef {
+    /// The model's name.
     pub name: String,
     /// Parameter names, in θ order.
     pub parameters: Vec<String>,

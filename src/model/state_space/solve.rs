@@ -83,8 +83,11 @@ pub struct System<'a, T> {
     pub m: usize,
     /// Outputs.
     pub p: usize,
+    /// `n × n`.
     pub a: &'a [T],
+    /// `n × m`.
     pub b: &'a [T],
+    /// `p × n`.
     pub c: &'a [T],
     /// `p × m`, or empty for zero.
     pub d: &'a [T],
