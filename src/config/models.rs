@@ -15,7 +15,8 @@
 //! The built-in closed loop is always available as the model `ltp` (the study's masses and
 //! OMS delay, no thruster response). The other kinds are `accel` (the acceleration domain,
 //! [`crate::model::accel`]), `tied` (any model defined earlier with tied parameters,
-//! [`crate::model::tied`]) and `user` ([`crate::model::user`]).
+//! [`crate::model::tied`]), `user` ([`crate::model::user`]), and `state_space` and
+//! `transfer_matrix` ([`crate::model::state_space`]).
 
 use super::error::ConfigError;
 use super::limits::{DELAY_PARAMS, MAX_DELAY, MAX_NAME_LEN, check_delay};
