@@ -261,6 +261,8 @@ impl StudyFile {
             &self.masses,
         )
         .map_err(|(n, m)| invalid(file, format!("fit.fixed.{n}"), m))?;
+        check_state_space_start(&self.fit.fixed, &fit_model, models, self.fit.start.as_ref())
+            .map_err(|(n, m)| invalid(file, n.replace("fixed.", "fit.fixed."), m))?;
         Ok(fit_model)
     }
 
@@ -274,6 +276,15 @@ impl StudyFile {
         for (k, (m, sm)) in self.select.model.iter().zip(&select_models).enumerate() {
             check_fixed_loop(&m.fixed, &sm.spec, models, &self.truth, &self.masses)
                 .map_err(|(n, e)| invalid(file, format!("select.model[{k}].fixed.{n}"), e))?;
+            check_state_space_start(&m.fixed, &sm.spec, models, self.fit.start.as_ref()).map_err(
+                |(n, e)| {
+                    invalid(
+                        file,
+                        n.replace("fixed.", &format!("select.model[{k}].fixed.")),
+                        e,
+                    )
+                },
+            )?;
         }
         Ok(select_models)
     }
@@ -666,6 +677,49 @@ fn check_fixed_loop(
     Ok(())
 }
 
+/// Checks that a sub-model of a state-space model is stable where its MAP search starts:
+/// the fixed values, the free parameters at `[fit] start` or else at their prior centre. The
+/// error's field is `fixed.<first fixed parameter>` (or `fit.start` when nothing is fixed).
+fn check_state_space_start(
+    fixed: &std::collections::BTreeMap<String, f64>,
+    spec: &ModelSpec,
+    models: &ModelSet,
+    start: Option<&std::collections::BTreeMap<String, f64>>,
+) -> Result<(), (String, String)> {
+    if !matches!(models.defs[spec.model], ModelDef::StateSpace(_)) {
+        return Ok(());
+    }
+    let m = &models.models[spec.model];
+    let names = m.param_names();
+    let mut th = spec.base.clone();
+    let mut from_start = false;
+    for &i in &spec.free {
+        th[i] = models.priors[spec.model].kinds()[i].centre();
+        if let Some(v) = start.and_then(|s| s.get(&names[i])) {
+            th[i] = *v;
+            from_start = true;
+        }
+    }
+    if fixed.is_empty() && !from_start {
+        // the prior centre alone is checked when the model is built
+        return Ok(());
+    }
+    m.check(&th).map_err(|e| {
+        let field = match fixed.keys().next() {
+            Some(n) => format!("fixed.{n}"),
+            None => "fit.start".into(),
+        };
+        (
+            field,
+            format!(
+                "{e}; checked at the fixed values with the free parameters at [fit] start or \
+                 their prior centre ({}): a sub-model must describe a stable system",
+                super::models::fmt_point(names, &th)
+            ),
+        )
+    })
+}
+
 fn validate_analysis(a: &AnalysisOptions, file: &str) -> Result<(), ConfigError> {
     let bad = |field: &str, msg: String| ConfigError::Invalid {
         file: file.into(),
@@ -788,11 +842,12 @@ fn validate_fit(f: &FitOptions, models: &ModelSet, file: &str) -> Result<(), Con
                     format!("must be finite (got {v})"),
                 ));
             }
-            let delay_of_builtin =
-                DELAY_PARAMS.contains(&n.as_str())
-                    && models.defs.iter().zip(&models.models).any(|(d, m)| {
-                        !matches!(d, ModelDef::User(_)) && m.param_names().contains(n)
-                    });
+            let delay_of_builtin = DELAY_PARAMS.contains(&n.as_str())
+                && models
+                    .defs
+                    .iter()
+                    .zip(&models.models)
+                    .any(|(d, m)| !d.is_user_defined() && m.param_names().contains(n));
             if delay_of_builtin {
                 check_delay(*v).map_err(|m| bad(&format!("start.{n}"), m))?;
             }

@@ -15,10 +15,12 @@
 //! The built-in closed loop is always available as the model `ltp` (the study's masses and
 //! OMS delay, no thruster response). The other kinds are `accel` (the acceleration domain,
 //! [`crate::model::accel`]), `tied` (any model defined earlier with tied parameters,
-//! [`crate::model::tied`]) and `user` ([`crate::model::user`]).
+//! [`crate::model::tied`]), `user` ([`crate::model::user`]), and `state_space` and
+//! `transfer_matrix` ([`crate::model::state_space`]).
 
 use super::error::ConfigError;
 use super::limits::{DELAY_PARAMS, MAX_DELAY, MAX_NAME_LEN, check_delay};
+use crate::model::state_space::{StateSpaceDef, StateSpaceModel, TransferMatrixDef};
 use crate::model::user::{UserModel, UserModelDef};
 use crate::model::{LoopResponse, LtpModel, LtpModelOptions, Model, ThrusterResponse};
 use crate::prior::{Prior, PriorKind};
@@ -99,6 +101,10 @@ pub enum ModelDef {
     Tied(TiedModelEntry),
     /// A model defined in the study file (see [`crate::model::user`]).
     User(UserModelDef),
+    /// A state-space model defined in the study file (see [`crate::model::state_space`]).
+    StateSpace(StateSpaceDef),
+    /// A transfer matrix defined in the study file (see [`crate::model::state_space`]).
+    TransferMatrix(TransferMatrixDef),
 }
 
 impl ModelDef {
@@ -108,7 +114,19 @@ impl ModelDef {
             ModelDef::Ltp { name, .. } | ModelDef::Accel { name, .. } => name,
             ModelDef::Tied(t) => &t.name,
             ModelDef::User(d) => &d.name,
+            ModelDef::StateSpace(d) => &d.name,
+            ModelDef::TransferMatrix(d) => &d.name,
         }
+    }
+
+    /// Whether the model is written in the study file (`user`, `state_space`,
+    /// `transfer_matrix`): its parameter names are the user's, with no built-in meaning (a
+    /// `dt1` there is not the guidance delay), and it has no default priors.
+    pub fn is_user_defined(&self) -> bool {
+        matches!(
+            self,
+            ModelDef::User(_) | ModelDef::StateSpace(_) | ModelDef::TransferMatrix(_)
+        )
     }
 
     /// The model and its default priors (none for user-defined models; a tied model's are its
@@ -144,6 +162,13 @@ impl ModelDef {
                 (Arc::new(m), defaults.clone())
             }
             ModelDef::User(def) => (Arc::new(UserModel::new(def)?), Vec::new()),
+            ModelDef::StateSpace(def) => (Arc::new(StateSpaceModel::new(def)?), Vec::new()),
+            ModelDef::TransferMatrix(def) => {
+                let user = crate::model::state_space::to_user_def(def)?;
+                let m =
+                    UserModel::new(&user).map_err(|e| crate::model::state_space::user_error(&e))?;
+                (Arc::new(m), Vec::new())
+            }
         })
     }
 }
@@ -212,13 +237,15 @@ impl ModelSet {
                 Some(v) => {
                     return Err(bad(
                         format!("{at}.kind"),
-                        format!("must be a string, \"ltp\" or \"user\" (got {v})"),
+                        format!(
+                            "must be a string such as \"ltp\", \"user\" or \"state_space\" (got {v})"
+                        ),
                     ));
                 }
                 None => {
                     return Err(bad(
                         format!("{at}.kind"),
-                        "missing: say kind = \"ltp\" (the built-in closed loop) or kind = \"user\" (a model defined in this file)".into(),
+                        "missing: say kind = \"ltp\" (the built-in closed loop), kind = \"user\" or kind = \"state_space\" (a model defined in this file)".into(),
                     ));
                 }
             };
@@ -252,11 +279,13 @@ impl ModelSet {
                 }
                 "tied" => ModelDef::Tied(t.try_into().map_err(parse_err)?),
                 "user" => ModelDef::User(t.try_into().map_err(parse_err)?),
+                "state_space" => ModelDef::StateSpace(t.try_into().map_err(parse_err)?),
+                "transfer_matrix" => ModelDef::TransferMatrix(t.try_into().map_err(parse_err)?),
                 other => {
                     return Err(bad(
                         format!("{at}.kind"),
                         format!(
-                            "unknown model kind `{other}`; the kinds are \"ltp\", \"accel\", \"tied\" and \"user\""
+                            "unknown model kind `{other}`; the kinds are \"ltp\", \"accel\", \"tied\", \"user\", \"state_space\" and \"transfer_matrix\""
                         ),
                     ));
                 }
@@ -322,7 +351,7 @@ impl ModelSet {
                     })?;
                 kinds.push(k);
             }
-            if !matches!(d, ModelDef::User(_)) {
+            if !d.is_user_defined() {
                 for (n, k) in m.param_names().iter().zip(&kinds) {
                     if !DELAY_PARAMS.contains(&n.as_str()) {
                         continue;
@@ -354,31 +383,45 @@ impl ModelSet {
             models,
             priors,
         };
-        // every parameter of a user-defined model must act on some coefficient
+        // every parameter of a user-defined model must act on some coefficient, and a
+        // state-space model must be stable at the prior centre
         for (k, d) in set.defs.iter().enumerate() {
-            if let ModelDef::User(def) = d {
-                let centre: Vec<f64> = set.priors[k]
-                    .kinds()
-                    .iter()
-                    .map(PriorKind::centre)
-                    .collect();
-                crate::model::check_identifiable(
-                    set.models[k].as_ref(),
-                    &centre,
-                    check_freqs,
-                    check_fs,
-                )
-                .map_err(|e| {
+            if !d.is_user_defined() {
+                continue;
+            }
+            let centre: Vec<f64> = set.priors[k]
+                .kinds()
+                .iter()
+                .map(PriorKind::centre)
+                .collect();
+            if let ModelDef::StateSpace(_) = d {
+                set.models[k].check(&centre).map_err(|e| {
                     bad(
-                        format!("model.{}", def.name),
+                        format!("model.{}", d.name()),
                         format!(
-                            "{e} (checked at the prior centre over {:.1e}–{:.1e} Hz)",
-                            check_freqs[0],
-                            check_freqs[check_freqs.len() - 1]
+                            "{e}; checked at the prior centre ({}): centre the priors on a \
+                             stable system",
+                            fmt_point(set.models[k].param_names(), &centre)
                         ),
                     )
                 })?;
             }
+            crate::model::check_identifiable(
+                set.models[k].as_ref(),
+                &centre,
+                check_freqs,
+                check_fs,
+            )
+            .map_err(|e| {
+                bad(
+                    format!("model.{}", d.name()),
+                    format!(
+                        "{e} (checked at the prior centre over {:.1e}–{:.1e} Hz)",
+                        check_freqs[0],
+                        check_freqs[check_freqs.len() - 1]
+                    ),
+                )
+            })?;
         }
         for n in prior.keys() {
             if !set.models.iter().any(|m| m.param_names().contains(n)) {
@@ -393,6 +436,16 @@ impl ModelSet {
         }
         Ok(set)
     }
+}
+
+/// `a = 1, b = 2` for messages.
+pub fn fmt_point(names: &[String], values: &[f64]) -> String {
+    names
+        .iter()
+        .zip(values)
+        .map(|(n, v)| format!("{n} = {v}"))
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// Checks a model name (`[[model]]`, `[[select.model]]`): 1 to
@@ -505,7 +558,7 @@ impl ModelEntry {
                     format!("must be finite (got {v})"),
                 ));
             }
-            if !matches!(set.defs[mi], ModelDef::User(_)) && DELAY_PARAMS.contains(&n.as_str()) {
+            if !set.defs[mi].is_user_defined() && DELAY_PARAMS.contains(&n.as_str()) {
                 check_delay(v).map_err(|m| bad(format!("{at}fixed.{n}"), m))?;
             }
             let kind = set.priors[mi].kinds()[i];

@@ -94,6 +94,14 @@ fn schema() -> BTreeMap<String, BTreeSet<String>> {
         keys::<crate::model::user::UserModelDef>(""),
     );
     put(
+        "[[model]] kind = \"state_space\"",
+        keys::<crate::model::state_space::StateSpaceDef>(""),
+    );
+    put(
+        "[[model]] kind = \"transfer_matrix\"",
+        keys::<crate::model::state_space::TransferMatrixDef>(""),
+    );
+    put(
         "[model.blocks.NAME] kind",
         kinds::<crate::model::user::BlockDef>(),
     );

@@ -26,6 +26,7 @@ mod bin;
 mod checks;
 pub mod ltp;
 mod ltp_kernel;
+pub mod state_space;
 pub mod tied;
 mod traits;
 pub mod user;
