@@ -226,7 +226,7 @@ impl UserKernel {
             };
             // one loop per operation, so the operation is not chosen per bin
             match *inst {
-                Inst::Add(..) => each(a, b, out, |x, y| apply_add(x, y)),
+                Inst::Add(..) => each(a, b, out, apply_add),
                 Inst::Sub(..) => each(a, b, out, |mut x, y| {
                     x -= y;
                     x
