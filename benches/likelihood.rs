@@ -5,6 +5,7 @@
 //!
 //! `cargo bench --bench likelihood` prints one table of evaluations per second (see
 //! BENCHMARKS.md). `bash bench/peer/setup.sh` creates the numpy venv.
+//! `OCCAM_BENCH=user cargo bench --bench likelihood` runs only the user-defined model's rows.
 
 #[path = "../bench/peer/peer_npz.rs"]
 mod peer_npz;
@@ -130,6 +131,10 @@ fn run_peer(npz: &Path) -> Result<Peer, String> {
 }
 
 fn main() {
+    if std::env::var("OCCAM_BENCH").as_deref() == Ok("user") {
+        user_model_rate();
+        return;
+    }
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let study =
         Study::load(&root.join("examples/tn3045.toml")).expect("examples/tn3045.toml loads");

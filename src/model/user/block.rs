@@ -8,6 +8,10 @@ use std::f64::consts::PI;
 /// Largest `|n|` of an `s_power` block.
 pub const MAX_S_POWER: i32 = 16;
 
+/// Most real fields of one block (the coefficients of a `rational` block, numerator and
+/// denominator together).
+pub const MAX_FIELDS: usize = 64;
+
 /// A compiled block.
 #[derive(Debug, Clone)]
 pub enum Block {
@@ -102,28 +106,68 @@ impl Block {
         }
     }
 
+    /// Number of real fields, the length of [`Block::field_values`].
+    pub fn n_fields(&self) -> usize {
+        match self {
+            Block::SPower(_) => 0,
+            Block::Gain(_) | Block::Delay(_) | Block::Pole(_) | Block::Zero(_) => 1,
+            Block::ComplexPole { .. } => 2,
+            Block::Rational { num, den } => num.len() + den.len(),
+        }
+    }
+
+    /// The real fields' values at θ into `out` (length [`Block::n_fields`]), in the order of
+    /// [`Block::fields`]: what the response needs of θ, computed once per θ by the compiled
+    /// kernel rather than once per bin.
+    #[inline]
+    pub fn field_values<T: DualNum<Primitive = f64> + Copy>(&self, th: &[T], out: &mut [T]) {
+        match self {
+            Block::SPower(_) => {}
+            Block::Gain(v) | Block::Delay(v) | Block::Pole(v) | Block::Zero(v) => {
+                out[0] = v.eval(th)
+            }
+            Block::ComplexPole { f, q } => {
+                out[0] = f.eval(th);
+                out[1] = q.eval(th);
+            }
+            Block::Rational { num, den } => {
+                for (o, a) in out.iter_mut().zip(num.iter().chain(den)) {
+                    *o = a.eval(th);
+                }
+            }
+        }
+    }
+
     /// The response at frequency `f` (Hz), generic over dual numbers.
     #[inline]
     pub fn eval<T: DualNum<Primitive = f64> + Copy>(&self, th: &[T], f: f64) -> Complex<T> {
+        let mut vals = [T::zero(); MAX_FIELDS];
+        let n = self.n_fields();
+        self.field_values(th, &mut vals[..n]);
+        self.response(&vals[..n], f)
+    }
+
+    /// The response at frequency `f` (Hz) from the field values `v` ([`Block::field_values`]).
+    #[inline]
+    pub fn response<T: DualNum<Primitive = f64> + Copy>(&self, v: &[T], f: f64) -> Complex<T> {
         let w = 2.0 * PI * f;
-        let re = |x: T| Complex::new(x, T::zero());
         match self {
-            Block::Gain(v) => re(v.eval(th)),
-            Block::Delay(t) => {
-                let (s, c) = (t.eval(th) * w).sin_cos();
+            Block::Gain(_) => Complex::new(v[0], T::zero()),
+            Block::Delay(_) => {
+                let (s, c) = (v[0] * w).sin_cos();
                 Complex::new(c, -s)
             }
-            Block::Pole(f0) => {
+            Block::Pole(_) => {
                 // 1/(1 + i u) = (1 − i u)/(1 + u²), u = f/f0
-                let u = f0.eval(th).recip() * f;
+                let u = v[0].recip() * f;
                 let d = (u * u + 1.0).recip();
                 Complex::new(d, -u * d)
             }
-            Block::Zero(f0) => Complex::new(T::one(), f0.eval(th).recip() * f),
-            Block::ComplexPole { f: f0, q } => {
-                let w0 = f0.eval(th) * (2.0 * PI);
+            Block::Zero(_) => Complex::new(T::one(), v[0].recip() * f),
+            Block::ComplexPole { .. } => {
+                let w0 = v[0] * (2.0 * PI);
                 let w02 = w0 * w0;
-                let den = Complex::new(w02 - w * w, w0 * w / q.eval(th));
+                let den = Complex::new(w02 - w * w, w0 * w / v[1]);
                 den.inv() * w02
             }
             Block::SPower(n) => {
@@ -136,16 +180,17 @@ impl Block {
                 };
                 Complex::new(T::from(v.0), T::from(v.1))
             }
-            Block::Rational { num, den } => {
-                let horner = |c: &[RealExpr]| {
+            Block::Rational { num, .. } => {
+                let horner = |c: &[T]| {
                     let mut acc = Complex::new(T::zero(), T::zero());
-                    for a in c {
+                    for &a in c {
                         // acc·(iω) + a
-                        acc = Complex::new(-acc.im * w + a.eval(th), acc.re * w);
+                        acc = Complex::new(-acc.im * w + a, acc.re * w);
                     }
                     acc
                 };
-                horner(num) / horner(den)
+                let (n, d) = v.split_at(num.len());
+                horner(n) / horner(d)
             }
         }
     }

@@ -1,6 +1,6 @@
 //! Validation and compilation of a [`UserModelDef`] into a [`UserModel`].
 
-use super::block::{Block, MAX_S_POWER};
+use super::block::{Block, MAX_FIELDS, MAX_S_POWER};
 use super::compiled::{MAX_SLOTS, UserModel};
 use super::def::{BlockDef, RealValue, UserModelDef};
 use super::expr::{self, MAX_STACK, Node, Op, Operand};
@@ -275,6 +275,17 @@ impl<'a> Scope<'a> {
                 .collect()
         };
         let block = match b {
+            BlockDef::Rational { num, den } if num.len() + den.len() > MAX_FIELDS => {
+                return Err(self.fail(
+                    &at("num"),
+                    format!(
+                        "{} numerator and {} denominator coefficients; at most {MAX_FIELDS} \
+                         together are supported (split the block into a product of blocks)",
+                        num.len(),
+                        den.len()
+                    ),
+                ));
+            }
             BlockDef::Rational { num, den } => Block::Rational {
                 num: poly("num", num)?,
                 den: poly("den", den)?,

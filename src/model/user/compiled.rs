@@ -2,11 +2,13 @@
 
 use super::block::Block;
 use super::expr::{self, Op};
-use crate::model::bin::Bin;
-use crate::model::traits::Model;
+use super::kernel::UserKernel;
+use crate::model::bin::{Bin, BinBlock};
+use crate::model::traits::{BlockKernel, Model};
 use num_complex::{Complex, Complex64};
 use num_dual::{Dual64, DualNum};
 use std::f64::consts::PI;
+use std::sync::Arc;
 
 /// Most blocks and defines (together) a model may evaluate.
 pub const MAX_SLOTS: usize = 256;
@@ -97,6 +99,12 @@ impl Model for UserModel {
 
     fn coefficients_dual(&self, theta: &[Dual64], bin: &Bin, out: &mut [Complex<Dual64>]) {
         self.fill(theta, bin, out);
+    }
+
+    /// The compiled kernel ([`super::kernel`]): the same numbers as the interpreter, bit for
+    /// bit, without its per-bin dispatch.
+    fn prepare_kernel(&self, block: &BinBlock) -> Option<Arc<dyn BlockKernel>> {
+        Some(Arc::new(UserKernel::new(self, block)))
     }
 
     /// θ has the right length and finite values, and every θ-dependent block field is

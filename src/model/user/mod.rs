@@ -48,9 +48,13 @@ mod build;
 mod compiled;
 mod def;
 pub mod expr;
+mod kernel;
 pub mod real;
+mod ssa;
 #[cfg(test)]
 mod tests;
 
 pub use compiled::{MAX_SLOTS, UserModel};
 pub use def::{BlockDef, RealValue, UserModelDef};
+#[cfg(test)]
+mod kernel_tests;
