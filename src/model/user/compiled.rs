@@ -101,10 +101,12 @@ impl Model for UserModel {
         self.fill(theta, bin, out);
     }
 
-    /// The compiled kernel ([`super::kernel`]): the same numbers as the interpreter, bit for
-    /// bit, without its per-bin dispatch.
+    /// The compiled kernel ([`super::kernel`]): the interpreter's numbers (to 1e−12) without
+    /// its per-bin dispatch, for one or two residual channels (the packed noise inverse); more
+    /// channels take the generic whitened path.
     fn prepare_kernel(&self, block: &BinBlock) -> Option<Arc<dyn BlockKernel>> {
-        Some(Arc::new(UserKernel::new(self, block)))
+        (self.res.len() <= 2)
+            .then(|| Arc::new(UserKernel::new(self, block)) as Arc<dyn BlockKernel>)
     }
 
     /// θ has the right length and finite values, and every θ-dependent block field is

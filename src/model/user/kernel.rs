@@ -18,7 +18,7 @@
 use super::block::Block;
 use super::compiled::UserModel;
 use super::ssa::{Inst, Ssa, Tier, apply, operands};
-use crate::model::bin::{BinBlock, MAX_CHANNELS, MAX_RESIDUALS, quad};
+use crate::model::bin::{BinBlock, MAX_CHANNELS, quad};
 use crate::model::traits::BlockKernel;
 use num_complex::Complex64;
 use std::cell::RefCell;
@@ -277,7 +277,7 @@ impl UserKernel {
         let nc = self.model.data.len();
         let nr = self.model.res.len();
         let zero = Complex64::new(0.0, 0.0);
-        let mut outs = [Out::One(zero); MAX_CHANNELS * MAX_RESIDUALS];
+        let mut outs = [Out::One(zero); MAX_CHANNELS * 2];
         for (o, v) in outs.iter_mut().zip(&self.ssa.outs) {
             *o = match v.map(|v| (v, self.loc[v as usize])) {
                 None => Out::One(zero),
