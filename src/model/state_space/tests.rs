@@ -109,10 +109,96 @@ fn batch_and_residual_power_equal_the_generic_paths() {
         data: &data,
         cinv: &cinv,
         consts: &[],
+        whiten: &[],
     };
     let a = m.residual_power(&th, &block);
     let b = crate::model::residual_power_generic(&m, &th, &block);
     assert!((a - b).abs() <= 1e-15 * b.abs(), "{a} vs {b}");
+}
+
+/// Three outputs: the residual power goes through the whitening factors (the N-channel
+/// likelihood) and equals the generic whitened path and a direct `rᴴC⁻¹r` with `C = L Lᴴ`.
+#[test]
+fn three_outputs_take_the_whitened_path() {
+    let m = StateSpaceModel::new(&def(r#"
+name = "three"
+parameters = ["k", "g"]
+inputs = ["u"]
+outputs = ["y1", "y2", "y3"]
+a = [[0, 1], ["-k", "-g"]]
+b = [[0], [1]]
+c = [[1, 0], [0, 1], ["g", "k"]]
+d = [[0], [0.1], [0]]
+"#))
+    .unwrap();
+    let th = [2.0, 0.3];
+    let n = 5;
+    let data: Vec<Complex64> = (0..4 * n)
+        .map(|k| Complex64::new((k as f64 * 0.37).sin(), (k as f64 * 0.11).cos()))
+        .collect();
+    // C_k = L Lᴴ with L lower triangular, diagonal > 0
+    let z = Complex64::new(0.0, 0.0);
+    let mut cov = Vec::new();
+    let mut whiten = Vec::new();
+    for k in 0..n {
+        let x = k as f64;
+        let l = [
+            [Complex64::new(1.0 + 0.1 * x, 0.0), z, z],
+            [Complex64::new(0.2, -0.1 * x), Complex64::new(0.8, 0.0), z],
+            [
+                Complex64::new(-0.3, 0.2),
+                Complex64::new(0.1 * x, 0.4),
+                Complex64::new(1.2, 0.0),
+            ],
+        ];
+        let mut c = vec![z; 9];
+        for i in 0..3 {
+            for j in 0..3 {
+                c[i * 3 + j] = (0..3).map(|q| l[i][q] * l[j][q].conj()).sum();
+            }
+        }
+        let mut w = vec![z; crate::model::tri_len(3)];
+        crate::hermitian::whitener(&c, 3, 1e-14, &mut w).unwrap();
+        whiten.extend(w);
+        cov.push(nalgebra::DMatrix::from_row_slice(3, 3, &c));
+    }
+    let block = crate::model::BinBlock {
+        f0: 0.01,
+        df: 0.05,
+        fs: 10.0,
+        n,
+        data: &data,
+        cinv: &[],
+        consts: &[],
+        whiten: &whiten,
+    };
+    let a = m.residual_power(&th, &block);
+    let b = crate::model::residual_power_whitened(&m, &th, &block);
+    let mut direct = 0.0;
+    let mut coef = [z; 12];
+    for k in 0..n {
+        m.coefficients(
+            &th,
+            &Bin {
+                f: 0.01 + k as f64 * 0.05,
+                fs: 10.0,
+                consts: &[],
+            },
+            &mut coef,
+        );
+        let d = &data[k * 4..(k + 1) * 4];
+        let r = nalgebra::DVector::from_iterator(
+            3,
+            (0..3).map(|i| (0..4).map(|c| coef[i * 4 + c] * d[c]).sum::<Complex64>()),
+        );
+        let x = cov[k].clone().lu().solve(&r).unwrap();
+        direct += r.dotc(&x).re;
+    }
+    assert!((a - b).abs() <= 1e-15 * b.abs(), "{a} vs {b}");
+    assert!(
+        (a - direct).abs() <= 1e-12 * direct.abs(),
+        "{a} vs {direct}"
+    );
 }
 
 #[test]

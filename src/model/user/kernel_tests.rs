@@ -70,6 +70,7 @@ impl Bins {
             data: &self.data[k * self.nc..(k + len) * self.nc],
             cinv: &self.cinv[k..k + len],
             consts: &self.consts[k * self.ncst..(k + len) * self.ncst],
+            whiten: &[],
         }
     }
 }
