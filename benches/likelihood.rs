@@ -318,8 +318,9 @@ fn rj_rate() {
 }
 
 /// The 7-parameter closed loop written as a user-defined model
-/// (`examples/user-model-closed-loop.toml`) against the built-in model with its fast kernel, on
-/// the same data: ln L evaluations per second, exact and relative-binned.
+/// (`examples/user-model-closed-loop.toml`) and as a state-space model
+/// (`examples/state-space.toml`, on the same data and band) against the built-in model with its
+/// fast kernel: ln L evaluations per second, exact and relative-binned.
 fn user_model_rate() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let study = Study::load(&root.join("examples/user-model-closed-loop.toml"))
@@ -329,9 +330,16 @@ fn user_model_rate() {
     let ltp = study.models.index("ltp").expect("the built-in model");
     let builtin =
         occam::jobs::prepare::likelihood_of(&study, ltp, &prep.dataset).expect("likelihood");
+    let mut ss_study =
+        Study::load(&root.join("examples/state-space.toml")).expect("examples/state-space.toml");
+    ss_study.analysis.band = study.analysis.band;
+    let ss_index = ss_study.models.index("loop").expect("the state-space loop");
+    let ss = occam::jobs::prepare::likelihood_of(&ss_study, ss_index, &prep.dataset)
+        .expect("state-space likelihood");
     let th = study.truth.to_array();
     let rb_user = RelBinLikelihood::new(user, &th, &Default::default()).unwrap();
     let rb_builtin = RelBinLikelihood::new(&builtin, &th, &Default::default()).unwrap();
+    let rb_ss = RelBinLikelihood::new(&ss, &th, &Default::default()).unwrap();
     let timed = |f: &dyn Fn(&[f64]) -> f64| {
         let mut x = th;
         let mut k = 0usize;
@@ -350,22 +358,29 @@ fn user_model_rate() {
             "exact",
             timed(&|t| builtin.ln_likelihood_full(t)),
             timed(&|t| user.ln_likelihood_full(t)),
+            timed(&|t| ss.ln_likelihood_full(t)),
         ),
         (
             "relative-binned",
             timed(&|t| rb_builtin.ln_likelihood_full(t)),
             timed(&|t| rb_user.ln_likelihood_full(t)),
+            timed(&|t| rb_ss.ln_likelihood_full(t)),
         ),
     ];
     println!();
     println!(
-        "user-defined closed loop (examples/user-model-closed-loop.toml) against the built-in model:"
+        "the closed loop written as a user-defined model (examples/user-model-closed-loop.toml) \
+         and as a state-space model (examples/state-space.toml) against the built-in model:"
     );
     println!(
-        "{:<18} {:>16} {:>16} {:>10}",
-        "ln L", "built-in evals/s", "user evals/s", "ratio"
+        "{:<16} {:>14} {:>12} {:>7} {:>14} {:>7}",
+        "ln L", "built-in /s", "user /s", "ratio", "state-space /s", "ratio"
     );
-    for (name, b, u) in rows {
-        println!("{name:<18} {b:>16.1} {u:>16.1} {:>10.2}", u / b);
+    for (name, b, u, x) in rows {
+        println!(
+            "{name:<16} {b:>14.1} {u:>12.1} {:>7.3} {x:>14.1} {:>7.3}",
+            u / b,
+            x / b
+        );
     }
 }

@@ -2,7 +2,7 @@
 
 use super::block::Block;
 use super::expr::{self, Op};
-use super::kernel::UserKernel;
+use super::kernel::{Program, UserKernel};
 use crate::model::bin::{Bin, BinBlock};
 use crate::model::traits::{BlockKernel, Model};
 use num_complex::{Complex, Complex64};
@@ -105,8 +105,16 @@ impl Model for UserModel {
     /// its per-bin dispatch, for one or two residual channels (the packed noise inverse); more
     /// channels take the generic whitened path.
     fn prepare_kernel(&self, block: &BinBlock) -> Option<Arc<dyn BlockKernel>> {
+        let program = Program {
+            blocks: &self.blocks,
+            const_of: &self.const_of,
+            ops: &self.ops,
+            n_consts: self.n_consts,
+            nr: self.res.len(),
+            nc: self.data.len(),
+        };
         (self.res.len() <= 2)
-            .then(|| Arc::new(UserKernel::new(self, block)) as Arc<dyn BlockKernel>)
+            .then(|| Arc::new(UserKernel::new(&program, block)) as Arc<dyn BlockKernel>)
     }
 
     /// θ has the right length and finite values, and every θ-dependent block field is

@@ -16,7 +16,7 @@
 //! [`residual_power_generic`]: crate::model::residual_power_generic
 
 use super::block::Block;
-use super::compiled::UserModel;
+use super::expr::Op;
 use super::ssa::{Inst, Ssa, Tier, apply, operands};
 use crate::model::bin::{BinBlock, MAX_CHANNELS, quad};
 use crate::model::traits::BlockKernel;
@@ -57,10 +57,26 @@ enum Out {
     Chunk(usize),
 }
 
+/// What the kernel needs of a user model: its used blocks, which of them are per-bin
+/// constants, its program and its shape.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Program<'a> {
+    pub blocks: &'a [(String, Block)],
+    pub const_of: &'a [Option<usize>],
+    pub ops: &'a [Op],
+    pub n_consts: usize,
+    /// Residual channels.
+    pub nr: usize,
+    /// Data channels.
+    pub nc: usize,
+}
+
 /// A user model's kernel for one block of bins (see the module docs).
 #[derive(Debug)]
 pub(super) struct UserKernel {
-    model: UserModel,
+    blocks: Vec<Block>,
+    nr: usize,
+    nc: usize,
     ssa: Ssa,
     loc: Vec<Loc>,
     /// Every number of the program (θ-only entries are filled per ln L).
@@ -101,10 +117,10 @@ thread_local! {
 
 impl UserKernel {
     /// Prepares `m`'s kernel for `b`: the numbers and the frequency-only values.
-    pub fn new(m: &UserModel, b: &BinBlock) -> UserKernel {
+    pub fn new(m: &Program, b: &BinBlock) -> UserKernel {
         let is_const: Vec<bool> = m.const_of.iter().map(Option::is_some).collect();
-        let ncoef = m.data.len() * m.res.len();
-        let ssa = Ssa::new(&m.ops, &is_const, ncoef);
+        let ncoef = m.nr * m.nc;
+        let ssa = Ssa::new(m.ops, &is_const, ncoef);
         let later = ssa.read_later();
         let mut loc = Vec::with_capacity(ssa.insts.len());
         let (mut nb, mut nm) = (0, 0);
@@ -130,7 +146,7 @@ impl UserKernel {
         }
         let mut field_at = Vec::with_capacity(m.blocks.len());
         let mut n_fields = 0;
-        for (_, blk) in &m.blocks {
+        for (_, blk) in m.blocks {
             field_at.push(n_fields);
             n_fields += blk.n_fields();
         }
@@ -138,7 +154,7 @@ impl UserKernel {
         let step_at = m
             .blocks
             .iter()
-            .zip(&m.const_of)
+            .zip(m.const_of)
             .map(|((_, blk), c)| match (blk, c) {
                 (Block::Delay(_), None) => {
                     n_steps += CHUNK;
@@ -149,7 +165,9 @@ impl UserKernel {
             .collect();
         let bins = bin_table(m, &ssa, &loc, &fixed, b, nb);
         UserKernel {
-            model: m.clone(),
+            blocks: m.blocks.iter().map(|(_, b)| b.clone()).collect(),
+            nr: m.nr,
+            nc: m.nc,
             ssa,
             loc,
             fixed,
@@ -202,7 +220,7 @@ impl UserKernel {
             let out = &mut rest[..len];
             if let Inst::Block(k) = *inst {
                 let k = k as usize;
-                let blk = &self.model.blocks[k].1;
+                let blk = &self.blocks[k];
                 let v = &fields[self.field_at[k]..self.field_at[k] + blk.n_fields()];
                 if let Some(at) = self.step_at[k] {
                     // e^{−iω_j τ} = e^{−iω_0 τ}·e^{−i j dω τ}: one sin_cos per chunk
@@ -260,7 +278,7 @@ impl UserKernel {
             }
         }
         fields.resize(self.n_fields, 0.0);
-        for ((_, blk), &at) in self.model.blocks.iter().zip(&self.field_at) {
+        for (blk, &at) in self.blocks.iter().zip(&self.field_at) {
             blk.field_values(theta, &mut fields[at..at + blk.n_fields()]);
         }
         steps.clear();
@@ -274,8 +292,7 @@ impl UserKernel {
             }
         }
         rows.resize(self.n_chunk_rows * CHUNK, Complex64::new(0.0, 0.0));
-        let nc = self.model.data.len();
-        let nr = self.model.res.len();
+        let (nc, nr) = (self.nc, self.nr);
         let zero = Complex64::new(0.0, 0.0);
         let mut outs = [Out::One(zero); MAX_CHANNELS * 2];
         for (o, v) in outs.iter_mut().zip(&self.ssa.outs) {
@@ -386,7 +403,7 @@ fn scalar_value(inst: &Inst, vals: &[Complex64], theta: &[f64]) -> Complex64 {
 
 /// The frequency-only values read later, `nb` rows of `b.n` bins.
 fn bin_table(
-    m: &UserModel,
+    m: &Program,
     ssa: &Ssa,
     loc: &[Loc],
     fixed: &[Complex64],
