@@ -111,7 +111,8 @@ pub struct ExperimentSize {
 pub fn experiment_size(d: &ExperimentDesign, sim: &SimulationOptions) -> ExperimentSize {
     let n = d.n_samples_f64();
     let m = d.n_noise_samples_f64();
-    let c = if d.has_forces() { 10.0 } else { 7.0 };
+    // a model simulation's named injections add their own series and, at most, as many read-outs
+    let c = if d.has_forces() { 10.0 } else { 7.0 } + 2.0 * d.inject.len() as f64;
     let series = BYTES_PER_SAMPLE * (c * n + 5.0 * m);
     let realistic = if sim.noise == NoiseSynthesis::Realistic {
         2.0 * 4.0 * 16.0 * (n + m)
@@ -133,14 +134,8 @@ pub fn experiment_size(d: &ExperimentDesign, sim: &SimulationOptions) -> Experim
         ("post_pad".into(), pad(d.post_pad)),
         ("noise_duration".into(), m),
     ];
-    for (ch, w) in [
-        ("x1", &d.x1),
-        ("x12", &d.x12),
-        ("f1", &d.f1),
-        ("f2", &d.f2),
-        ("fsc", &d.fsc),
-    ] {
-        parts.push((ch.into(), w.len_f64(fs)));
+    for (ch, w) in d.waveforms() {
+        parts.push((ch, w.len_f64(fs)));
     }
     let (mut driver, big) =
         parts

@@ -78,6 +78,13 @@ impl StudyFile {
         validate_analysis(&self.analysis, file)?;
         self.check_bands(&experiments.designs, file)?;
         let models = self.resolve_models(file)?;
+        super::generator::check(
+            &self.simulation,
+            &models,
+            &experiments.designs,
+            &experiments.names,
+            file,
+        )?;
         let fit_model = self.resolve_fit(&models, file)?;
         let select_models = self.resolve_select(&models, file)?;
         if let Some(sw) = &self.sweep {
@@ -460,6 +467,7 @@ fn data_source(
         ("f1", e.f1.is_some()),
         ("f2", e.f2.is_some()),
         ("fsc", e.fsc.is_some()),
+        ("inject", !e.inject.is_empty()),
         ("pre_pad", e.pre_pad.is_some()),
         ("post_pad", e.post_pad.is_some()),
         ("noise_duration", e.noise_duration.is_some()),
@@ -541,6 +549,7 @@ fn simulated_design(
             f1: Waveform::None,
             f2: Waveform::None,
             fsc: Waveform::None,
+            inject: Default::default(),
         },
     };
     d.name = e.name.clone();
@@ -581,6 +590,12 @@ fn simulated_design(
         if let Some(entry) = entry {
             *dst = to_waveform(entry, base, file, &at(ch))?;
         }
+    }
+    for (ch, entry) in &e.inject {
+        let field = at(&format!("inject.{ch}"));
+        crate::data::dataset::check_channel_name(ch).map_err(|m| bad(field.clone(), m))?;
+        let w = to_waveform(entry, base, file, &field)?;
+        d.inject.insert(ch.clone(), w);
     }
     if method == Method::Time
         && let Some((ch, _)) = [("f1", &d.f1), ("f2", &d.f2), ("fsc", &d.fsc)]
@@ -1113,13 +1128,9 @@ fn validate_waveforms(
     bound: bool,
 ) -> Result<(), ConfigError> {
     let nyq = d.fs / 2.0;
-    for (ch, w) in [
-        ("x1", &d.x1),
-        ("x12", &d.x12),
-        ("f1", &d.f1),
-        ("f2", &d.f2),
-        ("fsc", &d.fsc),
-    ] {
+    for (ch, w) in d.waveforms() {
+        // a named channel's unit is the user's model's: only finiteness is checked there
+        let bound = bound && !ch.starts_with("inject.");
         let bad = |f: String, msg: String| ConfigError::Invalid {
             file: file.into(),
             field: format!("{at}{ch}{f}"),
@@ -1188,14 +1199,11 @@ fn validate_waveforms(
             ));
         }
     }
-    if [&d.x1, &d.x12, &d.f1, &d.f2, &d.fsc]
-        .iter()
-        .all(|w| w.is_empty(d.fs))
-    {
+    if d.waveforms().iter().all(|(_, w)| w.is_empty(d.fs)) {
         return Err(ConfigError::Invalid {
             file: file.into(),
             field: format!("{at}x1"),
-            msg: "the experiment injects nothing: give `x1` or `x12` (or a `design`), or a force injection `f1`, `f2` or `fsc`".into(),
+            msg: "the experiment injects nothing: give `x1` or `x12` (or a `design`), a force injection `f1`, `f2` or `fsc`, or (with a [simulation] model) `[experiment.inject]`".into(),
         });
     }
     Ok(())

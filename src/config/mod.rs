@@ -32,6 +32,7 @@ pub use crate::experiment::options::{
 pub mod budget;
 pub mod design;
 mod error;
+mod generator;
 mod limits;
 mod load;
 mod models;

@@ -39,6 +39,14 @@ pub struct SimulationOptions {
     /// flat, both with the gain `[truth].a_sus`, which is the system of K14).
     #[serde(skip_serializing_if = "ActuatorOptions::is_default")]
     pub actuators: ActuatorOptions,
+    /// Generate the data with this `[[model]]` (by name) and its own noise instead of the
+    /// built-in LTP loop: its read-outs (the residual channels it reads) are simulated from
+    /// the injections on its other channels (`[experiment.inject]`, `x1` → `i1`, …).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub model: Option<String>,
+    /// `[simulation.truth]`: the true value of every parameter of `model`, by name.
+    #[serde(skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+    pub truth: std::collections::BTreeMap<String, f64>,
 }
 
 /// One test mass's actuator as written in `[simulation.actuators]`:
@@ -158,6 +166,8 @@ impl Default for SimulationOptions {
             target_snr: None,
             snr_band: [1e-4, 1.0],
             actuators: ActuatorOptions::default(),
+            model: None,
+            truth: Default::default(),
         }
     }
 }
@@ -218,6 +228,10 @@ pub struct ExperimentEntry {
     /// only).
     #[serde(default)]
     pub fsc: Option<InjectionEntry>,
+    /// `[experiment.inject]`: injections on named input channels of the `[simulation] model`
+    /// (`u_x = { kind = "sine", … }`), in the channel's unit.
+    #[serde(default, skip_serializing_if = "std::collections::BTreeMap::is_empty")]
+    pub inject: std::collections::BTreeMap<String, InjectionEntry>,
     /// Multiplies every amplitude of this experiment.
     #[serde(default)]
     pub amplitude_scale: Option<f64>,
@@ -533,6 +547,20 @@ impl Study {
         }
     }
 
+    /// The model that generates the data (`[simulation] model` at `[simulation.truth]`), if
+    /// the study names one; validated at load.
+    pub fn generator(&self) -> Option<crate::experiment::Generator> {
+        let name = self.simulation.model.as_ref()?;
+        let i = self.models.index(name)?;
+        let model = self.models.models[i].clone();
+        let theta = model
+            .param_names()
+            .iter()
+            .map(|n| self.simulation.truth.get(n).copied().unwrap_or(f64::NAN))
+            .collect();
+        Some(crate::experiment::Generator { model, theta })
+    }
+
     /// What the simulator needs of the study, as plain values.
     pub fn simulation_plan(&self) -> crate::experiment::SimulationPlan {
         let o = &self.simulation;
@@ -546,6 +574,7 @@ impl Study {
             target_snr: o.target_snr,
             snr_band: o.snr_band,
             oversample: o.oversample,
+            generator: self.generator(),
         }
     }
 }

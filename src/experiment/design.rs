@@ -3,6 +3,7 @@
 
 use super::waveform::{SineSegment, Waveform};
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 
 /// One system-identification experiment.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -34,6 +35,10 @@ pub struct ExperimentDesign {
     /// mass), added to the drag-free command.
     #[serde(default = "Waveform::none", skip_serializing_if = "Waveform::is_none")]
     pub fsc: Waveform,
+    /// Injections on named input channels of the model that generates the data
+    /// (`[simulation] model`), in the channel's own unit; placed like the others.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub inject: BTreeMap<String, Waveform>,
 }
 
 /// Names of the force-injection channels `(f1, f2, fsc)`, in study files and datasets.
@@ -96,6 +101,7 @@ impl ExperimentDesign {
             f1: Waveform::None,
             f2: Waveform::None,
             fsc: Waveform::None,
+            inject: BTreeMap::new(),
         }
     }
 
@@ -127,7 +133,8 @@ impl ExperimentDesign {
     /// (`pre_pad = 1e308` gives about 1e309 = ∞, which the budget refuses).
     pub fn n_samples_f64(&self) -> f64 {
         let longest = [&self.x1, &self.x12, &self.f1, &self.f2, &self.fsc]
-            .iter()
+            .into_iter()
+            .chain(self.inject.values())
             .map(|w| w.len_f64(self.fs))
             .fold(0.0, f64::max);
         self.pad_samples(self.pre_pad) + longest + self.pad_samples(self.post_pad)
@@ -160,6 +167,47 @@ impl ExperimentDesign {
         [&self.f1, &self.f2, &self.fsc].iter().any(|w| !w.is_none())
     }
 
+    /// The waveform on every injected channel, by the name of the channel it drives: `x1` →
+    /// `i1`, `x12` → `i12`, the force channels by their own names, then [`Self::inject`].
+    /// Channels without an injection are left out.
+    pub fn channel_waveforms(&self) -> Vec<(String, &Waveform)> {
+        [
+            ("i1", &self.x1),
+            ("i12", &self.x12),
+            ("f1", &self.f1),
+            ("f2", &self.f2),
+            ("fsc", &self.fsc),
+        ]
+        .into_iter()
+        .map(|(c, w)| (c.to_string(), w))
+        .chain(self.inject.iter().map(|(c, w)| (c.clone(), w)))
+        .filter(|(_, w)| !w.is_none())
+        .collect()
+    }
+
+    /// The series of [`Self::channel_waveforms`] over the fit stretch.
+    pub fn channel_injections(&self) -> Vec<(String, Vec<f64>)> {
+        self.channel_waveforms()
+            .into_iter()
+            .map(|(c, w)| (c, self.place(w)))
+            .collect()
+    }
+
+    /// Every waveform of the experiment, named as in the study file (`x1`, …, `inject.<ch>`).
+    pub fn waveforms(&self) -> Vec<(String, &Waveform)> {
+        [
+            ("x1", &self.x1),
+            ("x12", &self.x12),
+            ("f1", &self.f1),
+            ("f2", &self.f2),
+            ("fsc", &self.fsc),
+        ]
+        .into_iter()
+        .map(|(c, w)| (c.to_string(), w))
+        .chain(self.inject.iter().map(|(c, w)| (format!("inject.{c}"), w)))
+        .collect()
+    }
+
     fn place(&self, w: &Waveform) -> Vec<f64> {
         let n = self.n_samples();
         let pre = to_count(self.pad_samples(self.pre_pad));
@@ -180,6 +228,11 @@ impl ExperimentDesign {
             f1: self.f1.scaled(k),
             f2: self.f2.scaled(k),
             fsc: self.fsc.scaled(k),
+            inject: self
+                .inject
+                .iter()
+                .map(|(c, w)| (c.clone(), w.scaled(k)))
+                .collect(),
             ..self.clone()
         }
     }

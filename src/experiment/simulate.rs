@@ -430,6 +430,9 @@ pub struct SimulationPlan {
     pub snr_band: [f64; 2],
     /// `method = "time"`: the discretised loop's oversampling.
     pub oversample: usize,
+    /// The model that generates the data instead of the built-in loop (`[simulation] model`);
+    /// `system` then plays no part.
+    pub generator: Option<super::model_sim::Generator>,
 }
 
 /// Simulates every experiment of the plan: the fit stretch (response + noise) and the
@@ -452,6 +455,9 @@ pub fn simulate_observed(
             "study".into(),
             "every [[experiment]] reads its data from a file (`data = …`): there is nothing to simulate".into(),
         ));
+    }
+    if let Some(g) = &plan.generator {
+        return super::model_sim::simulate_model(plan, g, progress);
     }
     let sys = &plan.system;
     let opts = plan;

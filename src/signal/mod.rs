@@ -34,7 +34,7 @@ pub mod window;
 
 pub use error::SignalError;
 pub use fft::{RealFft, dft_naive, rfft_freqs};
-pub use synth::{SynthMode, synth_one_channel, synth_two_channel};
+pub use synth::{SynthMode, synth_channels, synth_one_channel, synth_two_channel};
 pub use welch::{
     CrossSpectrum, Csd2, Detrend, Spectrum, Spectrum2, WelchConfig, interp_linear_complex,
     interp_loglog, welch_csd, welch_csd2, welch_psd,

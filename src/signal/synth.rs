@@ -87,7 +87,7 @@ pub fn synth_two_channel<R: Rng + ?Sized>(
     rng: &mut R,
     mode: SynthMode,
 ) -> Result<[Vec<f64>; 2], SignalError> {
-    synthesize::<2, R>(n, fs, mode, rng, |f, nyquist, rng| {
+    synthesize_array::<2, R>(n, fs, mode, rng, |f, nyquist, rng| {
         let s = csd(f);
         let (l11, l21, l22) = cholesky2(f, s, nyquist)?;
         let (w1, w2) = if nyquist {
@@ -123,7 +123,7 @@ pub fn synth_one_channel<R: Rng + ?Sized>(
     rng: &mut R,
     mode: SynthMode,
 ) -> Result<Vec<f64>, SignalError> {
-    let [y] = synthesize::<1, R>(n, fs, mode, rng, |f, nyquist, rng| {
+    let [y] = synthesize_array::<1, R>(n, fs, mode, rng, |f, nyquist, rng| {
         let s = psd(f);
         if !s.is_finite() || s < 0.0 {
             return Err(SignalError::InvalidCsd {
@@ -141,15 +141,144 @@ pub fn synth_one_channel<R: Rng + ?Sized>(
     Ok(y)
 }
 
-/// Shared recipe: validates sizes, fills the one-sided spectra with `bin(f, is_nyquist, rng)`
-/// scaled by `√(G fs/2)`, inverse transforms and crops.
-fn synthesize<const C: usize, R: Rng + ?Sized>(
+/// Gaussian noise in `nr` channels (`nr ≥ 1`) of `n` samples at `fs` Hz whose one-sided
+/// `nr × nr` CSD is `csd(f, out)` (row-major into `out`; `S_ij = E[Y_i Y_j*]`), by the recipe
+/// of [`synth_two_channel`]. `csd` must be Hermitian positive semi-definite on the synthesis
+/// grid: a channel fully explained by the others is fine (it is drawn from them), a negative
+/// direction is an error naming the frequency and the channel.
+///
+/// # Example
+/// ```
+/// use num_complex::Complex64;
+/// use occam::signal::{SynthMode, synth_channels};
+/// use rand::SeedableRng;
+/// use rand_xoshiro::Xoshiro256PlusPlus;
+///
+/// // three white channels of levels 1, 2, 3 (one-sided, per Hz), uncorrelated
+/// let mut rng = Xoshiro256PlusPlus::seed_from_u64(3);
+/// let csd = |_f: f64, s: &mut [Complex64]| {
+///     s.fill(Complex64::new(0.0, 0.0));
+///     for j in 0..3 {
+///         s[4 * j] = Complex64::new(1.0 + j as f64, 0.0);
+///     }
+/// };
+/// let y = synth_channels(1 << 14, 2.0, 3, csd, &mut rng, SynthMode::Circular).unwrap();
+/// // variance = S fs/2 for a white one-sided S
+/// let var = y[2].iter().map(|v| v * v).sum::<f64>() / y[2].len() as f64;
+/// assert!((var / 3.0 - 1.0).abs() < 0.05);
+/// ```
+pub fn synth_channels<R: Rng + ?Sized>(
+    n: usize,
+    fs: f64,
+    nr: usize,
+    mut csd: impl FnMut(f64, &mut [Complex64]),
+    rng: &mut R,
+    mode: SynthMode,
+) -> Result<Vec<Vec<f64>>, SignalError> {
+    if nr == 0 {
+        return Err(SignalError::InvalidParameter {
+            name: "nr",
+            value: 0.0,
+            requirement: "at least one channel",
+        });
+    }
+    let zero = Complex64::new(0.0, 0.0);
+    let (mut s, mut l) = (vec![zero; nr * nr], vec![zero; nr * nr]);
+    synthesize(n, fs, mode, rng, nr, |f, nyquist, rng, out| {
+        csd(f, &mut s);
+        let bad = |reason: String| SignalError::InvalidCsd { freq: f, reason };
+        if let Some(v) = s.iter().find(|c| !(c.re.is_finite() && c.im.is_finite())) {
+            return Err(bad(format!("non-finite entry {v}")));
+        }
+        if nyquist {
+            // a real series has a real Nyquist bin: only Re S is reachable there
+            for v in s.iter_mut() {
+                v.im = 0.0;
+            }
+        }
+        let scale: f64 = (0..nr).map(|j| s[j * nr + j].re.abs()).sum();
+        for i in 0..nr {
+            for j in 0..=i {
+                if (s[i * nr + j] - s[j * nr + i].conj()).norm() > HERMITIAN_RTOL * scale {
+                    return Err(bad(format!(
+                        "not Hermitian: S[{i}][{j}] = {} but S[{j}][{i}]* = {}",
+                        s[i * nr + j],
+                        s[j * nr + i].conj()
+                    )));
+                }
+            }
+        }
+        cholesky_psd(&s, nr, PSD_RTOL, &mut l).map_err(|(row, pivot, diag)| {
+            bad(format!(
+                "not positive semi-definite: channel {row} has a pivot of {pivot:e} (diagonal {diag:e})"
+            ))
+        })?;
+        for i in 0..nr {
+            let w = if nyquist {
+                real_normal(rng)
+            } else {
+                complex_normal(rng)
+            };
+            // column i of L times an independent draw
+            for r in i..nr {
+                out[r] += l[r * nr + i] * w;
+            }
+        }
+        Ok(())
+    })
+}
+
+/// A lower-triangular `L` (row-major `R×R`, written into `l`) with `L Lᴴ = C` for a Hermitian
+/// positive *semi*-definite `C` (only the lower triangle is read): what a noise synthesiser
+/// needs, where a channel fully explained by the others (a pivot within `rel_tol` of zero
+/// relative to its own diagonal, so channels of very different scales are judged each on its
+/// own) is legitimate and gets a zero column. A pivot below `−rel_tol` times its diagonal, or
+/// a non-finite one, means `C` is not positive semi-definite: the error is `(row, pivot,
+/// diagonal)`.
+///
+/// # Formula
+/// The Cholesky–Banachiewicz recursion (`crate::hermitian::whitener`'s `L`), with `L_ij = 0` below a zero pivot `j`.
+fn cholesky_psd(
+    c: &[Complex64],
+    nr: usize,
+    rel_tol: f64,
+    l: &mut [Complex64],
+) -> Result<(), (usize, f64, f64)> {
+    assert!(c.len() == nr * nr && l.len() == nr * nr);
+    l.fill(Complex64::new(0.0, 0.0));
+    for j in 0..nr {
+        let diag = c[j * nr + j].re;
+        let pivot = diag - (0..j).map(|k| l[j * nr + k].norm_sqr()).sum::<f64>();
+        if !pivot.is_finite() || pivot < -rel_tol * diag.abs() {
+            return Err((j, pivot, diag));
+        }
+        if pivot <= rel_tol * diag.abs() {
+            continue;
+        }
+        let ljj = pivot.sqrt();
+        l[j * nr + j] = Complex64::new(ljj, 0.0);
+        for i in j + 1..nr {
+            let mut s = c[i * nr + j];
+            for k in 0..j {
+                s -= l[i * nr + k] * l[j * nr + k].conj();
+            }
+            l[i * nr + j] = s / ljj;
+        }
+    }
+    Ok(())
+}
+
+/// Shared recipe: validates sizes, fills the one-sided spectra of `nc` channels with
+/// `bin(f, is_nyquist, rng, out)` (which adds into the zeroed `out`), scales by `√(G fs/2)`,
+/// inverse transforms and crops.
+fn synthesize<R: Rng + ?Sized>(
     n: usize,
     fs: f64,
     mode: SynthMode,
     rng: &mut R,
-    mut bin: impl FnMut(f64, bool, &mut R) -> Result<[Complex64; C], SignalError>,
-) -> Result<[Vec<f64>; C], SignalError> {
+    nc: usize,
+    mut bin: impl FnMut(f64, bool, &mut R, &mut [Complex64]) -> Result<(), SignalError>,
+) -> Result<Vec<Vec<f64>>, SignalError> {
     check_fs(fs)?;
     if n < 2 {
         return Err(SignalError::TooShort {
@@ -179,24 +308,41 @@ fn synthesize<const C: usize, R: Rng + ?Sized>(
     let nb = grid / 2 + 1;
     let amp = (grid as f64 * fs / 2.0).sqrt();
     let zero = Complex64::new(0.0, 0.0);
-    let mut spectra: [Vec<Complex64>; C] = std::array::from_fn(|_| vec![zero; nb]);
+    let mut spectra: Vec<Vec<Complex64>> = vec![vec![zero; nb]; nc];
+    let mut z = vec![zero; nc];
     for k in 1..nb {
         let nyquist = 2 * k == grid;
         let f = k as f64 * fs / grid as f64;
-        let z = bin(f, nyquist, rng)?;
-        for (spec, zc) in spectra.iter_mut().zip(z) {
+        z.fill(zero);
+        bin(f, nyquist, rng, &mut z)?;
+        for (spec, zc) in spectra.iter_mut().zip(&z) {
             spec[k] = zc * amp;
         }
     }
     let mut fft = RealFft::new(grid)?;
     let start = (grid - n) / 2;
     let mut full = vec![0.0; grid];
-    let mut out: [Vec<f64>; C] = std::array::from_fn(|_| Vec::new());
-    for (spec, y) in spectra.iter().zip(out.iter_mut()) {
+    let mut out = Vec::with_capacity(nc);
+    for spec in &spectra {
         fft.inverse(spec, &mut full)?;
-        *y = full[start..start + n].to_vec();
+        out.push(full[start..start + n].to_vec());
     }
     Ok(out)
+}
+
+/// [`synthesize`] for a fixed number of channels, as an array.
+fn synthesize_array<const C: usize, R: Rng + ?Sized>(
+    n: usize,
+    fs: f64,
+    mode: SynthMode,
+    rng: &mut R,
+    mut bin: impl FnMut(f64, bool, &mut R) -> Result<[Complex64; C], SignalError>,
+) -> Result<[Vec<f64>; C], SignalError> {
+    let out = synthesize(n, fs, mode, rng, C, |f, nyquist, rng, out| {
+        out.copy_from_slice(&bin(f, nyquist, rng)?);
+        Ok(())
+    })?;
+    Ok(out.try_into().expect("C channels"))
 }
 
 /// `CN(0, 1)`: real and imaginary parts independent `N(0, 1/2)`.
@@ -290,6 +436,94 @@ fn cholesky2(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `L Lᴴ` of a row-major lower-triangular `L`.
+    fn product(l: &[Complex64], nr: usize) -> Vec<Complex64> {
+        let mut c = vec![Complex64::new(0.0, 0.0); nr * nr];
+        for i in 0..nr {
+            for j in 0..nr {
+                c[i * nr + j] = (0..nr).map(|k| l[i * nr + k] * l[j * nr + k].conj()).sum();
+            }
+        }
+        c
+    }
+
+    #[test]
+    fn n_channel_synthesis_equals_the_two_channel_recipe() {
+        use rand::SeedableRng;
+        let c = |a, b| Complex64::new(a, b);
+        let csd = |f: f64| {
+            let s12 = c(0.3 * f, -0.2) * 1e-20;
+            [
+                [c(2e-20, 0.0), s12],
+                [s12.conj(), c(1e-20 * (1.0 + f), 0.0)],
+            ]
+        };
+        for mode in [SynthMode::Circular, SynthMode::Realistic { oversample: 2 }] {
+            let mut r1 = rand_xoshiro::Xoshiro256PlusPlus::seed_from_u64(11);
+            let mut r2 = r1.clone();
+            let two = synth_two_channel(1000, 4.0, csd, &mut r1, mode).unwrap();
+            let n = synth_channels(
+                1000,
+                4.0,
+                2,
+                |f, s| {
+                    let m = csd(f);
+                    s.copy_from_slice(&[m[0][0], m[0][1], m[1][0], m[1][1]]);
+                },
+                &mut r2,
+                mode,
+            )
+            .unwrap();
+            let scale = two[0].iter().map(|v| v.abs()).fold(0.0, f64::max);
+            for ch in 0..2 {
+                for (a, b) in two[ch].iter().zip(&n[ch]) {
+                    assert!((a - b).abs() <= 1e-12 * scale, "{a} vs {b}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn cholesky_psd_reproduces_full_and_rank_deficient_matrices() {
+        let c = |a, b| Complex64::new(a, b);
+        // rank 2 in 3 channels: channel 2 = channel 0 − i·channel 1
+        let v = [[c(1.0, 0.5), c(0.0, 2.0)], [c(-0.3, 0.0), c(0.7, -0.2)]];
+        let mut x = [[c(0.0, 0.0); 2]; 3];
+        x[0] = v[0];
+        x[1] = v[1];
+        x[2] = [
+            v[0][0] - c(0.0, 1.0) * v[1][0],
+            v[0][1] - c(0.0, 1.0) * v[1][1],
+        ];
+        let mut cm = vec![c(0.0, 0.0); 9];
+        for i in 0..3 {
+            for j in 0..3 {
+                cm[i * 3 + j] = x[i][0] * x[j][0].conj() + x[i][1] * x[j][1].conj();
+            }
+        }
+        let mut l = vec![c(0.0, 0.0); 9];
+        cholesky_psd(&cm, 3, 1e-12, &mut l).unwrap();
+        assert_eq!(
+            l[2 * 3 + 2],
+            c(0.0, 0.0),
+            "the explained channel has a zero pivot"
+        );
+        for (a, b) in product(&l, 3).iter().zip(&cm) {
+            assert!((a - b).norm() < 1e-14, "{a} vs {b}");
+        }
+        // full rank: the same factor as the whitener's inverse
+        cm[8] += c(0.5, 0.0);
+        cholesky_psd(&cm, 3, 1e-12, &mut l).unwrap();
+        for (a, b) in product(&l, 3).iter().zip(&cm) {
+            assert!((a - b).norm() < 1e-14);
+        }
+        // not semi-definite: a negative pivot is refused and named
+        cm[8] -= c(1.0, 0.0);
+        let e = cholesky_psd(&cm, 3, 1e-12, &mut l).unwrap_err();
+        assert_eq!(e.0, 2);
+    }
+
     use crate::signal::fft::RealFft;
     use crate::signal::welch::{WelchConfig, welch_csd2, welch_psd};
     use crate::signal::window::Window;

@@ -37,5 +37,6 @@ mod transfer;
 
 pub use compiled::{MAX_STATES, StateSpaceModel};
 pub use def::{MatrixDef, StateSpaceDef, TimeDomain, TransferMatrixDef};
+pub use solve::solve_in_place;
 pub use stability::check_stable;
 pub use transfer::{to_user_def, user_error};
