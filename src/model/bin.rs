@@ -59,6 +59,23 @@ impl BinBlock<'_> {
             consts: &self.consts[k * n_consts..(k + 1) * n_consts],
         }
     }
+
+    /// `r_kᴴ C_k⁻¹ r_k` of the residual `r_k = M d_k` of bin `k`, for the model's coefficients
+    /// `coef` (`nr` rows over the block's data channels). One or two residual channels use the
+    /// packed inverse ([`BinBlock::cinv`], the arithmetic of every result so far), more the
+    /// inverse Cholesky factor ([`BinBlock::whiten`]): the one place that choice is made.
+    #[inline(always)]
+    pub fn residual_quad(&self, k: usize, coef: &[Complex64], nr: usize) -> f64 {
+        let nc = self.data.len() / self.n;
+        let d = &self.data[k * nc..(k + 1) * nc];
+        if nr <= 2 {
+            return quad(&self.cinv[k], residual(coef, nr, d));
+        }
+        let nw = crate::hermitian::tri_len(nr);
+        let mut r = [Complex64::new(0.0, 0.0); MAX_RESIDUALS];
+        residual_into(coef, d, &mut r[..nr]);
+        quad_whitened(&self.whiten[k * nw..(k + 1) * nw], &r[..nr])
+    }
 }
 
 /// `rᴴ C⁻¹ r` for a packed Hermitian inverse.
@@ -74,8 +91,7 @@ pub fn quad_whitened(w: &[Complex64], r: &[Complex64]) -> f64 {
     crate::hermitian::quad_whitened(w, r)
 }
 
-/// `r = M d` into `out` (its length is the number of rows): the same sums as [`residual`], for
-/// any number of rows.
+/// `r = M d` into `out` (its length is the number of rows), for any number of rows.
 #[inline(always)]
 pub fn residual_into(coef: &[Complex64], d: &[Complex64], out: &mut [Complex64]) {
     let nc = d.len();
@@ -104,16 +120,10 @@ pub fn with_buffer<T>(n: usize, f: impl FnOnce(&mut [Complex64]) -> T) -> T {
     }
 }
 
-/// `r = M d` for `nr` rows (the second component is zero for a one-residual model).
+/// `r = M d` for `nr ≤ 2` rows (the second component is zero for a one-residual model).
 #[inline(always)]
 pub fn residual(coef: &[Complex64], nr: usize, d: &[Complex64]) -> [Complex64; 2] {
-    let nc = d.len();
     let mut r = [Complex64::new(0.0, 0.0); 2];
-    for (ri, slot) in r.iter_mut().enumerate().take(nr) {
-        let row = &coef[ri * nc..(ri + 1) * nc];
-        for (m, x) in row.iter().zip(d) {
-            *slot += m * x;
-        }
-    }
+    residual_into(coef, d, &mut r[..nr]);
     r
 }

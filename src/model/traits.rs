@@ -3,8 +3,7 @@
 //! trait's batch methods.
 
 use super::bin::{
-    Bin, BinBlock, MAX_RESIDUALS, quad, quad_whitened, residual, residual_into, tri_len,
-    with_buffer,
+    Bin, BinBlock, MAX_RESIDUALS, quad_whitened, residual_into, tri_len, with_buffer,
 };
 use num_complex::{Complex, Complex64};
 use num_dual::Dual64;
@@ -148,23 +147,16 @@ pub trait BlockKernel: Send + Sync + std::fmt::Debug {
 }
 
 /// The default [`Model::residual_power`]: coefficients bin by bin. Kept callable so fast
-/// kernels can be tested against it. One or two residual channels use the packed inverse
-/// ([`BinBlock::cinv`], the arithmetic of every result so far), more the inverse Cholesky
-/// factor ([`residual_power_whitened`]).
+/// kernels can be tested against it. The noise weighting is [`BinBlock::residual_quad`]'s.
 pub fn residual_power_generic<M: Model + ?Sized>(m: &M, theta: &[f64], b: &BinBlock) -> f64 {
     let nr = m.residual_channels().len();
-    if nr > 2 {
-        return residual_power_whitened(m, theta, b);
-    }
     let nc = m.data_channels().len();
     let ncst = m.n_consts();
     with_buffer(nr * nc, |coef| {
         let mut s = 0.0;
         for k in 0..b.n {
             m.coefficients(theta, &b.bin(k, ncst), coef);
-            let d = &b.data[k * nc..(k + 1) * nc];
-            let r = residual(coef, nr, d);
-            s += quad(&b.cinv[k], r);
+            s += b.residual_quad(k, coef, nr);
         }
         s
     })

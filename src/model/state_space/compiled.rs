@@ -2,10 +2,7 @@
 
 use super::def::TimeDomain;
 use super::solve::{System, transfer};
-use crate::model::bin::{
-    Bin, BinBlock, MAX_CHANNELS, MAX_RESIDUALS, quad, quad_whitened, residual, residual_into,
-    tri_len,
-};
+use crate::model::bin::{Bin, BinBlock, MAX_CHANNELS, MAX_RESIDUALS};
 use crate::model::traits::Model;
 use crate::model::user::real::RealExpr;
 use num_complex::{Complex, Complex64};
@@ -261,20 +258,11 @@ impl Model for StateSpaceModel {
         let nr = self.outputs.len();
         self.with_system(theta, |sys, tau, mut w| {
             let mut coef = [Complex64::new(0.0, 0.0); MAX_CHANNELS * MAX_RESIDUALS];
-            let mut r = [Complex64::new(0.0, 0.0); MAX_RESIDUALS];
-            let nw = tri_len(nr);
             let mut s = 0.0;
             for k in 0..b.n {
                 let f = b.f0 + k as f64 * b.df;
                 self.fill(sys, tau, &mut w, (f, b.fs), &mut coef[..nr * nc]);
-                let d = &b.data[k * nc..(k + 1) * nc];
-                // one or two channels: the packed inverse, as every model; more: whitened
-                if nr <= 2 {
-                    s += quad(&b.cinv[k], residual(&coef, nr, d));
-                } else {
-                    residual_into(&coef[..nr * nc], d, &mut r[..nr]);
-                    s += quad_whitened(&b.whiten[k * nw..(k + 1) * nw], &r[..nr]);
-                }
+                s += b.residual_quad(k, &coef[..nr * nc], nr);
             }
             s
         })
