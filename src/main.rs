@@ -193,8 +193,8 @@ fn simulate(path: PathBuf, output: Option<PathBuf>, flags: RunFlags) -> Result<(
         println!(
             "{:<14} {:>10} {:>10} {:>12.4e}",
             e.name,
-            e.o[0].len(),
-            e.noise[0].len(),
+            e.n_samples(),
+            e.n_noise_samples(),
             rho
         );
     }

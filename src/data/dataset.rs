@@ -314,6 +314,32 @@ impl ExperimentData {
         Ok(())
     }
 
+    /// Stores the fit-stretch series of channel `name`: the LTP names in their fixed slots,
+    /// any other as an extra channel.
+    pub fn set_channel(&mut self, name: &str, v: Vec<f64>) {
+        match name {
+            "o1" => self.o[0] = v,
+            "o12" => self.o[1] = v,
+            "i1" => self.i[0] = v,
+            "i12" => self.i[1] = v,
+            _ => {
+                self.extra.insert(name.to_string(), v);
+            }
+        }
+    }
+
+    /// Stores the noise-only series of channel `name` (`o1`, `o12` in their slots, any other
+    /// beside the extras; [`Self::validate`] refuses one for a commanded injection `i1`, `i12`).
+    pub fn set_noise_channel(&mut self, name: &str, v: Vec<f64>) {
+        match name {
+            "o1" => self.noise[0] = v,
+            "o12" => self.noise[1] = v,
+            _ => {
+                self.noise_extra.insert(name.to_string(), v);
+            }
+        }
+    }
+
     /// The fit-stretch series of a named data channel (`o1`, `o12`, `i1`, `i12`, or an extra
     /// channel such as `g1`), if the experiment has it.
     pub fn channel(&self, name: &str) -> Option<&[f64]> {

@@ -367,24 +367,10 @@ impl DataSource {
             [Vec::new(), Vec::new()],
         );
         for (c, v) in fit {
-            match c {
-                "o1" => e.o[0] = v,
-                "o12" => e.o[1] = v,
-                "i1" => e.i[0] = v,
-                "i12" => e.i[1] = v,
-                _ => {
-                    e.extra.insert(c.to_string(), v);
-                }
-            }
+            e.set_channel(c, v);
         }
         for (c, v) in noise {
-            match c {
-                "o1" => e.noise[0] = v,
-                "o12" => e.noise[1] = v,
-                _ => {
-                    e.noise_extra.insert(c.to_string(), v);
-                }
-            }
+            e.set_noise_channel(c, v);
         }
         e.validate(&data)?;
         Ok(e)

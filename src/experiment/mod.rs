@@ -2,15 +2,18 @@
 //! designs with padding and a noise-only stretch, and their simulation.
 
 mod design;
+mod generator;
 mod model_sim;
 pub mod options;
+mod run;
 mod simulate;
 mod waveform;
 
 pub use design::{ExperimentDesign, FORCE_CHANNELS, ladder_freqs};
-pub use model_sim::{Channels, Generator};
+pub use generator::{Channels, Generator};
+pub use run::{simulate, simulate_observed};
 pub use simulate::{
     SimError, SimProgress, Simulation, SimulationPlan, System, TELEMETRY_CHANNELS,
-    delayed_injections, optimal_snr, simulate, simulate_observed, stream,
+    delayed_injections, optimal_snr, stream,
 };
 pub use waveform::{SineSegment, Waveform};

@@ -22,121 +22,12 @@
 //! built-in simulator's definition, ltp-model.md §8.2), with `h` the noiseless read-outs.
 
 use super::design::ExperimentDesign;
+use super::generator::{Channels, Generator};
 use super::options::NoiseSynthesis;
 use super::simulate::{SimError, SimProgress, Simulation, SimulationPlan, stream};
 use crate::data::dataset::{Dataset, ExperimentData};
-use crate::model::{Bin, MAX_CONSTS, Model};
 use crate::signal::{RealFft, SynthMode, synth_channels};
 use num_complex::Complex64;
-use std::collections::BTreeMap;
-use std::sync::Arc;
-
-/// The model that generates a study's data, at its true parameters.
-#[derive(Debug, Clone)]
-pub struct Generator {
-    /// The model (a `[[model]]` of the study).
-    pub model: Arc<dyn Model>,
-    /// Its true parameters, in the order of [`Model::param_names`].
-    pub theta: Vec<f64>,
-}
-
-/// The read-outs and inputs of a model, as indices into its data channels.
-#[derive(Debug, Clone)]
-pub struct Channels {
-    /// Data-channel index of residual channel `r` (the read-out it is the residual of).
-    pub outputs: Vec<usize>,
-    /// Every other data channel: the known inputs.
-    pub inputs: Vec<usize>,
-}
-
-impl Generator {
-    /// Splits the model's data channels into read-outs and inputs; the error says why a model
-    /// cannot generate data (a residual channel that is not one of its data channels).
-    pub fn channels(&self) -> Result<Channels, String> {
-        let m = &self.model;
-        let data = m.data_channels();
-        let mut outputs = Vec::new();
-        for r in m.residual_channels() {
-            let Some(c) = data.iter().position(|d| d == r) else {
-                return Err(format!(
-                    "model `{}` cannot generate data: its residual `{r}` is not one of the channels it reads ({data:?}); the simulator needs residuals that are read-outs (r = y − H u), as a state-space model's are",
-                    m.name()
-                ));
-            };
-            outputs.push(c);
-        }
-        let inputs = (0..data.len()).filter(|c| !outputs.contains(c)).collect();
-        Ok(Channels { outputs, inputs })
-    }
-
-    /// The CSD `S_y(f)` of the read-outs' noise (row-major `R×R`), from the model's own noise.
-    /// `false` when the model knows no noise of its own.
-    pub fn noise_csd(&self, ch: &Channels, f: f64, fs: f64, out: &mut [Complex64]) -> bool {
-        let m = &self.model;
-        let nc = m.data_channels().len();
-        let mut consts = [Complex64::new(0.0, 0.0); MAX_CONSTS];
-        let consts = &mut consts[..m.n_consts()];
-        m.bin_consts(f, fs, consts);
-        let mut s = vec![Complex64::new(0.0, 0.0); nc * nc];
-        let bin = Bin { f, fs, consts };
-        if !m.data_noise_csd(&self.theta, &bin, &mut s) {
-            return false;
-        }
-        let nr = ch.outputs.len();
-        for (i, &a) in ch.outputs.iter().enumerate() {
-            for (j, &b) in ch.outputs.iter().enumerate() {
-                out[i * nr + j] = s[a * nc + b];
-            }
-        }
-        true
-    }
-
-    /// The noiseless read-outs `−M_y⁻¹ M_u U_k` at bin `k ≥ 1` of a series of `n` samples at
-    /// `fs`, for the input DFTs `u` (one per input channel, `None` for an input left at zero).
-    fn response(
-        &self,
-        ch: &Channels,
-        f: f64,
-        fs: f64,
-        u: &[Option<Complex64>],
-        out: &mut [Complex64],
-    ) -> Result<(), String> {
-        let m = &self.model;
-        let nc = m.data_channels().len();
-        let nr = ch.outputs.len();
-        let mut consts = [Complex64::new(0.0, 0.0); MAX_CONSTS];
-        let consts = &mut consts[..m.n_consts()];
-        m.bin_consts(f, fs, consts);
-        let mut coef = vec![Complex64::new(0.0, 0.0); nr * nc];
-        m.coefficients(&self.theta, &Bin { f, fs, consts }, &mut coef);
-        let mut my = vec![Complex64::new(0.0, 0.0); nr * nr];
-        for r in 0..nr {
-            let row = &coef[r * nc..(r + 1) * nc];
-            for (j, &c) in ch.outputs.iter().enumerate() {
-                my[r * nr + j] = row[c];
-            }
-            out[r] = -ch
-                .inputs
-                .iter()
-                .zip(u)
-                .filter_map(|(&c, v)| v.map(|v| row[c] * v))
-                .sum::<Complex64>();
-        }
-        if !crate::model::state_space::solve_in_place(&mut my, nr, out, 1) {
-            return Err(format!(
-                "model `{}`: its read-out coefficients M_y are singular at {f} Hz (at the truth), so the read-outs are not determined by the inputs",
-                m.name()
-            ));
-        }
-        if let Some(v) = out.iter().find(|v| !(v.re.is_finite() && v.im.is_finite())) {
-            return Err(format!(
-                "model `{}`: the response at {f} Hz is {v} at the truth",
-                m.name()
-            ));
-        }
-        Ok(())
-    }
-}
 
 /// A named series.
 type Named = (String, Vec<f64>);
@@ -319,21 +210,14 @@ pub(super) fn simulate_model(
         };
         let fit_noise = noise_of(n, 2 * j as u64)?;
         let quiet = noise_of(d.n_noise_samples(), 2 * j as u64 + 1)?;
-        let mut e = ExperimentData {
-            name: d.name.clone(),
-            fs: d.fs,
-            o: [Vec::new(), Vec::new()],
-            i: [Vec::new(), Vec::new()],
-            noise: [Vec::new(), Vec::new()],
-            extra: BTreeMap::new(),
-            noise_extra: BTreeMap::new(),
-        };
-        for ((&c, o), nz) in ch.outputs.iter().zip(outputs).zip(fit_noise) {
-            let total = o.iter().zip(&nz).map(|(a, b)| a + b).collect();
-            put(&mut e, &names[c], total, Some(quiet_of(&quiet, &ch, c)));
+        let none = || [Vec::new(), Vec::new()];
+        let mut e = ExperimentData::new(&d.name, d.fs, none(), none(), none());
+        for (((&c, o), nz), q) in ch.outputs.iter().zip(outputs).zip(fit_noise).zip(quiet) {
+            e.set_channel(&names[c], o.iter().zip(&nz).map(|(a, b)| a + b).collect());
+            e.set_noise_channel(&names[c], q);
         }
         for (c, x) in inputs {
-            put(&mut e, &c, x, None);
+            e.set_channel(&c, x);
         }
         experiments.push(e);
     }
@@ -371,35 +255,4 @@ pub(super) fn simulate_model(
         snr_total,
         amplitude_factor,
     })
-}
-
-/// The noise-only series of data channel `c` (a read-out) among the synthesised ones.
-fn quiet_of(quiet: &[Vec<f64>], ch: &Channels, c: usize) -> Vec<f64> {
-    let r = ch.outputs.iter().position(|&o| o == c).expect("a read-out");
-    quiet[r].clone()
-}
-
-/// Stores a channel under its name: the LTP names in their fixed slots, others as extras.
-fn put(e: &mut ExperimentData, name: &str, fit: Vec<f64>, noise: Option<Vec<f64>>) {
-    let fixed = match name {
-        "o1" => Some((&mut e.o[0], Some(&mut e.noise[0]))),
-        "o12" => Some((&mut e.o[1], Some(&mut e.noise[1]))),
-        "i1" => Some((&mut e.i[0], None)),
-        "i12" => Some((&mut e.i[1], None)),
-        _ => None,
-    };
-    match fixed {
-        Some((slot, noise_slot)) => {
-            *slot = fit;
-            if let (Some(ns), Some(nv)) = (noise_slot, noise) {
-                *ns = nv;
-            }
-        }
-        None => {
-            e.extra.insert(name.to_string(), fit);
-            if let Some(nv) = noise {
-                e.noise_extra.insert(name.to_string(), nv);
-            }
-        }
-    }
 }

@@ -432,21 +432,16 @@ pub struct SimulationPlan {
     pub oversample: usize,
     /// The model that generates the data instead of the built-in loop (`[simulation] model`);
     /// `system` then plays no part.
-    pub generator: Option<super::model_sim::Generator>,
-}
-
-/// Simulates every experiment of the plan: the fit stretch (response + noise) and the
-/// noise-only stretch. Experiment `j` draws its fit noise from stream `2j` and its noise-only
-/// stretch from stream `2j + 1` of the seed.
-pub fn simulate(plan: &SimulationPlan) -> Result<Simulation, SimError> {
-    simulate_observed(plan, None)
+    pub generator: Option<super::generator::Generator>,
 }
 
 /// Progress of a simulation: `(done, total)` experiments, `(0, total)` first.
 pub type SimProgress<'a> = &'a dyn Fn(u64, u64);
 
-/// [`simulate`], reporting finished experiments to `progress` (for a progress bar).
-pub fn simulate_observed(
+/// The built-in loop's simulation of every experiment of the plan: the fit stretch (response
+/// plus noise) and the noise-only stretch. Experiment `j` draws its fit noise from stream `2j`
+/// and its noise-only stretch from stream `2j + 1` of the seed.
+pub(super) fn simulate_builtin(
     plan: &SimulationPlan,
     progress: Option<SimProgress>,
 ) -> Result<Simulation, SimError> {
@@ -455,9 +450,6 @@ pub fn simulate_observed(
             "study".into(),
             "every [[experiment]] reads its data from a file (`data = …`): there is nothing to simulate".into(),
         ));
-    }
-    if let Some(g) = &plan.generator {
-        return super::model_sim::simulate_model(plan, g, progress);
     }
     let sys = &plan.system;
     let opts = plan;
@@ -682,6 +674,7 @@ fn time_domain_response(
 mod tests {
     use super::*;
     use crate::config::Study;
+    use crate::experiment::simulate;
     use std::path::Path;
 
     fn study(extra: &str) -> Study {
