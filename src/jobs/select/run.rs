@@ -306,6 +306,9 @@ fn summarise(
         .collect();
     for m in &models {
         warnings.extend(m.notes.iter().map(|n| format!("model `{}`: {n}", m.name)));
+        if let Some(w) = m.tempering.as_ref().and_then(|t| t.broken_ladder_warning()) {
+            warnings.push(format!("model `{}`: {w}", m.name));
+        }
     }
     warnings.extend(rj_note.clone());
     warnings.extend(rj.as_ref().map(output::fig2_warnings).unwrap_or_default());
