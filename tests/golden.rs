@@ -59,6 +59,11 @@ const CASES: &[Case] = &[
         "tn3045-snr",
         &["simulate", "{study}"],
     ),
+    case(
+        "simulate-cross-talk",
+        "cross-talk",
+        &["simulate", "{study}"],
+    ),
     case("fit-tn3045", "tn3045", &["fit", "{study}"]),
     case(
         "fit-user-model-closed-loop",
@@ -151,6 +156,7 @@ const CASES: &[Case] = &[
         )
     },
     // in full
+    full("select-cross-talk", "cross-talk", &["select", "{study}"]),
     full("sweep-design-snr", "design-snr", &["sweep", "{study}"]),
     full(
         "sweep-design-frequency",
@@ -373,6 +379,8 @@ macro_rules! golden_tests {
 golden_tests! {
     simulate_tn3045 => "simulate-tn3045",
     simulate_tn3045_snr => "simulate-tn3045-snr",
+    simulate_cross_talk => "simulate-cross-talk",
+    select_cross_talk => "select-cross-talk",
     fit_tn3045 => "fit-tn3045",
     fit_user_model_closed_loop => "fit-user-model-closed-loop",
     fit_accel_delay_vs_pole => "fit-accel-delay-vs-pole",
