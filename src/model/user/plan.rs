@@ -48,11 +48,12 @@ enum Loc {
     Dead,
 }
 
-/// A value across one chunk: the same at every frequency, or one per frequency.
+/// A value across one chunk: the same at every frequency, or one per frequency (real and
+/// imaginary parts apart, so the loops over a chunk vectorise).
 #[derive(Clone, Copy)]
 pub(super) enum Lane<'a> {
     One(Complex64),
-    Each(&'a [Complex64]),
+    Each(&'a [f64], &'a [f64]),
 }
 
 /// The per-θ and per-chunk buffers of one evaluation.
@@ -64,8 +65,9 @@ pub(super) struct Scratch {
     pub fields: Vec<f64>,
     /// Per θ, for a kernel's own use (the exact kernel's delay phasors).
     pub steps: Vec<Complex64>,
-    /// Per chunk: the values that depend on θ and the frequency.
-    pub rows: Vec<Complex64>,
+    /// Per chunk: the values that depend on θ and the frequency; row `r` has its real parts
+    /// at `2r·CHUNK`, its imaginary parts at `(2r + 1)·CHUNK`.
+    pub rows: Vec<f64>,
 }
 
 thread_local! {
@@ -151,15 +153,16 @@ impl Plan {
     }
 
     /// The frequency-only values the plan keeps at the frequencies `freqs` (constants
-    /// `consts`, `freqs.len() × n_consts`, bin-major): rows of `freqs.len()` values.
+    /// `consts`, `freqs.len() × n_consts`, bin-major): rows of `n = freqs.len()` values, row
+    /// `r` with its real parts at `2r·n` and its imaginary parts at `(2r + 1)·n`.
     pub fn bin_table(
         &self,
         freqs: impl ExactSizeIterator<Item = f64>,
         consts: &[Complex64],
-    ) -> Vec<Complex64> {
+    ) -> Vec<f64> {
         let n = freqs.len();
         let ssa = &self.ssa;
-        let mut out = vec![ZERO; self.n_bin_rows * n];
+        let mut out = vec![0.0; 2 * self.n_bin_rows * n];
         let mut vals = self.fixed.clone();
         for (k, f) in freqs.enumerate() {
             let consts = &consts[k * self.n_consts..(k + 1) * self.n_consts];
@@ -180,7 +183,8 @@ impl Plan {
                     }
                 };
                 if let Loc::Bin(r) = self.loc[i] {
-                    out[r * n + k] = vals[i];
+                    out[2 * r * n + k] = vals[i].re;
+                    out[(2 * r + 1) * n + k] = vals[i].im;
                 }
             }
         }
@@ -209,8 +213,8 @@ impl Plan {
     }
 
     /// Sizes the chunk's scratch.
-    pub fn size_rows(&self, rows: &mut Vec<Complex64>) {
-        rows.resize(self.n_chunk_rows * CHUNK, ZERO);
+    pub fn size_rows(&self, rows: &mut Vec<f64>) {
+        rows.resize(2 * self.n_chunk_rows * CHUNK, 0.0);
     }
 
     /// The value of `v` across the chunk of frequencies `k0..k0 + len` (`bins`: the table of
@@ -220,10 +224,13 @@ impl Plan {
         match self.loc[v as usize] {
             Loc::Scalar => Lane::One(at.scalars[v as usize]),
             Loc::Bin(r) => {
-                let s = r * at.n + at.k0;
-                Lane::Each(&at.bins[s..s + at.len])
+                let (re, im) = (2 * r * at.n + at.k0, (2 * r + 1) * at.n + at.k0);
+                Lane::Each(&at.bins[re..re + at.len], &at.bins[im..im + at.len])
             }
-            Loc::Chunk(r) => Lane::Each(&at.rows[r * CHUNK..r * CHUNK + at.len]),
+            Loc::Chunk(r) => {
+                let (re, im) = (2 * r * CHUNK, (2 * r + 1) * CHUNK);
+                Lane::Each(&at.rows[re..re + at.len], &at.rows[im..im + at.len])
+            }
             Loc::Dead => unreachable!("a value read later is kept"),
         }
     }
@@ -239,30 +246,31 @@ impl Plan {
     }
 
     /// The chunk's values that depend on θ and the frequency (rows of `rows`) for the
-    /// frequencies `k0..k0 + len` of the `n` of `bins`. `block(k, v, out)` fills the response
-    /// of the θ-dependent block `k` with field values `v` across the chunk.
+    /// frequencies `k0..k0 + len` of the `n` of `bins`. `block(k, v, re, im)` fills the
+    /// response of the θ-dependent block `k` with field values `v` across the chunk.
     #[allow(clippy::too_many_arguments)]
-    #[inline]
+    #[inline(always)]
     pub fn run_chunk(
         &self,
         scalars: &[Complex64],
         fields: &[f64],
-        bins: &[Complex64],
+        bins: &[f64],
         n: usize,
-        rows: &mut [Complex64],
+        rows: &mut [f64],
         k0: usize,
         len: usize,
-        block: impl Fn(usize, &Block, &[f64], &mut [Complex64]),
+        block: impl Fn(usize, &Block, &[f64], &mut [f64], &mut [f64]),
     ) {
         for (i, inst) in self.ssa.insts.iter().enumerate() {
             let Loc::Chunk(r) = self.loc[i] else {
                 continue;
             };
-            let (done, rest) = rows.split_at_mut(r * CHUNK);
-            let out = &mut rest[..len];
+            let (done, rest) = rows.split_at_mut(2 * r * CHUNK);
+            let (re, im) = rest.split_at_mut(CHUNK);
+            let out = (&mut re[..len], &mut im[..len]);
             if let Inst::Block(k) = *inst {
                 let k = k as usize;
-                block(k, &self.blocks[k], self.fields_of(k, fields), out);
+                block(k, &self.blocks[k], self.fields_of(k, fields), out.0, out.1);
                 continue;
             }
             let at = At {
@@ -307,33 +315,55 @@ impl Plan {
 /// frequencies a row) and the chunk's rows, for the frequencies `k0..k0 + len`.
 pub(super) struct At<'a> {
     pub scalars: &'a [Complex64],
-    pub bins: &'a [Complex64],
+    pub bins: &'a [f64],
     pub n: usize,
-    pub rows: &'a [Complex64],
+    pub rows: &'a [f64],
     pub k0: usize,
     pub len: usize,
 }
 
-/// `out[j] = f(a[j], b[j])` over a chunk.
+/// `out[j] = f(a[j], b[j])` over a chunk, `out` as (real parts, imaginary parts).
 #[inline(always)]
-fn each<F: Fn(Complex64, Complex64) -> Complex64>(a: Lane, b: Lane, out: &mut [Complex64], f: F) {
+fn each<F: Fn(Complex64, Complex64) -> Complex64>(
+    a: Lane,
+    b: Lane,
+    (ore, oim): (&mut [f64], &mut [f64]),
+    f: F,
+) {
+    let len = ore.len();
+    let (ore, oim) = (&mut ore[..len], &mut oim[..len]);
+    let mut put = |j: usize, z: Complex64| {
+        ore[j] = z.re;
+        oim[j] = z.im;
+    };
     match (a, b) {
-        (Lane::Each(x), Lane::Each(y)) => {
-            for ((o, &x), &y) in out.iter_mut().zip(x).zip(y) {
-                *o = f(x, y);
+        (Lane::Each(xr, xi), Lane::Each(yr, yi)) => {
+            let (xr, xi, yr, yi) = (&xr[..len], &xi[..len], &yr[..len], &yi[..len]);
+            for j in 0..len {
+                put(
+                    j,
+                    f(Complex64::new(xr[j], xi[j]), Complex64::new(yr[j], yi[j])),
+                );
             }
         }
-        (Lane::Each(x), Lane::One(y)) => {
-            for (o, &x) in out.iter_mut().zip(x) {
-                *o = f(x, y);
+        (Lane::Each(xr, xi), Lane::One(y)) => {
+            let (xr, xi) = (&xr[..len], &xi[..len]);
+            for j in 0..len {
+                put(j, f(Complex64::new(xr[j], xi[j]), y));
             }
         }
-        (Lane::One(x), Lane::Each(y)) => {
-            for (o, &y) in out.iter_mut().zip(y) {
-                *o = f(x, y);
+        (Lane::One(x), Lane::Each(yr, yi)) => {
+            let (yr, yi) = (&yr[..len], &yi[..len]);
+            for j in 0..len {
+                put(j, f(x, Complex64::new(yr[j], yi[j])));
             }
         }
-        (Lane::One(x), Lane::One(y)) => out.fill(f(x, y)),
+        (Lane::One(x), Lane::One(y)) => {
+            let z = f(x, y);
+            for j in 0..len {
+                put(j, z);
+            }
+        }
     }
 }
 
