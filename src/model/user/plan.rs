@@ -10,7 +10,7 @@
 //! response differently (the exact kernel's delay phasors) says so.
 
 use super::block::Block;
-use super::expr::Op;
+use super::expr::{Op, powi};
 use super::ssa::{Inst, Ssa, Tier, apply, operands};
 use num_complex::Complex64;
 use std::cell::RefCell;
@@ -97,6 +97,8 @@ pub(super) struct Plan {
     fixed: Vec<Complex64>,
     n_bin_rows: usize,
     n_chunk_rows: usize,
+    /// The instructions computed per chunk, in order.
+    chunk_insts: Vec<u32>,
     /// Offset of each block's field values in the per-θ field buffer.
     field_at: Vec<usize>,
     n_fields: usize,
@@ -138,6 +140,9 @@ impl Plan {
             field_at.push(n_fields);
             n_fields += blk.n_fields();
         }
+        let chunk_insts = (0..loc.len() as u32)
+            .filter(|&i| matches!(loc[i as usize], Loc::Chunk(_)))
+            .collect();
         Plan {
             blocks: m.blocks.iter().map(|(_, b)| b.clone()).collect(),
             const_of: m.const_of.to_vec(),
@@ -147,6 +152,7 @@ impl Plan {
             fixed,
             n_bin_rows: nb,
             n_chunk_rows: nm,
+            chunk_insts,
             field_at,
             n_fields,
         }
@@ -261,9 +267,10 @@ impl Plan {
         len: usize,
         block: impl Fn(usize, &Block, &[f64], &mut [f64], &mut [f64]),
     ) {
-        for (i, inst) in self.ssa.insts.iter().enumerate() {
+        for &i in &self.chunk_insts {
+            let (inst, i) = (&self.ssa.insts[i as usize], i as usize);
             let Loc::Chunk(r) = self.loc[i] else {
-                continue;
+                unreachable!("a chunk value")
             };
             let (done, rest) = rows.split_at_mut(2 * r * CHUNK);
             let (re, im) = rest.split_at_mut(CHUNK);
@@ -305,7 +312,9 @@ impl Plan {
                     x /= y;
                     x
                 }),
-                _ => each(a, b, out, |x, y| apply(inst, x, y)),
+                Inst::Neg(_) => each(a, b, out, |x, _| -x),
+                Inst::Pow(_, p) => each(a, b, out, |x, _| powi(x, p)),
+                _ => unreachable!("a block or a per-θ value in the chunk"),
             }
         }
     }
