@@ -394,7 +394,8 @@ impl RelBinLikelihood {
     /// `ln L̃` at a full parameter vector. Allocation-free.
     ///
     /// Per experiment: the model's coefficients at every edge in one call per chunk of edges
-    /// ([`Model::coefficients_batch`]), then the per-edge summaries contracted in real
+    /// (the batch the model prepared for that chunk, [`Model::prepare_batch`], else
+    /// [`Model::coefficients_batch`]), then the per-edge summaries contracted in real
     /// arithmetic.
     pub fn ln_likelihood_full(&self, th: &[f64]) -> f64 {
         if th.len() != self.fiducial.len() {

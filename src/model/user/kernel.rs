@@ -1,5 +1,5 @@
 //! The prepared kernel of a user model ([`Model::prepare_kernel`]): its program
-//! ([`super::ssa`]) evaluated tier by tier — numbers once, frequency-only values once per bin
+//! ([`super::ssa`], placed by [`super::plan`]) evaluated tier by tier — numbers once, frequency-only values once per bin
 //! when prepared, θ-only values once per ln L — and the rest over chunks of bins, one
 //! instruction at a time across the chunk, so the interpreter's dispatch is paid once per
 //! instruction and chunk instead of once per instruction and bin, and the inner loops are
