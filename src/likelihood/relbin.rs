@@ -26,7 +26,7 @@ use super::spectra::ExperimentSpectra;
 use crate::density::LogDensity;
 use crate::hermitian;
 use crate::linalg;
-use crate::model::{Bin, MAX_CHANNELS, MAX_RESIDUALS, Model, residual_into, tri_len};
+use crate::model::{BatchKernel, Bin, MAX_CHANNELS, MAX_RESIDUALS, Model, residual_into, tri_len};
 use crate::prior::Prior;
 use nalgebra::DMatrix;
 use num_complex::Complex64;
@@ -175,6 +175,19 @@ struct Summary {
     x_re: Vec<f64>,
     x_im: Vec<f64>,
     fs: f64,
+    /// The model's prepared coefficients ([`Model::prepare_batch`]) per chunk of edges of the
+    /// batched evaluation ([`edges_per_chunk`]); empty when the model prepares none.
+    batch: Vec<Arc<dyn BatchKernel>>,
+}
+
+/// Edges per chunk of the batched evaluation when the widest experiment has `widest`
+/// components: the `EC1 − 1` that [`RelBinLikelihood::ln_likelihood_full`] chooses.
+fn edges_per_chunk(widest: usize) -> usize {
+    match widest {
+        0..=16 => CHUNK1 - 1,
+        17..=64 => 32,
+        _ => 8,
+    }
 }
 
 /// Edges per chunk of the batched evaluation (stack buffer of coefficients), plus one: the
@@ -321,6 +334,27 @@ impl RelBinLikelihood {
             n_coarse += s.edge_f.len() - 1;
             exps.push(s);
         }
+        let widest = exps.iter().map(|s| s.comps.len()).max().unwrap_or(0);
+        let chunk = edges_per_chunk(widest);
+        let ncst = model.n_consts();
+        for s in &mut exps {
+            let ne = s.edge_f.len();
+            s.batch = (0..ne)
+                .step_by(chunk)
+                .map_while(|e0| {
+                    let e1 = (e0 + chunk).min(ne);
+                    model.prepare_batch(
+                        &s.edge_f[e0..e1],
+                        s.fs,
+                        &s.edge_consts[e0 * ncst..e1 * ncst],
+                        &s.comps,
+                    )
+                })
+                .collect();
+            if s.batch.len() != ne.div_ceil(chunk) {
+                s.batch.clear();
+            }
+        }
         Ok(Self {
             exps,
             model,
@@ -360,7 +394,8 @@ impl RelBinLikelihood {
     /// `ln L̃` at a full parameter vector. Allocation-free.
     ///
     /// Per experiment: the model's coefficients at every edge in one call per chunk of edges
-    /// ([`Model::coefficients_batch`]), then the per-edge summaries contracted in real
+    /// (the batch the model prepared for that chunk, [`Model::prepare_batch`], else
+    /// [`Model::coefficients_batch`]), then the per-edge summaries contracted in real
     /// arithmetic.
     pub fn ln_likelihood_full(&self, th: &[f64]) -> f64 {
         if th.len() != self.fiducial.len() {
@@ -403,6 +438,11 @@ impl RelBinLikelihood {
     /// `EC1 − 1` edges.
     #[inline(always)]
     fn eval<const NB: usize, const EC1: usize>(&self, th: &[f64]) -> f64 {
+        debug_assert_eq!(
+            EC1 - 1,
+            edges_per_chunk(self.exps.iter().map(|s| s.comps.len()).max().unwrap_or(0)),
+            "the prepared batches are chunked as the evaluation"
+        );
         let mut buf = [[ZERO; EC1]; NB];
         // δ per component, structure of arrays; index 0 is the edge before the chunk
         let mut dre = [[0.0; EC1]; NB];
@@ -441,14 +481,18 @@ impl RelBinLikelihood {
         while e0 < ne {
             let len = (EC1 - 1).min(ne - e0);
             let d = &mut buf.as_flattened_mut()[..len * nc];
-            m.coefficients_batch(
-                th,
-                &s.edge_f[e0..e0 + len],
-                s.fs,
-                &s.edge_consts[e0 * ncst..(e0 + len) * ncst],
-                &s.comps,
-                d,
-            );
+            if s.batch.is_empty() {
+                m.coefficients_batch(
+                    th,
+                    &s.edge_f[e0..e0 + len],
+                    s.fs,
+                    &s.edge_consts[e0 * ncst..(e0 + len) * ncst],
+                    &s.comps,
+                    d,
+                );
+            } else {
+                s.batch[e0 / (EC1 - 1)].coefficients(th, d);
+            }
             let is = &s.inv_s[e0 * nc..(e0 + len) * nc];
             let off = &s.off[e0 * nc..(e0 + len) * nc];
             for c in 0..nc {
@@ -1054,6 +1098,7 @@ fn summarise(
             x_re: soa(&xm, nb, nc * nc, |z| z.re),
             x_im: soa(&xm, nb, nc * nc, |z| z.im),
             fs: e.fs,
+            batch: Vec::new(),
         },
         r0sum,
     ))
@@ -1152,6 +1197,44 @@ mod tests {
             }
         }
         eprintln!("batched relative binning vs unbatched: worst relative difference {worst:.2e}");
+    }
+
+    /// A user model's prepared batches ([`Model::prepare_batch`]) give relative binning the
+    /// interpreter's coefficients bit for bit: the same ln L̃ as without them, to the last bit.
+    #[test]
+    fn prepared_batches_give_the_interpreters_ln_l() {
+        let text = include_str!("../../examples/user-model-closed-loop.toml");
+        let v: toml::Table = toml::from_str(text).unwrap();
+        let mut t = v["model"].as_array().unwrap()[0]
+            .as_table()
+            .unwrap()
+            .clone();
+        t.remove("kind");
+        let def: crate::model::user::UserModelDef = toml::Value::Table(t).try_into().unwrap();
+        let user: Arc<dyn Model> = Arc::new(crate::model::user::UserModel::new(&def).unwrap());
+        let opts = SpectraOptions {
+            noise: NoiseSource::Welch,
+            band: [1e-3, 0.3],
+            ..Default::default()
+        };
+        let study = small_study(11, 1e-7, "circular");
+        let truth = LtpParams::default().to_array();
+        let spectra = crate::likelihood::tests::spectra_for(&study, &opts, user.as_ref(), &truth);
+        let prior = crate::likelihood::tests::wide_prior();
+        let lik = Likelihood::new(user.clone(), spectra.clone(), prior.clone()).unwrap();
+        let plain = Likelihood::new(Arc::new(Plain(user)), spectra, prior).unwrap();
+        let rb = RelBinLikelihood::new(&lik, &truth, &Default::default()).unwrap();
+        let rb_plain = RelBinLikelihood::new(&plain, &truth, &Default::default()).unwrap();
+        assert!(rb.exps.iter().all(|s| !s.batch.is_empty()));
+        assert!(rb_plain.exps.iter().all(|s| s.batch.is_empty()));
+        assert_eq!(rb.n_coarse(), rb_plain.n_coarse());
+        for (i, x) in [(2, 0.7), (3, 0.05), (4, 0.9), (0, 2e-7), (6, -1e-4)] {
+            let mut t = truth;
+            t[i] = x;
+            let (a, b) = (rb.ln_likelihood_full(&t), rb_plain.ln_likelihood_full(&t));
+            assert!(a.is_finite());
+            assert_eq!(a.to_bits(), b.to_bits(), "{t:?}: {a} against {b}");
+        }
     }
 
     /// The small study at low SNR (ρ ≈ 5, `Likelihood::snr` at the truth):

@@ -40,5 +40,6 @@ pub use checks::{check_identifiable, coefficients_at, validate_shape};
 pub use ltp::{LoopResponse, LtpModel, LtpModelOptions, ThrusterResponse};
 pub use tied::TiedModel;
 pub use traits::{
-    BlockKernel, Model, coefficients_batch_generic, residual_power_generic, residual_power_whitened,
+    BatchKernel, BlockKernel, Model, coefficients_batch_generic, residual_power_generic,
+    residual_power_whitened,
 };

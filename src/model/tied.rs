@@ -16,7 +16,7 @@
 //! to the subspace `a2 = a1`, with the prior of `a1` alone.
 
 use super::bin::{Bin, BinBlock};
-use super::traits::{BlockKernel, Model};
+use super::traits::{BatchKernel, BlockKernel, Model};
 use num_complex::{Complex, Complex64};
 use num_dual::Dual64;
 use std::sync::Arc;
@@ -128,6 +128,24 @@ impl BlockKernel for TiedKernel {
     }
 }
 
+/// The parent's prepared batch, read at the parent's θ.
+#[derive(Debug)]
+struct TiedBatch {
+    inner: Arc<dyn BatchKernel>,
+    source: Vec<usize>,
+}
+
+impl BatchKernel for TiedBatch {
+    fn coefficients(&self, theta: &[f64], out: &mut [Complex64]) {
+        let mut buf = [0.0; MAX_TIED_PARENT];
+        let n = self.source.len();
+        for (b, &s) in buf[..n].iter_mut().zip(&self.source) {
+            *b = theta[s];
+        }
+        self.inner.coefficients(&buf[..n], out)
+    }
+}
+
 impl Model for TiedModel {
     fn name(&self) -> &str {
         &self.name
@@ -196,6 +214,20 @@ impl Model for TiedModel {
         self.expand_into(theta, &mut buf[..n]);
         self.parent
             .coefficients_batch(&buf[..n], freqs, fs, consts, comps, out)
+    }
+
+    fn prepare_batch(
+        &self,
+        freqs: &[f64],
+        fs: f64,
+        consts: &[Complex64],
+        comps: &[usize],
+    ) -> Option<Arc<dyn BatchKernel>> {
+        let inner = self.parent.prepare_batch(freqs, fs, consts, comps)?;
+        Some(Arc::new(TiedBatch {
+            inner,
+            source: self.source.clone(),
+        }))
     }
 
     fn check(&self, theta: &[f64]) -> Result<(), String> {

@@ -95,6 +95,22 @@ pub trait Model: Send + Sync + std::fmt::Debug {
         coefficients_batch_generic(self, theta, freqs, fs, consts, comps, out)
     }
 
+    /// [`Model::coefficients_batch`] prepared once for fixed frequencies, constants and
+    /// components (relative binning's coarse-bin edges, the same for every θ), like
+    /// [`Model::prepare_kernel`]: it may precompute anything that does not depend on θ. `None`
+    /// (the default) means [`Model::coefficients_batch`] is called per θ. A prepared batch
+    /// must give the values of [`coefficients_batch_generic`] to rounding; its tests say how
+    /// close.
+    fn prepare_batch(
+        &self,
+        _freqs: &[f64],
+        _fs: f64,
+        _consts: &[Complex64],
+        _comps: &[usize],
+    ) -> Option<std::sync::Arc<dyn BatchKernel>> {
+        None
+    }
+
     /// The one-sided CSD matrix `S_d(f)` of the noise of the data channels at `bin`, row-major
     /// `C × C` in the order of [`Model::data_channels`] (zero rows and columns for noiseless
     /// channels such as commanded injections), when the model knows its own noise — a
@@ -144,6 +160,14 @@ pub trait Model: Send + Sync + std::fmt::Debug {
 pub trait BlockKernel: Send + Sync + std::fmt::Debug {
     /// `Σ_k r_kᴴ C_k⁻¹ r_k` at θ. Allocation-free.
     fn residual_power(&self, theta: &[f64]) -> f64;
+}
+
+/// A prepared [`Model::coefficients_batch`] (see [`Model::prepare_batch`]).
+pub trait BatchKernel: Send + Sync + std::fmt::Debug {
+    /// The prepared components at the prepared frequencies at θ, into
+    /// `out[e·comps.len() + i]` (`out.len()` = frequencies × components), as
+    /// [`Model::coefficients_batch`] gives them. Allocation-free.
+    fn coefficients(&self, theta: &[f64], out: &mut [Complex64]);
 }
 
 /// The default [`Model::residual_power`]: coefficients bin by bin. Kept callable so fast

@@ -1,10 +1,12 @@
 //! [`UserModel`]: a compiled user-defined model, evaluated through the [`Model`] trait.
 
+use super::batch::UserBatch;
 use super::block::Block;
 use super::expr::{self, Op};
-use super::kernel::{Program, UserKernel};
+use super::kernel::UserKernel;
+use super::plan::Program;
 use crate::model::bin::{Bin, BinBlock};
-use crate::model::traits::{BlockKernel, Model};
+use crate::model::traits::{BatchKernel, BlockKernel, Model};
 use num_complex::{Complex, Complex64};
 use num_dual::{Dual64, DualNum};
 use std::f64::consts::PI;
@@ -31,6 +33,18 @@ pub struct UserModel {
 }
 
 impl UserModel {
+    /// What the prepared kernels read.
+    fn program(&self) -> Program<'_> {
+        Program {
+            blocks: &self.blocks,
+            const_of: &self.const_of,
+            ops: &self.ops,
+            n_consts: self.n_consts,
+            nr: self.res.len(),
+            nc: self.data.len(),
+        }
+    }
+
     fn fill<T: DualNum<Primitive = f64> + Copy>(
         &self,
         th: &[T],
@@ -101,20 +115,29 @@ impl Model for UserModel {
         self.fill(theta, bin, out);
     }
 
+    /// The compiled coefficients ([`super::batch`]): the interpreter's numbers, bit for bit,
+    /// with only what the components `comps` need computed per θ.
+    fn prepare_batch(
+        &self,
+        freqs: &[f64],
+        _fs: f64,
+        consts: &[Complex64],
+        comps: &[usize],
+    ) -> Option<Arc<dyn BatchKernel>> {
+        Some(Arc::new(UserBatch::new(
+            &self.program(),
+            freqs,
+            consts,
+            comps,
+        )))
+    }
+
     /// The compiled kernel ([`super::kernel`]): the interpreter's numbers (to 1e−12) without
     /// its per-bin dispatch, for one or two residual channels (the packed noise inverse); more
     /// channels take the generic whitened path.
     fn prepare_kernel(&self, block: &BinBlock) -> Option<Arc<dyn BlockKernel>> {
-        let program = Program {
-            blocks: &self.blocks,
-            const_of: &self.const_of,
-            ops: &self.ops,
-            n_consts: self.n_consts,
-            nr: self.res.len(),
-            nc: self.data.len(),
-        };
         (self.res.len() <= 2)
-            .then(|| Arc::new(UserKernel::new(&program, block)) as Arc<dyn BlockKernel>)
+            .then(|| Arc::new(UserKernel::new(&self.program(), block)) as Arc<dyn BlockKernel>)
     }
 
     /// θ has the right length and finite values, and every θ-dependent block field is

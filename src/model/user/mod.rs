@@ -43,12 +43,14 @@
 //! Blocks whose fields are all constant are evaluated once per bin ([`Model::bin_consts`](crate::model::Model::bin_consts));
 //! blocks and defines that no coefficient uses are validated but never evaluated.
 
+mod batch;
 pub mod block;
 mod build;
 mod compiled;
 mod def;
 pub mod expr;
 mod kernel;
+mod plan;
 pub mod real;
 mod ssa;
 #[cfg(test)]

@@ -143,19 +143,37 @@ impl Ssa {
         (self.insts.len() - 1) as u32
     }
 
-    /// Which values a later tier reads (the operands of `Mixed` values and the outputs): the
-    /// only ones the kernel keeps.
-    pub fn read_later(&self) -> Vec<bool> {
+    /// Which values the outputs `wanted` (coefficient indices) need, directly or through
+    /// other values.
+    pub fn live(&self, wanted: &[usize]) -> Vec<bool> {
+        let mut live = vec![false; self.insts.len()];
+        for o in wanted.iter().filter_map(|&c| self.outs[c]) {
+            live[o as usize] = true;
+        }
+        // operands come before the values that read them
+        for i in (0..self.insts.len()).rev() {
+            if live[i] {
+                for a in operands(&self.insts[i]) {
+                    live[a as usize] = true;
+                }
+            }
+        }
+        live
+    }
+
+    /// Which values a later tier reads (the operands of the `live` `Mixed` values and the
+    /// outputs `wanted`): the only ones a kernel keeps.
+    pub fn read_later(&self, live: &[bool], wanted: &[usize]) -> Vec<bool> {
         let mut used = vec![false; self.insts.len()];
         for (i, inst) in self.insts.iter().enumerate() {
-            if self.tiers[i] == Tier::Mixed {
+            if live[i] && self.tiers[i] == Tier::Mixed {
                 for a in operands(inst) {
                     used[a as usize] = true;
                 }
             }
         }
-        for o in self.outs.iter().flatten() {
-            used[*o as usize] = true;
+        for o in wanted.iter().filter_map(|&c| self.outs[c]) {
+            used[o as usize] = true;
         }
         used
     }
