@@ -80,7 +80,7 @@ pub fn memory_budget() -> Result<u64, String> {
 }
 
 /// [`memory_budget`], or the default budget when the variable cannot be read (for callers
-/// that have already reported that error through [`check_budget`]).
+/// that have already reported that error through `check_budget`).
 pub fn memory_budget_bytes() -> u64 {
     memory_budget().unwrap_or(DEFAULT_BUDGET as u64)
 }

@@ -57,7 +57,7 @@ impl ExperimentDesign {
         Self::ladder("tn3045_x1", amps, true)
     }
 
-    /// TN3045 "experiment 1", investigation 2 (x12 channel). Not public: ltp-model.md §6.1 [REC],
+    /// TN3045 "experiment 1", investigation 2 (x12 channel). Not public: ltp-model.md §6.1 \[REC\],
     /// the same ladder with 1 µm up to 1.7 mHz, then ∝ 1/f² so that the TM2 commanded
     /// acceleration stays below about 1e−9 m s⁻².
     pub fn tn3045_x12() -> Self {

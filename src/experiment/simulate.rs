@@ -294,7 +294,7 @@ fn mat23_vec(b: &Mat23, q: [Complex64; 3]) -> [Complex64; 2] {
     ]
 }
 
-/// The outcome of [`simulate`].
+/// The outcome of [`crate::experiment::simulate`].
 #[derive(Debug, Clone)]
 pub struct Simulation {
     pub dataset: Dataset,

@@ -32,7 +32,7 @@ pub enum AnalysisError {
 #[derive(Debug, Clone)]
 pub struct Prepared {
     pub dataset: Dataset,
-    /// Where the data came from (a path, or "simulated from <study>").
+    /// Where the data came from (a path, or "simulated from `<study>`").
     pub origin: String,
     /// The exact likelihood of model [`model`](Self::model).
     pub likelihood: Likelihood,

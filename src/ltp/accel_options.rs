@@ -12,7 +12,7 @@ pub enum Derivative {
     /// The exact `−(2πf)²` (the default: the residual at the truth is zero).
     #[default]
     Exact,
-    /// LTPDA's five-point stencil (its response [`fpsder_response`]), to reproduce LTPDA's a12
+    /// LTPDA's five-point stencil (its response `fpsder_response`), to reproduce LTPDA's a12
     /// with its error.
     Fpsder,
 }

@@ -54,7 +54,7 @@ pub trait Model: Send + Sync + std::fmt::Debug {
         vec![String::new(); self.param_names().len()]
     }
 
-    /// Data channels `d_c` the model reads (columns of `M`), at most [`MAX_CHANNELS`].
+    /// Data channels `d_c` the model reads (columns of `M`), at most [`MAX_CHANNELS`](crate::model::MAX_CHANNELS).
     fn data_channels(&self) -> &[String];
 
     /// Residual channels `r_r` (rows of `M`), 1 to [`MAX_RESIDUALS`].

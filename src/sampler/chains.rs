@@ -62,7 +62,7 @@ pub struct Chain {
     /// Per kept sample: a proposal was accepted since the previous kept sample — with
     /// `thin` = 1 exactly "this iteration's proposal was accepted"; with thinning, "the state
     /// moved since the previous kept sample". Serialisations of older versions lack it; they
-    /// get [`backfill_accepted`].
+    /// get `backfill_accepted`.
     #[serde(default)]
     pub accepted: Vec<bool>,
     /// Proposal outcomes.

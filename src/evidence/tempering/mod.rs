@@ -28,7 +28,7 @@
 //!   `κ_k = κ₀ t₀/(k + t₀)` decaying), and frozen afterwards: only post-burn-in sweeps, all on
 //!   the final ladder, enter the estimators.
 //!
-//! Every rung owns its random stream ([`chain_rng`]`(seed, i + 1)`; the swaps use stream 0, the
+//! Every rung owns its random stream (`chain_rng(seed, i + 1)`; the swaps use stream 0, the
 //! pilot draws stream `N + 1`), so running the rungs on any number of threads gives the same
 //! numbers.
 //!

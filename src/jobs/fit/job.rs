@@ -20,7 +20,7 @@ pub struct Fit<'a> {
 pub struct Fitted {
     /// The fit (summary, chains, MAP, Fisher matrix).
     pub outcome: FitOutcome,
-    /// Where the data came from (a path, or "simulated from <study>").
+    /// Where the data came from (a path, or "simulated from `<study>`").
     pub origin: String,
 }
 

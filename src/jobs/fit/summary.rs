@@ -74,7 +74,7 @@ pub struct FitSummary {
     pub fisher: Vec<Vec<f64>>,
 }
 
-/// The outcome of [`run`].
+/// The outcome of a fit (`run`).
 pub struct FitOutcome {
     pub summary: FitSummary,
     pub chains: Chains,

@@ -3,8 +3,8 @@
 //! MCD, Schwarz), the paper's Table II layout, the evolution of B (Fig. 2) and the model-visit
 //! histogram (Fig. 4).
 //!
-//! No estimator's failure ends a run: each per-model stage ([`model`]) and each row of a pair
-//! ([`pair`]) that cannot apply carries a note saying why, and every other estimator still
+//! No estimator's failure ends a run: each per-model stage (`model.rs`) and each row of a pair
+//! (`pair.rs`) that cannot apply carries a note saying why, and every other estimator still
 //! reports.
 
 mod checkpoint;

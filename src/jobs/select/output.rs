@@ -115,7 +115,7 @@ pub fn write_outputs(s: &SelectSummary, out: &Path) -> Result<(), SelectError> {
 }
 
 /// The file of model `name`'s in-model chains. Model names are 1–64 of `[A-Za-z0-9_.+-]`
-/// ([`crate::config::check_name`]), so the name goes in as it is.
+/// (`crate::config::check_name`), so the name goes in as it is.
 pub fn chains_file(name: &str) -> String {
     format!("chains_{name}.npz")
 }

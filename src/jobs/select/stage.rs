@@ -16,7 +16,7 @@ pub const EVERY: Duration = Duration::from_secs(20);
 /// The environment variable that sets how often a stage in progress is saved, in seconds.
 pub const ENV: &str = "OCCAM_CHECKPOINT_SECONDS";
 
-/// The interval [`ENV`] asks for (`None` when unset); an error names the variable and the fix
+/// The interval `ENV` asks for (`None` when unset); an error names the variable and the fix
 /// when it is not a number of seconds ≥ 0.
 pub fn every_from_env() -> anyhow::Result<Option<Duration>> {
     let Ok(v) = std::env::var(ENV) else {

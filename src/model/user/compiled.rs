@@ -115,7 +115,7 @@ impl Model for UserModel {
         self.fill(theta, bin, out);
     }
 
-    /// The compiled coefficients ([`super::batch`]): the interpreter's numbers, bit for bit,
+    /// The compiled coefficients (`batch.rs`): the interpreter's numbers, bit for bit,
     /// with only what the components `comps` need computed per θ.
     fn prepare_batch(
         &self,
@@ -132,7 +132,7 @@ impl Model for UserModel {
         )))
     }
 
-    /// The compiled kernel ([`super::kernel`]): the interpreter's numbers (to 1e−12) without
+    /// The compiled kernel (`kernel.rs`): the interpreter's numbers (to 1e−12) without
     /// its per-bin dispatch, for one or two residual channels (the packed noise inverse); more
     /// channels take the generic whitened path.
     fn prepare_kernel(&self, block: &BinBlock) -> Option<Arc<dyn BlockKernel>> {
