@@ -284,3 +284,71 @@ fn bad_generators_are_refused_with_the_field_named() {
     let e = swap("model = \"masses\"\ntarget", "target");
     assert!(e.contains("simulation.truth"), "{e}");
 }
+
+/// One read-out only (the smallest model the simulator takes): ρ_opt recomputed here from the
+/// noiseless read-out's DFT and the model's PSD, `ρ² = 2 Σ |Y_k|² / ((N fs/2) S(f_k))` over
+/// the band, equals the target the injections were scaled to — an independent check of the
+/// SNR and of the scaling (a factor √2 or a one-/two-sided slip would be 41 % or 100 % off).
+#[test]
+fn one_read_out_has_the_stated_snr() {
+    const ONE: &str = r#"
+seed = 3
+output = "runs/one"
+[simulation]
+model = "osc"
+noise = "none"
+target_snr = 50.0
+snr_band = [1e-3, 0.2]
+[simulation.truth]
+k = 2e-3
+gam = 5e-3
+[prior]
+k = { kind = "uniform", lo = 1e-3, hi = 4e-3 }
+gam = { kind = "uniform", lo = 1e-3, hi = 2e-2 }
+[fit]
+model = "osc"
+[[experiment]]
+name = "kick"
+fs = 1.0
+pre_pad = 100.0
+post_pad = 1500.0
+noise_duration = 2000.0
+[experiment.inject]
+u = { kind = "sine", freq = 0.01, amplitude = 1e-9, duration = 800.0 }
+[[model]]
+kind = "state_space"
+name = "osc"
+parameters = ["k", "gam"]
+inputs = ["u"]
+outputs = ["y"]
+a = [[0, 1], ["-k", "-gam"]]
+b = [[0], [1]]
+c = [[1, 0]]
+g = [[0, 0], [1, 0]]
+h = [[0, 1]]
+noise = [1e-26, 1e-22]
+"#;
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("one.toml");
+    std::fs::write(&p, ONE).unwrap();
+    let s = Study::load(&p).unwrap();
+    let sim = simulate(&s.simulation_plan()).unwrap();
+    let e = &sim.dataset.experiments[0];
+    let y = dft(e.channel("y").unwrap());
+    let n = e.channel("y").unwrap().len();
+    let (k, gam, fs) = (2e-3, 5e-3, 1.0);
+    let mut rho2 = 0.0;
+    for (j, yk) in y.iter().enumerate().skip(1) {
+        let f = j as f64 * fs / n as f64;
+        if !(1e-3..=0.2).contains(&f) || 2 * j == n {
+            continue;
+        }
+        // S_y = q_force/|s² + γ s + k|² + q_read
+        let s = Complex64::new(0.0, 2.0 * std::f64::consts::PI * f);
+        let psd = 1e-26 / (s * s + gam * s + k).norm_sqr() + 1e-22;
+        rho2 += 2.0 * yk.norm_sqr() / (n as f64 * fs / 2.0 * psd);
+    }
+    eprintln!("ρ_opt recomputed: {:.12} (target 50)", rho2.sqrt());
+    assert!((rho2.sqrt() / 50.0 - 1.0).abs() < 1e-9, "{}", rho2.sqrt());
+    assert!(e.noise_channel("y").unwrap().iter().all(|v| *v == 0.0));
+}
