@@ -295,7 +295,7 @@ fn dataset_cases() -> Vec<DatasetCase> {
                 })
             }),
             file: "dataset.npz",
-            want: &["`o1` sample 3 is NaN", "finite"],
+            want: &["sidecar lists gaps []", "NaN samples are [[3, 4]]"],
         },
         DatasetCase {
             name: "npz: infinite noise sample",
@@ -526,9 +526,9 @@ fn source_cases() -> Vec<SourceCase> {
     }
     vec![
         c(
-            "csv: NaN",
-            with_row(2, "0.2,nan,1"),
-            &["line 4, column `o1`", "not finite"],
+            "csv: NaN time stamp",
+            with_row(2, "nan,1,1"),
+            &["line 4, column `t`", "time stamp is missing"],
         ),
         c(
             "csv: infinity",
@@ -556,9 +556,9 @@ fn source_cases() -> Vec<SourceCase> {
             &["line 6", "4 values for 3 columns"],
         ),
         c(
-            "csv: empty cell",
-            with_row(4, "0.4,,2"),
-            &["line 6, column `o1`", "`` is not a number"],
+            "csv: empty time stamp",
+            with_row(4, ",1,2"),
+            &["line 6, column `t`", "time stamp is missing"],
         ),
         c(
             "csv: quoted decimal comma",
@@ -597,9 +597,12 @@ fn source_cases() -> Vec<SourceCase> {
             &["line 11, column `t`", "does not increase"],
         ),
         c(
-            "csv: time with a gap",
+            "csv: time off the grid",
             gap.into_bytes(),
-            &["line 9, column `t`", "not uniformly sampled"],
+            &[
+                "line 9, column `t`",
+                "not a whole number of the series' spacing",
+            ],
         ),
         c(
             "csv: old Mac line ends",
@@ -688,14 +691,14 @@ fn source_cases() -> Vec<SourceCase> {
         SourceCase {
             files: vec![
                 ("d.csv", good_csv().into_bytes()),
-                ("n.csv", b"t,o1,o12\n0,1,\n".to_vec()),
+                ("n.csv", b"t,o1,o12\n0,1,\n0.1,2,3\n".to_vec()),
             ],
             noise: true,
             file: "n.csv",
             ..c(
-                "csv: noise file with an empty cell",
+                "csv: noise file with an empty cell, too short",
                 Vec::new(),
-                &["line 2, column `o12`", "not a number"],
+                &["noise-only stretch of `o1`", "2 samples", "≥ 16"],
             )
         },
         npz_case(
@@ -712,12 +715,12 @@ fn source_cases() -> Vec<SourceCase> {
             &["channel `o12`", "no array `o12`", "`o1`, `x`"],
         ),
         npz_case(
-            "npz file: NaN",
+            "npz file: infinity",
             zip(&[
                 ("o1".into(), f8(&[1.0; 64])),
                 ("o12".into(), {
                     let mut v = vec![1.0; 64];
-                    v[9] = f64::NAN;
+                    v[9] = f64::INFINITY;
                     f8(&v)
                 }),
             ]),
@@ -775,6 +778,8 @@ fn run_source_case(c: &SourceCase) -> String {
         columns: BTreeMap::new(),
         fs: c.fs,
         noise_data: c.noise.then(|| "n.csv".into()),
+        gaps: Vec::new(),
+        noise_gaps: Vec::new(),
     };
     let chans: Vec<String> = c.channels.iter().map(|s| s.to_string()).collect();
     match src.load("inv1", dir.path(), &chans) {
@@ -844,6 +849,8 @@ fn bom_crlf_and_quotes_read_the_same_numbers() {
             columns: BTreeMap::new(),
             fs: None,
             noise_data: None,
+            gaps: Vec::new(),
+            noise_gaps: Vec::new(),
         };
         let e = src
             .load("x", dir.path(), &["o1".into(), "o12".into()])

@@ -255,8 +255,8 @@ fn bad_data_files_are_reported_with_file_line_and_column() {
         )
         .unwrap();
     }
-    // NaN on line 5
-    let bad = good.replacen("3,1e-9", "3,NaN", 1);
+    // an infinity on line 5 (a NaN would be a missing sample)
+    let bad = good.replacen("3,1e-9", "3,inf", 1);
     let e = study_error(&study(""), &[("a.csv", &bad), ("n.csv", &noise)]);
     assert!(
         e.contains("a.csv") && e.contains("line 5") && e.contains("`o1`"),

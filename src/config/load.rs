@@ -400,6 +400,9 @@ fn check_simulation(sim: &SimulationOptions, file: &str) -> Result<(), ConfigErr
             format!("must be an SNR in (0, {MAX_TARGET_SNR:e}] (got {t})"),
         ));
     }
+    if let Some(g) = &sim.gaps {
+        g.check().map_err(|m| bad("simulation.gaps", m))?;
+    }
     if !(1..=1000).contains(&sim.oversample) {
         return Err(bad(
             "simulation.oversample",
@@ -500,12 +503,45 @@ fn data_source(
                 .map_err(|m| invalid(file, at(&format!("columns.{ch}")), m))?;
         }
     }
+    check_gap_times(e, at, file)?;
+    if !e.noise_gaps.is_empty() && e.noise_data.is_none() {
+        return Err(invalid(
+            file,
+            at("noise_gaps"),
+            "the experiment has no noise-only stretch (`noise_data`)".into(),
+        ));
+    }
     Ok(crate::data::DataSource {
         data: path.to_path_buf(),
         columns: e.columns.clone(),
         fs: e.fs,
         noise_data: e.noise_data.clone(),
+        gaps: e.gaps.clone(),
+        noise_gaps: e.noise_gaps.clone(),
     })
+}
+
+/// `gaps` and `noise_gaps`: each `[t0, t1]` finite with `0 ≤ t0 < t1` (seconds from the
+/// stretch's first sample). Whether they fall inside the stretch is known once the data are.
+fn check_gap_times(
+    e: &ExperimentEntry,
+    at: &dyn Fn(&str) -> String,
+    file: &str,
+) -> Result<(), ConfigError> {
+    for (key, list) in [("gaps", &e.gaps), ("noise_gaps", &e.noise_gaps)] {
+        for (k, &[t0, t1]) in list.iter().enumerate() {
+            if !(t0.is_finite() && t1.is_finite() && t0 >= 0.0 && t1 > t0) {
+                return Err(invalid(
+                    file,
+                    at(&format!("{key}[{k}]")),
+                    format!(
+                        "[{t0}, {t1}]: a gap is [t0, t1] in seconds from the stretch's first sample, with 0 ≤ t0 < t1"
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// The design of a simulated experiment: a built-in one or the defaults, with the table's
@@ -550,6 +586,8 @@ fn simulated_design(
             f2: Waveform::None,
             fsc: Waveform::None,
             inject: Default::default(),
+            gaps: Vec::new(),
+            noise_gaps: Vec::new(),
         },
     };
     d.name = e.name.clone();
@@ -597,6 +635,9 @@ fn simulated_design(
         let w = to_waveform(entry, base, file, &field)?;
         d.inject.insert(ch.clone(), w);
     }
+    check_gap_times(e, at, file)?;
+    d.gaps = e.gaps.clone();
+    d.noise_gaps = e.noise_gaps.clone();
     if method == Method::Time
         && let Some((ch, _)) = [("f1", &d.f1), ("f2", &d.f2), ("fsc", &d.fsc)]
             .into_iter()

@@ -63,6 +63,10 @@ fn schema() -> BTreeMap<String, BTreeSet<String>> {
     put("[masses]", keys::<crate::ltp::Masses>(""));
     put("[simulation]", keys::<SimulationOptions>(""));
     put("[simulation.thruster]", keys::<TruthThruster>(""));
+    put(
+        "[simulation.gaps]",
+        keys::<crate::experiment::RandomGaps>(""),
+    );
     put("[simulation.actuators]", keys::<ActuatorOptions>(""));
     put("[simulation.actuators.tm1]", keys::<ActuatorEntry>(""));
     put("[analysis]", keys::<AnalysisOptions>(""));

@@ -47,6 +47,9 @@ pub struct SimulationOptions {
     /// `[simulation.truth]`: the true value of every parameter of `model`, by name.
     #[serde(skip_serializing_if = "std::collections::BTreeMap::is_empty")]
     pub truth: std::collections::BTreeMap<String, f64>,
+    /// `[simulation.gaps]`: random gaps in every stretch of every simulated experiment.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gaps: Option<crate::experiment::RandomGaps>,
 }
 
 /// One test mass's actuator as written in `[simulation.actuators]`:
@@ -168,6 +171,7 @@ impl Default for SimulationOptions {
             actuators: ActuatorOptions::default(),
             model: None,
             truth: Default::default(),
+            gaps: None,
         }
     }
 }
@@ -245,6 +249,13 @@ pub struct ExperimentEntry {
     /// A noise-only stretch for the Welch noise estimate (same column map).
     #[serde(default)]
     pub noise_data: Option<PathBuf>,
+    /// Missing data of the fit stretch, `[[t0, t1], …]` in seconds from its first sample
+    /// (beside any NaN, empty cells or missing time stamps of a data file).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub gaps: Vec<[f64; 2]>,
+    /// Missing data of the noise-only stretch, likewise.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub noise_gaps: Vec<[f64; 2]>,
 }
 
 /// Which likelihood the samplers use.
@@ -288,6 +299,10 @@ pub struct AnalysisOptions {
     pub statistic: crate::likelihood::Statistic,
     /// `[analysis.log_periodogram]`: Welch settings of the log-periodogram statistic.
     pub log_periodogram: crate::likelihood::LogPeriodogramOptions,
+    /// Data with gaps: the cosine taper (s) at each end of a valid run that borders a gap
+    /// (default [`crate::likelihood::DEFAULT_GAP_TAPER`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gap_taper: Option<f64>,
 }
 
 impl Default for AnalysisOptions {
@@ -306,6 +321,7 @@ impl Default for AnalysisOptions {
             relbin_tolerance: r.tolerance,
             statistic: Default::default(),
             log_periodogram: Default::default(),
+            gap_taper: None,
         }
     }
 }
@@ -575,6 +591,7 @@ impl Study {
             snr_band: o.snr_band,
             oversample: o.oversample,
             generator: self.generator(),
+            gaps: o.gaps,
         }
     }
 }

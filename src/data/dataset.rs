@@ -21,6 +21,7 @@
 pub use super::error::DataError;
 use super::error::{fmt_err, io_err};
 use super::fnv::Fnv1a;
+use super::gaps::{self, Span};
 use super::memory::{check_budget, memory_budget_bytes};
 use super::time_column::uniform_rate;
 use crate::ltp::LtpParams;
@@ -79,6 +80,14 @@ pub struct ExperimentData {
     pub extra: BTreeMap<String, Vec<f64>>,
     /// Noise-only series of further channels (a subset of the keys of `extra`).
     pub noise_extra: BTreeMap<String, Vec<f64>>,
+    /// Missing samples of the fit stretch, in every channel at once ([`crate::data::gaps`]:
+    /// normalised half-open ranges; the samples hold `0.0`). Empty for gap-free data.
+    pub gaps: Vec<Span>,
+    /// Missing samples of the noise-only stretch, likewise.
+    pub noise_gaps: Vec<Span>,
+    /// Fit-stretch channels whose values inside the gaps are real (commanded injections
+    /// recorded through a telemetry gap); every other channel is blanked there.
+    pub known_in_gaps: Vec<String>,
 }
 
 /// Metadata written beside the arrays.
@@ -139,6 +148,12 @@ pub struct SidecarExperiment {
     /// Those of `channels` with a noise-only series (arrays `<experiment>.noise_<channel>`).
     #[serde(default)]
     pub noise_channels: Vec<String>,
+    /// Missing samples of the fit stretch (`[start, end)`; NaN in the arrays).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub gaps: Vec<Span>,
+    /// Missing samples of the noise-only stretch, likewise.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub noise_gaps: Vec<Span>,
 }
 
 /// A set of experiments plus metadata.
@@ -177,7 +192,133 @@ impl ExperimentData {
             noise,
             extra: BTreeMap::new(),
             noise_extra: BTreeMap::new(),
+            gaps: Vec::new(),
+            noise_gaps: Vec::new(),
+            known_in_gaps: Vec::new(),
         }
+    }
+
+    /// The fit stretch's samples `[a, b)` (a valid run) as an experiment of its own, with the
+    /// whole noise-only stretch (and its gaps); `name` names it.
+    pub fn slice(&self, name: &str, [a, b]: Span) -> ExperimentData {
+        let cut = |v: &Vec<f64>| {
+            if v.is_empty() {
+                Vec::new()
+            } else {
+                v[a..b].to_vec()
+            }
+        };
+        ExperimentData {
+            name: name.into(),
+            fs: self.fs,
+            o: [cut(&self.o[0]), cut(&self.o[1])],
+            i: [cut(&self.i[0]), cut(&self.i[1])],
+            noise: self.noise.clone(),
+            extra: self
+                .extra
+                .iter()
+                .map(|(k, v)| (k.clone(), cut(v)))
+                .collect(),
+            noise_extra: self.noise_extra.clone(),
+            gaps: Vec::new(),
+            noise_gaps: self.noise_gaps.clone(),
+            known_in_gaps: Vec::new(),
+        }
+    }
+
+    /// Whether either stretch has missing samples.
+    pub fn has_gaps(&self) -> bool {
+        !(self.gaps.is_empty() && self.noise_gaps.is_empty())
+    }
+
+    /// The valid runs of the fit stretch (one run, the whole stretch, without gaps).
+    pub fn valid_runs(&self) -> Vec<Span> {
+        gaps::valid_runs(self.n_samples(), &self.gaps)
+    }
+
+    /// The valid runs of the noise-only stretch.
+    pub fn noise_valid_runs(&self) -> Vec<Span> {
+        gaps::valid_runs(self.n_noise_samples(), &self.noise_gaps)
+    }
+
+    /// Marks `gaps` of the fit stretch (merged with any it has) and blanks their samples in
+    /// every channel but those of [`ExperimentData::known_in_gaps`].
+    pub fn add_gaps(&mut self, gaps: &[Span]) {
+        let mut all = std::mem::take(&mut self.gaps);
+        all.extend_from_slice(gaps);
+        let g = gaps::normalise(all);
+        let known = std::mem::take(&mut self.known_in_gaps);
+        for (c, st, v) in self.series_mut() {
+            if st == Stretch::Fit && !known.contains(&c) {
+                gaps::blank(v, &g);
+            }
+        }
+        self.known_in_gaps = known;
+        self.gaps = g;
+    }
+
+    /// Marks `gaps` of the noise-only stretch, likewise.
+    pub fn add_noise_gaps(&mut self, gaps: &[Span]) {
+        let mut all = std::mem::take(&mut self.noise_gaps);
+        all.extend_from_slice(gaps);
+        let g = gaps::normalise(all);
+        for (_, st, v) in self.series_mut() {
+            if st == Stretch::Noise {
+                gaps::blank(v, &g);
+            }
+        }
+        self.noise_gaps = g;
+    }
+
+    /// Turns the NaN samples of each stretch into gaps of that stretch (every channel of a
+    /// stretch misses a sample that one of them misses).
+    /// A fit-stretch channel with values and no NaN in the gaps keeps them
+    /// ([`ExperimentData::known_in_gaps`]).
+    pub fn take_nan_gaps(&mut self) {
+        let (mut named, mut series): (Vec<String>, Vec<&mut Vec<f64>>) = self
+            .series_mut()
+            .into_iter()
+            .filter(|(_, st, _)| *st == Stretch::Fit)
+            .map(|(c, _, v)| (c, v))
+            .unzip();
+        let (found, kept) = gaps::take_nan_gaps_keeping(&mut series);
+        named.retain({
+            let mut it = kept.iter();
+            move |_| *it.next().expect("one flag per series")
+        });
+        let merged = gaps::normalise(self.gaps.iter().copied().chain(found).collect());
+        self.gaps = merged;
+        self.known_in_gaps = named;
+        let mut series: Vec<&mut Vec<f64>> = self
+            .series_mut()
+            .into_iter()
+            .filter(|(_, st, _)| *st == Stretch::Noise)
+            .map(|(_, _, v)| v)
+            .collect();
+        let found = gaps::take_nan_gaps(&mut series);
+        self.add_noise_gaps(&found);
+    }
+
+    /// Every stored series, mutably, with its stretch (as [`Self::series`]).
+    fn series_mut(&mut self) -> Vec<(String, Stretch, &mut Vec<f64>)> {
+        let [o1, o12] = &mut self.o;
+        let [i1, i12] = &mut self.i;
+        let [n1, n12] = &mut self.noise;
+        let mut v: Vec<(String, Stretch, &mut Vec<f64>)> = vec![
+            ("o1".into(), Stretch::Fit, o1),
+            ("o12".into(), Stretch::Fit, o12),
+            ("i1".into(), Stretch::Fit, i1),
+            ("i12".into(), Stretch::Fit, i12),
+            ("noise_o1".into(), Stretch::Noise, n1),
+            ("noise_o12".into(), Stretch::Noise, n12),
+        ];
+        for (c, s) in self.extra.iter_mut() {
+            v.push((c.clone(), Stretch::Fit, s));
+        }
+        for (c, s) in self.noise_extra.iter_mut() {
+            v.push((format!("noise_{c}"), Stretch::Noise, s));
+        }
+        v
     }
 
     /// Every stored series as `(array suffix, stretch, series)`, fixed slots first (including
@@ -311,6 +452,8 @@ impl ExperimentData {
                 "too short ({n} fit samples, {m} noise samples; need ≥ 16 each, or no noise-only stretch)"
             )));
         }
+        gaps::check(&self.gaps, n).map_err(|m| err(format!("fit stretch: {m}")))?;
+        gaps::check(&self.noise_gaps, m).map_err(|m| err(format!("noise-only stretch: {m}")))?;
         Ok(())
     }
 
@@ -380,9 +523,19 @@ impl Dataset {
             let mut z = NpzWriter::new(w);
             let to_io = |e: ndarray_npy::WriteNpzError| std::io::Error::other(e.to_string());
             for e in &self.experiments {
-                for (c, _, v) in e.series() {
-                    z.add_array(format!("{}.{c}", e.name), &Array1::from_vec(v.clone()))
-                        .map_err(to_io)?;
+                for (c, stretch, v) in e.series() {
+                    // a missing sample is a NaN on disk
+                    let none = Vec::new();
+                    let g = match stretch {
+                        Stretch::Fit if e.known_in_gaps.contains(&c) => &none,
+                        Stretch::Fit => &e.gaps,
+                        Stretch::Noise => &e.noise_gaps,
+                    };
+                    z.add_array(
+                        format!("{}.{c}", e.name),
+                        &Array1::from_vec(gaps::with_nan(v, g)),
+                    )
+                    .map_err(to_io)?;
                 }
                 z.add_array(format!("{}.fs", e.name), &Array1::from_vec(vec![e.fs]))
                     .map_err(to_io)?;
@@ -411,6 +564,8 @@ impl Dataset {
                     n_noise_samples: e.n_noise_samples(),
                     channels: e.extra.keys().cloned().collect(),
                     noise_channels: e.noise_extra.keys().cloned().collect(),
+                    gaps: e.gaps.clone(),
+                    noise_gaps: e.noise_gaps.clone(),
                 })
                 .collect(),
             extra: self.extra.clone(),
@@ -643,6 +798,18 @@ impl Dataset {
                     )));
                 }
             }
+            e.take_nan_gaps();
+            e.add_gaps(&m.gaps);
+            e.add_noise_gaps(&m.noise_gaps);
+            if e.gaps.is_empty() {
+                e.known_in_gaps.clear();
+            }
+            if (&e.gaps, &e.noise_gaps) != (&m.gaps, &m.noise_gaps) {
+                return Err(mismatch(format!(
+                    "experiment `{}`: the sidecar lists gaps {:?} (noise-only {:?}) but the archive's NaN samples make them {:?} (noise-only {:?})",
+                    m.name, m.gaps, m.noise_gaps, e.gaps, e.noise_gaps
+                )));
+            }
             e.validate(&npz)?;
             experiments.push(e);
         }
@@ -864,15 +1031,20 @@ pub fn parse_csv(file: &Path, bytes: &[u8]) -> Result<CsvTable, DataError> {
             let at = || format!("line {}, column `{}`", ln + 1, names[j]);
             let cell = unquote(c).map_err(|m| fmt_err(path, format!("{}: {m}", at())))?;
             let cell = cell.trim();
-            let v: f64 = cell.parse().map_err(|_| {
-                let shown: String = cell.chars().take(40).collect();
-                fmt_err(path, format!("{}: `{shown}` is not a number", at()))
-            })?;
-            if !v.is_finite() {
+            // an empty cell or a NaN is a missing sample (a gap)
+            let v: f64 = if cell.is_empty() {
+                f64::NAN
+            } else {
+                cell.parse().map_err(|_| {
+                    let shown: String = cell.chars().take(40).collect();
+                    fmt_err(path, format!("{}: `{shown}` is not a number", at()))
+                })?
+            };
+            if v.is_infinite() {
                 return Err(fmt_err(
                     path,
                     format!(
-                        "{}: {v} is not finite (NaN and infinities are not allowed)",
+                        "{}: {v} is not finite (infinities are not allowed; NaN or an empty cell marks a missing sample)",
                         at()
                     ),
                 ));
@@ -927,6 +1099,9 @@ mod tests {
                 noise: [v(5.0)[..32].to_vec(), v(6.0)[..32].to_vec()],
                 extra: BTreeMap::new(),
                 noise_extra: BTreeMap::new(),
+                gaps: Vec::new(),
+                noise_gaps: Vec::new(),
+                known_in_gaps: Vec::new(),
             }],
             seed: Some(7),
             truth: Some(LtpParams::default()),
@@ -947,7 +1122,11 @@ mod tests {
     fn csv_errors_name_line_and_column() {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("d.csv");
-        std::fs::write(&p, "t,o1\n0,1\n0.1,nan\n").unwrap();
+        // NaN and an empty cell are missing samples, an infinity is an error
+        std::fs::write(&p, "t,o1,o12\n0,1,2\n0.1,nan,3\n0.2,4,\n").unwrap();
+        let t = read_csv(&p).unwrap();
+        assert!(t.columns[1][1].is_nan() && t.columns[2][2].is_nan());
+        std::fs::write(&p, "t,o1\n0,1\n0.1,-inf\n").unwrap();
         let e = read_csv(&p).unwrap_err().to_string();
         assert!(
             e.contains("d.csv") && e.contains("line 3") && e.contains("o1"),

@@ -3,8 +3,9 @@
 
 use super::dataset::{ExperimentData, FIXED_CHANNELS, check_channel_name, read_csv};
 use super::error::{DataError, fmt_err};
+use super::gaps;
 use super::memory::{check_budget, memory_budget_bytes};
-use super::time_column::uniform_rate;
+use super::time_column::time_grid;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -34,6 +35,13 @@ pub struct DataSource {
     /// A noise-only stretch (same column map), needed only for the Welch noise estimate.
     #[serde(default)]
     pub noise_data: Option<PathBuf>,
+    /// Missing data of the fit stretch, `[t0, t1]` in seconds from its first sample, beside
+    /// the file's own (NaN, empty cells, missing time stamps).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub gaps: Vec<[f64; 2]>,
+    /// Missing data of the noise-only stretch, likewise.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub noise_gaps: Vec<[f64; 2]>,
 }
 
 /// Columns of a CSV file or arrays of an npz archive.
@@ -100,11 +108,11 @@ impl Table {
             if v.is_empty() {
                 return Err(fmt_err(file, format!("array `{w}` has no samples")));
             }
-            if let Some(k) = v.iter().position(|x| !x.is_finite()) {
+            if let Some(k) = v.iter().position(|x| x.is_infinite()) {
                 return Err(fmt_err(
                     file,
                     format!(
-                        "array `{w}`, sample {k}: {} is not finite (NaN and infinities are not allowed)",
+                        "array `{w}`, sample {k}: {} is not finite (infinities are not allowed; NaN marks a missing sample)",
                         v[k]
                     ),
                 ));
@@ -160,16 +168,50 @@ impl Table {
         self.columns.get(column)
     }
 
-    /// The sample rate of the time column `column`, if the file has one.
-    fn rate(&self, column: &str) -> Result<Option<f64>, DataError> {
+    /// The sample rate of the time column `column`, if the file has one, and the position of
+    /// each row on the uniform grid when time stamps are missing ([`time_grid`]).
+    fn rate(&self, column: &str) -> Result<Option<RateAndGrid>, DataError> {
         let Some(t) = self.get(column) else {
             return Ok(None);
         };
-        uniform_rate(t, column, |k| self.at(k))
+        if let Some(k) = t.iter().position(|x| x.is_nan()) {
+            return Err(fmt_err(
+                &self.file,
+                format!(
+                    "{}, column `{column}`: the time stamp is missing (NaN or empty); leave the row out instead — a missing time stamp is a gap",
+                    self.at(k)
+                ),
+            ));
+        }
+        time_grid(t, column, |k| self.at(k))
             .map(Some)
             .map_err(|m| fmt_err(&self.file, m))
     }
+
+    /// Spreads the columns `names` onto the uniform grid `pos` (from [`Table::rate`]), with
+    /// NaN (a gap) at every missing time stamp; the grid's size is checked against the memory
+    /// budget first.
+    fn fill_missing_stamps(&mut self, pos: &[usize], names: &[&str]) -> Result<(), DataError> {
+        let len = pos.last().map_or(0, |p| p + 1);
+        let bytes = (len as u64)
+            .saturating_mul(8)
+            .saturating_mul(names.len() as u64 + 1);
+        check_budget(&self.file, "filling its missing time stamps", bytes)?;
+        for n in names {
+            if let Some(v) = self.columns.get_mut(*n) {
+                let mut full = vec![f64::NAN; len];
+                for (&p, &x) in pos.iter().zip(v.iter()) {
+                    full[p] = x;
+                }
+                *v = full;
+            }
+        }
+        Ok(())
+    }
 }
+
+/// A time column's sample rate and, when time stamps are missing, each row's grid position.
+type RateAndGrid = (f64, Option<Vec<usize>>);
 
 /// Relative agreement required between sample rates from different sources.
 const RATE_TOLERANCE: f64 = 1e-6;
@@ -242,7 +284,11 @@ impl DataSource {
         let mut wanted: Vec<&str> = chans.iter().map(|c| self.column_of(c)).collect();
         wanted.push(t_col);
 
-        let table = Table::read(&data, &wanted)?;
+        let mut table = Table::read(&data, &wanted)?;
+        let (data_rate, data_grid) = table.rate(t_col)?.unzip();
+        if let Some(Some(pos)) = &data_grid {
+            table.fill_missing_stamps(pos, &wanted)?;
+        }
         if self.columns.contains_key("t") && !table.names.iter().any(|n| n == t_col) {
             return Err(fmt_err(
                 &data,
@@ -285,7 +331,6 @@ impl DataSource {
                 format!("experiment `{name}`: fs = {f} Hz is not > 0"),
             ));
         }
-        let data_rate = table.rate(t_col)?;
         if let (Some(a), Some(f)) = (data_rate, self.fs)
             && (a - f).abs() > RATE_TOLERANCE * a
         {
@@ -302,7 +347,12 @@ impl DataSource {
         let mut noise_rate = None;
         let noise_file = self.noise_data.as_ref().map(|p| base.join(p));
         if let Some(nf) = &noise_file {
-            let nt = Table::read(nf, &wanted)?;
+            let mut nt = Table::read(nf, &wanted)?;
+            let (rate, grid) = nt.rate(t_col)?.unzip();
+            if let Some(Some(pos)) = &grid {
+                nt.fill_missing_stamps(pos, &wanted)?;
+            }
+            noise_rate = rate;
             let noisy: Vec<&str> = chans
                 .iter()
                 .copied()
@@ -337,7 +387,6 @@ impl DataSource {
                     ),
                 ));
             }
-            noise_rate = nt.rate(t_col)?;
             if let (Some(b), Some(a)) = (noise_rate, data_rate.or(self.fs))
                 && (a - b).abs() > RATE_TOLERANCE * a
             {
@@ -372,6 +421,20 @@ impl DataSource {
         for (c, v) in noise {
             e.set_noise_channel(c, v);
         }
+        // NaN, empty cells and missing time stamps: gaps of every channel of the stretch
+        e.take_nan_gaps();
+        let listed = gaps::from_times(&self.gaps, fs, e.n_samples(), "gaps")
+            .map_err(|m| fmt_err(&data, format!("experiment `{name}`: {m}")))?;
+        e.add_gaps(&listed);
+        let m = e.n_noise_samples();
+        if m > 0 {
+            let listed = gaps::from_times(&self.noise_gaps, fs, m, "noise_gaps")
+                .map_err(|m| fmt_err(&data, format!("experiment `{name}`: {m}")))?;
+            e.add_noise_gaps(&listed);
+        }
+        if e.gaps.is_empty() {
+            e.known_in_gaps.clear();
+        }
         e.validate(&data)?;
         Ok(e)
     }
@@ -393,6 +456,8 @@ impl ExperimentData {
             columns: BTreeMap::new(),
             fs,
             noise_data: Some(noise.to_path_buf()),
+            gaps: Vec::new(),
+            noise_gaps: Vec::new(),
         };
         let channels = FIXED_CHANNELS.map(String::from);
         let e = src.load(name, Path::new(""), &channels)?;
@@ -444,6 +509,8 @@ mod tests {
             .collect(),
             fs: None,
             noise_data: Some("quiet.csv".into()),
+            gaps: Vec::new(),
+            noise_gaps: Vec::new(),
         }
     }
 
@@ -554,6 +621,8 @@ mod tests {
                 .collect(),
             fs: None,
             noise_data: Some("noise.npz".into()),
+            gaps: Vec::new(),
+            noise_gaps: Vec::new(),
         };
         let e = src
             .load("x", dir.path(), &chans(&["o1", "o12", "g2"]))
@@ -578,13 +647,17 @@ mod tests {
             err.contains("run.npz") && err.contains("`x12` has 60") && err.contains("`o1` has 64"),
             "{err}"
         );
-        // a NaN names the array and the sample
+        // a NaN is a missing sample; an infinity names the array and the sample
         let mut bad = ramp(1.0, 64);
         bad[9] = f64::NAN;
+        write_npz(&dir.path().join("run.npz"), &[("o1", bad.clone())]);
+        let e = s.load("inv1", dir.path(), &chans(&["o1"])).unwrap();
+        assert_eq!((e.gaps.clone(), e.o[0][9]), (vec![[9, 10]], 0.0));
+        bad[9] = f64::INFINITY;
         write_npz(&dir.path().join("run.npz"), &[("o1", bad)]);
         let err = load_err(&s, dir.path(), &["o1"]);
         assert!(
-            err.contains("run.npz") && err.contains("array `o1`, sample 9") && err.contains("NaN"),
+            err.contains("run.npz") && err.contains("array `o1`, sample 9") && err.contains("inf"),
             "{err}"
         );
         // a missing array lists the ones that exist
@@ -609,6 +682,8 @@ mod tests {
             columns: BTreeMap::new(),
             fs,
             noise_data: None,
+            gaps: Vec::new(),
+            noise_gaps: Vec::new(),
         };
         load_err(&src, dir, c)
     }
@@ -635,7 +710,7 @@ mod tests {
             }
             s
         };
-        for cell in ["nan", "inf", "-inf"] {
+        for cell in ["inf", "-inf"] {
             let e = csv_err(d, &rows(4, cell), None, &["o1"]);
             assert!(
                 e.contains("bad.csv") && e.contains("line 7") && e.contains("column `o1`"),
@@ -679,6 +754,8 @@ mod tests {
             columns: [("o1".to_string(), "o1_m".to_string())].into(),
             fs: None,
             noise_data: None,
+            gaps: Vec::new(),
+            noise_gaps: Vec::new(),
         };
         let e = load_err(&src, d, &["o1"]);
         assert!(
@@ -715,10 +792,30 @@ mod tests {
     fn bad_time_columns_and_rates() {
         let dir = tempfile::tempdir().unwrap();
         let d = dir.path();
-        // a gap: row 10 (line 12) is 0.1 s late
+        // a missing time stamp: row 10 (line 12) is one step late, sample 10 is a gap
         let mut s = String::from("t,o1\n");
         for k in 0..30 {
             let t = 0.1 * k as f64 + if k >= 10 { 0.1 } else { 0.0 };
+            s += &format!("{t},{k}\n");
+        }
+        std::fs::write(d.join("bad.csv"), &s).unwrap();
+        let src = DataSource {
+            data: "bad.csv".into(),
+            columns: BTreeMap::new(),
+            fs: None,
+            noise_data: None,
+            gaps: vec![[2.0, 2.5]],
+            noise_gaps: Vec::new(),
+        };
+        let e = src.load("inv1", d, &chans(&["o1"])).unwrap();
+        assert_eq!(e.n_samples(), 31);
+        assert_eq!(e.gaps, vec![[10, 11], [20, 25]]);
+        assert_eq!((e.o[0][9], e.o[0][10], e.o[0][11]), (9.0, 0.0, 10.0));
+        assert!((e.fs - 10.0).abs() < 1e-9, "{}", e.fs);
+        // half a step late is on no grid
+        let mut s = String::from("t,o1\n");
+        for k in 0..30 {
+            let t = 0.1 * k as f64 + if k >= 10 { 0.05 } else { 0.0 };
             s += &format!("{t},{k}\n");
         }
         let e = csv_err(d, &s, None, &["o1"]);
@@ -726,8 +823,8 @@ mod tests {
             e.contains("bad.csv")
                 && e.contains("line 12, column `t`")
                 && e.contains("from line 11")
-                && e.contains("step from line 11 is 0.2 s")
-                && e.contains("spacing is 0.1 s"),
+                && e.contains("step from line 11 is 0.15 s")
+                && e.contains("spacing 0.1 s"),
             "{e}"
         );
         // not increasing
@@ -752,6 +849,8 @@ mod tests {
             columns: BTreeMap::new(),
             fs: Some(3.0),
             noise_data: Some("n.csv".into()),
+            gaps: Vec::new(),
+            noise_gaps: Vec::new(),
         };
         // a noise file at another sample rate
         let slow: String = (0..20)
@@ -784,6 +883,8 @@ mod tests {
             columns: BTreeMap::new(),
             fs: Some(1.0),
             noise_data: None,
+            gaps: Vec::new(),
+            noise_gaps: Vec::new(),
         };
         let e = load_err(&src, d, &["o1"]);
         assert!(

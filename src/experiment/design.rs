@@ -39,6 +39,12 @@ pub struct ExperimentDesign {
     /// (`[simulation] model`), in the channel's own unit; placed like the others.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub inject: BTreeMap<String, Waveform>,
+    /// Missing data of the fit stretch: `[t0, t1]` in seconds from its first sample.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub gaps: Vec<[f64; 2]>,
+    /// Missing data of the noise-only stretch: `[t0, t1]` in seconds from its first sample.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub noise_gaps: Vec<[f64; 2]>,
 }
 
 /// Names of the force-injection channels `(f1, f2, fsc)`, in study files and datasets.
@@ -102,6 +108,8 @@ impl ExperimentDesign {
             f2: Waveform::None,
             fsc: Waveform::None,
             inject: BTreeMap::new(),
+            gaps: Vec::new(),
+            noise_gaps: Vec::new(),
         }
     }
 

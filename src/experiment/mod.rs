@@ -2,6 +2,7 @@
 //! designs with padding and a noise-only stretch, and their simulation.
 
 mod design;
+mod gaps;
 mod generator;
 mod model_sim;
 pub mod options;
@@ -10,6 +11,7 @@ mod simulate;
 mod waveform;
 
 pub use design::{ExperimentDesign, FORCE_CHANNELS, ladder_freqs};
+pub use gaps::RandomGaps;
 pub use generator::{Channels, Generator};
 pub use run::{simulate, simulate_observed};
 pub use simulate::{

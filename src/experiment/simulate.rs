@@ -433,6 +433,8 @@ pub struct SimulationPlan {
     /// The model that generates the data instead of the built-in loop (`[simulation] model`);
     /// `system` then plays no part.
     pub generator: Option<super::generator::Generator>,
+    /// Random gaps in every simulated stretch (`[simulation.gaps]`).
+    pub gaps: Option<super::gaps::RandomGaps>,
 }
 
 /// Progress of a simulation: `(done, total)` experiments, `(0, total)` first.
@@ -572,6 +574,9 @@ pub(super) fn simulate_builtin(
             noise,
             extra,
             noise_extra,
+            gaps: Vec::new(),
+            noise_gaps: Vec::new(),
+            known_in_gaps: Vec::new(),
         });
     }
     let snr_total = snr.iter().map(|r| r * r).sum::<f64>().sqrt();

@@ -203,6 +203,7 @@ pub fn spectra_options(study: &Study) -> SpectraOptions {
         noise: a.noise,
         welch_averages: a.welch_averages,
         welch_window: a.welch_window,
+        gap_taper: a.gap_taper.unwrap_or(crate::likelihood::DEFAULT_GAP_TAPER),
     }
 }
 
@@ -283,9 +284,18 @@ pub fn likelihood_of(
     let csd = |f: f64| sys.noise_csd(f);
     let model = study.models.models[mi].clone();
     let reference = reference_point(study, mi);
+    let a = &study.analysis;
+    if a.statistic == crate::likelihood::Statistic::LogPeriodogram
+        && let Some(e) = dataset.experiments.iter().find(|e| e.has_gaps())
+    {
+        return Err(AnalysisError::Likelihood(format!(
+            "experiment `{}` has gaps, which `statistic = \"log_periodogram\"` (a Welch average of the residual's time series) does not handle; use \"whittle\" or \"student_t\"",
+            e.name
+        )));
+    }
     let mut spectra = Vec::new();
     for e in &dataset.experiments {
-        spectra.push(ExperimentSpectra::new(
+        spectra.extend(ExperimentSpectra::of_experiment(
             e,
             &opts,
             model.as_ref(),
@@ -293,7 +303,6 @@ pub fn likelihood_of(
             Some(&csd),
         )?);
     }
-    let a = &study.analysis;
     Likelihood::new(model, spectra, study.models.priors[mi].clone())
         .and_then(|l| l.with_statistic(a.statistic, &a.log_periodogram, &dataset.experiments))
         .map_err(|e| AnalysisError::Likelihood(e.to_string()))
@@ -428,6 +437,58 @@ pub fn noise_warnings(study: &Study, mi: usize, dataset: &Dataset) -> Vec<String
             })
         })
         .collect()
+}
+
+/// One line per experiment with gaps: how many, how much is missing, how many valid runs are
+/// analysed ([`crate::likelihood::GapSummary`]); and one per experiment where an input (a
+/// channel of the study's models with no noise-only series) is missing inside a gap while it
+/// is active within `gap_taper` of it: the edge correction of
+/// [`crate::likelihood::ExperimentSpectra::of_experiment`] cannot include its response.
+pub fn gap_notes(study: &Study, dataset: &Dataset) -> Vec<String> {
+    let opts = spectra_options(study);
+    let mut inputs: Vec<&str> = Vec::new();
+    for m in &study.models.models {
+        for c in m.data_channels() {
+            if !inputs.contains(&c.as_str()) {
+                inputs.push(c);
+            }
+        }
+    }
+    let mut out = Vec::new();
+    for e in &dataset.experiments {
+        let Some(s) = crate::likelihood::GapSummary::of(e, &opts) else {
+            continue;
+        };
+        out.push(s.describe());
+        let reach = (opts.gap_taper * e.fs).round() as usize;
+        let n = e.n_samples();
+        let active: Vec<(String, &[f64])> = inputs
+            .iter()
+            .filter(|c| e.noise_channel(c).is_none())
+            .filter_map(|c| e.channel(c).map(|x| (c.to_string(), x)))
+            .collect();
+        // an input that is active beside a gap but missing inside it: the response to what
+        // it did in the gap cannot be known
+        let hot = e
+            .gaps
+            .iter()
+            .filter(|g| {
+                let (a, b) = (g[0].saturating_sub(reach), (g[1] + reach).min(n));
+                active
+                    .iter()
+                    .any(|(c, x)| !e.known_in_gaps.contains(c) && x[a..b].iter().any(|v| *v != 0.0))
+            })
+            .count();
+        if hot > 0 {
+            out.push(format!(
+                "experiment `{}`: in {hot} of its {} gap(s) an injection is missing while it runs beside the gap (non-zero within gap_taper = {} s of it); the loop's response to what it did in the gap is unknown and the edge correction cannot include it, which biases the estimates at high SNR: supply the commanded injection through the gap (docs: \"Real data: gaps\")",
+                e.name,
+                e.gaps.len(),
+                opts.gap_taper
+            ));
+        }
+    }
+    out
 }
 
 /// Warnings about fitting model `mi` to `dataset`: a start point (fixed and start values) the

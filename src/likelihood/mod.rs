@@ -13,6 +13,7 @@ mod map;
 mod noise_matrix;
 mod relbin;
 pub mod residual_psd;
+mod segments;
 mod spectra;
 pub mod statistic;
 
@@ -26,8 +27,10 @@ pub use map::{
     refine_statistic_max,
 };
 pub use relbin::{MAX_REFINEMENTS, RelBinError, RelBinLikelihood, RelBinOptions, RelBinValidation};
+pub use segments::GapSummary;
 pub use spectra::{
-    ExperimentSpectra, NoiseSource, SpectraError, SpectraOptions, welch_segment_len,
+    DEFAULT_GAP_TAPER, ExperimentSpectra, NoiseSource, SpectraError, SpectraOptions,
+    welch_segment_len,
 };
 pub use statistic::{LogPeriodogramOptions, Statistic};
 

@@ -197,6 +197,9 @@ fn data(m: &Mix, seed: u64) -> ExperimentData {
         noise: [Vec::new(), Vec::new()],
         extra,
         noise_extra,
+        gaps: Vec::new(),
+        noise_gaps: Vec::new(),
+        known_in_gaps: Vec::new(),
     }
 }
 

@@ -5,7 +5,7 @@ use super::noise_matrix::{DataNoise, factorise, model_noise, residual_csd};
 use crate::data::dataset::ExperimentData;
 use crate::hermitian::{self, Mat2};
 use crate::model::{Bin, BinBlock, Model};
-use crate::signal::{RealFft, SignalError, WelchConfig, Window, welch_csd2};
+use crate::signal::{RealFft, SignalError, WelchConfig, Window, welch_csd2_runs};
 use num_complex::Complex64;
 use serde::{Deserialize, Serialize};
 
@@ -39,7 +39,13 @@ pub struct SpectraOptions {
     pub welch_averages: usize,
     /// Welch window (with its recommended overlap).
     pub welch_window: Window,
+    /// Data with gaps: length (s) of the cosine taper at each end of a valid run that borders
+    /// a gap ([`ExperimentSpectra::of_experiment`]); a run's taper is at most a quarter of it.
+    pub gap_taper: f64,
 }
+
+/// Default of [`SpectraOptions::gap_taper`] (s).
+pub const DEFAULT_GAP_TAPER: f64 = 600.0;
 
 impl Default for SpectraOptions {
     fn default() -> Self {
@@ -49,6 +55,7 @@ impl Default for SpectraOptions {
             noise: NoiseSource::Welch,
             welch_averages: 16,
             welch_window: Window::Bh92,
+            gap_taper: DEFAULT_GAP_TAPER,
         }
     }
 }
@@ -129,6 +136,26 @@ impl ExperimentSpectra {
         theta_ref: &[f64],
         model_csd: Option<&dyn Fn(f64) -> Mat2>,
     ) -> Result<Self, SpectraError> {
+        if !e.gaps.is_empty() {
+            return Err(SpectraError::Invalid {
+                exp: e.name.clone(),
+                msg: "the fit stretch has gaps: prepare it with ExperimentSpectra::of_experiment, one spectrum per valid run".into(),
+            });
+        }
+        Self::tapered(e, opts, model, theta_ref, model_csd, [0, 0])
+    }
+
+    /// [`ExperimentSpectra::new`] of a gap-free stretch whose first `taper[0]` and last
+    /// `taper[1]` samples are tapered by a raised cosine on top of `opts.window` (the ends
+    /// that border a gap).
+    pub(super) fn tapered(
+        e: &ExperimentData,
+        opts: &SpectraOptions,
+        model: &dyn Model,
+        theta_ref: &[f64],
+        model_csd: Option<&dyn Fn(f64) -> Mat2>,
+        taper: [usize; 2],
+    ) -> Result<Self, SpectraError> {
         let inv = |msg: String| SpectraError::Invalid {
             exp: e.name.clone(),
             msg,
@@ -172,7 +199,8 @@ impl ExperimentSpectra {
                 fs / 2.0
             )));
         }
-        let w = opts.window.values(n);
+        let mut w = opts.window.values(n);
+        edge_taper(&mut w, taper);
         let sum_w2: f64 = w.iter().map(|x| x * x).sum();
         let mut fft = RealFft::new(n).map_err(sig)?;
         let m = fft.spectrum_len();
@@ -228,7 +256,8 @@ impl ExperimentSpectra {
                     .iter()
                     .map(|&c| e.noise_channel(&channels[c]).expect("filtered"))
                     .collect();
-                let (sd, dof) = welch_noise(e, &ser, opts, &freqs).map_err(&inv)?;
+                let (sd, dof) =
+                    welch_noise(e, &ser, &e.noise_valid_runs(), opts, &freqs).map_err(&inv)?;
                 noise_dof = Some(dof);
                 (noisy, sd)
             }
@@ -356,6 +385,22 @@ impl ExperimentSpectra {
     }
 }
 
+/// Multiplies the first `taper[0]` and the last `taper[1]` values of `w` by a raised cosine
+/// rising from (and falling to) zero; `[0, 0]` leaves `w` as it is.
+pub(super) fn edge_taper(w: &mut [f64], taper: [usize; 2]) {
+    let n = w.len();
+    let ramp = |k: usize, len: usize| {
+        0.5 * (1.0 - (std::f64::consts::PI * (k as f64 + 0.5) / len as f64).cos())
+    };
+    let [a, b] = [taper[0].min(n), taper[1].min(n)];
+    for k in 0..a {
+        w[k] *= ramp(k, a);
+    }
+    for k in 0..b {
+        w[n - 1 - k] *= ramp(k, b);
+    }
+}
+
 /// The study's noise model of the outputs `(o1, o12)` (`model_csd`) as the CSD of the noisy
 /// channels of `model`, per frequency.
 fn study_noise(
@@ -407,6 +452,7 @@ pub fn welch_segment_len(len: usize, opts: &SpectraOptions) -> usize {
 fn welch_noise(
     e: &ExperimentData,
     ser: &[&[f64]],
+    runs: &[[usize; 2]],
     opts: &SpectraOptions,
     freqs: &[f64],
 ) -> Result<(Vec<Vec<Complex64>>, f64), String> {
@@ -417,19 +463,32 @@ fn welch_noise(
             s.len()
         ));
     }
-    let seg = welch_segment_len(len, opts);
+    // with gaps: the averages asked for over the valid samples, in segments no longer than
+    // the longest valid run (fewer averages when the runs are short)
+    let seg = match runs {
+        [r] if *r == [0, len] => welch_segment_len(len, opts),
+        _ => {
+            let valid: usize = runs.iter().map(|r| r[1] - r[0]).sum();
+            let longest = runs.iter().map(|r| r[1] - r[0]).max().unwrap_or(0);
+            welch_segment_len(valid, opts).min(longest)
+        }
+    };
     if seg < 16 {
         return Err(format!(
-            "the noise-only stretch ({len} samples) is too short for {} Welch averages",
+            "the noise-only stretch ({len} samples, {} valid) is too short for {} Welch averages",
+            runs.iter().map(|r| r[1] - r[0]).sum::<usize>(),
             opts.welch_averages
         ));
     }
     let cfg = WelchConfig::new(e.fs, opts.welch_window, seg);
-    let dof = cfg
-        .n_segments(len)
-        .and_then(|m| cfg.n_eff(m))
-        .map_err(|x| x.to_string())?
-        * 2.0;
+    let mut dof = 0.0;
+    for r in runs.iter().filter(|r| r[1] - r[0] >= seg) {
+        dof += cfg
+            .n_segments(r[1] - r[0])
+            .and_then(|m| cfg.n_eff(m))
+            .map_err(|x| x.to_string())?;
+    }
+    let dof = dof * 2.0;
     let first = e.fs / seg as f64;
     let last_k = if seg.is_multiple_of(2) {
         seg / 2 - 1
@@ -441,7 +500,7 @@ fn welch_noise(
     let nn = ser.len();
     let mut out = vec![vec![Complex64::new(0.0, 0.0); nn * nn]; freqs.len()];
     let pair = |a: usize, b: usize| -> Result<_, String> {
-        let s = welch_csd2(ser[a], ser[b], &cfg).map_err(|x| x.to_string())?;
+        let s = welch_csd2_runs(ser[a], ser[b], &cfg, runs).map_err(|x| x.to_string())?;
         s.interpolate(&targets).map_err(|x| x.to_string())
     };
     if nn == 1 {

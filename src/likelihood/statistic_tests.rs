@@ -153,6 +153,9 @@ fn toy_data(seed: u64, n: usize, n_noise: usize, a: f64) -> ExperimentData {
         noise: [noise, Vec::new()],
         extra: Default::default(),
         noise_extra: Default::default(),
+        gaps: Vec::new(),
+        noise_gaps: Vec::new(),
+        known_in_gaps: Vec::new(),
     }
 }
 

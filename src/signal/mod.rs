@@ -37,6 +37,6 @@ pub use fft::{RealFft, dft_naive, rfft_freqs};
 pub use synth::{SynthMode, synth_channels, synth_one_channel, synth_two_channel};
 pub use welch::{
     CrossSpectrum, Csd2, Detrend, Spectrum, Spectrum2, WelchConfig, interp_linear_complex,
-    interp_loglog, welch_csd, welch_csd2, welch_psd,
+    interp_loglog, welch_csd, welch_csd2, welch_csd2_runs, welch_psd,
 };
 pub use window::Window;

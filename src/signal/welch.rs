@@ -234,7 +234,7 @@ pub struct Spectrum2 {
 /// assert!((s.psd[k] * Window::Hann.enbw(256, fs) - 0.5).abs() < 1e-12);
 /// ```
 pub fn welch_psd(x: &[f64], cfg: &WelchConfig) -> Result<Spectrum, SignalError> {
-    let est = welch_core(cfg, &[("x", x)])?;
+    let est = welch_core(cfg, &[("x", x)], &[[0, x.len()]])?;
     Ok(Spectrum {
         psd: est.cov.iter().map(|m| m[0][0].re).collect(),
         freqs: est.freqs,
@@ -264,7 +264,7 @@ pub fn welch_psd(x: &[f64], cfg: &WelchConfig) -> Result<Spectrum, SignalError> 
 /// assert!((s.csd[k].arg() - expected_phase).abs() < 1e-9);
 /// ```
 pub fn welch_csd(x: &[f64], y: &[f64], cfg: &WelchConfig) -> Result<CrossSpectrum, SignalError> {
-    let est = welch_core(cfg, &[("x", x), ("y", y)])?;
+    let est = welch_core(cfg, &[("x", x), ("y", y)], &[[0, x.len()]])?;
     Ok(CrossSpectrum {
         // cov[0][1] = ⟨X Y*⟩, so ⟨X* Y⟩ is cov[1][0].
         csd: est.cov.iter().map(|m| m[1][0]).collect(),
@@ -292,7 +292,31 @@ pub fn welch_csd(x: &[f64], y: &[f64], cfg: &WelchConfig) -> Result<CrossSpectru
 /// assert!(m.s12[10].norm_sqr() <= m.s11[10] * m.s22[10]); // Cauchy–Schwarz
 /// ```
 pub fn welch_csd2(y1: &[f64], y2: &[f64], cfg: &WelchConfig) -> Result<Spectrum2, SignalError> {
-    let est = welch_core(cfg, &[("y1", y1), ("y2", y2)])?;
+    welch_csd2_runs(y1, y2, cfg, &[[0, y1.len()]])
+}
+
+/// [`welch_csd2`] of series with gaps: only segments that lie wholly inside one of the valid
+/// runs `runs` (half-open sample ranges, in order, not overlapping) are averaged, each run
+/// segmented from its own start as a series of its own; runs shorter than a segment give
+/// none. The effective number of averages is the sum of the runs' (their segments are
+/// independent across a gap). One run `[0, len]` is exactly [`welch_csd2`].
+///
+/// ```
+/// use occam::signal::{WelchConfig, Window, welch_csd2, welch_csd2_runs};
+///
+/// let y: Vec<f64> = (0..1024).map(|n| ((n * 7919 % 101) as f64).sin()).collect();
+/// let cfg = WelchConfig::new(1.0, Window::Hann, 128);
+/// let whole = welch_csd2(&y, &y, &cfg).unwrap();
+/// let gapped = welch_csd2_runs(&y, &y, &cfg, &[[0, 400], [600, 1024]]).unwrap();
+/// assert!(gapped.n_avg < whole.n_avg);
+/// ```
+pub fn welch_csd2_runs(
+    y1: &[f64],
+    y2: &[f64],
+    cfg: &WelchConfig,
+    runs: &[[usize; 2]],
+) -> Result<Spectrum2, SignalError> {
+    let est = welch_core(cfg, &[("y1", y1), ("y2", y2)], runs)?;
     Ok(Spectrum2 {
         s11: est.cov.iter().map(|m| m[0][0].re).collect(),
         s12: est.cov.iter().map(|m| m[0][1]).collect(),
@@ -316,6 +340,7 @@ struct Estimate {
 fn welch_core(
     cfg: &WelchConfig,
     series: &[(&'static str, &[f64])],
+    runs: &[[usize; 2]],
 ) -> Result<Estimate, SignalError> {
     debug_assert!((1..=2).contains(&series.len()));
     let (first, x0) = series[0];
@@ -333,9 +358,34 @@ fn welch_core(
         check_finite(name, x)?;
     }
     let step = cfg.step()?;
-    let n_avg = cfg.n_segments(x0.len())?;
-    let n_eff = cfg.n_eff(n_avg)?;
     let l = cfg.segment_len;
+    // segment starts, run by run
+    let mut starts = Vec::new();
+    let mut n_eff = 0.0;
+    let mut longest = 0;
+    for &[a, b] in runs {
+        if a > b || b > x0.len() {
+            return Err(SignalError::InvalidParameter {
+                name: "runs",
+                value: b as f64,
+                requirement: "valid runs lie inside the series, each [start, end) with start ≤ end",
+            });
+        }
+        longest = longest.max(b - a);
+        if b - a < l {
+            continue;
+        }
+        let m = cfg.n_segments(b - a)?;
+        starts.extend((0..m).map(|j| a + j * step));
+        n_eff += cfg.n_eff(m)?;
+    }
+    if starts.is_empty() {
+        return Err(SignalError::SegmentTooLong {
+            segment_len: l,
+            len: longest,
+        });
+    }
+    let n_avg = starts.len();
     let nb = l / 2 + 1;
     let w = cfg.window.values(l);
     let s2: f64 = w.iter().map(|v| v * v).sum();
@@ -346,8 +396,7 @@ fn welch_core(
     let mut spec = [vec![zero; nb], vec![zero; nb]];
     let mut cov = vec![[[zero; 2]; 2]; nb];
     let nch = series.len();
-    for m in 0..n_avg {
-        let start = m * step;
+    for &start in &starts {
         for (c, &(_, x)) in series.iter().enumerate() {
             let chunk = &x[start..start + l];
             let mean = match cfg.detrend {

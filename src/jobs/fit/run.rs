@@ -4,7 +4,9 @@
 use super::summary::{FitError, FitOutcome, FitSummary, ParamRow, non_finite_warnings};
 use crate::config::{LikelihoodKind, Study};
 use crate::density::LogDensity;
-use crate::jobs::prepare::{Prepared, default_start, model_warnings, relbin_of, truth_of};
+use crate::jobs::prepare::{
+    Prepared, default_start, gap_notes, model_warnings, relbin_of, truth_of,
+};
 use crate::likelihood::{cramer_rao, fisher_exact, fisher_scoring};
 use crate::linalg::SpdOptions;
 use crate::nested::SubModel;
@@ -44,6 +46,7 @@ pub fn run(
         e => FitError::Map(e),
     })?;
     let mut warnings = model_warnings(study, model.model, &prep.dataset);
+    warnings.extend(gap_notes(study, &prep.dataset));
     if !map.converged {
         warnings.push(format!(
             "the MAP search stopped after {} iterations without converging; the chains may start far from the mode",

@@ -13,7 +13,7 @@ use super::summary::SelectSummary;
 use crate::config::Study;
 use crate::density::LogDensity;
 use crate::evidence::{ReversibleJump, RjModel, RjOptions, RjOutcome, RjResult};
-use crate::jobs::prepare::{Prepared, model_warnings, truth_of};
+use crate::jobs::prepare::{Prepared, gap_notes, model_warnings, truth_of};
 use crate::nested::SubModel;
 use std::time::Instant;
 
@@ -304,6 +304,7 @@ fn summarise(
         .indices()
         .flat_map(|mi| model_warnings(study, mi, &prep.dataset))
         .collect();
+    warnings.extend(gap_notes(study, &prep.dataset));
     for m in &models {
         warnings.extend(m.notes.iter().map(|n| format!("model `{}`: {n}", m.name)));
         if let Some(w) = m.tempering.as_ref().and_then(|t| t.broken_ladder_warning()) {
