@@ -13,13 +13,17 @@
 //!   resolution is lost, and runs shorter than one fit bin's period add nothing;
 //! - the response to the injections before a run starts (and after it ends) is not in the
 //!   run's DFT: the loop's memory (the slowest closed-loop pole, τ ≈ 1200 s for the LTP)
-//!   leaks a transient into the run's first and last samples. Each end of a run that borders
-//!   a gap is therefore tapered by a raised cosine of `gap_taper` seconds (at most a quarter
-//!   of the run), applied to every channel alike, which suppresses the transient and the
-//!   leakage of the cut; the taper's samples carry less weight, which the noise normalisation
-//!   `Σ w²` accounts for;
-//! - the ends of the whole stretch are not tapered, exactly as without gaps, so gap-free data
-//!   give the numbers they always gave.
+//!   leaks a transient into the run. At high SNR that alone biases every parameter by tens
+//!   to hundreds of σ, so it is corrected exactly at the reference point from the injections,
+//!   which are known through the gaps (`correct_edges`);
+//! - a run's noise is not periodic in it, and the read-out noise's steep low-frequency rise
+//!   leaks through a rectangular edge. Both ends of every run are tapered by a raised cosine
+//!   of `gap_taper` seconds (at most a quarter of the run), every channel alike (the noise
+//!   normalisation `Σ w²` accounts for the lost weight), and a run's bins start at
+//!   `MIN_CYCLES` of its periods: below that the window's main lobe spans the steep noise
+//!   and the bins' variance is not `S(f_k)` (with bins from the first period up the Fisher
+//!   errors of the stiffnesses were half the scatter);
+//! - gap-free experiments take none of this: they give the numbers they always gave.
 //!
 //! The noise-only stretch's Welch estimate averages only segments that lie inside its valid
 //! runs ([`crate::signal::welch_csd2_runs`]).
@@ -91,7 +95,6 @@ impl ExperimentSpectra {
         if e.gaps.is_empty() {
             return Ok(vec![Self::new(e, opts, model, theta_ref, model_csd)?]);
         }
-        let n = e.n_samples();
         let [lo, hi] = opts.band;
         let taper_len = (opts.gap_taper.max(0.0) * e.fs).round() as usize;
         let mut out = Vec::new();
@@ -102,14 +105,17 @@ impl ExperimentSpectra {
                 dropped += 1;
                 continue;
             }
+            // both ends: a run's noise is not periodic in it, and the read-out noise's steep
+            // low-frequency rise leaks through a rectangular edge
             let t = taper_len.min(len / 4);
-            let taper = [
-                if run[0] > 0 { t } else { 0 },
-                if run[1] < n { t } else { 0 },
-            ];
+            let taper = [t, t];
             let name = format!("{}@{}s", e.name, fmt_seconds(run[0] as f64 / e.fs));
             let sub = e.slice(&name, run);
-            let sp = Self::tapered(&sub, opts, model, theta_ref, model_csd, taper)?;
+            // the run's lowest bins see the window's main lobe over the steep noise: keep
+            // bins from MIN_CYCLES periods per run up
+            let mut ro = opts.clone();
+            ro.band[0] = lo.max(MIN_CYCLES * e.fs / len as f64);
+            let sp = Self::tapered(&sub, &ro, model, theta_ref, model_csd, taper)?;
             out.push((sp, run, taper));
         }
         if out.is_empty() {
@@ -275,10 +281,14 @@ fn identity_readouts(
     pick
 }
 
-/// Whether a valid run of `len` samples has a regular DFT bin of its own in `band`.
+/// The lowest bin of a run is `MIN_CYCLES` of its periods (`k ≥ MIN_CYCLES`).
+const MIN_CYCLES: f64 = 3.0;
+
+/// Whether a valid run of `len` samples has a regular DFT bin of its own in `band`, from
+/// [`MIN_CYCLES`] up.
 fn has_bin_in_band(len: usize, fs: f64, [lo, hi]: [f64; 2]) -> bool {
     let df = fs / len as f64;
-    let first = (lo / df).ceil().max(1.0) * df;
+    let first = (lo / df).ceil().max(MIN_CYCLES) * df;
     len >= 16 && first <= hi && first < fs / 2.0
 }
 

@@ -444,6 +444,29 @@ pub fn welch_segment_len(len: usize, opts: &SpectraOptions) -> usize {
     (len as f64 / (1.0 + (navs - 1.0) * (1.0 - ov))).floor() as usize
 }
 
+/// The Welch segment length for a noise-only stretch with gaps (valid runs `runs`): the longest
+/// at which the runs hold the `welch_averages` asked for (segments wholly inside one run, the
+/// window's recommended overlap), searched down from the length those averages would have over
+/// the valid samples in steps of 5 %. A 2×2 estimate from one segment is singular, so fewer
+/// averages are never accepted while a shorter segment would give them.
+fn gapped_segment_len(runs: &[[usize; 2]], opts: &SpectraOptions) -> usize {
+    let valid: usize = runs.iter().map(|r| r[1] - r[0]).sum();
+    let want = opts.welch_averages.max(1);
+    let ov = opts.welch_window.recommended_overlap();
+    let count = |l: usize| -> usize {
+        let step = (l - (ov * l as f64).round() as usize).max(1);
+        runs.iter()
+            .filter(|r| r[1] - r[0] >= l)
+            .map(|r| (r[1] - r[0] - l) / step + 1)
+            .sum()
+    };
+    let mut l = welch_segment_len(valid, opts);
+    while l >= 16 && count(l) < want {
+        l = (l as f64 * 0.95).floor() as usize;
+    }
+    l
+}
+
 /// Welch CSD matrix of the noise-only series `ser` (all the same length), interpolated onto
 /// `freqs`, flattened row-major per frequency. Below the first Welch frequency (and above the
 /// last regular one) the nearest estimate is used. Pairs of channels are estimated together,
@@ -467,11 +490,7 @@ fn welch_noise(
     // the longest valid run (fewer averages when the runs are short)
     let seg = match runs {
         [r] if *r == [0, len] => welch_segment_len(len, opts),
-        _ => {
-            let valid: usize = runs.iter().map(|r| r[1] - r[0]).sum();
-            let longest = runs.iter().map(|r| r[1] - r[0]).max().unwrap_or(0);
-            welch_segment_len(valid, opts).min(longest)
-        }
+        _ => gapped_segment_len(runs, opts),
     };
     if seg < 16 {
         return Err(format!(

@@ -674,6 +674,41 @@ mod tests {
     use rand_distr::{Distribution, StandardNormal};
     use rand_xoshiro::Xoshiro256PlusPlus;
 
+    /// With gaps the estimate is the segment-count-weighted mean of the runs' own estimates
+    /// (each run a series of its own), and the effective averages add up; a run shorter than
+    /// a segment contributes nothing, and one run over the whole series is `welch_csd2`.
+    #[test]
+    fn valid_runs_average_their_own_segments() {
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(11);
+        let n = 3000;
+        let a: Vec<f64> = (0..n).map(|_| StandardNormal.sample(&mut rng)).collect();
+        let b: Vec<f64> = a
+            .iter()
+            .map(|x| 0.5 * x + StandardNormal.sample(&mut rng) as f64)
+            .collect();
+        let cfg = WelchConfig::new(2.0, Window::Hann, 256);
+        let runs = [[0, 1000], [1100, 1200], [1300, 3000]];
+        let got = welch_csd2_runs(&a, &b, &cfg, &runs).unwrap();
+        let p1 = welch_csd2(&a[0..1000], &b[0..1000], &cfg).unwrap();
+        let p2 = welch_csd2(&a[1300..3000], &b[1300..3000], &cfg).unwrap();
+        assert_eq!(got.n_avg, p1.n_avg + p2.n_avg);
+        assert!((got.n_eff - (p1.n_eff + p2.n_eff)).abs() < 1e-12);
+        let (m1, m2) = (p1.n_avg as f64, p2.n_avg as f64);
+        for k in 0..got.s11.len() {
+            let want11 = (m1 * p1.s11[k] + m2 * p2.s11[k]) / (m1 + m2);
+            let want12 = (p1.s12[k] * m1 + p2.s12[k] * m2) / (m1 + m2);
+            assert!((got.s11[k] - want11).abs() <= 1e-12 * want11.abs(), "{k}");
+            assert!((got.s12[k] - want12).norm() <= 1e-12 * want12.norm().max(1e-300));
+        }
+        let whole = welch_csd2(&a, &b, &cfg).unwrap();
+        let one = welch_csd2_runs(&a, &b, &cfg, &[[0, n]]).unwrap();
+        assert_eq!(
+            (whole.s11, whole.s12, whole.n_eff),
+            (one.s11, one.s12, one.n_eff)
+        );
+        assert!(welch_csd2_runs(&a, &b, &cfg, &[[0, 100], [200, 300]]).is_err());
+    }
+
     fn white(n: usize, sigma: f64, seed: u64) -> Vec<f64> {
         let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
         (0..n)
