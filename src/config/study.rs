@@ -281,7 +281,8 @@ pub struct AnalysisOptions {
     pub relbin_sigma: f64,
     pub relbin_tolerance: f64,
     /// The statistic `ln L` is: `whittle` (default; the residual PSD from the noise-only
-    /// stretch, held fixed), `student_t` (that estimate's uncertainty marginalised) or
+    /// stretch, held fixed), `student_t` (that estimate's uncertainty marginalised, one scale
+    /// per bin), `wishart` (the whole residual CSD marginalised: exact for few averages) or
     /// `log_periodogram` (the residual's own Welch periodogram, noise level unknown). See
     /// [`crate::likelihood::statistic`]. With a statistic other than `whittle` relative
     /// binning (a Gaussian approximation) is not used.

@@ -115,6 +115,10 @@ pub struct ExperimentSpectra {
     /// Equivalent χ² degrees of freedom `ν = 2 M_eff` of the Welch noise estimate (Percival &
     /// Walden eq. 292b for the segments, window and overlap used); `None` for the noise model.
     pub noise_dof: Option<f64>,
+    /// The equivalent degrees of freedom of the Welch noise estimate per in-band bin, where
+    /// they differ between bins (`welch_resolution = "per_band"`: each bin's segment length
+    /// has its own number of averages; `noise_dof` is then the lowest); `None` otherwise.
+    pub noise_dof_per_bin: Option<Vec<f64>>,
 }
 
 impl ExperimentSpectra {
@@ -206,6 +210,7 @@ impl ExperimentSpectra {
         }
         // the CSD of the measured channels, S_d, over the noisy channels
         let mut noise_dof = None;
+        let noise_dof_per_bin = None;
         let (noisy, sd): DataNoise = match opts.noise {
             NoiseSource::Model => {
                 match model_noise(model, theta_ref, fs, &freqs, &consts).map_err(&inv)? {
@@ -279,6 +284,7 @@ impl ExperimentSpectra {
             active,
             is_input,
             noise_dof,
+            noise_dof_per_bin,
         })
     }
 
