@@ -28,12 +28,14 @@
 
 mod error;
 pub mod fft;
+pub mod multires;
 pub mod synth;
 pub mod welch;
 pub mod window;
 
 pub use error::SignalError;
 pub use fft::{RealFft, dft_naive, rfft_freqs};
+pub use multires::{MultiresConfig, MultiresCsd2, multires_csd2};
 pub use synth::{SynthMode, synth_channels, synth_one_channel, synth_two_channel};
 pub use welch::{
     CrossSpectrum, Csd2, Detrend, Spectrum, Spectrum2, WelchConfig, interp_linear_complex,
