@@ -276,6 +276,12 @@ pub struct AnalysisOptions {
     pub noise: crate::likelihood::NoiseSource,
     pub welch_averages: usize,
     pub welch_window: crate::signal::Window,
+    /// `fixed` (default: one Welch segment length for the band) or `per_band` (longer segments
+    /// where the fixed ones do not resolve the band's bottom; see
+    /// [`crate::likelihood::WelchResolution`]). Written to resolved studies only when not the
+    /// default, so that existing resolved files and their goldens are unchanged.
+    #[serde(skip_serializing_if = "crate::likelihood::WelchResolution::is_fixed")]
+    pub welch_resolution: crate::likelihood::WelchResolution,
     pub likelihood: LikelihoodKind,
     /// Relative-binning accuracy: region radius (σ) and per-bin template error.
     pub relbin_sigma: f64,
@@ -302,6 +308,7 @@ impl Default for AnalysisOptions {
             noise: s.noise,
             welch_averages: s.welch_averages,
             welch_window: s.welch_window,
+            welch_resolution: s.welch_resolution,
             likelihood: LikelihoodKind::Relbin,
             relbin_sigma: r.n_sigma,
             relbin_tolerance: r.tolerance,

@@ -27,7 +27,8 @@ pub use map::{
 };
 pub use relbin::{MAX_REFINEMENTS, RelBinError, RelBinLikelihood, RelBinOptions, RelBinValidation};
 pub use spectra::{
-    ExperimentSpectra, NoiseSource, SpectraError, SpectraOptions, welch_segment_len,
+    ExperimentSpectra, NoiseSource, SpectraError, SpectraOptions, WelchResolution,
+    averages_per_decade, welch_segment_len,
 };
 pub use statistic::{LogPeriodogramOptions, Statistic};
 

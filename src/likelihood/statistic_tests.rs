@@ -337,6 +337,68 @@ fn student_t_likelihood_is_the_sum_of_bin_densities() {
     }
 }
 
+/// Per-band Welch resolution: the bottom of the band gets longer segments (fewer averages),
+/// the rest the fixed estimate unchanged, and the Wishart and Student-t statistics use each
+/// bin's own degrees of freedom.
+#[test]
+fn per_band_resolution_gives_per_bin_dof_to_the_marginals() {
+    let e = toy_data(9, 2048, 4096, 1.0);
+    let model: Arc<dyn Model> = Arc::new(Toy::new(TAU as f64));
+    let mk = |res: WelchResolution| {
+        let opts = SpectraOptions {
+            band: [0.002, 0.45],
+            welch_averages: 16,
+            welch_resolution: res,
+            ..Default::default()
+        };
+        ExperimentSpectra::new(&e, &opts, model.as_ref(), &[1.0], None).unwrap()
+    };
+    let (fixed, per) = (mk(WelchResolution::Fixed), mk(WelchResolution::PerBand));
+    assert!(fixed.noise_dof_per_bin.is_none());
+    let dof = per.noise_dof_per_bin.clone().unwrap();
+    let nu_fixed = fixed.noise_dof.unwrap();
+    // top of the band: the fixed estimate, bit for bit; bottom: fewer averages
+    let last = per.len() - 1;
+    assert_eq!(dof[last], nu_fixed);
+    assert_eq!(per.csd_at(last), fixed.csd_at(last));
+    assert!(dof[0] < 0.5 * nu_fixed, "{} vs {nu_fixed}", dof[0]);
+    assert_eq!(per.noise_dof.unwrap(), dof[0]);
+    assert!(dof.windows(2).all(|w| w[0] <= w[1]));
+    let prior = Prior::new(
+        vec!["a".into()],
+        vec![PriorKind::Uniform {
+            lo: -10.0,
+            hi: 10.0,
+        }],
+    )
+    .unwrap();
+    for stat in [Statistic::Wishart, Statistic::StudentT] {
+        let lik = Likelihood::new(model.clone(), vec![per.clone()], prior.clone())
+            .unwrap()
+            .with_statistic(stat, &Default::default(), std::slice::from_ref(&e))
+            .unwrap();
+        let sp = &lik.spectra()[0];
+        let mut want = 0.0;
+        lik.visit_residuals(sp, &[1.02], |k, r, _| {
+            let (ci, _, _) = sp.cinv[k];
+            let q = r[0].norm_sqr() * ci;
+            want += match stat {
+                Statistic::Wishart => wishart_ln_density(q, 1, 0.5 * dof[k], -ci.ln()),
+                _ => student_t_ln_density(q, 1, dof[k], -ci.ln()),
+            };
+        });
+        let got = lik.ln_likelihood_full(&[1.02]);
+        assert!(
+            (got - want).abs() < 1e-9 * want.abs(),
+            "{stat:?}: {got} vs {want}"
+        );
+    }
+    let table = crate::likelihood::averages_per_decade(&per).unwrap();
+    assert_eq!(table.len(), 3, "{table:?}");
+    assert_eq!(table[2].3, 0.5 * nu_fixed);
+    assert!(table[0].2 < table[2].2);
+}
+
 /// The log-periodogram against an independent path: the residual built in the time domain
 /// (the circular delay is an exact sample shift) and the crate's Welch PSD.
 #[test]
@@ -668,7 +730,10 @@ fn study_keys_select_the_statistic() {
             whiten: false,
         }
     );
+    let r = small_study_with("welch_resolution = \"per_band\"").unwrap();
+    assert_eq!(r.analysis.welch_resolution, WelchResolution::PerBand);
     let d = small_study_with("").unwrap();
+    assert_eq!(d.analysis.welch_resolution, WelchResolution::Fixed);
     assert_eq!(d.analysis.statistic, Statistic::Whittle);
     assert_eq!(d.analysis.log_periodogram, LogPeriodogramOptions::default());
     for (bad, field) in [
