@@ -23,7 +23,7 @@ use std::sync::Arc;
 ///
 /// That is the default statistic, [`Statistic::Whittle`]; [`Likelihood::with_statistic`]
 /// makes [`Likelihood::ln_likelihood_full`] (hence every sampler and evidence estimator) use
-/// the Student-t or the log-periodogram likelihood instead (`crate::likelihood::statistic`).
+/// the Student-t, the Wishart or the log-periodogram likelihood instead (`crate::likelihood::statistic`).
 /// The Gaussian pieces (residual power, Fisher matrix, MAP search, relative binning) stay
 /// available through [`Likelihood::ln_likelihood_whittle`]: one type, so `fit`, `select` and
 /// `sweep` need no second code path, and the statistic travels with the likelihood.
@@ -151,8 +151,9 @@ impl Likelihood {
     /// were prepared from, in the same order (read by the log-periodogram only, which needs
     /// the whole residual time series); `lp` are the log-periodogram's Welch settings.
     ///
-    /// The Student-t needs the Welch noise estimate (its degrees of freedom); with
-    /// `noise = "model"` the PSD is exact and the statistic is an error.
+    /// The Student-t and the Wishart need the Welch noise estimate (its degrees of freedom,
+    /// per bin with per-band resolution); with `noise = "model"` the PSD is exact and the
+    /// statistic is an error. The Wishart also needs `M_eff > R − 1` at every bin.
     pub fn with_statistic(
         mut self,
         statistic: Statistic,

@@ -313,7 +313,7 @@ impl LogPgExperiment {
         let nr = model.residual_channels().len();
         if nr > 2 {
             return Err(format!(
-                "model `{}` has {nr} residual channels and the log-periodogram likelihood is implemented for one or two: with R channels it is −M_eff Σ ln det of the R×R Welch matrix of the residual, which is singular unless every retained bin has at least R effective averages, and its marginalisation over one noise level per bin has been checked for 2×2 only; use statistic = \"whittle\" or \"student_t\"",
+                "model `{}` has {nr} residual channels and the log-periodogram likelihood is implemented for one or two: with R channels it is −M_eff Σ ln det of the R×R Welch matrix of the residual, which is singular unless every retained bin has at least R effective averages, and its marginalisation over one noise level per bin has been checked for 2×2 only; use statistic = \"whittle\", \"student_t\" or \"wishart\"",
                 model.name()
             ));
         }

@@ -24,6 +24,8 @@
 //! * [`fft`]: a planned real FFT with the conventions above, and a slow DFT oracle.
 //! * [`window`]: rectangular, Hann and Blackman–Harris 92 dB windows.
 //! * [`welch`]: one-sided Welch PSD/CSD estimates and their interpolation.
+//! * [`multires`]: Welch with a segment length per band (longer segments where the band's
+//!   bottom needs the resolution).
 //! * [`synth`]: Gaussian noise with an exactly prescribed one- or two-channel spectrum.
 
 mod error;
