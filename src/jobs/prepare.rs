@@ -262,10 +262,13 @@ pub fn noise_averages_lines(study: &Study, lik: &Likelihood) -> Vec<String> {
                 })
                 .collect();
             format!(
-                "noise reference of `{}` (Welch, {} averages, {:?} resolution): effective averages per decade {}",
+                "noise reference of `{}` (Welch, {} averages, {} resolution): effective averages per decade {}",
                 n.experiment,
                 study.analysis.welch_averages,
-                study.analysis.welch_resolution,
+                match study.analysis.welch_resolution {
+                    crate::likelihood::WelchResolution::Fixed => "fixed",
+                    crate::likelihood::WelchResolution::PerBand => "per_band",
+                },
                 d.join("; ")
             )
         })

@@ -201,7 +201,7 @@ impl Likelihood {
                         return Err(LikelihoodError::Statistic(
                             name,
                             format!(
-                                "experiment `{}`: the Welch noise estimate has {lowest:.3} effective averages at its coarsest bin, and the complex inverse-Wishart posterior of a {nr}×{nr} CSD is proper only with more than {} (raise analysis.welch_averages)",
+                                "experiment `{}`: the Welch noise estimate has {lowest:.3} effective averages at its coarsest bin, and the complex inverse-Wishart posterior of a {nr}×{nr} CSD is proper only with more than {}: lengthen the noise-only stretch, use welch_resolution = \"fixed\" (per band, the lowest bins have one segment) or statistic = \"student_t\"",
                                 e.name,
                                 nr - 1
                             ),

@@ -803,6 +803,35 @@ fn every_statistic_on_the_closed_loop_and_its_maximum() {
     }
 }
 
+/// The averages per decade reach the summary only when they matter, and the log always.
+#[test]
+fn averages_per_band_are_reported() {
+    use crate::jobs::prepare::{noise_averages_for_summary, noise_averages_lines, prepare};
+    let plain = small_study_with("").unwrap();
+    let prep = prepare(&plain).unwrap();
+    assert!(noise_averages_for_summary(&plain, &prep.likelihood).is_none());
+    let lines = noise_averages_lines(&plain, &prep.likelihood);
+    assert_eq!(lines.len(), 1, "{lines:?}");
+    assert!(
+        lines[0].contains("effective averages per decade"),
+        "{lines:?}"
+    );
+    // two residual channels and one segment at the bottom of the band: the Wishart refuses
+    let w = small_study_with("statistic = \"wishart\"\nwelch_resolution = \"per_band\"").unwrap();
+    let err = prepare(&w).err().unwrap().to_string();
+    assert!(err.contains("welch_resolution"), "{err}");
+    let s = small_study_with("statistic = \"student_t\"\nwelch_resolution = \"per_band\"").unwrap();
+    let prep = prepare(&s).unwrap();
+    let n = noise_averages_for_summary(&s, &prep.likelihood).unwrap();
+    eprintln!("{:?}", noise_averages_lines(&s, &prep.likelihood));
+    let d = &n[0].decades;
+    assert!(d.len() >= 3, "{d:?}");
+    // fewer averages at the bottom of the band than at the top
+    assert!(d[0].m_eff_min < d[d.len() - 1].m_eff_min, "{d:?}");
+    let json = serde_json::to_string(&n).unwrap();
+    assert!(json.contains("m_eff_min"), "{json}");
+}
+
 #[test]
 fn numeric_hessian_of_a_quadratic_is_exact() {
     // f = −½ (x − m)ᵀ A (x − m) over parameters 0 and 2 of three
