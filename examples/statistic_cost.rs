@@ -18,6 +18,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for stat in [
         Statistic::Whittle,
         Statistic::StudentT,
+        Statistic::Wishart,
         Statistic::LogPeriodogram,
     ] {
         study.analysis.statistic = stat;
@@ -35,6 +36,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let per = t0.elapsed().as_secs_f64() / reps as f64;
         let extra = match stat {
             Statistic::StudentT => format!(", ν = {:?}", lik.student_t_dof()),
+            Statistic::Wishart => format!(", M = {:?}", lik.wishart_averages()),
             Statistic::LogPeriodogram => format!(
                 ", retained Welch bins and M_eff per experiment {:?}",
                 lik.log_periodogram_bins()

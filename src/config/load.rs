@@ -813,12 +813,17 @@ fn validate_analysis(a: &AnalysisOptions, file: &str) -> Result<(), ConfigError>
             "must be ≥ 1 (1 keeps every Welch bin)".into(),
         ));
     }
-    if a.statistic == crate::likelihood::Statistic::StudentT
-        && a.noise == crate::likelihood::NoiseSource::Model
+    if matches!(
+        a.statistic,
+        crate::likelihood::Statistic::StudentT | crate::likelihood::Statistic::Wishart
+    ) && a.noise == crate::likelihood::NoiseSource::Model
     {
         return Err(bad(
             "statistic",
-            "\"student_t\" marginalises the uncertainty of the Welch noise estimate, and noise = \"model\" has none: use noise = \"welch\" or statistic = \"whittle\"".into(),
+            format!(
+                "\"{}\" marginalises the uncertainty of the Welch noise estimate, and noise = \"model\" has none: use noise = \"welch\" or statistic = \"whittle\"",
+                a.statistic.name()
+            ),
         ));
     }
     Ok(())

@@ -287,12 +287,19 @@ pub struct AnalysisOptions {
     pub noise: crate::likelihood::NoiseSource,
     pub welch_averages: usize,
     pub welch_window: crate::signal::Window,
+    /// `fixed` (default: one Welch segment length for the band) or `per_band` (longer segments
+    /// where the fixed ones do not resolve the band's bottom; see
+    /// [`crate::likelihood::WelchResolution`]). Written to resolved studies only when not the
+    /// default, so that existing resolved files and their goldens are unchanged.
+    #[serde(skip_serializing_if = "crate::likelihood::WelchResolution::is_fixed")]
+    pub welch_resolution: crate::likelihood::WelchResolution,
     pub likelihood: LikelihoodKind,
     /// Relative-binning accuracy: region radius (σ) and per-bin template error.
     pub relbin_sigma: f64,
     pub relbin_tolerance: f64,
     /// The statistic `ln L` is: `whittle` (default; the residual PSD from the noise-only
-    /// stretch, held fixed), `student_t` (that estimate's uncertainty marginalised) or
+    /// stretch, held fixed), `student_t` (that estimate's uncertainty marginalised, one scale
+    /// per bin), `wishart` (the whole residual CSD marginalised: exact for few averages) or
     /// `log_periodogram` (the residual's own Welch periodogram, noise level unknown). See
     /// [`crate::likelihood::statistic`]. With a statistic other than `whittle` relative
     /// binning (a Gaussian approximation) is not used.
@@ -316,6 +323,7 @@ impl Default for AnalysisOptions {
             noise: s.noise,
             welch_averages: s.welch_averages,
             welch_window: s.welch_window,
+            welch_resolution: s.welch_resolution,
             likelihood: LikelihoodKind::Relbin,
             relbin_sigma: r.n_sigma,
             relbin_tolerance: r.tolerance,

@@ -3,7 +3,7 @@
 //! noise of a study is the same with and without them.
 
 use super::design::ExperimentDesign;
-use super::simulate::stream;
+use super::streams::stream;
 use crate::data::dataset::ExperimentData;
 use crate::data::gaps::{self, Span};
 use rand::{Rng, RngExt};

@@ -8,6 +8,7 @@ mod model_sim;
 pub mod options;
 mod run;
 mod simulate;
+mod streams;
 mod waveform;
 
 pub use design::{ExperimentDesign, FORCE_CHANNELS, ladder_freqs};

@@ -44,8 +44,6 @@ use crate::hermitian;
 use crate::ltp::{BinConsts, ClosedLoop, Controllers, LtpParams, Masses, NoiseModel};
 use crate::signal::{RealFft, SignalError, SynthMode, synth_two_channel};
 use num_complex::Complex64;
-use rand::SeedableRng;
-use rand_xoshiro::Xoshiro256PlusPlus;
 
 /// Errors while simulating.
 #[derive(Debug, thiserror::Error)]
@@ -399,14 +397,7 @@ pub fn optimal_snr(
     Ok(rho2.sqrt())
 }
 
-/// An RNG stream for (seed, stream index), independent of threads and of the other streams.
-pub fn stream(seed: u64, index: u64) -> Xoshiro256PlusPlus {
-    let mut r = Xoshiro256PlusPlus::seed_from_u64(seed);
-    for _ in 0..index {
-        r.jump();
-    }
-    r
-}
+pub use super::streams::stream;
 
 /// Everything the simulator needs, as plain values (a study file's `[truth]`, `[noise]`,
 /// `[masses]`, `[simulation]` and `[[experiment]]` tables: `Study::simulation_plan`).

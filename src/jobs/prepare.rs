@@ -194,6 +194,87 @@ pub fn prepare_select(study: &Study) -> Result<Prepared, AnalysisError> {
     prepare_for(study, &models)
 }
 
+/// The effective number of Welch averages behind one experiment's noise reference, per decade
+/// of its fit band (issue 22: few averages make the Whittle likelihood overconfident).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct NoiseAverages {
+    pub experiment: String,
+    /// Per decade holding fit bins: `[f_lo, f_hi]` (Hz) and the lowest and highest `M_eff`
+    /// (`ν/2`, Percival & Walden eq. 292b) of its bins.
+    pub decades: Vec<DecadeAverages>,
+}
+
+/// [`NoiseAverages`] of one decade.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct DecadeAverages {
+    pub band: [f64; 2],
+    pub m_eff_min: f64,
+    pub m_eff_max: f64,
+}
+
+/// The averages per decade of every experiment of `lik` with a Welch noise reference (empty
+/// with `noise = "model"`).
+pub fn noise_averages(lik: &Likelihood) -> Vec<NoiseAverages> {
+    lik.spectra()
+        .iter()
+        .filter_map(|sp| {
+            crate::likelihood::averages_per_decade(sp).map(|d| NoiseAverages {
+                experiment: sp.name.clone(),
+                decades: d
+                    .into_iter()
+                    .map(|(lo, hi, a, b)| DecadeAverages {
+                        band: [lo, hi],
+                        m_eff_min: a,
+                        m_eff_max: b,
+                    })
+                    .collect(),
+            })
+        })
+        .collect()
+}
+
+/// [`noise_averages`] for the summary: present when the number of averages shapes the
+/// likelihood or varies over the band (statistic `student_t` or `wishart`, or
+/// `welch_resolution = "per_band"`), absent otherwise so that existing summaries are unchanged.
+pub fn noise_averages_for_summary(study: &Study, lik: &Likelihood) -> Option<Vec<NoiseAverages>> {
+    use crate::likelihood::{Statistic, WelchResolution};
+    let shown = matches!(lik.statistic(), Statistic::StudentT | Statistic::Wishart)
+        || study.analysis.welch_resolution == WelchResolution::PerBand;
+    let n = noise_averages(lik);
+    (shown && !n.is_empty()).then_some(n)
+}
+
+/// One line per experiment: `M_eff` per decade of the band, for the job's log.
+pub fn noise_averages_lines(study: &Study, lik: &Likelihood) -> Vec<String> {
+    noise_averages(lik)
+        .iter()
+        .map(|n| {
+            let d: Vec<String> = n
+                .decades
+                .iter()
+                .map(|d| {
+                    let m = if d.m_eff_min == d.m_eff_max {
+                        format!("{:.1}", d.m_eff_min)
+                    } else {
+                        format!("{:.1}–{:.1}", d.m_eff_min, d.m_eff_max)
+                    };
+                    format!("[{:.0e}, {:.0e}) Hz: {m}", d.band[0], d.band[1])
+                })
+                .collect();
+            format!(
+                "noise reference of `{}` (Welch, {} averages, {} resolution): effective averages per decade {}",
+                n.experiment,
+                study.analysis.welch_averages,
+                match study.analysis.welch_resolution {
+                    crate::likelihood::WelchResolution::Fixed => "fixed",
+                    crate::likelihood::WelchResolution::PerBand => "per_band",
+                },
+                d.join("; ")
+            )
+        })
+        .collect()
+}
+
 /// The spectral options of a study.
 pub fn spectra_options(study: &Study) -> SpectraOptions {
     let a = &study.analysis;
@@ -204,6 +285,7 @@ pub fn spectra_options(study: &Study) -> SpectraOptions {
         welch_averages: a.welch_averages,
         welch_window: a.welch_window,
         gap_taper: a.gap_taper.unwrap_or(crate::likelihood::DEFAULT_GAP_TAPER),
+        welch_resolution: a.welch_resolution,
     }
 }
 
@@ -421,7 +503,13 @@ pub fn noise_warnings(study: &Study, mi: usize, dataset: &Dataset) -> Vec<String
                 return None;
             }
             let len = noisy[0].len();
-            let seg = crate::likelihood::welch_segment_len(len, &opts);
+            let seg = match opts.welch_resolution {
+                crate::likelihood::WelchResolution::Fixed => {
+                    crate::likelihood::welch_segment_len(len, &opts)
+                }
+                // the longest segment is the whole stretch
+                crate::likelihood::WelchResolution::PerBand => len,
+            };
             let first = e.fs / seg.max(1) as f64;
             (opts.band[0] < first).then(|| {
                 let ov = opts.welch_window.recommended_overlap();

@@ -3,6 +3,7 @@
 use super::spectra::ExperimentSpectra;
 use super::statistic::{
     LogPeriodogramOptions, LogPgExperiment, Statistic, student_t_const, student_t_shape,
+    wishart_const, wishart_shape,
 };
 use crate::data::dataset::ExperimentData;
 use crate::density::LogDensity;
@@ -22,7 +23,7 @@ use std::sync::Arc;
 ///
 /// That is the default statistic, [`Statistic::Whittle`]; [`Likelihood::with_statistic`]
 /// makes [`Likelihood::ln_likelihood_full`] (hence every sampler and evidence estimator) use
-/// the Student-t or the log-periodogram likelihood instead (`crate::likelihood::statistic`).
+/// the Student-t, the Wishart or the log-periodogram likelihood instead (`crate::likelihood::statistic`).
 /// The Gaussian pieces (residual power, Fisher matrix, MAP search, relative binning) stay
 /// available through [`Likelihood::ln_likelihood_whittle`]: one type, so `fit`, `select` and
 /// `sweep` need no second code path, and the statistic travels with the likelihood.
@@ -43,9 +44,18 @@ pub struct Likelihood {
 #[derive(Debug, Clone)]
 enum StatState {
     Whittle,
-    /// Degrees of freedom per experiment and `Σ_k c_k`.
+    /// Degrees of freedom per experiment, per bin where they differ between bins
+    /// (`welch_resolution = "per_band"`), and `Σ_k c_k`.
     StudentT {
         nu: Vec<f64>,
+        bins: Vec<Option<Vec<f64>>>,
+        ln_norm: f64,
+    },
+    /// Effective complex averages `M = ν/2` per experiment, per bin where they differ, and
+    /// `Σ_k c_k`.
+    Wishart {
+        m: Vec<f64>,
+        bins: Vec<Option<Vec<f64>>>,
         ln_norm: f64,
     },
     LogPeriodogram(Vec<LogPgExperiment>),
@@ -141,8 +151,9 @@ impl Likelihood {
     /// were prepared from, in the same order (read by the log-periodogram only, which needs
     /// the whole residual time series); `lp` are the log-periodogram's Welch settings.
     ///
-    /// The Student-t needs the Welch noise estimate (its degrees of freedom); with
-    /// `noise = "model"` the PSD is exact and the statistic is an error.
+    /// The Student-t and the Wishart need the Welch noise estimate (its degrees of freedom,
+    /// per bin with per-band resolution); with `noise = "model"` the PSD is exact and the
+    /// statistic is an error. The Wishart also needs `M_eff > R − 1` at every bin.
     pub fn with_statistic(
         mut self,
         statistic: Statistic,
@@ -153,8 +164,11 @@ impl Likelihood {
         let nr = self.model.residual_channels().len();
         self.stat = match statistic {
             Statistic::Whittle => StatState::Whittle,
-            Statistic::StudentT => {
-                let mut nu = Vec::with_capacity(self.spectra.len());
+            Statistic::StudentT | Statistic::Wishart => {
+                let wishart = statistic == Statistic::Wishart;
+                // ν = 2 M_eff per experiment (and per bin), from the Welch settings
+                let mut per_exp = Vec::with_capacity(self.spectra.len());
+                let mut bins = Vec::with_capacity(self.spectra.len());
                 let mut c = self.ln_norm;
                 for e in &self.spectra {
                     let v = e.noise_dof.ok_or_else(|| {
@@ -166,10 +180,53 @@ impl Likelihood {
                             ),
                         )
                     })?;
-                    nu.push(v);
-                    c += e.len() as f64 * student_t_const(nr, v);
+                    // the statistic's own parameter: ν for the Student-t, M = ν/2 for the
+                    // Wishart
+                    let conv = |nu: f64| if wishart { 0.5 * nu } else { nu };
+                    let cst = |x: f64| {
+                        if wishart {
+                            wishart_const(nr, x)
+                        } else {
+                            student_t_const(nr, x)
+                        }
+                    };
+                    let per_bin = e
+                        .noise_dof_per_bin
+                        .as_ref()
+                        .map(|b| b.iter().map(|&x| conv(x)).collect::<Vec<f64>>());
+                    let lowest = per_bin
+                        .as_ref()
+                        .map_or(conv(v), |b| b.iter().cloned().fold(f64::INFINITY, f64::min));
+                    if wishart && lowest <= nr as f64 - 1.0 {
+                        return Err(LikelihoodError::Statistic(
+                            name,
+                            format!(
+                                "experiment `{}`: the Welch noise estimate has {lowest:.3} effective averages at its coarsest bin, and the complex inverse-Wishart posterior of a {nr}×{nr} CSD is proper only with more than {}: lengthen the noise-only stretch, use welch_resolution = \"fixed\" (per band, the lowest bins have one segment) or statistic = \"student_t\"",
+                                e.name,
+                                nr - 1
+                            ),
+                        ));
+                    }
+                    match &per_bin {
+                        None => c += e.len() as f64 * cst(conv(v)),
+                        Some(b) => c += b.iter().map(|&x| cst(x)).sum::<f64>(),
+                    }
+                    per_exp.push(conv(v));
+                    bins.push(per_bin);
                 }
-                StatState::StudentT { nu, ln_norm: c }
+                if wishart {
+                    StatState::Wishart {
+                        m: per_exp,
+                        bins,
+                        ln_norm: c,
+                    }
+                } else {
+                    StatState::StudentT {
+                        nu: per_exp,
+                        bins,
+                        ln_norm: c,
+                    }
+                }
             }
             Statistic::LogPeriodogram => {
                 if data.len() != self.spectra.len() {
@@ -199,14 +256,26 @@ impl Likelihood {
         match self.stat {
             StatState::Whittle => Statistic::Whittle,
             StatState::StudentT { .. } => Statistic::StudentT,
+            StatState::Wishart { .. } => Statistic::Wishart,
             StatState::LogPeriodogram(_) => Statistic::LogPeriodogram,
         }
     }
 
-    /// The Student-t degrees of freedom per experiment (empty for other statistics).
+    /// The Student-t degrees of freedom per experiment (empty for other statistics; with
+    /// per-band Welch resolution the lowest of the experiment's bins, see
+    /// [`ExperimentSpectra::noise_dof_per_bin`]).
     pub fn student_t_dof(&self) -> &[f64] {
         match &self.stat {
             StatState::StudentT { nu, .. } => nu,
+            _ => &[],
+        }
+    }
+
+    /// The Wishart statistic's effective complex averages `M = ν/2` per experiment (empty for
+    /// other statistics; with per-band Welch resolution the lowest of the experiment's bins).
+    pub fn wishart_averages(&self) -> &[f64] {
+        match &self.stat {
+            StatState::Wishart { m, .. } => m,
             _ => &[],
         }
     }
@@ -279,7 +348,13 @@ impl Likelihood {
         }
         match &self.stat {
             StatState::Whittle => -self.residual_power(th) + self.ln_norm,
-            StatState::StudentT { nu, ln_norm } => self.student_t_shape_sum(th, nu) + ln_norm,
+            StatState::StudentT { nu, bins, ln_norm } => {
+                let nr = self.model.residual_channels().len();
+                self.marginal_shape_sum(th, nu, bins, |q, v| student_t_shape(q, nr, v)) + ln_norm
+            }
+            StatState::Wishart { m, bins, ln_norm } => {
+                self.marginal_shape_sum(th, m, bins, wishart_shape) + ln_norm
+            }
             StatState::LogPeriodogram(x) => x
                 .iter()
                 .map(|e| e.eval(self.model.as_ref(), th, None))
@@ -296,8 +371,16 @@ impl Likelihood {
         -self.residual_power(th) + self.ln_norm
     }
 
-    /// `−Σ_e Σ_k ((ν_e + d)/2) ln(1 + 2 q_k/ν_e)`, bin by bin through the coefficients.
-    fn student_t_shape_sum(&self, th: &[f64], nu: &[f64]) -> f64 {
+    /// `−Σ_e Σ_k shape(q_k, p_{e,k})` bin by bin through the coefficients, with the
+    /// statistic's parameter `p` (ν or M) per experiment, or per bin where `bins` has it: the
+    /// Student-t's `((ν + d)/2) ln(1 + 2 q_k/ν)` or the Wishart's `(M + 1) ln(1 + q_k/M)`.
+    fn marginal_shape_sum(
+        &self,
+        th: &[f64],
+        per_exp: &[f64],
+        bins: &[Option<Vec<f64>>],
+        shape: impl Fn(f64, f64) -> f64,
+    ) -> f64 {
         let m = self.model.as_ref();
         let nc = m.data_channels().len();
         let nr = m.residual_channels().len();
@@ -306,11 +389,12 @@ impl Likelihood {
         let r = &mut r[..nr];
         with_buffer(nr * nc, |coef| {
             let mut s = 0.0;
-            for (e, &v) in self.spectra.iter().zip(nu) {
+            for ((e, &v), b) in self.spectra.iter().zip(per_exp).zip(bins) {
                 for k in 0..e.len() {
                     m.coefficients(th, &e.bin(k, ncst), coef);
                     residual_into(coef, e.data_at(k), r);
-                    s -= student_t_shape(e.quad(k, r), nr, v);
+                    let p = b.as_ref().map_or(v, |b| b[k]);
+                    s -= shape(e.quad(k, r), p);
                 }
             }
             s

@@ -30,7 +30,7 @@ pub use relbin::{MAX_REFINEMENTS, RelBinError, RelBinLikelihood, RelBinOptions, 
 pub use segments::GapSummary;
 pub use spectra::{
     DEFAULT_GAP_TAPER, ExperimentSpectra, NoiseSource, SpectraError, SpectraOptions,
-    welch_segment_len,
+    WelchResolution, averages_per_decade, welch_segment_len,
 };
 pub use statistic::{LogPeriodogramOptions, Statistic};
 

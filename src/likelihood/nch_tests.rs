@@ -489,6 +489,46 @@ fn many_channel_student_t_is_the_formula() {
     assert!(((got - want) / want).abs() < 1e-12, "{got} vs {want}");
 }
 
+/// The Wishart statistic for R = 3 against its formula with a dense inverse and the gamma
+/// functions (`ln Γ(M + 1) − ln Γ(M − 2) − 3 ln M`).
+#[test]
+fn many_channel_wishart_is_the_formula() {
+    use statrs::function::gamma::ln_gamma;
+    let m = Mix::new(3, 2, 11);
+    let e = data(&m, 21);
+    let lik = likelihood(m, &e, NoiseSource::Welch)
+        .with_statistic(
+            Statistic::Wishart,
+            &Default::default(),
+            std::slice::from_ref(&e),
+        )
+        .unwrap();
+    let mm = lik.wishart_averages()[0];
+    assert_eq!(2.0 * mm, lik.spectra()[0].noise_dof.unwrap());
+    let r = 3.0;
+    let th = [0.2, 0.5];
+    let sp = &lik.spectra()[0];
+    let scale = sp.fs / 2.0 * sp.n as f64;
+    let mut want = 0.0;
+    lik.visit_residuals(sp, &th, |k, res, _| {
+        let cm = DMatrix::from_row_slice(3, 3, sp.csd_at(k)) * c(scale, 0.0);
+        let rv = DVector::from_column_slice(res);
+        let q = (rv.adjoint() * cm.clone().try_inverse().unwrap() * &rv)[(0, 0)].re;
+        want += ln_gamma(mm + 1.0)
+            - ln_gamma(mm + 1.0 - r)
+            - r * mm.ln()
+            - r * std::f64::consts::PI.ln()
+            - cm.determinant().re.ln()
+            - (mm + 1.0) * (1.0 + q / mm).ln();
+    });
+    let got = lik.ln_likelihood_full(&th);
+    eprintln!(
+        "R = 3 Wishart (M = {mm:.2}) vs the formula: relative difference {:.1e}",
+        ((got - want) / want).abs()
+    );
+    assert!(((got - want) / want).abs() < 1e-10, "{got} vs {want}");
+}
+
 #[test]
 fn many_channel_refusals_are_errors_with_reasons() {
     // a singular noise matrix above 0.2 Hz: an error naming experiment, frequency and channel

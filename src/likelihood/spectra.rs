@@ -5,7 +5,9 @@ use super::noise_matrix::{DataNoise, factorise, model_noise, residual_csd};
 use crate::data::dataset::ExperimentData;
 use crate::hermitian::{self, Mat2};
 use crate::model::{Bin, BinBlock, Model};
-use crate::signal::{RealFft, SignalError, WelchConfig, Window, welch_csd2_runs};
+use crate::signal::{
+    MultiresConfig, RealFft, SignalError, WelchConfig, Window, multires_csd2, welch_csd2_runs,
+};
 use num_complex::Complex64;
 use serde::{Deserialize, Serialize};
 
@@ -20,6 +22,28 @@ pub enum NoiseSource {
     /// The exact CSD of the noise: the model's own ([`Model::data_noise_csd`]) when it knows
     /// it, else the study's noise model of `o1, o12` (for known-answer tests).
     Model,
+}
+
+/// How the Welch estimate of the noise-only stretch chooses its segment length.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum WelchResolution {
+    /// One segment length for the whole band (`welch_averages` segments span the stretch).
+    #[default]
+    Fixed,
+    /// Longer segments (fewer averages) where the fixed length does not resolve the band's
+    /// bottom: each fit frequency takes the shortest of `L_0, 2L_0, 4L_0, …, N` with at least
+    /// twice the window's main-lobe half-width of bins above DC ([`crate::signal::multires`]).
+    /// The equivalent degrees of freedom are then per bin
+    /// ([`ExperimentSpectra::noise_dof_per_bin`]).
+    PerBand,
+}
+
+impl WelchResolution {
+    /// Whether this is the default, [`WelchResolution::Fixed`] (serialisation skips it).
+    pub fn is_fixed(&self) -> bool {
+        *self == WelchResolution::Fixed
+    }
 }
 
 /// Options of the spectral preprocessing.
@@ -42,6 +66,10 @@ pub struct SpectraOptions {
     /// Data with gaps: length (s) of the cosine taper at each end of a valid run that borders
     /// a gap ([`ExperimentSpectra::of_experiment`]); a run's taper is at most a quarter of it.
     pub gap_taper: f64,
+    /// Segment length of the Welch estimate: one for the band, or per band (serialised only
+    /// when not the default).
+    #[serde(skip_serializing_if = "WelchResolution::is_fixed")]
+    pub welch_resolution: WelchResolution,
 }
 
 /// Default of [`SpectraOptions::gap_taper`] (s).
@@ -56,6 +84,7 @@ impl Default for SpectraOptions {
             welch_averages: 16,
             welch_window: Window::Bh92,
             gap_taper: DEFAULT_GAP_TAPER,
+            welch_resolution: WelchResolution::Fixed,
         }
     }
 }
@@ -122,6 +151,10 @@ pub struct ExperimentSpectra {
     /// Equivalent χ² degrees of freedom `ν = 2 M_eff` of the Welch noise estimate (Percival &
     /// Walden eq. 292b for the segments, window and overlap used); `None` for the noise model.
     pub noise_dof: Option<f64>,
+    /// The equivalent degrees of freedom of the Welch noise estimate per in-band bin, where
+    /// they differ between bins (`welch_resolution = "per_band"`: each bin's segment length
+    /// has its own number of averages; `noise_dof` is then the lowest); `None` otherwise.
+    pub noise_dof_per_bin: Option<Vec<f64>>,
 }
 
 impl ExperimentSpectra {
@@ -234,6 +267,7 @@ impl ExperimentSpectra {
         }
         // the CSD of the measured channels, S_d, over the noisy channels
         let mut noise_dof = None;
+        let mut noise_dof_per_bin = None;
         let (noisy, sd): DataNoise = match opts.noise {
             NoiseSource::Model => {
                 match model_noise(model, theta_ref, fs, &freqs, &consts).map_err(&inv)? {
@@ -256,8 +290,23 @@ impl ExperimentSpectra {
                     .iter()
                     .map(|&c| e.noise_channel(&channels[c]).expect("filtered"))
                     .collect();
-                let (sd, dof) =
-                    welch_noise(e, &ser, &e.noise_valid_runs(), opts, &freqs).map_err(&inv)?;
+                let (sd, dof) = match opts.welch_resolution {
+                    WelchResolution::Fixed => {
+                        welch_noise(e, &ser, &e.noise_valid_runs(), opts, &freqs).map_err(&inv)?
+                    }
+                    WelchResolution::PerBand => {
+                        if !e.noise_gaps.is_empty() {
+                            return Err(inv(
+                                "welch_resolution = \"per_band\" does not handle gaps in the noise-only stretch yet; use \"fixed\"".into(),
+                            ));
+                        }
+                        let (sd, per_bin) =
+                            welch_noise_per_band(e, &ser, opts, &freqs).map_err(&inv)?;
+                        let lowest = per_bin.iter().cloned().fold(f64::INFINITY, f64::min);
+                        noise_dof_per_bin = Some(per_bin);
+                        (sd, lowest)
+                    }
+                };
                 noise_dof = Some(dof);
                 (noisy, sd)
             }
@@ -308,6 +357,7 @@ impl ExperimentSpectra {
             active,
             is_input,
             noise_dof,
+            noise_dof_per_bin,
         })
     }
 
@@ -465,6 +515,73 @@ fn gapped_segment_len(runs: &[[usize; 2]], opts: &SpectraOptions) -> usize {
         l = (l as f64 * 0.95).floor() as usize;
     }
     l
+}
+
+/// As [`welch_noise`] with a segment length per band ([`WelchResolution::PerBand`]): the
+/// shortest segments are `welch_segment_len`'s, so bins these resolve get the same estimate;
+/// returns the equivalent degrees of freedom `2 M_eff` per fit bin.
+fn welch_noise_per_band(
+    e: &ExperimentData,
+    ser: &[&[f64]],
+    opts: &SpectraOptions,
+    freqs: &[f64],
+) -> Result<(Vec<Vec<Complex64>>, Vec<f64>), String> {
+    let len = ser[0].len();
+    if let Some(s) = ser.iter().find(|s| s.len() != len) {
+        return Err(format!(
+            "the noise-only series have different lengths ({} and {len} samples)",
+            s.len()
+        ));
+    }
+    let seg = welch_segment_len(len, opts);
+    if seg < 16 {
+        return Err(format!(
+            "the noise-only stretch ({len} samples) is too short for {} Welch averages",
+            opts.welch_averages
+        ));
+    }
+    let cfg = MultiresConfig::new(e.fs, opts.welch_window, seg);
+    let nn = ser.len();
+    let mut out = vec![vec![Complex64::new(0.0, 0.0); nn * nn]; freqs.len()];
+    let mut dof = vec![0.0; freqs.len()];
+    for a in 0..nn {
+        // one channel alone, else every pair (as the fixed estimate)
+        for b in (a + 1).min(nn - 1)..nn {
+            if nn > 1 && b == a {
+                continue;
+            }
+            let c = multires_csd2(ser[a], ser[b], &cfg, freqs).map_err(|x| x.to_string())?;
+            for (k, o) in out.iter_mut().enumerate() {
+                let m = c.matrix(k);
+                o[a * nn + a] = m[0][0];
+                o[b * nn + b] = m[1][1];
+                o[a * nn + b] = m[0][1];
+                o[b * nn + a] = m[1][0];
+                dof[k] = 2.0 * c.n_eff[k];
+            }
+        }
+    }
+    Ok((out, dof))
+}
+
+/// The number of effective averages `M_eff = ν/2` behind the noise estimate of `sp`, summarised
+/// per decade of its fit band: `(f_lo, f_hi, lowest M_eff, highest M_eff)` per decade that
+/// holds bins (`None` for the noise model).
+pub fn averages_per_decade(sp: &ExperimentSpectra) -> Option<Vec<(f64, f64, f64, f64)>> {
+    let fixed = sp.noise_dof?;
+    let mut out: Vec<(f64, f64, f64, f64)> = Vec::new();
+    for (k, &f) in sp.freqs.iter().enumerate() {
+        let m = 0.5 * sp.noise_dof_per_bin.as_ref().map_or(fixed, |b| b[k]);
+        let lo = 10f64.powf(f.log10().floor());
+        match out.last_mut() {
+            Some(d) if d.0 == lo => {
+                d.2 = d.2.min(m);
+                d.3 = d.3.max(m);
+            }
+            _ => out.push((lo, 10.0 * lo, m, m)),
+        }
+    }
+    Some(out)
 }
 
 /// Welch CSD matrix of the noise-only series `ser` (all the same length), interpolated onto

@@ -1,5 +1,6 @@
 //! Likelihoods for a residual whose noise PSD is uncertain or unknown (ltp-model.md §7.3):
-//! the Student-t marginal of the Whittle likelihood over an estimated PSD, and the
+//! the Student-t marginal of the Whittle likelihood over an estimated PSD (one scale per bin),
+//! the exact (complex inverse-Wishart) marginal over the whole residual CSD, and the
 //! log-periodogram likelihood of the Welch-averaged residual.
 //!
 //! # Student-t (Röver, Meyer & Christensen, PRD 84, 122004 (2011); LTPDA
@@ -28,6 +29,45 @@
 //! ([`crate::signal::WelchConfig::n_eff`]). Neighbouring fit bins share one Welch estimate
 //! (its bins are wider than the fit bins): the per-bin marginalisation treats them as
 //! independent, as Röver et al. do.
+//!
+//! # Wishart (the exact marginal over the residual CSD; Sala & Vitale 2025 and the standard
+//! complex-Wishart results of Goodman, Ann. Math. Stat. 34, 152 (1963))
+//! The Student-t above marginalises one scale per bin. For one residual channel that is the
+//! whole unknown; for `R ≥ 2` the `R × R` CSD has `R²` real unknowns (levels, coherence and
+//! phase), and the complex-Wishart treatment marginalises all of them.
+//!
+//! A Welch CSD estimate from `M` independent complex averages of a circular Gaussian series
+//! with CSD `S` is complex Wishart: `M Ŝ ~ CW_R(M, S)`, density
+//! `∝ det(MŜ)^{M−R} det(S)^{−M} exp(−tr S⁻¹ MŜ) / Γ̃_R(M)`, with the complex multivariate gamma
+//! function `Γ̃_R(a) = π^{R(R−1)/2} Π_{j=1}^{R} Γ(a − j + 1)`. With the Jeffreys prior
+//! `p(S) ∝ det(S)^{−R}` the posterior is complex inverse-Wishart,
+//! `p(S | Ŝ) = det(MŜ)^{M} det(S)^{−(M+R)} exp(−tr S⁻¹ MŜ) / Γ̃_R(M)`, proper for `M > R − 1`.
+//! A bin's residual DFT is `r ~ CN(0, κS)` with `κ = (fs/2) Σw²` (the fit window), density
+//! `π^{−R} det(κS)^{−1} exp(−rᴴ(κS)⁻¹r)`. The integral
+//! `∫ det(S)^{−(a+R)} exp(−tr S⁻¹ Ψ) dS = Γ̃_R(a) det(Ψ)^{−a}` with `a = M + 1`,
+//! `Ψ = MŜ + rrᴴ/κ` and `det(MŜ + rrᴴ/κ) = det(MŜ) (1 + q/M)` (`Ĉ = κŜ`, `q = rᴴĈ⁻¹r`) gives
+//! the predictive, a complex multivariate t:
+//!
+//! ```text
+//! ln L_k = c_k − (M + 1) ln(1 + q_k/M),      q_k = r_kᴴ Ĉ_k⁻¹ r_k,
+//! c_k    = ln Γ(M + 1) − ln Γ(M + 1 − R) − R ln M − R ln π − ln det Ĉ_k,
+//! ```
+//!
+//! since `Γ̃_R(M + 1)/Γ̃_R(M) = Γ(M + 1)/Γ(M + 1 − R)`. As `M → ∞` the constant tends to
+//! `−R ln π − ln det Ĉ_k` and `(M + 1) ln(1 + q/M) → q`: the Whittle likelihood. For `R = 1`
+//! it is the Student-t above with `ν = 2M` term by term. For `R = 2` the Student-t's exponent
+//! is `M + R` (one scale), the Wishart's `M + 1`: at the truth the pivot `q/M` is
+//! beta-prime`(R, M + 1 − R)` distributed under repeated sampling of the noise and the fit
+//! data (`MĈ = L W Lᴴ` with `W ~ CW_R(M, I)` and `zᴴW⁻¹z ~ |z|²/Γ(M − R + 1)`), exactly the
+//! distribution of `q/M` under the predictive above, whereas the Student-t's common-scale
+//! predictive makes it beta-prime`(R, M)`, too light-tailed by one complex degree of freedom
+//! per extra channel. Any `R` works through the whitener of the bin (`q` and `ln det Ĉ` are
+//! what the Whittle likelihood already has).
+//!
+//! `M` is the effective number of complex averages `M_eff = ν/2` of the Welch settings (as for
+//! the Student-t); overlapping tapered segments are not exactly Wishart, and `M_eff` is the
+//! moment-matched count (P&W eq. 292b). With `[analysis] welch_resolution = "per_band"` it is
+//! per bin. The statistic needs `M_eff > R − 1` at every bin.
 //!
 //! # Log-periodogram (Vitale et al., PRD 90, 042003 (2014); LTPDA `@mfh/loglikelihood_core_log.m`)
 //! The residual time series of the whole fit stretch, `r(t; θ) = IDFT(M(f; θ) d̃(f))` over every
@@ -74,6 +114,10 @@ pub enum Statistic {
     Whittle,
     /// The Whittle likelihood marginalised over the uncertainty of that estimate (module docs).
     StudentT,
+    /// The Whittle likelihood marginalised over the whole residual CSD given its Welch
+    /// estimate (complex inverse-Wishart posterior, complex multivariate t predictive; module
+    /// docs): exact for any number of averages `M_eff > R − 1`.
+    Wishart,
     /// The log-periodogram likelihood of the Welch-averaged residual (module docs).
     LogPeriodogram,
 }
@@ -84,6 +128,7 @@ impl Statistic {
         match self {
             Statistic::Whittle => "whittle",
             Statistic::StudentT => "student_t",
+            Statistic::Wishart => "wishart",
             Statistic::LogPeriodogram => "log_periodogram",
         }
     }
@@ -168,6 +213,30 @@ pub(crate) fn student_t_shape(q: f64, nr: usize, nu: f64) -> f64 {
     (0.5 * nu + nr as f64) * (2.0 * q / nu).ln_1p()
 }
 
+/// The complex multivariate t `ln` density of one bin (module docs, "Wishart") of a residual
+/// with `q = rᴴ Ĉ⁻¹ r`, `R` residual channels, `M` effective complex averages of the noise
+/// estimate (`M > R − 1`) and `ln det Ĉ`.
+pub fn wishart_ln_density(q: f64, nr: usize, m: f64, ln_det_c: f64) -> f64 {
+    wishart_const(nr, m) - nr as f64 * std::f64::consts::PI.ln() - ln_det_c - wishart_shape(q, m)
+}
+
+/// `ln Γ(M + 1) − ln Γ(M + 1 − R) − R ln M`: → 0 as M → ∞ (NaN for `M ≤ R − 1`).
+///
+/// `Γ(M + 1)/Γ(M + 1 − R) = Π_{j<R} (M − j)` for integer `R`, so this is
+/// `Σ_{j<R} ln(1 − j/M)`, with no cancellation at large `M`.
+pub(crate) fn wishart_const(nr: usize, m: f64) -> f64 {
+    if m <= nr as f64 - 1.0 {
+        return f64::NAN;
+    }
+    (0..nr).map(|j| (-(j as f64) / m).ln_1p()).sum()
+}
+
+/// `(M + 1) ln(1 + q/M)`.
+#[inline(always)]
+pub(crate) fn wishart_shape(q: f64, m: f64) -> f64 {
+    (m + 1.0) * (q / m).ln_1p()
+}
+
 /// The θ-independent part of the log-periodogram likelihood of one experiment.
 #[derive(Clone)]
 pub(crate) struct LogPgExperiment {
@@ -244,7 +313,7 @@ impl LogPgExperiment {
         let nr = model.residual_channels().len();
         if nr > 2 {
             return Err(format!(
-                "model `{}` has {nr} residual channels and the log-periodogram likelihood is implemented for one or two: with R channels it is −M_eff Σ ln det of the R×R Welch matrix of the residual, which is singular unless every retained bin has at least R effective averages, and its marginalisation over one noise level per bin has been checked for 2×2 only; use statistic = \"whittle\" or \"student_t\"",
+                "model `{}` has {nr} residual channels and the log-periodogram likelihood is implemented for one or two: with R channels it is −M_eff Σ ln det of the R×R Welch matrix of the residual, which is singular unless every retained bin has at least R effective averages, and its marginalisation over one noise level per bin has been checked for 2×2 only; use statistic = \"whittle\", \"student_t\" or \"wishart\"",
                 model.name()
             ));
         }

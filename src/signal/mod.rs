@@ -24,16 +24,20 @@
 //! * [`fft`]: a planned real FFT with the conventions above, and a slow DFT oracle.
 //! * [`window`]: rectangular, Hann and Blackman–Harris 92 dB windows.
 //! * [`welch`]: one-sided Welch PSD/CSD estimates and their interpolation.
+//! * [`multires`]: Welch with a segment length per band (longer segments where the band's
+//!   bottom needs the resolution).
 //! * [`synth`]: Gaussian noise with an exactly prescribed one- or two-channel spectrum.
 
 mod error;
 pub mod fft;
+pub mod multires;
 pub mod synth;
 pub mod welch;
 pub mod window;
 
 pub use error::SignalError;
 pub use fft::{RealFft, dft_naive, rfft_freqs};
+pub use multires::{MultiresConfig, MultiresCsd2, multires_csd2};
 pub use synth::{SynthMode, synth_channels, synth_one_channel, synth_two_channel};
 pub use welch::{
     CrossSpectrum, Csd2, Detrend, Spectrum, Spectrum2, WelchConfig, interp_linear_complex,

@@ -684,7 +684,10 @@ mod tests {
         let a: Vec<f64> = (0..n).map(|_| StandardNormal.sample(&mut rng)).collect();
         let b: Vec<f64> = a
             .iter()
-            .map(|x| 0.5 * x + StandardNormal.sample(&mut rng) as f64)
+            .map(|x| {
+                let z: f64 = StandardNormal.sample(&mut rng);
+                0.5 * x + z
+            })
             .collect();
         let cfg = WelchConfig::new(2.0, Window::Hann, 256);
         let runs = [[0, 1000], [1100, 1200], [1300, 3000]];

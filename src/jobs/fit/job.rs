@@ -61,6 +61,9 @@ impl Job for Fit<'_> {
             prep.dataset.experiments.len(),
             prep.likelihood.n_bins()
         ));
+        for line in crate::jobs::prepare::noise_averages_lines(study, &prep.likelihood) {
+            (ctx.log)(&line);
+        }
         let chains = study.fit.chains;
         let counts: Vec<AtomicU64> = (0..chains).map(|_| AtomicU64::new(0)).collect();
         if let Some(w) = ctx.work {

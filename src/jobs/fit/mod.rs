@@ -24,6 +24,7 @@ mod tests {
             model: "m".into(),
             statistic: crate::likelihood::Statistic::Whittle,
             likelihood: LikelihoodKind::Exact,
+            noise_averages: None,
             n_bins: 1,
             n_coarse_bins: None,
             rho_opt_at_map: f64::NAN,

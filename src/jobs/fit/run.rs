@@ -148,6 +148,7 @@ pub fn run(
         model: exact.model().name().to_string(),
         statistic,
         likelihood: kind,
+        noise_averages: crate::jobs::prepare::noise_averages_for_summary(study, exact),
         n_bins: exact.n_bins(),
         n_coarse_bins: n_coarse,
         rho_opt_at_map: exact.snr(&map.theta),

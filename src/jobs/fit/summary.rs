@@ -51,6 +51,11 @@ pub struct FitSummary {
     /// The likelihood the chains ran on (relative binning is replaced by the exact `ln L`
     /// when the statistic is not `whittle`).
     pub likelihood: LikelihoodKind,
+    /// Effective Welch averages of the noise reference per decade of the band, per experiment
+    /// ([`crate::jobs::prepare::noise_averages_for_summary`]; absent when neither the statistic
+    /// nor per-band resolution makes them matter).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub noise_averages: Option<Vec<crate::jobs::prepare::NoiseAverages>>,
     pub n_bins: usize,
     pub n_coarse_bins: Option<usize>,
     pub rho_opt_at_map: f64,

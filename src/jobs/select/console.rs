@@ -75,5 +75,22 @@ pub fn console(s: &SelectSummary) -> String {
         rho(s.rho_opt),
     ));
     out.push(format!("ln L statistic: {}", s.statistic.name()));
+    for n in s.noise_averages.iter().flatten() {
+        let d: Vec<String> = n
+            .decades
+            .iter()
+            .map(|d| {
+                format!(
+                    "[{:.0e}, {:.0e}) Hz {:.1}–{:.1}",
+                    d.band[0], d.band[1], d.m_eff_min, d.m_eff_max
+                )
+            })
+            .collect();
+        out.push(format!(
+            "noise reference `{}`, effective Welch averages per decade: {}",
+            n.experiment,
+            d.join("; ")
+        ));
+    }
     out.join("\n")
 }

@@ -75,6 +75,9 @@ impl Job for Select<'_, '_> {
             prep.dataset.experiments.len(),
             prep.likelihood.n_bins()
         ));
+        for line in crate::jobs::prepare::noise_averages_lines(study, &prep.likelihood) {
+            (ctx.log)(&line);
+        }
         let ckpt = Checkpointing {
             path: &ckpt_path,
             state,

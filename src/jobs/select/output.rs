@@ -265,6 +265,7 @@ mod tests {
             rho_opt: f64::NAN,
             n_bins: 1,
             statistic: crate::likelihood::Statistic::Whittle,
+            noise_averages: None,
             schwarz_n: 1.0,
             models: vec![],
             pairs: vec![PairResult {

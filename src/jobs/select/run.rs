@@ -341,6 +341,7 @@ fn summarise(
         rho_opt: truth_snr.unwrap_or_else(|| first.snr(&models[0].map)),
         n_bins: first.n_bins(),
         statistic: first.statistic(),
+        noise_averages: crate::jobs::prepare::noise_averages_for_summary(study, first),
         schwarz_n: plan.n_sbic,
         posterior_model_probabilities: pair::posterior_probabilities(&models, &pairs),
         models,

@@ -18,6 +18,11 @@ pub struct SelectSummary {
     pub n_bins: usize,
     /// The statistic of every `ln L` and evidence (`[analysis] statistic`).
     pub statistic: crate::likelihood::Statistic,
+    /// Effective Welch averages of the noise reference per decade of the band, per experiment
+    /// ([`crate::jobs::prepare::noise_averages_for_summary`]; absent when neither the statistic
+    /// nor per-band resolution makes them matter).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub noise_averages: Option<Vec<crate::jobs::prepare::NoiseAverages>>,
     pub schwarz_n: f64,
     pub models: Vec<ModelOutcome>,
     pub pairs: Vec<PairResult>,
