@@ -107,16 +107,7 @@ pub fn take_nan_gaps_keeping(series: &mut [&mut Vec<f64>]) -> (Vec<Span>, Vec<bo
 
 /// [`take_nan_gaps_keeping`], blanking every series over the gaps.
 pub fn take_nan_gaps(series: &mut [&mut Vec<f64>]) -> Vec<Span> {
-    let n = series.iter().map(|s| s.len()).max().unwrap_or(0);
-    let mut gaps: Vec<Span> = Vec::new();
-    for k in 0..n {
-        if series.iter().any(|s| s.get(k).is_some_and(|v| v.is_nan())) {
-            match gaps.last_mut() {
-                Some(g) if g[1] == k => g[1] = k + 1,
-                _ => gaps.push([k, k + 1]),
-            }
-        }
-    }
+    let (gaps, _) = take_nan_gaps_keeping(series);
     for s in series.iter_mut() {
         blank(s, &gaps);
     }
