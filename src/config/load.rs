@@ -1125,6 +1125,18 @@ fn to_waveform(
                     });
                 }
             };
+            // a data file's NaN or empty cell is a gap; a commanded injection has none
+            if let Some(k) = col.iter().position(|v| v.is_nan()) {
+                return Err(ConfigError::Invalid {
+                    file: file.into(),
+                    field: format!("{field}.path"),
+                    msg: format!(
+                        "{}: line {}: the sample is missing or not finite (NaN or an empty cell); an injection file gives every sample",
+                        p.display(),
+                        table.lines[k]
+                    ),
+                });
+            }
             Waveform::Samples {
                 values: col.clone(),
             }
