@@ -295,7 +295,7 @@ fn dataset_cases() -> Vec<DatasetCase> {
                 })
             }),
             file: "dataset.npz",
-            want: &["sidecar lists gaps []", "NaN samples are [[3, 4]]"],
+            want: &["sidecar lists gaps []", "NaN samples make them [[3, 4]]"],
         },
         DatasetCase {
             name: "npz: infinite noise sample",
