@@ -62,8 +62,19 @@ struct Experiments {
 
 impl StudyFile {
     /// Validates every field and resolves designs.
-    pub fn resolve(self, file: &str, base: &Path) -> Result<Study, ConfigError> {
+    pub fn resolve(mut self, file: &str, base: &Path) -> Result<Study, ConfigError> {
         let as_parsed = self.clone();
+        let truth_names: Vec<String> = match &self.simulation.model {
+            // a generator's truth is [simulation.truth]: per-stretch values of it are not read
+            Some(_) => Vec::new(),
+            None => crate::ltp::PARAM_NAMES
+                .iter()
+                .map(|n| n.to_string())
+                .collect(),
+        };
+        let (experiment, stretches) =
+            super::stretches::resolve(&self.stretch, &self.experiment, &truth_names, file)?;
+        self.experiment = experiment;
         let bad = |field: String, msg: String| invalid(file, field, msg);
         let budget = budget::budget_from_env()
             .map_err(|m| bad(format!("{} (environment)", budget::BUDGET_ENV), m))?;
@@ -77,7 +88,7 @@ impl StudyFile {
         let experiments = self.resolve_experiments(file, base, budget)?;
         validate_analysis(&self.analysis, file)?;
         self.check_bands(&experiments.designs, file)?;
-        let models = self.resolve_models(file)?;
+        let models = self.resolve_models(&stretches, file)?;
         super::generator::check(
             &self.simulation,
             &models,
@@ -110,6 +121,7 @@ impl StudyFile {
             experiments: experiments.designs,
             data_sources: experiments.data_sources,
             experiment_names: experiments.names,
+            stretches,
             base_dir: base.to_path_buf(),
             source: file.into(),
             file: as_parsed,
@@ -219,7 +231,11 @@ impl StudyFile {
 
     /// `[[model]]` and `[prior]`: every model resolved with its prior, user-defined models
     /// checked on a log grid over the fit band, where they must act.
-    fn resolve_models(&self, file: &str) -> Result<ModelSet, ConfigError> {
+    fn resolve_models(
+        &self,
+        stretches: &super::stretches::Stretches,
+        file: &str,
+    ) -> Result<ModelSet, ConfigError> {
         let ltp_defaults = crate::model::LtpModelOptions {
             masses: self.masses,
             oms_delay: self.oms_delay,
@@ -245,8 +261,8 @@ impl StudyFile {
             &self.prior,
             &ltp_defaults,
             &accel_defaults,
-            &check_freqs,
-            check_fs,
+            (&check_freqs, check_fs),
+            &stretches.covariates(),
             file,
         )
     }

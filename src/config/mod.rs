@@ -39,12 +39,15 @@ mod models;
 #[cfg(test)]
 mod reference;
 mod resolved;
+pub mod stretches;
 mod study;
 mod suggest;
 mod sweep;
 pub use error::ConfigError;
 pub use limits::{DELAY_PARAMS, MAX_ASD, MAX_CORNER, MAX_DELAY, MAX_TARGET_SNR, MIN_ASD};
-pub use models::{BUILTIN_LTP, LtpModelEntry, ModelDef, ModelEntry, ModelSet, ModelSpec};
+pub use models::{
+    BUILTIN_LTP, DriftModelEntry, LtpModelEntry, ModelDef, ModelEntry, ModelSet, ModelSpec,
+};
 pub use resolved::{RESOLVED_FILE, resolved_toml, write_resolved};
 pub use study::{
     ActuatorEntry, ActuatorOptions, AnalysisOptions, ExperimentEntry, FitOptions, InjectionEntry,

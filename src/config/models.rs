@@ -80,8 +80,32 @@ pub struct TiedModelEntry {
     pub tie: BTreeMap<String, String>,
 }
 
+/// A `[[model]]` table of kind `drift`: model `of` with parameters that change between
+/// stretches ([`crate::model::drift`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DriftModelEntry {
+    pub name: String,
+    /// The parent model (defined earlier in the file, or `ltp`).
+    pub of: String,
+    /// Parameter = the covariate it is linear in (`"time"` or one of the stretches'
+    /// `covariates`).
+    #[serde(default)]
+    pub linear: BTreeMap<String, String>,
+    /// Parameters with one free value per stretch.
+    #[serde(default)]
+    pub per_stretch: Vec<String>,
+}
+
 /// A model's default prior per parameter name.
 type DefaultPriors = Vec<(String, PriorKind)>;
+
+/// A built model, its default priors and, for a drifting model, the model as such.
+type Built = (
+    Arc<dyn Model>,
+    DefaultPriors,
+    Option<Arc<crate::model::DriftModel>>,
+);
 
 /// A validated model definition (serialisable, so the resolved study can be written out).
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -99,6 +123,8 @@ pub enum ModelDef {
     },
     /// A model with tied parameters.
     Tied(TiedModelEntry),
+    /// A model whose parameters change between stretches.
+    Drift(DriftModelEntry),
     /// A model defined in the study file (see [`crate::model::user`]).
     User(UserModelDef),
     /// A state-space model defined in the study file (see [`crate::model::state_space`]).
@@ -113,6 +139,7 @@ impl ModelDef {
         match self {
             ModelDef::Ltp { name, .. } | ModelDef::Accel { name, .. } => name,
             ModelDef::Tied(t) => &t.name,
+            ModelDef::Drift(d) => &d.name,
             ModelDef::User(d) => &d.name,
             ModelDef::StateSpace(d) => &d.name,
             ModelDef::TransferMatrix(d) => &d.name,
@@ -130,44 +157,82 @@ impl ModelDef {
     }
 
     /// The model and its default priors (none for user-defined models; a tied model's are its
-    /// parent's). `built` holds the models built so far, by name, for tied models' parents.
+    /// parent's; a drifting model's per-stretch values take the prior of the parent's
+    /// parameter, from `[prior]` or the parent's defaults). `built` holds the models built so
+    /// far, by name, for tied and drifting models' parents; `stretches` are the study's.
     fn build(
         &self,
         built: &[(String, Arc<dyn Model>, DefaultPriors)],
-    ) -> Result<(Arc<dyn Model>, DefaultPriors), String> {
+        prior: &BTreeMap<String, PriorKind>,
+        stretches: &[crate::model::Covariates],
+    ) -> Result<Built, String> {
+        let parent_of = |of: &str| {
+            built.iter().find(|(n, _, _)| *n == of).ok_or_else(|| {
+                format!(
+                    "`of = \"{of}\"` names no model defined before this one; the models so far are {:?}",
+                    built.iter().map(|(n, _, _)| n).collect::<Vec<_>>()
+                )
+            })
+        };
         Ok(match self {
             ModelDef::Ltp { name, options } => {
                 let m = LtpModel::new(name, options.clone());
                 let d = m.default_priors();
-                (Arc::new(m), d)
+                (Arc::new(m), d, None)
             }
             ModelDef::Accel { name, options } => {
                 options.validate()?;
                 let m = crate::model::AccelModel::new(name, options.clone());
                 let d = m.default_priors();
-                (Arc::new(m), d)
+                (Arc::new(m), d, None)
             }
             ModelDef::Tied(t) => {
-                let (_, parent, defaults) =
-                    built.iter().find(|(n, _, _)| *n == t.of).ok_or_else(|| {
-                        format!(
-                            "`of = \"{}\"` names no model defined before this one; the models so far are {:?}",
-                            t.of,
-                            built.iter().map(|(n, _, _)| n).collect::<Vec<_>>()
-                        )
-                    })?;
+                let (_, parent, defaults) = parent_of(&t.of)?;
                 let ties: Vec<(String, String)> =
                     t.tie.iter().map(|(a, b)| (a.clone(), b.clone())).collect();
                 let m = crate::model::TiedModel::new(&t.name, parent.clone(), &ties)?;
-                (Arc::new(m), defaults.clone())
+                (Arc::new(m), defaults.clone(), None)
             }
-            ModelDef::User(def) => (Arc::new(UserModel::new(def)?), Vec::new()),
-            ModelDef::StateSpace(def) => (Arc::new(StateSpaceModel::new(def)?), Vec::new()),
+            ModelDef::Drift(d) => {
+                use crate::model::DriftRule;
+                let (_, parent, defaults) = parent_of(&d.of)?;
+                let mut rules: Vec<(String, DriftRule)> = d
+                    .linear
+                    .iter()
+                    .map(|(p, c)| (p.clone(), DriftRule::Linear(c.clone())))
+                    .collect();
+                rules.extend(
+                    d.per_stretch
+                        .iter()
+                        .map(|p| (p.clone(), DriftRule::PerStretch)),
+                );
+                let m = crate::model::DriftModel::new(
+                    &d.name,
+                    parent.clone(),
+                    stretches.to_vec(),
+                    &rules,
+                )?;
+                let mut own = defaults.clone();
+                for p in &d.per_stretch {
+                    let k = prior
+                        .get(p)
+                        .or_else(|| defaults.iter().find(|(x, _)| x == p).map(|(_, k)| k));
+                    for s in m.stretch_names() {
+                        if let Some(k) = k {
+                            own.push((format!("{p}_{s}"), *k));
+                        }
+                    }
+                }
+                let m = Arc::new(m);
+                (m.clone(), own, Some(m))
+            }
+            ModelDef::User(def) => (Arc::new(UserModel::new(def)?), Vec::new(), None),
+            ModelDef::StateSpace(def) => (Arc::new(StateSpaceModel::new(def)?), Vec::new(), None),
             ModelDef::TransferMatrix(def) => {
                 let user = crate::model::state_space::to_user_def(def)?;
                 let m =
                     UserModel::new(&user).map_err(|e| crate::model::state_space::user_error(&e))?;
-                (Arc::new(m), Vec::new())
+                (Arc::new(m), Vec::new(), None)
             }
         })
     }
@@ -181,6 +246,10 @@ pub struct ModelSet {
     pub models: Vec<Arc<dyn Model>>,
     #[serde(skip)]
     pub priors: Vec<Prior>,
+    /// The drifting models (`kind = "drift"`) as such, by index (`None` for the others): their
+    /// truth is read from the stretches' ([`crate::model::DriftModel::values_from_stretches`]).
+    #[serde(skip)]
+    pub drifts: Vec<Option<Arc<crate::model::DriftModel>>>,
 }
 
 impl PartialEq for ModelSet {
@@ -219,8 +288,8 @@ impl ModelSet {
         prior: &BTreeMap<String, PriorKind>,
         ltp_defaults: &LtpModelOptions,
         accel_defaults: &crate::model::AccelOptions,
-        check_freqs: &[f64],
-        check_fs: f64,
+        (check_freqs, check_fs): (&[f64], f64),
+        stretches: &[crate::model::Covariates],
         file: &str,
     ) -> Result<ModelSet, ConfigError> {
         let bad = |field: String, msg: String| ConfigError::Invalid {
@@ -278,6 +347,7 @@ impl ModelSet {
                     }
                 }
                 "tied" => ModelDef::Tied(t.try_into().map_err(parse_err)?),
+                "drift" => ModelDef::Drift(t.try_into().map_err(parse_err)?),
                 "user" => ModelDef::User(t.try_into().map_err(parse_err)?),
                 "state_space" => ModelDef::StateSpace(t.try_into().map_err(parse_err)?),
                 "transfer_matrix" => ModelDef::TransferMatrix(t.try_into().map_err(parse_err)?),
@@ -285,7 +355,7 @@ impl ModelSet {
                     return Err(bad(
                         format!("{at}.kind"),
                         format!(
-                            "unknown model kind `{other}`; the kinds are \"ltp\", \"accel\", \"tied\", \"user\", \"state_space\" and \"transfer_matrix\""
+                            "unknown model kind `{other}`; the kinds are \"ltp\", \"accel\", \"tied\", \"drift\", \"user\", \"state_space\" and \"transfer_matrix\""
                         ),
                     ));
                 }
@@ -321,6 +391,7 @@ impl ModelSet {
         }
         let mut models = Vec::new();
         let mut priors = Vec::new();
+        let mut drifts = Vec::new();
         let mut built: Vec<(String, Arc<dyn Model>, DefaultPriors)> = Vec::new();
         for d in &defs {
             let at = match tables
@@ -330,7 +401,10 @@ impl ModelSet {
                 Some(i) => format!("model[{i}]"),
                 None => format!("model.{}", d.name()),
             };
-            let (m, defaults) = d.build(&built).map_err(|e| bad(at.clone(), e))?;
+            let (m, defaults, drift) = d
+                .build(&built, prior, stretches)
+                .map_err(|e| bad(at.clone(), e))?;
+            drifts.push(drift);
             built.push((d.name().to_string(), m.clone(), defaults.clone()));
             crate::model::validate_shape(m.as_ref())
                 .map_err(|e| bad(format!("model.{}", d.name()), e))?;
@@ -382,6 +456,7 @@ impl ModelSet {
             defs,
             models,
             priors,
+            drifts,
         };
         // every parameter of a user-defined model must act on some coefficient, and a
         // state-space model must be stable at the prior centre
@@ -523,7 +598,9 @@ impl ModelEntry {
         };
         let mut free = Vec::new();
         match &self.free {
-            None => free.extend(0..names.len()),
+            // no list: every parameter that is not fixed
+            None => free
+                .extend((0..names.len()).filter(|&i| !self.fixed.contains_key(names[i].as_str()))),
             Some(list) => {
                 for (k, n) in list.iter().enumerate() {
                     let i = idx(n, format!("{at}free[{k}]"))?;

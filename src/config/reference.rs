@@ -94,6 +94,10 @@ fn schema() -> BTreeMap<String, BTreeSet<String>> {
         keys::<models::TiedModelEntry>(""),
     );
     put(
+        "[[model]] kind = \"drift\"",
+        keys::<models::DriftModelEntry>(""),
+    );
+    put(
         "[[model]] kind = \"user\"",
         keys::<crate::model::user::UserModelDef>(""),
     );
@@ -122,6 +126,7 @@ fn schema() -> BTreeMap<String, BTreeSet<String>> {
     put("[[sweep.axis]]", keys::<sweep::SweepAxis>(""));
     put("[design]", keys::<crate::config::design::DesignOptions>(""));
     put("[[experiment]]", keys::<ExperimentEntry>(""));
+    put("[[stretch]]", keys::<stretches::StretchEntry>(""));
     put("[[experiment]] injection kind", kinds::<InjectionEntry>());
     for k in kinds::<InjectionEntry>() {
         put(

@@ -256,6 +256,9 @@ pub struct ExperimentEntry {
     /// Missing data of the noise-only stretch, likewise.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub noise_gaps: Vec<[f64; 2]>,
+    /// The `[[stretch]]` the experiment was taken in ([`crate::config::stretches`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stretch: Option<String>,
 }
 
 /// Which likelihood the samplers use.
@@ -515,6 +518,9 @@ pub struct StudyFile {
     #[serde(default)]
     pub design: Option<design::DesignOptions>,
     pub experiment: Vec<ExperimentEntry>,
+    /// `[[stretch]]` tables: experiments grouped by when they were taken.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub stretch: Vec<super::stretches::StretchEntry>,
 }
 
 /// A validated study, with built-in designs and injection files resolved.
@@ -530,8 +536,12 @@ pub struct Study {
     pub experiments: Vec<ExperimentDesign>,
     /// Experiments read from files (`[[experiment]] data = …`), by name.
     pub data_sources: Vec<(String, crate::data::DataSource)>,
-    /// Every experiment name in the order of the study file.
+    /// Every experiment name in the order of the study file (each repeated per stretch when
+    /// the study has stretches and no experiment names one).
     pub experiment_names: Vec<String>,
+    /// The `[[stretch]]` tables and which experiment is in which (empty: no stretches).
+    #[serde(skip_serializing_if = "super::stretches::Stretches::is_empty")]
+    pub stretches: super::stretches::Stretches,
     /// The directory of the study file (relative data paths start there).
     pub base_dir: PathBuf,
     pub analysis: AnalysisOptions,
@@ -560,15 +570,26 @@ impl Study {
     /// The true system of the study (`[truth]`, `[masses]`, `[noise]`, the OMS delay and the
     /// `[simulation]` thruster and actuators).
     pub fn system(&self) -> crate::experiment::System {
+        self.system_with(self.truth)
+    }
+
+    /// [`Study::system`] with the loop's parameters `truth` (a stretch's).
+    fn system_with(&self, truth: LtpParams) -> crate::experiment::System {
         crate::experiment::System {
-            truth: self.truth,
+            truth,
             controllers: Controllers::default(),
             masses: self.masses,
             noise: self.noise,
             oms_delay: self.oms_delay,
             thruster: self.simulation.thruster,
-            actuators: self.simulation.actuators.resolve(self.truth.a_sus),
+            actuators: self.simulation.actuators.resolve(truth.a_sus),
         }
+    }
+
+    /// The stretch and covariates of experiment `name` (empty when the study has no
+    /// stretches).
+    pub fn covariates_of(&self, name: &str) -> crate::model::Covariates {
+        self.stretches.covariates_of(name)
     }
 
     /// The model that generates the data (`[simulation] model` at `[simulation.truth]`), if
@@ -600,6 +621,16 @@ impl Study {
             oversample: o.oversample,
             generator: self.generator(),
             gaps: o.gaps,
+            systems: self
+                .experiments
+                .iter()
+                .map(|d| {
+                    let s = self.stretches.stretch_of(&d.name)?;
+                    (!s.truth.is_empty()).then(|| {
+                        self.system_with(super::stretches::Stretches::truth_in(s, &self.truth))
+                    })
+                })
+                .collect(),
         }
     }
 }

@@ -426,6 +426,19 @@ pub struct SimulationPlan {
     pub generator: Option<super::generator::Generator>,
     /// Random gaps in every simulated stretch (`[simulation.gaps]`).
     pub gaps: Option<super::gaps::RandomGaps>,
+    /// Per experiment, its true system where it differs from `system` (an experiment in a
+    /// `[[stretch]]` with its own truth); empty or `None`: `system`.
+    pub systems: Vec<Option<System>>,
+}
+
+impl SimulationPlan {
+    /// The true system of experiment `j`.
+    pub fn system_of(&self, j: usize) -> &System {
+        self.systems
+            .get(j)
+            .and_then(Option::as_ref)
+            .unwrap_or(&self.system)
+    }
 }
 
 /// Progress of a simulation: `(done, total)` experiments, `(0, total)` first.
@@ -444,14 +457,13 @@ pub(super) fn simulate_builtin(
             "every [[experiment]] reads its data from a file (`data = …`): there is nothing to simulate".into(),
         ));
     }
-    let sys = &plan.system;
     let opts = plan;
     let mut designs = plan.experiments.clone();
     let mut amplitude_factor = 1.0;
     if let Some(target) = opts.target_snr {
         let mut rho2 = 0.0;
-        for d in &designs {
-            rho2 += optimal_snr(sys, d, opts.snr_band)?.powi(2);
+        for (j, d) in designs.iter().enumerate() {
+            rho2 += optimal_snr(plan.system_of(j), d, opts.snr_band)?.powi(2);
         }
         if rho2 <= 0.0 {
             return Err(SimError::Other(
@@ -494,6 +506,7 @@ pub(super) fn simulate_builtin(
         {
             p(j as u64, designs.len() as u64);
         }
+        let sys = plan.system_of(j);
         snr.push(optimal_snr(sys, d, opts.snr_band)?);
         let err = |e| SimError::Signal(d.name.clone(), e);
         let n = d.n_samples();
@@ -571,7 +584,8 @@ pub(super) fn simulate_builtin(
         });
     }
     let snr_total = snr.iter().map(|r| r * r).sum::<f64>().sqrt();
-    let extra = serde_json::json!({
+    let sys = &plan.system;
+    let mut extra = serde_json::json!({
         "source": plan.source,
         "method": opts.method,
         "thruster": sys.thruster,
@@ -593,6 +607,19 @@ pub(super) fn simulate_builtin(
         "amplitude_factor": amplitude_factor,
         "designs": designs,
     });
+    // the loop's truth of every experiment whose stretch has its own (absent otherwise, so
+    // that datasets without stretches are unchanged)
+    let own: serde_json::Map<String, serde_json::Value> = designs
+        .iter()
+        .enumerate()
+        .filter_map(|(j, d)| {
+            let s = plan.systems.get(j)?.as_ref()?;
+            Some((d.name.clone(), serde_json::json!(s.truth)))
+        })
+        .collect();
+    if !own.is_empty() {
+        extra["experiment_truth"] = serde_json::Value::Object(own);
+    }
     Ok(Simulation {
         dataset: Dataset {
             experiments,

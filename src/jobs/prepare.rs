@@ -340,6 +340,7 @@ pub fn reference_point(study: &Study, mi: usize) -> Vec<f64> {
             Some(&study.simulation.actuators.resolve(study.truth.a_sus)),
         ),
     };
+    let truth = [drift_truth(study, mi, &truth), truth].concat();
     m.param_names()
         .iter()
         .enumerate()
@@ -351,6 +352,41 @@ pub fn reference_point(study: &Study, mi: usize) -> Vec<f64> {
                 .or_else(|| study.fit.start.as_ref().and_then(|s| s.get(n).copied()))
                 .unwrap_or_else(|| prior.kinds()[i].centre())
         })
+        .collect()
+}
+
+/// The true values of the parameters of model `mi` when it drifts between stretches
+/// (`kind = "drift"`), from the truth of the loop in each stretch (`base`, by name, with the
+/// stretch's own `truth` values over it): per-stretch values as they are, a linear drift by
+/// least squares (exact for a linear drift). Empty for any other model. Parameters whose truth
+/// is unknown are left out.
+pub fn drift_truth(study: &Study, mi: usize, base: &[(String, f64)]) -> Vec<(String, f64)> {
+    let Some(Some(d)) = study.models.drifts.get(mi) else {
+        return Vec::new();
+    };
+    let parent = d.parent_names();
+    let per: Vec<Vec<f64>> = study
+        .stretches
+        .entries
+        .iter()
+        .map(|s| {
+            parent
+                .iter()
+                .map(|n| {
+                    s.truth
+                        .get(n)
+                        .copied()
+                        .or_else(|| base.iter().find(|(b, _)| b == n).map(|(_, v)| *v))
+                        .unwrap_or(f64::NAN)
+                })
+                .collect()
+        })
+        .collect();
+    crate::model::Model::param_names(d.as_ref())
+        .iter()
+        .cloned()
+        .zip(d.values_from_stretches(&per))
+        .filter(|(_, v)| v.is_finite())
         .collect()
 }
 
@@ -377,13 +413,25 @@ pub fn likelihood_of(
     }
     let mut spectra = Vec::new();
     for e in &dataset.experiments {
-        spectra.extend(ExperimentSpectra::of_experiment(
-            e,
-            &opts,
-            model.as_ref(),
-            &reference,
-            Some(&csd),
-        )?);
+        // the model as it applies to this experiment's stretch: its edge correction and
+        // residual noise are evaluated there
+        let cov = study.covariates_of(&e.name);
+        let here = model
+            .specialise(&cov)
+            .map_err(|m| {
+                AnalysisError::Likelihood(format!(
+                    "model `{}`, experiment `{}`: {m}",
+                    model.name(),
+                    e.name
+                ))
+            })?
+            .unwrap_or_else(|| model.clone());
+        let mut sp =
+            ExperimentSpectra::of_experiment(e, &opts, here.as_ref(), &reference, Some(&csd))?;
+        for s in &mut sp {
+            s.covariates = cov.clone();
+        }
+        spectra.extend(sp);
     }
     Likelihood::new(model, spectra, study.models.priors[mi].clone())
         .and_then(|l| l.with_statistic(a.statistic, &a.log_periodogram, &dataset.experiments))
@@ -466,6 +514,11 @@ pub fn truth_of(study: &Study, mi: usize, dataset: &Dataset) -> Option<Vec<Optio
             .iter()
             .filter_map(|(k, v)| Some((k.clone(), v.as_f64()?)))
             .collect(),
+    };
+    // a drifting model's truth comes from the stretches' (simulated by the built-in loop)
+    let vals = match dataset.truth {
+        Some(_) => [drift_truth(study, mi, &vals), vals].concat(),
+        None => vals,
     };
     Some(
         study.models.models[mi]

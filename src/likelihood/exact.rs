@@ -31,6 +31,9 @@ use std::sync::Arc;
 pub struct Likelihood {
     model: Arc<dyn Model>,
     spectra: Vec<ExperimentSpectra>,
+    /// The model as it applies to each experiment ([`Model::specialise`]): `model` itself
+    /// unless its coefficients depend on the experiment's stretch or covariates.
+    per_exp: Vec<Arc<dyn Model>>,
     /// The model's prepared kernel per experiment, if it has one.
     kernels: Vec<Option<Arc<dyn BlockKernel>>>,
     /// The model's kernel for all experiments at once, if it has one (used instead).
@@ -130,15 +133,38 @@ impl Likelihood {
                 }
             }
         }
+        let per_exp = spectra
+            .iter()
+            .map(|e| {
+                let m = model.specialise(&e.covariates).map_err(|m| {
+                    LikelihoodError::Model(
+                        model.name().into(),
+                        format!("experiment `{}`: {m}", e.name),
+                    )
+                })?;
+                Ok(m.unwrap_or_else(|| model.clone()))
+            })
+            .collect::<Result<Vec<_>, LikelihoodError>>()?;
+        let specialised = per_exp.iter().any(|m| !Arc::ptr_eq(m, &model));
         let blocks: Vec<_> = spectra.iter().map(|e| e.block()).collect();
-        let joint = model.prepare_joint_kernel(&blocks);
+        // a joint kernel shares one θ's work between experiments: only for one model
+        let joint = if specialised {
+            None
+        } else {
+            model.prepare_joint_kernel(&blocks)
+        };
         let kernels = match joint {
             Some(_) => vec![None; spectra.len()],
-            None => blocks.iter().map(|b| model.prepare_kernel(b)).collect(),
+            None => blocks
+                .iter()
+                .zip(&per_exp)
+                .map(|(b, m)| m.prepare_kernel(b))
+                .collect(),
         };
         Ok(Self {
             model,
             spectra,
+            per_exp,
             kernels,
             joint,
             prior,
@@ -242,7 +268,8 @@ impl Likelihood {
                 let exps = data
                     .iter()
                     .zip(&self.spectra)
-                    .map(|(d, sp)| LogPgExperiment::new(d, sp, self.model.as_ref(), lp))
+                    .zip(&self.per_exp)
+                    .map(|((d, sp), m)| LogPgExperiment::new(d, sp, m.as_ref(), lp))
                     .collect::<Result<Vec<_>, _>>()
                     .map_err(|m| LikelihoodError::Statistic(name, m))?;
                 StatState::LogPeriodogram(exps)
@@ -294,6 +321,22 @@ impl Likelihood {
         &self.model
     }
 
+    /// The model as it applies to experiment `e` (index into [`Likelihood::spectra`]): the
+    /// model itself unless it depends on the experiment's stretch or covariates
+    /// ([`Model::specialise`]). Everything evaluated per experiment goes through it.
+    pub fn model_of(&self, e: usize) -> &Arc<dyn Model> {
+        &self.per_exp[e]
+    }
+
+    /// [`Likelihood::model_of`] for a spectrum of this likelihood (the model itself for any
+    /// other).
+    pub fn model_for(&self, e: &ExperimentSpectra) -> &Arc<dyn Model> {
+        self.spectra
+            .iter()
+            .position(|x| std::ptr::eq(x, e))
+            .map_or(&self.model, |i| &self.per_exp[i])
+    }
+
     /// The prepared spectra.
     pub fn spectra(&self) -> &[ExperimentSpectra] {
         &self.spectra
@@ -325,9 +368,10 @@ impl Likelihood {
         self.spectra
             .iter()
             .zip(&self.kernels)
-            .map(|(e, k)| match k {
+            .zip(&self.per_exp)
+            .map(|((e, k), m)| match k {
                 Some(k) => k.residual_power(th),
-                None => self.model.residual_power(th, &e.block()),
+                None => m.residual_power(th, &e.block()),
             })
             .sum()
     }
@@ -337,7 +381,8 @@ impl Likelihood {
     pub fn residual_power_unprepared(&self, th: &[f64]) -> f64 {
         self.spectra
             .iter()
-            .map(|e| self.model.residual_power(th, &e.block()))
+            .zip(&self.per_exp)
+            .map(|(e, m)| m.residual_power(th, &e.block()))
             .sum()
     }
 
@@ -357,7 +402,8 @@ impl Likelihood {
             }
             StatState::LogPeriodogram(x) => x
                 .iter()
-                .map(|e| e.eval(self.model.as_ref(), th, None))
+                .zip(&self.per_exp)
+                .map(|(e, m)| e.eval(m.as_ref(), th, None))
                 .sum(),
         }
     }
@@ -381,15 +427,20 @@ impl Likelihood {
         bins: &[Option<Vec<f64>>],
         shape: impl Fn(f64, f64) -> f64,
     ) -> f64 {
-        let m = self.model.as_ref();
-        let nc = m.data_channels().len();
-        let nr = m.residual_channels().len();
-        let ncst = m.n_consts();
+        let nc = self.model.data_channels().len();
+        let nr = self.model.residual_channels().len();
+        let ncst = self.model.n_consts();
         let mut r = [Complex64::new(0.0, 0.0); MAX_RESIDUALS];
         let r = &mut r[..nr];
         with_buffer(nr * nc, |coef| {
             let mut s = 0.0;
-            for ((e, &v), b) in self.spectra.iter().zip(per_exp).zip(bins) {
+            for (((e, &v), b), m) in self
+                .spectra
+                .iter()
+                .zip(per_exp)
+                .zip(bins)
+                .zip(&self.per_exp)
+            {
                 for k in 0..e.len() {
                     m.coefficients(th, &e.bin(k, ncst), coef);
                     residual_into(coef, e.data_at(k), r);
@@ -410,7 +461,7 @@ impl Likelihood {
         th: &[f64],
         mut visit: impl FnMut(usize, &[Complex64], &[Complex64]),
     ) {
-        let m = &self.model;
+        let m = self.model_for(e);
         let nc = m.data_channels().len();
         let nr = m.residual_channels().len();
         let ncst = m.n_consts();

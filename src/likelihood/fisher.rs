@@ -91,16 +91,16 @@ pub fn gradient_and_fisher(
     th: &[f64],
     free: &[usize],
 ) -> (Vec<f64>, DMatrix<f64>) {
-    let m = lik.model().as_ref();
-    let nr = m.residual_channels().len();
+    let nr = lik.model().residual_channels().len();
     let d = free.len();
     let mut g = vec![0.0; d];
     let mut f = DMatrix::<f64>::zeros(d, d);
     let mut dr = vec![[ZERO; MAX_RESIDUALS]; d];
     let mut buf = vec![Dual64::from(0.0); th.len()];
     let z = Complex::new(Dual64::from(0.0), Dual64::from(0.0));
-    let mut coef = vec![z; nr * m.data_channels().len()];
-    for e in lik.spectra() {
+    let mut coef = vec![z; nr * lik.model().data_channels().len()];
+    for (ei, e) in lik.spectra().iter().enumerate() {
+        let m = lik.model_of(ei).as_ref();
         for k in 0..e.len() {
             let mut r = [ZERO; MAX_RESIDUALS];
             for (i, &a) in free.iter().enumerate() {
@@ -152,17 +152,17 @@ pub fn fisher_numeric(
     free: &[usize],
     steps: Option<&[f64]>,
 ) -> DMatrix<f64> {
-    let m = lik.model();
-    let names = m.param_names();
-    let nc = m.data_channels().len();
-    let nr = m.residual_channels().len();
+    let names = lik.model().param_names();
+    let nc = lik.model().data_channels().len();
+    let nr = lik.model().residual_channels().len();
     let d = free.len();
     let mut f = DMatrix::<f64>::zeros(d, d);
     let mut dr = vec![[ZERO; MAX_RESIDUALS]; d];
     let (mut rp, mut rm) = ([ZERO; MAX_RESIDUALS], [ZERO; MAX_RESIDUALS]);
     let mut cp = vec![ZERO; nr * nc];
     let mut cm = vec![ZERO; nr * nc];
-    for e in lik.spectra() {
+    for (ei, e) in lik.spectra().iter().enumerate() {
+        let m = lik.model_of(ei);
         for k in 0..e.len() {
             let bin = e.bin(k, m.n_consts());
             for (i, &a) in free.iter().enumerate() {

@@ -146,6 +146,8 @@ const MAX_COMPS: usize = MAX_CHANNELS * MAX_RESIDUALS;
 /// One experiment's summary data.
 #[derive(Debug, Clone)]
 struct Summary {
+    /// The model as it applies to this experiment ([`Likelihood::model_of`]).
+    model: Arc<dyn Model>,
     /// Frequencies of the coarse-bin edges.
     edge_f: Vec<f64>,
     /// The model's constants at the edges, `edges × n_consts`.
@@ -328,8 +330,8 @@ impl RelBinLikelihood {
         let mut base = exact.ln_norm();
         let mut exps = Vec::new();
         let mut n_coarse = 0;
-        for e in exact.spectra() {
-            let (s, r0) = summarise(model.as_ref(), e, fid, tests, tolerance)?;
+        for (ei, e) in exact.spectra().iter().enumerate() {
+            let (s, r0) = summarise(exact.model_of(ei), e, fid, tests, tolerance)?;
             base -= r0;
             n_coarse += s.edge_f.len() - 1;
             exps.push(s);
@@ -343,7 +345,7 @@ impl RelBinLikelihood {
                 .step_by(chunk)
                 .map_while(|e0| {
                     let e1 = (e0 + chunk).min(ne);
-                    model.prepare_batch(
+                    s.model.prepare_batch(
                         &s.edge_f[e0..e1],
                         s.fs,
                         &s.edge_consts[e0 * ncst..e1 * ncst],
@@ -473,7 +475,7 @@ impl RelBinLikelihood {
         dre: &mut [[f64; EC1]; NB],
         dim: &mut [[f64; EC1]; NB],
     ) -> (f64, f64) {
-        let m = self.model.as_ref();
+        let m = s.model.as_ref();
         let ncst = m.n_consts();
         let ne = s.edge_f.len();
         let (mut lin, mut quad) = (0.0, 0.0);
@@ -523,13 +525,13 @@ impl RelBinLikelihood {
         if th.len() != self.fiducial.len() {
             return f64::NAN;
         }
-        let m = self.model.as_ref();
-        let ncst = m.n_consts();
-        let ncoef = m.data_channels().len() * m.residual_channels().len();
+        let ncst = self.model.n_consts();
+        let ncoef = self.model.data_channels().len() * self.model.residual_channels().len();
         let mut coef = [ZERO; MAX_COMPS];
         let mut lin = 0.0;
         let mut quad = 0.0;
         for s in &self.exps {
+            let m = s.model.as_ref();
             let nc = s.comps.len();
             // δ at the previous edge, per component
             let mut prev = [ZERO; MAX_COMPS];
@@ -887,12 +889,13 @@ fn inverse_at(
 
 /// Summary data of one experiment; returns it and `Σ r0ᴴ C⁻¹ r0`.
 fn summarise(
-    m: &dyn Model,
+    model: &Arc<dyn Model>,
     e: &ExperimentSpectra,
     fid: &[f64],
     tests: &[Vec<f64>],
     tolerance: f64,
 ) -> Result<(Summary, f64), RelBinError> {
+    let m = model.as_ref();
     let nk = e.len();
     if nk < 2 {
         return Err(RelBinError::Invalid(format!(
@@ -1084,6 +1087,7 @@ fn summarise(
     }
     Ok((
         Summary {
+            model: model.clone(),
             edge_f,
             edge_consts,
             comps,

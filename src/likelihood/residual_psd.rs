@@ -95,26 +95,27 @@ pub fn residual_psds(
     data: &[ExperimentData],
     theta: &[f64],
 ) -> Result<Vec<ResidualPsd>, String> {
-    let model = lik.model();
     let opts = LogPeriodogramOptions {
         averages: 8,
         window: Window::Bh92,
         decimate: Some(1),
         whiten: true,
     };
-    let keep: Vec<bool> = model
+    let keep: Vec<bool> = lik
+        .model()
         .data_channels()
         .iter()
         .map(|c| READOUT_CHANNELS.contains(&c.as_str()))
         .collect();
-    let readout_model: Option<Arc<dyn Model>> = keep.iter().any(|&k| k).then(|| {
-        Arc::new(ReadoutOnly {
-            inner: model.clone(),
-            keep,
-        }) as Arc<dyn Model>
-    });
     let mut out = Vec::new();
-    for sp in lik.spectra() {
+    for (i, sp) in lik.spectra().iter().enumerate() {
+        let model = lik.model_of(i);
+        let readout_model: Option<Arc<dyn Model>> = keep.iter().any(|&k| k).then(|| {
+            Arc::new(ReadoutOnly {
+                inner: model.clone(),
+                keep: keep.clone(),
+            }) as Arc<dyn Model>
+        });
         let e = data
             .iter()
             .find(|d| d.name == sp.name)

@@ -155,6 +155,10 @@ pub struct ExperimentSpectra {
     /// they differ between bins (`welch_resolution = "per_band"`: each bin's segment length
     /// has its own number of averages; `noise_dof` is then the lowest); `None` otherwise.
     pub noise_dof_per_bin: Option<Vec<f64>>,
+    /// The experiment's stretch and covariates, which a model whose parameters change between
+    /// stretches reads ([`crate::model::Model::specialise`]); empty unless the caller sets
+    /// them (the study's `[[stretch]]` of the experiment).
+    pub covariates: crate::model::Covariates,
 }
 
 impl ExperimentSpectra {
@@ -358,6 +362,7 @@ impl ExperimentSpectra {
             is_input,
             noise_dof,
             noise_dof_per_bin,
+            covariates: Default::default(),
         })
     }
 

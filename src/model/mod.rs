@@ -24,8 +24,11 @@
 pub mod accel;
 mod bin;
 mod checks;
+mod covariates;
+pub mod drift;
 pub mod ltp;
 mod ltp_kernel;
+pub mod reparam;
 pub mod state_space;
 pub mod tied;
 mod traits;
@@ -37,7 +40,10 @@ pub use bin::{
     residual_into, tri_len, with_buffer,
 };
 pub use checks::{check_identifiable, coefficients_at, validate_shape};
+pub use covariates::Covariates;
+pub use drift::{DriftModel, DriftRule};
 pub use ltp::{LoopResponse, LtpModel, LtpModelOptions, ThrusterResponse};
+pub use reparam::{Reparam, ReparamModel};
 pub use tied::TiedModel;
 pub use traits::{
     BatchKernel, BlockKernel, Model, coefficients_batch_generic, residual_power_generic,

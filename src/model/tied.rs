@@ -15,26 +15,15 @@
 //! its prior is taken by name like any model's. Its evidence is that of the parent restricted
 //! to the subspace `a2 = a1`, with the prior of `a1` alone.
 
-use super::bin::{Bin, BinBlock};
-use super::traits::{BatchKernel, BlockKernel, Model};
-use num_complex::{Complex, Complex64};
-use num_dual::Dual64;
+use super::reparam::{MAX_PARENT_PARAMS, Reparam, ReparamModel};
+use super::traits::Model;
 use std::sync::Arc;
 
-/// Most parameters of a parent model (the expanded θ is built on the stack).
-pub const MAX_TIED_PARENT: usize = 32;
+/// A model with tied parameters (see the module docs): a [`ReparamModel`] whose map copies
+/// each tied parameter from its source.
+pub type TiedModel = ReparamModel;
 
-/// A model with tied parameters (see the module docs).
-#[derive(Debug, Clone)]
-pub struct TiedModel {
-    name: String,
-    parent: Arc<dyn Model>,
-    names: Vec<String>,
-    /// For each parent parameter, the index in this model's θ it takes its value from.
-    source: Vec<usize>,
-}
-
-impl TiedModel {
+impl ReparamModel {
     /// Ties `parent`'s parameters by `ties` (tied name, source name). A source must not itself
     /// be tied, a parameter may be tied once, and names must be the parent's.
     pub fn new(
@@ -43,9 +32,9 @@ impl TiedModel {
         ties: &[(String, String)],
     ) -> Result<Self, String> {
         let pn = parent.param_names();
-        if pn.len() > MAX_TIED_PARENT {
+        if pn.len() > MAX_PARENT_PARAMS {
             return Err(format!(
-                "model `{}` has {} parameters; tying supports at most {MAX_TIED_PARENT}",
+                "model `{}` has {} parameters; tying supports at most {MAX_PARENT_PARAMS}",
                 parent.name(),
                 pn.len()
             ));
@@ -82,191 +71,27 @@ impl TiedModel {
         let kept: Vec<usize> = (0..pn.len()).filter(|&i| tied_to[i].is_none()).collect();
         let pos = |i: usize| kept.iter().position(|&k| k == i).expect("kept");
         let source = (0..pn.len())
-            .map(|i| pos(tied_to[i].unwrap_or(i)))
+            .map(|i| (pos(tied_to[i].unwrap_or(i)), None))
             .collect();
-        Ok(Self {
-            name: name.into(),
-            names: kept.iter().map(|&i| pn[i].clone()).collect(),
-            parent,
-            source,
-        })
-    }
-
-    /// The parent model.
-    pub fn parent(&self) -> &Arc<dyn Model> {
-        &self.parent
-    }
-
-    /// The parent's θ for this model's θ.
-    pub fn expand(&self, theta: &[f64]) -> Vec<f64> {
-        self.source.iter().map(|&s| theta[s]).collect()
-    }
-
-    #[inline]
-    fn expand_into<T: Copy>(&self, theta: &[T], buf: &mut [T]) {
-        for (b, &s) in buf.iter_mut().zip(&self.source) {
-            *b = theta[s];
-        }
-    }
-}
-
-/// A parent's prepared kernel evaluated at the expanded θ.
-#[derive(Debug)]
-struct TiedKernel {
-    inner: Arc<dyn BlockKernel>,
-    source: Vec<usize>,
-}
-
-impl BlockKernel for TiedKernel {
-    fn residual_power(&self, theta: &[f64]) -> f64 {
-        let mut buf = [0.0; MAX_TIED_PARENT];
-        let n = self.source.len();
-        for (b, &s) in buf[..n].iter_mut().zip(&self.source) {
-            *b = theta[s];
-        }
-        self.inner.residual_power(&buf[..n])
-    }
-}
-
-/// The parent's prepared batch, read at the parent's θ.
-#[derive(Debug)]
-struct TiedBatch {
-    inner: Arc<dyn BatchKernel>,
-    source: Vec<usize>,
-}
-
-impl BatchKernel for TiedBatch {
-    fn coefficients(&self, theta: &[f64], out: &mut [Complex64]) {
-        let mut buf = [0.0; MAX_TIED_PARENT];
-        let n = self.source.len();
-        for (b, &s) in buf[..n].iter_mut().zip(&self.source) {
-            *b = theta[s];
-        }
-        self.inner.coefficients(&buf[..n], out)
-    }
-}
-
-impl Model for TiedModel {
-    fn name(&self) -> &str {
-        &self.name
-    }
-
-    fn param_names(&self) -> &[String] {
-        &self.names
-    }
-
-    /// The parent's unit of each kept parameter.
-    fn param_units(&self) -> Vec<String> {
-        let (pn, pu) = (self.parent.param_names(), self.parent.param_units());
-        self.names
+        let units = parent.param_units();
+        let names = kept.iter().map(|&i| pn[i].clone()).collect();
+        let units = kept
             .iter()
-            .map(|n| {
-                pn.iter()
-                    .position(|p| p == n)
-                    .and_then(|i| pu.get(i).cloned())
-                    .unwrap_or_default()
-            })
-            .collect()
-    }
-
-    fn data_channels(&self) -> &[String] {
-        self.parent.data_channels()
-    }
-
-    fn residual_channels(&self) -> &[String] {
-        self.parent.residual_channels()
-    }
-
-    fn n_consts(&self) -> usize {
-        self.parent.n_consts()
-    }
-
-    fn bin_consts(&self, f: f64, fs: f64, out: &mut [Complex64]) {
-        self.parent.bin_consts(f, fs, out)
-    }
-
-    fn coefficients(&self, theta: &[f64], bin: &Bin, out: &mut [Complex64]) {
-        let mut buf = [0.0; MAX_TIED_PARENT];
-        let n = self.source.len();
-        self.expand_into(theta, &mut buf[..n]);
-        self.parent.coefficients(&buf[..n], bin, out)
-    }
-
-    fn coefficients_dual(&self, theta: &[Dual64], bin: &Bin, out: &mut [Complex<Dual64>]) {
-        // a tied parameter carries its source's derivative: the chain rule of θ_parent(θ)
-        let mut buf = [Dual64::from(0.0); MAX_TIED_PARENT];
-        let n = self.source.len();
-        self.expand_into(theta, &mut buf[..n]);
-        self.parent.coefficients_dual(&buf[..n], bin, out)
-    }
-
-    fn coefficients_batch(
-        &self,
-        theta: &[f64],
-        freqs: &[f64],
-        fs: f64,
-        consts: &[Complex64],
-        comps: &[usize],
-        out: &mut [Complex64],
-    ) {
-        let mut buf = [0.0; MAX_TIED_PARENT];
-        let n = self.source.len();
-        self.expand_into(theta, &mut buf[..n]);
-        self.parent
-            .coefficients_batch(&buf[..n], freqs, fs, consts, comps, out)
-    }
-
-    fn prepare_batch(
-        &self,
-        freqs: &[f64],
-        fs: f64,
-        consts: &[Complex64],
-        comps: &[usize],
-    ) -> Option<Arc<dyn BatchKernel>> {
-        let inner = self.parent.prepare_batch(freqs, fs, consts, comps)?;
-        Some(Arc::new(TiedBatch {
-            inner,
-            source: self.source.clone(),
-        }))
-    }
-
-    fn check(&self, theta: &[f64]) -> Result<(), String> {
-        self.parent.check(&self.expand(theta))
-    }
-
-    fn data_noise_csd(&self, theta: &[f64], bin: &Bin, out: &mut [Complex64]) -> bool {
-        self.parent.data_noise_csd(&self.expand(theta), bin, out)
-    }
-
-    fn residual_power(&self, theta: &[f64], block: &BinBlock) -> f64 {
-        let mut buf = [0.0; MAX_TIED_PARENT];
-        let n = self.source.len();
-        self.expand_into(theta, &mut buf[..n]);
-        self.parent.residual_power(&buf[..n], block)
-    }
-
-    fn prepare_kernel(&self, block: &BinBlock) -> Option<Arc<dyn BlockKernel>> {
-        let inner = self.parent.prepare_kernel(block)?;
-        Some(Arc::new(TiedKernel {
-            inner,
-            source: self.source.clone(),
-        }))
-    }
-
-    fn prepare_joint_kernel(&self, blocks: &[BinBlock]) -> Option<Arc<dyn BlockKernel>> {
-        let inner = self.parent.prepare_joint_kernel(blocks)?;
-        Some(Arc::new(TiedKernel {
-            inner,
-            source: self.source.clone(),
-        }))
+            .map(|&i| units.get(i).cloned().unwrap_or_default())
+            .collect();
+        let map = Reparam::new(source);
+        ReparamModel::affine(name, parent, names, units, map)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::model::Bin;
     use crate::model::accel::{AccelModel, AccelOptions};
     use crate::model::coefficients_at;
+    use num_complex::{Complex, Complex64};
+    use num_dual::Dual64;
 
     fn parent() -> Arc<dyn Model> {
         Arc::new(AccelModel::new(

@@ -5,6 +5,7 @@
 use super::bin::{
     Bin, BinBlock, MAX_RESIDUALS, quad_whitened, residual_into, tri_len, with_buffer,
 };
+use super::covariates::Covariates;
 use num_complex::{Complex, Complex64};
 use num_dual::Dual64;
 
@@ -126,6 +127,16 @@ pub trait Model: Send + Sync + std::fmt::Debug {
     /// start of a model's MAP search (its fixed values and start values) fails it.
     fn check(&self, _theta: &[f64]) -> Result<(), String> {
         Ok(())
+    }
+
+    /// The model as it applies to one experiment, with the same parameters, for a model whose
+    /// coefficients depend on the experiment's stretch or covariates (a parameter that drifts
+    /// between stretches, [`crate::model::drift`]). `Ok(None)` (the default): the same model for
+    /// every experiment. The likelihood specialises the model to every experiment it is built
+    /// on; an error says why an experiment cannot be analysed (it has no stretch, or lacks a
+    /// covariate).
+    fn specialise(&self, _cov: &Covariates) -> Result<Option<std::sync::Arc<dyn Model>>, String> {
+        Ok(None)
     }
 
     /// `Σ_k r_kᴴ C_k⁻¹ r_k` over a block of bins: the hot path of the exact likelihood.
