@@ -20,7 +20,6 @@
 //! shared, free per stretch or drifting (`kind = "drift"`, [`crate::model::drift`]).
 
 use super::error::ConfigError;
-use super::study::ExperimentEntry;
 use crate::ltp::{LtpParams, PARAM_NAMES};
 use crate::model::Covariates;
 use serde::{Deserialize, Serialize};
@@ -97,15 +96,27 @@ fn covariates_of_entry(s: &StretchEntry) -> Covariates {
     }
 }
 
+/// What the stretches need of an `[[experiment]]` table.
+pub trait InStretch: Clone {
+    /// The experiment's name.
+    fn name(&self) -> &str;
+    /// The stretch it names, if any.
+    fn stretch(&self) -> Option<&str>;
+    /// Whether it reads its data from a file (it cannot be repeated per stretch).
+    fn reads_file(&self) -> bool;
+    /// The same experiment repeated in stretch `stretch`, as `<name>_<stretch>`.
+    fn repeated_in(&self, stretch: &str) -> Self;
+}
+
 /// Validates the `[[stretch]]` tables against the experiments and returns the experiments
 /// with stretches applied (every simulated experiment repeated per stretch when none names
 /// one) and the stretches. `truth_names` are the names a stretch's `truth` may set.
-pub fn resolve(
+pub fn resolve<E: InStretch>(
     entries: &[StretchEntry],
-    experiments: &[ExperimentEntry],
+    experiments: &[E],
     truth_names: &[String],
     file: &str,
-) -> Result<(Vec<ExperimentEntry>, Stretches), ConfigError> {
+) -> Result<(Vec<E>, Stretches), ConfigError> {
     let bad = |field: String, msg: String| ConfigError::Invalid {
         file: file.into(),
         field,
@@ -115,14 +126,13 @@ pub fn resolve(
         if let Some((k, e)) = experiments
             .iter()
             .enumerate()
-            .find(|(_, e)| e.stretch.is_some())
+            .find(|(_, e)| e.stretch().is_some())
         {
+            let s = e.stretch().unwrap_or("");
             return Err(bad(
                 format!("experiment[{k}].stretch"),
                 format!(
-                    "names stretch `{}`, and the study has no [[stretch]] table: add one with `name = \"{}\"` and its `time`",
-                    e.stretch.as_deref().unwrap_or(""),
-                    e.stretch.as_deref().unwrap_or("")
+                    "names stretch `{s}`, and the study has no [[stretch]] table: add one with `name = \"{s}\"` and its `time`"
                 ),
             ));
         }
@@ -174,22 +184,22 @@ pub fn resolve(
             }
         }
     }
-    let named = experiments.iter().any(|e| e.stretch.is_some());
+    let named = experiments.iter().any(|e| e.stretch().is_some());
     let mut out = Vec::new();
     let mut of_experiment = Vec::new();
     if named {
         for (k, e) in experiments.iter().enumerate() {
-            let s = e.stretch.as_ref().ok_or_else(|| {
+            let s = e.stretch().ok_or_else(|| {
                 bad(
                     format!("experiment[{k}].stretch"),
                     format!(
                         "experiment `{}` names no stretch while others do: give it `stretch = …` (one of {:?})",
-                        e.name,
+                        e.name(),
                         entries.iter().map(|s| &s.name).collect::<Vec<_>>()
                     ),
                 )
             })?;
-            if !entries.iter().any(|x| &x.name == s) {
+            if !entries.iter().any(|x| x.name == s) {
                 return Err(bad(
                     format!("experiment[{k}].stretch"),
                     format!(
@@ -198,15 +208,11 @@ pub fn resolve(
                     ),
                 ));
             }
-            of_experiment.push((e.name.clone(), s.clone()));
+            of_experiment.push((e.name().to_string(), s.to_string()));
             out.push(e.clone());
         }
     } else {
-        if let Some((k, _)) = experiments
-            .iter()
-            .enumerate()
-            .find(|(_, e)| e.data.is_some())
-        {
+        if let Some((k, _)) = experiments.iter().enumerate().find(|(_, e)| e.reads_file()) {
             return Err(bad(
                 format!("experiment[{k}].stretch"),
                 "the experiment reads its data from a file: say which stretch it was taken in with `stretch = …` (only simulated experiments are repeated in every stretch)".into(),
@@ -214,10 +220,8 @@ pub fn resolve(
         }
         for s in entries {
             for e in experiments {
-                let mut e = e.clone();
-                e.name = format!("{}_{}", e.name, s.name);
-                e.stretch = Some(s.name.clone());
-                of_experiment.push((e.name.clone(), s.name.clone()));
+                let e = e.repeated_in(&s.name);
+                of_experiment.push((e.name().to_string(), s.name.clone()));
                 out.push(e);
             }
         }
@@ -245,6 +249,7 @@ pub fn resolve(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::config::ExperimentEntry;
 
     fn stretch(name: &str, time: f64) -> StretchEntry {
         StretchEntry {

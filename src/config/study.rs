@@ -261,6 +261,28 @@ pub struct ExperimentEntry {
     pub stretch: Option<String>,
 }
 
+impl super::stretches::InStretch for ExperimentEntry {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn stretch(&self) -> Option<&str> {
+        self.stretch.as_deref()
+    }
+
+    fn reads_file(&self) -> bool {
+        self.data.is_some()
+    }
+
+    fn repeated_in(&self, stretch: &str) -> Self {
+        Self {
+            name: format!("{}_{stretch}", self.name),
+            stretch: Some(stretch.into()),
+            ..self.clone()
+        }
+    }
+}
+
 /// Which likelihood the samplers use.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
 #[serde(rename_all = "snake_case")]
