@@ -35,6 +35,11 @@ kind = "drift"
 name = "drifting"
 of = "ltp"
 linear = {{ w1sq = "time" }}
+[[model]]
+kind = "drift"
+name = "per_stretch"
+of = "ltp"
+per_stretch = ["w1sq"]
 [prior]
 dw1sq_dtime = {{ kind = "uniform", lo = -1e-13, hi = 1e-13 }}
 [fit]
@@ -89,6 +94,33 @@ fn drift_likelihood_is_the_sum_over_stretches_at_their_parameters() {
         (total - sum).abs() < 1e-9 * sum.abs(),
         "drift {total} vs Σ stretches {sum}"
     );
+    // one ω1² per stretch: each at the stretch's truth
+    let ps = s.models.index("per_stretch").unwrap();
+    let per = likelihood_of(&s, ps, &data).unwrap();
+    let tp = reference_point(&s, ps);
+    assert_eq!(
+        &s.models.models[ps].param_names()[..3],
+        ["w1sq_a", "w1sq_b", "w1sq_c"]
+    );
+    for (k, v) in tp[..3].iter().enumerate() {
+        assert!((v - (-1.3e-6 + (k as f64 - 1.0) * 3e-9)).abs() < 1e-20, "{tp:?}");
+    }
+    let mut sum = 0.0;
+    for (k, e) in data.experiments.iter().enumerate() {
+        let one = occam::data::dataset::Dataset {
+            experiments: vec![e.clone()],
+            ..data.clone()
+        };
+        let mut p = occam::ltp::LtpParams::default().to_array().to_vec();
+        p[0] = tp[k] + 1e-9;
+        sum += likelihood_of(&s, li, &one).unwrap().ln_likelihood_whittle(&p);
+    }
+    let mut at = tp.clone();
+    for v in &mut at[..3] {
+        *v += 1e-9;
+    }
+    let total = per.ln_likelihood_whittle(&at);
+    assert!((total - sum).abs() < 1e-9 * sum.abs(), "{total} vs {sum}");
     let rb = occam::jobs::prepare::relbin_of(&s, &drift, &th).unwrap();
     let near = {
         let mut v = th.clone();
