@@ -403,6 +403,15 @@ fn check_simulation(sim: &SimulationOptions, file: &str) -> Result<(), ConfigErr
     if let Some(g) = &sim.gaps {
         g.check().map_err(|m| bad("simulation.gaps", m))?;
     }
+    if let Some(g) = &sim.glitches {
+        g.check().map_err(|m| bad("simulation.glitches", m))?;
+        if sim.model.is_some() {
+            return Err(bad(
+                "simulation.glitches",
+                "glitches are simulated in the built-in LTP loop only (a force on a test mass); with `[simulation] model` remove [simulation.glitches], or put the glitch into the model's injections".into(),
+            ));
+        }
+    }
     if !(1..=1000).contains(&sim.oversample) {
         return Err(bad(
             "simulation.oversample",

@@ -50,6 +50,10 @@ pub struct SimulationOptions {
     /// `[simulation.gaps]`: random gaps in every stretch of every simulated experiment.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub gaps: Option<crate::experiment::RandomGaps>,
+    /// `[simulation.glitches]`: random force glitches in every simulated experiment (not
+    /// written into any channel; recorded in the dataset's metadata).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub glitches: Option<crate::experiment::RandomGlitches>,
 }
 
 /// One test mass's actuator as written in `[simulation.actuators]`:
@@ -172,6 +176,7 @@ impl Default for SimulationOptions {
             model: None,
             truth: Default::default(),
             gaps: None,
+            glitches: None,
         }
     }
 }
@@ -600,6 +605,7 @@ impl Study {
             oversample: o.oversample,
             generator: self.generator(),
             gaps: o.gaps,
+            glitches: o.glitches,
         }
     }
 }

@@ -4,6 +4,7 @@
 mod design;
 mod gaps;
 mod generator;
+mod glitches;
 mod model_sim;
 pub mod options;
 mod run;
@@ -13,6 +14,7 @@ mod waveform;
 
 pub use design::{ExperimentDesign, FORCE_CHANNELS, ladder_freqs};
 pub use gaps::RandomGaps;
+pub use glitches::{Glitch, GlitchTarget, MAX_GLITCHES, RandomGlitches};
 pub use generator::{Channels, Generator};
 pub use run::{simulate, simulate_observed};
 pub use simulate::{
