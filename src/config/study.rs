@@ -261,6 +261,10 @@ pub struct ExperimentEntry {
     /// Missing data of the noise-only stretch, likewise.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub noise_gaps: Vec<[f64; 2]>,
+    /// Glitches to gate, `[[t0, t1], …]` in seconds from the fit stretch's first sample
+    /// (gated whatever `[analysis] glitches` says).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub glitches: Vec<[f64; 2]>,
 }
 
 /// Which likelihood the samplers use.
@@ -315,6 +319,19 @@ pub struct AnalysisOptions {
     /// (default [`crate::likelihood::DEFAULT_GAP_TAPER`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub gap_taper: Option<f64>,
+    /// `none` (default) or `gate`: find glitches on the whitened residual at the reference
+    /// point and gate them ([`crate::likelihood::glitch_gate`]). Listed `[[experiment]]
+    /// glitches` are gated either way.
+    #[serde(skip_serializing_if = "crate::likelihood::GlitchTreatment::is_none")]
+    pub glitches: crate::likelihood::GlitchTreatment,
+    /// Detection threshold (σ of the whitened residual; default
+    /// [`crate::likelihood::DEFAULT_GLITCH_THRESHOLD`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub glitch_threshold: Option<f64>,
+    /// Seconds gated on each side of a detected glitch (default
+    /// [`crate::likelihood::DEFAULT_GLITCH_PAD`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub glitch_pad: Option<f64>,
 }
 
 impl Default for AnalysisOptions {
@@ -335,6 +352,9 @@ impl Default for AnalysisOptions {
             statistic: Default::default(),
             log_periodogram: Default::default(),
             gap_taper: None,
+            glitches: Default::default(),
+            glitch_threshold: None,
+            glitch_pad: None,
         }
     }
 }
@@ -537,6 +557,10 @@ pub struct Study {
     pub data_sources: Vec<(String, crate::data::DataSource)>,
     /// Every experiment name in the order of the study file.
     pub experiment_names: Vec<String>,
+    /// Listed glitches to gate (`[[experiment]] glitches`, seconds), by experiment name; only
+    /// experiments with some.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub glitch_lists: Vec<(String, Vec<[f64; 2]>)>,
     /// The directory of the study file (relative data paths start there).
     pub base_dir: PathBuf,
     pub analysis: AnalysisOptions,

@@ -9,6 +9,7 @@
 
 mod exact;
 mod fisher;
+pub mod glitch_gate;
 mod map;
 mod noise_matrix;
 mod relbin;
@@ -27,6 +28,9 @@ pub use map::{
     refine_statistic_max,
 };
 pub use relbin::{MAX_REFINEMENTS, RelBinError, RelBinLikelihood, RelBinOptions, RelBinValidation};
+pub use glitch_gate::{
+    DEFAULT_GLITCH_PAD, DEFAULT_GLITCH_THRESHOLD, GlitchGate, GlitchTreatment, detect_glitches,
+};
 pub use segments::GapSummary;
 pub use spectra::{
     DEFAULT_GAP_TAPER, ExperimentSpectra, NoiseSource, SpectraError, SpectraOptions,
