@@ -115,6 +115,26 @@ pub fn detect(y: &[f64], ignore: &[[usize; 2]], settings: &GateSettings) -> Vec<
     merge(regions)
 }
 
+/// The moving mean of `y` over a centred window of `w` samples (shorter at the ends): the
+/// matched filter of a slow glitch, whose whitened form keeps one sign for about its decay
+/// time while the noise averages down.
+pub fn moving_mean(y: &[f64], w: usize) -> Vec<f64> {
+    let n = y.len();
+    let w = w.max(1);
+    let mut cum = Vec::with_capacity(n + 1);
+    cum.push(0.0);
+    for v in y {
+        cum.push(cum.last().unwrap() + v);
+    }
+    let h = w / 2;
+    (0..n)
+        .map(|k| {
+            let (a, b) = (k.saturating_sub(h), (k + w - h).min(n));
+            (cum[b] - cum[a]) / (b - a) as f64
+        })
+        .collect()
+}
+
 /// The moving RMS of `y` over a centred window of `w` samples (shorter at the ends).
 fn envelope(y: &[f64], w: usize) -> Vec<f64> {
     let n = y.len();
@@ -130,6 +150,19 @@ fn envelope(y: &[f64], w: usize) -> Vec<f64> {
             ((cum[b] - cum[a]) / (b - a) as f64).max(0.0).sqrt()
         })
         .collect()
+}
+
+/// The robust standard deviation of `y`, `1.4826 × median |y|` (the MAD of a zero-mean
+/// Gaussian), which a few outliers do not move; `None` for an empty or all-zero series.
+pub fn robust_sd(y: &[f64]) -> Option<f64> {
+    let mut a: Vec<f64> = y.iter().map(|v| v.abs()).collect();
+    if a.is_empty() {
+        return None;
+    }
+    let mid = a.len() / 2;
+    let (_, med, _) = a.select_nth_unstable_by(mid, |p, q| p.total_cmp(q));
+    let sd = 1.482_602_218_505_602 * *med;
+    (sd > 0.0 && sd.is_finite()).then_some(sd)
 }
 
 /// Sorts and merges overlapping or touching ranges.
@@ -207,6 +240,25 @@ mod tests {
         assert!(r[0][1] - r[0][0] < 2 * 600 + 2_000, "{r:?}");
         // an ignored stretch over the glitch hides it
         assert!(detect(&y, &[[t0 - 1000, t0 + 2000]], &settings()).is_empty());
+    }
+
+    #[test]
+    fn robust_normalisation_ignores_a_few_outliers() {
+        let x = white(100_000, 1.0, 3);
+        let sd = (x.iter().map(|v| v * v).sum::<f64>() / x.len() as f64).sqrt();
+        let mut y: Vec<f64> = x.iter().map(|v| 1.3 * v / sd).collect();
+        y[10] = 1e6;
+        y[20] = -1e6;
+        let r = robust_sd(&y).unwrap();
+        assert!((r / 1.3 - 1.0).abs() < 0.02, "{r}");
+        assert_eq!(robust_sd(&[0.0; 4]), None);
+    }
+
+    #[test]
+    fn moving_means_average_a_centred_window() {
+        let y = [1.0, 2.0, 3.0, 4.0, 5.0];
+        assert_eq!(moving_mean(&y, 1), y.to_vec());
+        assert_eq!(moving_mean(&y, 3), vec![1.5, 2.0, 3.0, 4.0, 4.5]);
     }
 
     #[test]
