@@ -34,7 +34,12 @@ fn realisation(base: &Study, seed: u64, truth: &[f64]) -> Outcome {
     let prep = prepare(&study).map_err(|e| format!("seed {seed}: prepare: {e}"))?;
     // the injected glitches' start times, per experiment, and whether a gate covers them
     let (mut injected, mut found) = (0.0, 0.0);
-    if let Some(g) = prep.dataset.extra.get("glitches").and_then(|v| v.as_object()) {
+    if let Some(g) = prep
+        .dataset
+        .extra
+        .get("glitches")
+        .and_then(|v| v.as_object())
+    {
         for (name, rec) in g {
             let gate = prep.glitch_gates.iter().find(|x| &x.experiment == name);
             for gl in rec["fit"].as_array().into_iter().flatten() {
@@ -162,7 +167,13 @@ fn main() {
     println!("|---|---|---|---|");
     for (j, &i) in free.iter().enumerate() {
         let f = |c: usize, q: usize| st[c].0[j][q];
-        let flag = |c: usize| if (f(c, 0) - COVER).abs() > band { "!" } else { "" };
+        let flag = |c: usize| {
+            if (f(c, 0) - COVER).abs() > band {
+                "!"
+            } else {
+                ""
+            }
+        };
         println!(
             "| {} | {:.2} / {:.2} / {:.2} | {:.2} / {:.2} / {:.2} | {:.2}{} / {:.2}{} / {:.2}{} |",
             names[i],
@@ -180,7 +191,11 @@ fn main() {
             flag(2),
         );
     }
-    let rec: Vec<[f64; 3]> = cases[1].1.iter().filter_map(|o| o.as_ref().ok().map(|x| x.1)).collect();
+    let rec: Vec<[f64; 3]> = cases[1]
+        .1
+        .iter()
+        .filter_map(|o| o.as_ref().ok().map(|x| x.1))
+        .collect();
     let (inj, found, secs) = rec
         .iter()
         .fold((0.0, 0.0, 0.0), |a, r| (a.0 + r[0], a.1 + r[1], a.2 + r[2]));
@@ -189,7 +204,11 @@ fn main() {
         100.0 * found / inj,
         secs / rec.len().max(1) as f64
     );
-    let fa: Vec<f64> = false_alarm.iter().copied().filter(|x| x.is_finite()).collect();
+    let fa: Vec<f64> = false_alarm
+        .iter()
+        .copied()
+        .filter(|x| x.is_finite())
+        .collect();
     let fa_total: f64 = fa.iter().sum();
     let fa_any = fa.iter().filter(|x| **x > 0.0).count();
     println!(

@@ -143,7 +143,10 @@ fn bad_glitch_settings_name_the_key() {
             "decay",
         ),
         (
-            GLITCHES.replace("glitches = \"gate\"", "glitches = \"gate\"\nglitch_threshold = 1.0"),
+            GLITCHES.replace(
+                "glitches = \"gate\"",
+                "glitches = \"gate\"\nglitch_threshold = 1.0",
+            ),
             "analysis.glitch_threshold",
             "≥ 3",
         ),
@@ -179,4 +182,32 @@ fn bad_glitch_settings_name_the_key() {
     assert_eq!(gates[0].regions, vec![[500.0, 900.0]]);
     assert_eq!(data.experiments[0].gaps, vec![[5000, 9000]]);
     assert!(data.experiments[1].gaps.is_empty());
+}
+
+/// The examples load, and on `examples/gaps-and-glitches.toml` the gate works beside the random
+/// gaps: every injected glitch that does not start in a gap is gated, and the gaps are kept.
+#[test]
+fn the_glitch_examples_gate_beside_gaps() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    Study::load(&root.join("examples/glitches.toml")).unwrap();
+    let s = Study::load(&root.join("examples/gaps-and-glitches.toml")).unwrap();
+    let (mut data, _) = load_data(&s).unwrap();
+    let before: Vec<_> = data.experiments.iter().map(|e| e.gaps.clone()).collect();
+    let gates = gate_glitches(&s, s.fit_model.model, &mut data).unwrap();
+    let record = data.extra["glitches"].as_object().unwrap();
+    for ((g, e), old) in gates.iter().zip(&data.experiments).zip(&before) {
+        for gl in record[&g.experiment]["fit"].as_array().unwrap() {
+            let k = (gl["t0"].as_f64().unwrap() * e.fs) as usize;
+            assert!(
+                e.gaps.iter().any(|s| s[0] <= k && k < s[1]),
+                "{}: glitch at {gl} not gated",
+                g.experiment
+            );
+        }
+        // the old gaps are still gaps
+        for o in old {
+            assert!(e.gaps.iter().any(|s| s[0] <= o[0] && o[1] <= s[1]));
+        }
+        eprintln!("{}", g.describe());
+    }
 }

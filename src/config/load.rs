@@ -555,7 +555,11 @@ fn check_gap_times(
                     at(&format!("{key}[{k}]")),
                     format!(
                         "[{t0}, {t1}]: {} is [t0, t1] in seconds from the stretch's first sample, with 0 ≤ t0 < t1",
-                        if key == "glitches" { "a glitch to gate" } else { "a gap" }
+                        if key == "glitches" {
+                            "a glitch to gate"
+                        } else {
+                            "a gap"
+                        }
                     ),
                 ));
             }
@@ -829,7 +833,10 @@ fn validate_analysis(a: &AnalysisOptions, file: &str) -> Result<(), ConfigError>
     {
         return Err(bad(
             "glitch_threshold",
-            format!("must be ≥ 3 σ of the whitened residual (got {t}; below that pure noise is gated everywhere); the default is {}", crate::likelihood::DEFAULT_GLITCH_THRESHOLD),
+            format!(
+                "must be ≥ 3 σ of the whitened residual (got {t}; below that pure noise is gated everywhere); the default is {}",
+                crate::likelihood::DEFAULT_GLITCH_THRESHOLD
+            ),
         ));
     }
     if let Some(p) = a.glitch_pad

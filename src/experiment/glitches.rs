@@ -112,7 +112,11 @@ impl RandomGlitches {
             }
             Ok(())
         };
-        range("amplitude", self.amplitude, "m s⁻², the peak force per unit mass")?;
+        range(
+            "amplitude",
+            self.amplitude,
+            "m s⁻², the peak force per unit mass",
+        )?;
         if self.amplitude[1] > 1e-6 {
             return Err(format!(
                 "amplitude = [{}, {}]: above 1e−6 m s⁻², far beyond any LPF glitch (1e−13 to 1e−11 m s⁻²); check the unit",
@@ -265,10 +269,34 @@ mod tests {
         let c = cfg();
         let err = |r: RandomGlitches| r.check().unwrap_err();
         assert!(err(RandomGlitches { count: 5000, ..c }).contains("count"));
-        assert!(err(RandomGlitches { amplitude: [1e-11, 1e-13], ..c }).contains("amplitude"));
-        assert!(err(RandomGlitches { amplitude: [0.0, 1e-13], ..c }).contains("amplitude"));
-        assert!(err(RandomGlitches { decay: [300.0, 30.0], ..c }).contains("decay"));
+        assert!(
+            err(RandomGlitches {
+                amplitude: [1e-11, 1e-13],
+                ..c
+            })
+            .contains("amplitude")
+        );
+        assert!(
+            err(RandomGlitches {
+                amplitude: [0.0, 1e-13],
+                ..c
+            })
+            .contains("amplitude")
+        );
+        assert!(
+            err(RandomGlitches {
+                decay: [300.0, 30.0],
+                ..c
+            })
+            .contains("decay")
+        );
         assert!(err(RandomGlitches { rise: 50.0, ..c }).contains("rise"));
-        assert!(err(RandomGlitches { amplitude: [1e-3, 1e-2], ..c }).contains("unit"));
+        assert!(
+            err(RandomGlitches {
+                amplitude: [1e-3, 1e-2],
+                ..c
+            })
+            .contains("unit")
+        );
     }
 }

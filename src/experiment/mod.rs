@@ -14,8 +14,8 @@ mod waveform;
 
 pub use design::{ExperimentDesign, FORCE_CHANNELS, ladder_freqs};
 pub use gaps::RandomGaps;
-pub use glitches::{Glitch, GlitchTarget, MAX_GLITCHES, RandomGlitches};
 pub use generator::{Channels, Generator};
+pub use glitches::{Glitch, GlitchTarget, MAX_GLITCHES, RandomGlitches};
 pub use run::{simulate, simulate_observed};
 pub use simulate::{
     SimError, SimProgress, Simulation, SimulationPlan, System, TELEMETRY_CHANNELS,

@@ -5,8 +5,7 @@ use super::gaps::apply as apply_gaps;
 use super::glitches::{Glitch, draw_experiment, force_series};
 use super::model_sim::simulate_model;
 use super::simulate::{
-    SimError, SimProgress, Simulation, SimulationPlan, System, TELEMETRY_CHANNELS,
-    simulate_builtin,
+    SimError, SimProgress, Simulation, SimulationPlan, System, TELEMETRY_CHANNELS, simulate_builtin,
 };
 use crate::data::dataset::ExperimentData;
 
@@ -30,7 +29,8 @@ pub fn simulate_observed(
         if plan.generator.is_some() {
             return Err(SimError::Other(
                 "study".into(),
-                "[simulation.glitches] needs the built-in LTP loop, not a `[simulation] model`".into(),
+                "[simulation.glitches] needs the built-in LTP loop, not a `[simulation] model`"
+                    .into(),
             ));
         }
         let mut record = serde_json::Map::new();

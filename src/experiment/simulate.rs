@@ -253,7 +253,11 @@ impl System {
         g[2][0] = -u1;
         let mut out_o = [vec![0.0; n], vec![0.0; n]];
         let mut out_g = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
-        for (s, v) in o.iter().zip(out_o.iter_mut()).chain(g.iter().zip(out_g.iter_mut())) {
+        for (s, v) in o
+            .iter()
+            .zip(out_o.iter_mut())
+            .chain(g.iter().zip(out_g.iter_mut()))
+        {
             fft.inverse(s, &mut buf)?;
             v.copy_from_slice(&buf[..n]);
         }

@@ -596,8 +596,7 @@ pub fn gate_glitches(
     dataset: &mut Dataset,
 ) -> Result<Vec<crate::likelihood::GlitchGate>, AnalysisError> {
     use crate::likelihood::{
-        DEFAULT_GLITCH_PAD, DEFAULT_GLITCH_THRESHOLD, GlitchGate, GlitchTreatment,
-        detect_glitches,
+        DEFAULT_GLITCH_PAD, DEFAULT_GLITCH_THRESHOLD, GlitchGate, GlitchTreatment, detect_glitches,
     };
     let a = &study.analysis;
     let gate = a.glitches == GlitchTreatment::Gate;
@@ -622,11 +621,10 @@ pub fn gate_glitches(
             .find(|(name, _)| *name == e.name)
             .map(|(_, l)| l.as_slice())
             .unwrap_or(&[]);
-        let listed = crate::data::gaps::from_times(listed_times, e.fs, n, "glitches")
-            .map_err(fail)?;
+        let listed =
+            crate::data::gaps::from_times(listed_times, e.fs, n, "glitches").map_err(fail)?;
         let detected = if gate {
-            detect_glitches(e, model.as_ref(), &reference, &opts, threshold, pad)
-                .map_err(fail)?
+            detect_glitches(e, model.as_ref(), &reference, &opts, threshold, pad).map_err(fail)?
         } else {
             Vec::new()
         };

@@ -23,14 +23,14 @@ pub use fisher::{
     cramer_rao, default_step, describe_unconstrained, fisher_exact, fisher_numeric,
     gradient_and_fisher, gradient_hessian_numeric,
 };
+pub use glitch_gate::{
+    DEFAULT_GLITCH_PAD, DEFAULT_GLITCH_THRESHOLD, GlitchGate, GlitchTreatment, detect_glitches,
+};
 pub use map::{
     MapError, RUNAWAY_WIDTHS, ScoringResult, fisher_scoring, fisher_scoring_unbounded,
     refine_statistic_max,
 };
 pub use relbin::{MAX_REFINEMENTS, RelBinError, RelBinLikelihood, RelBinOptions, RelBinValidation};
-pub use glitch_gate::{
-    DEFAULT_GLITCH_PAD, DEFAULT_GLITCH_THRESHOLD, GlitchGate, GlitchTreatment, detect_glitches,
-};
 pub use segments::GapSummary;
 pub use spectra::{
     DEFAULT_GAP_TAPER, ExperimentSpectra, NoiseSource, SpectraError, SpectraOptions,

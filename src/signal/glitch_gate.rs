@@ -115,22 +115,33 @@ pub fn detect(y: &[f64], ignore: &[[usize; 2]], settings: &GateSettings) -> Vec<
     merge(regions)
 }
 
-/// The moving mean of `y` over a centred window of `w` samples (shorter at the ends): the
-/// matched filter of a slow glitch, whose whitened form keeps one sign for about its decay
-/// time while the noise averages down.
-pub fn moving_mean(y: &[f64], w: usize) -> Vec<f64> {
+/// The moving mean of `y` over a centred window of `w` samples, counting only the samples
+/// `valid` marks: the matched filter of a slow glitch, whose whitened form keeps one sign for
+/// about its decay time while the noise averages down. A window that holds `m < w` valid
+/// samples (at the ends of the series, beside a gap) gives `Σ_valid y / √(m w)`, which has
+/// the variance of a full window's mean for white noise (`1/w`): a plain mean over fewer
+/// samples would be noisier and trigger falsely there. Zero where no sample is valid.
+pub fn moving_mean(y: &[f64], valid: &[bool], w: usize) -> Vec<f64> {
     let n = y.len();
     let w = w.max(1);
     let mut cum = Vec::with_capacity(n + 1);
+    let mut cnt = Vec::with_capacity(n + 1);
     cum.push(0.0);
-    for v in y {
-        cum.push(cum.last().unwrap() + v);
+    cnt.push(0usize);
+    for (v, ok) in y.iter().zip(valid) {
+        cum.push(cum.last().unwrap() + if *ok { *v } else { 0.0 });
+        cnt.push(cnt.last().unwrap() + usize::from(*ok));
     }
     let h = w / 2;
     (0..n)
         .map(|k| {
             let (a, b) = (k.saturating_sub(h), (k + w - h).min(n));
-            (cum[b] - cum[a]) / (b - a) as f64
+            let m = cnt[b] - cnt[a];
+            if m == 0 {
+                0.0
+            } else {
+                (cum[b] - cum[a]) / ((m * w) as f64).sqrt()
+            }
         })
         .collect()
 }
@@ -215,7 +226,11 @@ mod tests {
             total += detect(&y, &[], &settings()).len();
         }
         // 5 × 2e4 in-band bins: the mean variance is 1 to about 0.005
-        assert!((var_sum / 5.0 - 1.0).abs() < 0.02, "variance {}", var_sum / 5.0);
+        assert!(
+            (var_sum / 5.0 - 1.0).abs() < 0.02,
+            "variance {}",
+            var_sum / 5.0
+        );
         // 1e6 samples of roughly 2e5 independent ones at 5σ: P ≈ 6e-7 each
         assert_eq!(total, 0);
     }
@@ -257,13 +272,24 @@ mod tests {
     #[test]
     fn moving_means_average_a_centred_window() {
         let y = [1.0, 2.0, 3.0, 4.0, 5.0];
-        assert_eq!(moving_mean(&y, 1), y.to_vec());
-        assert_eq!(moving_mean(&y, 3), vec![1.5, 2.0, 3.0, 4.0, 4.5]);
+        let all = [true; 5];
+        assert_eq!(moving_mean(&y, &all, 1), y.to_vec());
+        // full windows: the mean; two samples at the ends: Σ/√(2·3)
+        let m = moving_mean(&y, &all, 3);
+        assert_eq!(m[1..4], [2.0, 3.0, 4.0]);
+        assert!((m[0] - 3.0 / 6f64.sqrt()).abs() < 1e-15);
+        // an invalid sample counts for nothing
+        let some = [true, true, false, true, true];
+        assert_eq!(moving_mean(&y, &some, 1)[2], 0.0);
+        assert!((moving_mean(&y, &some, 3)[2] - 6.0 / 6f64.sqrt()).abs() < 1e-15);
     }
 
     #[test]
     fn regions_merge_and_clip() {
-        assert_eq!(merge(vec![[5, 8], [0, 3], [3, 4], [7, 9]]), vec![[0, 4], [5, 9]]);
+        assert_eq!(
+            merge(vec![[5, 8], [0, 3], [3, 4], [7, 9]]),
+            vec![[0, 4], [5, 9]]
+        );
         let mut y = vec![0.0; 50];
         y[2] = 9.0;
         let s = GateSettings {
