@@ -61,6 +61,8 @@ pub const TELEMETRY_CHANNELS: [&str; 3] = ["g1", "g2", "gsc"];
 type Spectrum2 = [Vec<Complex64>; 2];
 type Spectrum3 = [Vec<Complex64>; 3];
 type Mat23 = [[Complex64; 3]; 2];
+/// Output series `(o1, o12)` and telemetry series `(g1, g2, gsc)`.
+type OutputsAndTelemetry = ([Vec<f64>; 2], [Vec<f64>; 3]);
 
 /// The physical system being simulated (truth, loop, noise).
 #[derive(Debug, Clone)]
@@ -213,7 +215,7 @@ impl System {
         &self,
         a: [&[f64]; 2],
         fs: f64,
-    ) -> Result<([Vec<f64>; 2], [Vec<f64>; 3]), SignalError> {
+    ) -> Result<OutputsAndTelemetry, SignalError> {
         let n = a[0].len();
         let big = 2 * n;
         let mut fft = RealFft::new(big)?;
