@@ -12,7 +12,8 @@
 //! flagged sample into a region while the smoothed envelope (the RMS over a short moving window)
 //! stays above the release level, pads the region on each side and merges overlapping regions.
 
-use super::{RealFft, SignalError};
+use super::error::SignalError;
+use super::fft::RealFft;
 use num_complex::Complex64;
 
 /// How [`detect`] turns a whitened series into gated regions.
