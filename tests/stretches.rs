@@ -103,7 +103,10 @@ fn drift_likelihood_is_the_sum_over_stretches_at_their_parameters() {
         ["w1sq_a", "w1sq_b", "w1sq_c"]
     );
     for (k, v) in tp[..3].iter().enumerate() {
-        assert!((v - (-1.3e-6 + (k as f64 - 1.0) * 3e-9)).abs() < 1e-20, "{tp:?}");
+        assert!(
+            (v - (-1.3e-6 + (k as f64 - 1.0) * 3e-9)).abs() < 1e-20,
+            "{tp:?}"
+        );
     }
     let mut sum = 0.0;
     for (k, e) in data.experiments.iter().enumerate() {
@@ -113,7 +116,9 @@ fn drift_likelihood_is_the_sum_over_stretches_at_their_parameters() {
         };
         let mut p = occam::ltp::LtpParams::default().to_array().to_vec();
         p[0] = tp[k] + 1e-9;
-        sum += likelihood_of(&s, li, &one).unwrap().ln_likelihood_whittle(&p);
+        sum += likelihood_of(&s, li, &one)
+            .unwrap()
+            .ln_likelihood_whittle(&p);
     }
     let mut at = tp.clone();
     for v in &mut at[..3] {

@@ -121,6 +121,12 @@ impl StudyFile {
             experiments: experiments.designs,
             data_sources: experiments.data_sources,
             experiment_names: experiments.names,
+            glitch_lists: self
+                .experiment
+                .iter()
+                .filter(|e| !e.glitches.is_empty())
+                .map(|e| (e.name.clone(), e.glitches.clone()))
+                .collect(),
             stretches,
             base_dir: base.to_path_buf(),
             source: file.into(),
@@ -419,6 +425,15 @@ fn check_simulation(sim: &SimulationOptions, file: &str) -> Result<(), ConfigErr
     if let Some(g) = &sim.gaps {
         g.check().map_err(|m| bad("simulation.gaps", m))?;
     }
+    if let Some(g) = &sim.glitches {
+        g.check().map_err(|m| bad("simulation.glitches", m))?;
+        if sim.model.is_some() {
+            return Err(bad(
+                "simulation.glitches",
+                "glitches are simulated in the built-in LTP loop only (a force on a test mass); with `[simulation] model` remove [simulation.glitches], or put the glitch into the model's injections".into(),
+            ));
+        }
+    }
     if !(1..=1000).contains(&sim.oversample) {
         return Err(bad(
             "simulation.oversample",
@@ -544,14 +559,23 @@ fn check_gap_times(
     at: &dyn Fn(&str) -> String,
     file: &str,
 ) -> Result<(), ConfigError> {
-    for (key, list) in [("gaps", &e.gaps), ("noise_gaps", &e.noise_gaps)] {
+    for (key, list) in [
+        ("gaps", &e.gaps),
+        ("noise_gaps", &e.noise_gaps),
+        ("glitches", &e.glitches),
+    ] {
         for (k, &[t0, t1]) in list.iter().enumerate() {
             if !(t0.is_finite() && t1.is_finite() && t0 >= 0.0 && t1 > t0) {
                 return Err(invalid(
                     file,
                     at(&format!("{key}[{k}]")),
                     format!(
-                        "[{t0}, {t1}]: a gap is [t0, t1] in seconds from the stretch's first sample, with 0 ≤ t0 < t1"
+                        "[{t0}, {t1}]: {} is [t0, t1] in seconds from the stretch's first sample, with 0 ≤ t0 < t1",
+                        if key == "glitches" {
+                            "a glitch to gate"
+                        } else {
+                            "a gap"
+                        }
                     ),
                 ));
             }
@@ -818,6 +842,37 @@ fn validate_analysis(a: &AnalysisOptions, file: &str) -> Result<(), ConfigError>
         return Err(bad(
             "relbin_tolerance",
             format!("must be > 0 (got {})", a.relbin_tolerance),
+        ));
+    }
+    if let Some(t) = a.glitch_threshold
+        && !(t.is_finite() && t >= 3.0)
+    {
+        return Err(bad(
+            "glitch_threshold",
+            format!(
+                "must be ≥ 3 σ of the whitened residual (got {t}; below that pure noise is gated everywhere); the default is {}",
+                crate::likelihood::DEFAULT_GLITCH_THRESHOLD
+            ),
+        ));
+    }
+    if let Some(p) = a.glitch_pad
+        && !(p.is_finite() && p >= 0.0)
+    {
+        return Err(bad(
+            "glitch_pad",
+            format!("must be a duration ≥ 0 s (got {p})"),
+        ));
+    }
+    if a.glitches.is_none() && (a.glitch_threshold.is_some() || a.glitch_pad.is_some()) {
+        return Err(bad(
+            "glitches",
+            "glitch_threshold and glitch_pad apply to detection only: set glitches = \"gate\" or remove them".into(),
+        ));
+    }
+    if !a.glitches.is_none() && a.statistic == crate::likelihood::Statistic::LogPeriodogram {
+        return Err(bad(
+            "glitches",
+            "gating makes gaps, which statistic = \"log_periodogram\" does not handle: use \"whittle\" or \"student_t\"".into(),
         ));
     }
     if a.log_periodogram.averages == 0 {

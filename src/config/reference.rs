@@ -67,6 +67,10 @@ fn schema() -> BTreeMap<String, BTreeSet<String>> {
         "[simulation.gaps]",
         keys::<crate::experiment::RandomGaps>(""),
     );
+    put(
+        "[simulation.glitches]",
+        keys::<crate::experiment::RandomGlitches>(""),
+    );
     put("[simulation.actuators]", keys::<ActuatorOptions>(""));
     put("[simulation.actuators.tm1]", keys::<ActuatorEntry>(""));
     put("[analysis]", keys::<AnalysisOptions>(""));

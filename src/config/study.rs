@@ -50,6 +50,10 @@ pub struct SimulationOptions {
     /// `[simulation.gaps]`: random gaps in every stretch of every simulated experiment.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub gaps: Option<crate::experiment::RandomGaps>,
+    /// `[simulation.glitches]`: random force glitches in every simulated experiment (not
+    /// written into any channel; recorded in the dataset's metadata).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub glitches: Option<crate::experiment::RandomGlitches>,
 }
 
 /// One test mass's actuator as written in `[simulation.actuators]`:
@@ -172,6 +176,7 @@ impl Default for SimulationOptions {
             model: None,
             truth: Default::default(),
             gaps: None,
+            glitches: None,
         }
     }
 }
@@ -256,6 +261,10 @@ pub struct ExperimentEntry {
     /// Missing data of the noise-only stretch, likewise.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub noise_gaps: Vec<[f64; 2]>,
+    /// Glitches to gate, `[[t0, t1], …]` in seconds from the fit stretch's first sample
+    /// (gated whatever `[analysis] glitches` says).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub glitches: Vec<[f64; 2]>,
     /// The `[[stretch]]` the experiment was taken in ([`crate::config::stretches`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub stretch: Option<String>,
@@ -335,6 +344,19 @@ pub struct AnalysisOptions {
     /// (default [`crate::likelihood::DEFAULT_GAP_TAPER`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub gap_taper: Option<f64>,
+    /// `none` (default) or `gate`: find glitches on the whitened residual at the reference
+    /// point and gate them ([`crate::likelihood::glitch_gate`]). Listed `[[experiment]]
+    /// glitches` are gated either way.
+    #[serde(skip_serializing_if = "crate::likelihood::GlitchTreatment::is_none")]
+    pub glitches: crate::likelihood::GlitchTreatment,
+    /// Detection threshold (σ of the whitened residual; default
+    /// [`crate::likelihood::DEFAULT_GLITCH_THRESHOLD`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub glitch_threshold: Option<f64>,
+    /// Seconds gated on each side of a detected glitch (default
+    /// [`crate::likelihood::DEFAULT_GLITCH_PAD`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub glitch_pad: Option<f64>,
 }
 
 impl Default for AnalysisOptions {
@@ -355,6 +377,9 @@ impl Default for AnalysisOptions {
             statistic: Default::default(),
             log_periodogram: Default::default(),
             gap_taper: None,
+            glitches: Default::default(),
+            glitch_threshold: None,
+            glitch_pad: None,
         }
     }
 }
@@ -561,6 +586,10 @@ pub struct Study {
     /// Every experiment name in the order of the study file (each repeated per stretch when
     /// the study has stretches and no experiment names one).
     pub experiment_names: Vec<String>,
+    /// Listed glitches to gate (`[[experiment]] glitches`, seconds), by experiment name; only
+    /// experiments with some.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub glitch_lists: Vec<(String, Vec<[f64; 2]>)>,
     /// The `[[stretch]]` tables and which experiment is in which (empty: no stretches).
     #[serde(skip_serializing_if = "super::stretches::Stretches::is_empty")]
     pub stretches: super::stretches::Stretches,
@@ -643,6 +672,7 @@ impl Study {
             oversample: o.oversample,
             generator: self.generator(),
             gaps: o.gaps,
+            glitches: o.glitches,
             systems: self
                 .experiments
                 .iter()

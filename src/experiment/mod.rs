@@ -4,6 +4,7 @@
 mod design;
 mod gaps;
 mod generator;
+mod glitches;
 mod model_sim;
 pub mod options;
 mod run;
@@ -14,6 +15,7 @@ mod waveform;
 pub use design::{ExperimentDesign, FORCE_CHANNELS, ladder_freqs};
 pub use gaps::RandomGaps;
 pub use generator::{Channels, Generator};
+pub use glitches::{Glitch, GlitchTarget, MAX_GLITCHES, RandomGlitches};
 pub use run::{simulate, simulate_observed};
 pub use simulate::{
     SimError, SimProgress, Simulation, SimulationPlan, System, TELEMETRY_CHANNELS,

@@ -61,6 +61,8 @@ pub const TELEMETRY_CHANNELS: [&str; 3] = ["g1", "g2", "gsc"];
 type Spectrum2 = [Vec<Complex64>; 2];
 type Spectrum3 = [Vec<Complex64>; 3];
 type Mat23 = [[Complex64; 3]; 2];
+/// Output series `(o1, o12)` and telemetry series `(g1, g2, gsc)`.
+type OutputsAndTelemetry = ([Vec<f64>; 2], [Vec<f64>; 3]);
 
 /// The physical system being simulated (truth, loop, noise).
 #[derive(Debug, Clone)]
@@ -198,6 +200,70 @@ impl System {
             }
         }
         out
+    }
+
+    /// The outputs `(o1, o12)` and the telemetry `(g1, g2, gsc)` caused by forces per unit mass
+    /// `a = [tm1, tm2]` acting directly on the test masses (no actuator: a glitch), over
+    /// `a`'s `n` samples at `fs`. Coordinate accelerations `w = [(1 + e1) a1 + e2 a2,
+    /// −a1 + a2]` (the test-mass forces react on the spacecraft, as in `B_q` with unit
+    /// actuators) drive the closed loop, `o = E S P⁻¹ w`. The series is zero-padded to twice
+    /// its length so that the response is the causal one, not wrapped around from the end of
+    /// the stretch. The telemetry follows from the outputs as for any force
+    /// ([`Self::telemetry_spectrum`], `g1` stays zero), with the DC bin, where the integrators
+    /// hold the outputs at zero, from `B_u(0) u = −w(0)`.
+    pub fn glitch_response(
+        &self,
+        a: [&[f64]; 2],
+        fs: f64,
+    ) -> Result<OutputsAndTelemetry, SignalError> {
+        let n = a[0].len();
+        let big = 2 * n;
+        let mut fft = RealFft::new(big)?;
+        let m = fft.spectrum_len();
+        let zero = Complex64::new(0.0, 0.0);
+        let mut spec = [vec![zero; m], vec![zero; m]];
+        let mut buf = vec![0.0; big];
+        for (c, s) in spec.iter_mut().enumerate() {
+            buf[..n].copy_from_slice(a[c]);
+            buf[n..].fill(0.0);
+            fft.forward(&buf, s)?;
+        }
+        let e1 = self.masses.m1 / self.masses.msc;
+        let e2 = self.masses.m2 / self.masses.msc;
+        let w = |k: usize| {
+            [
+                spec[0][k] * (1.0 + e1) + spec[1][k] * e2,
+                -spec[0][k] + spec[1][k],
+            ]
+        };
+        let mut o = [vec![zero; m], vec![zero; m]];
+        for k in 1..m {
+            let f = k as f64 * fs / big as f64;
+            let hgo = self.closed_loop(f).h_go;
+            let wk = w(k);
+            for (r, or) in o.iter_mut().enumerate() {
+                or[k] = hgo[r][0] * wk[0] + hgo[r][1] * wk[1];
+            }
+        }
+        let mut g = self.telemetry_spectrum(&o, None, None, fs, big);
+        // DC: o(0) = 0, so B_u(0) u(0) = −w(0); B_u(0) = [[a, b], [0, c]] is upper triangular
+        let w0 = w(0);
+        let bu = self.actuation_matrix(0.0);
+        let u2 = -w0[1] / bu[1][1];
+        let u1 = (-w0[0] - bu[0][1] * u2) / bu[0][0];
+        g[1][0] = u2;
+        g[2][0] = -u1;
+        let mut out_o = [vec![0.0; n], vec![0.0; n]];
+        let mut out_g = [vec![0.0; n], vec![0.0; n], vec![0.0; n]];
+        for (s, v) in o
+            .iter()
+            .zip(out_o.iter_mut())
+            .chain(g.iter().zip(out_g.iter_mut()))
+        {
+            fft.inverse(s, &mut buf)?;
+            v.copy_from_slice(&buf[..n]);
+        }
+        Ok((out_o, out_g))
     }
 
     /// The telemetry spectra `(g̃1, g̃2, g̃sc)` from the spectra of the outputs `o`, the
@@ -426,6 +492,9 @@ pub struct SimulationPlan {
     pub generator: Option<super::generator::Generator>,
     /// Random gaps in every simulated stretch (`[simulation.gaps]`).
     pub gaps: Option<super::gaps::RandomGaps>,
+    /// Random force glitches in every simulated experiment (`[simulation.glitches]`; the
+    /// built-in loop only).
+    pub glitches: Option<super::glitches::RandomGlitches>,
     /// Per experiment, its true system where it differs from `system` (an experiment in a
     /// `[[stretch]]` with its own truth); empty or `None`: `system`.
     pub systems: Vec<Option<System>>,
@@ -792,6 +861,50 @@ mod tests {
         // the 500 s segment's edges excite the slow closed-loop poles; by 200 s into it the
         // transient of the x1 loop (UGF 0.1 Hz) has decayed to well below 1e-3 of the amplitude
         assert!(err < 1e-3 * 1e-6 * h.norm(), "max deviation {err}");
+    }
+
+    #[test]
+    fn a_glitch_drives_the_loop_as_an_actuator_free_force_injection() {
+        // with flat actuators of gain a_sus a commanded f1 = g/a_sus applies g to TM1: the
+        // glitch response must be the force response to it, computed here on the same
+        // zero-padded grid (causal, no wrap-around)
+        let sys = study("").system();
+        let (n, fs) = (4000, 1.0);
+        let g = crate::experiment::Glitch {
+            t0: 300.0,
+            amplitude: 2e-12,
+            decay: 200.0,
+            rise: 2.0,
+            tm: 1,
+        };
+        let a: Vec<f64> = (0..n).map(|k| g.at(k as f64 / fs)).collect();
+        let zeros = vec![0.0; n];
+        let (o, tel) = sys.glitch_response([&a, &zeros], fs).unwrap();
+        let big = 2 * n;
+        let gain = sys.actuators[0].response(0.0).re;
+        let mut q = [vec![0.0; big], vec![0.0; big], vec![0.0; big]];
+        for (k, v) in a.iter().enumerate() {
+            q[0][k] = v / gain;
+        }
+        let qs = q.clone().map(|x| dft(&x));
+        let h = sys.force_response_spectrum(&qs, fs, big);
+        let mut fft = RealFft::new(big).unwrap();
+        let peak = o[0].iter().fold(0.0, |m: f64, v| m.max(v.abs()));
+        assert!(peak > 0.0);
+        for c in 0..2 {
+            let mut want = vec![0.0; big];
+            fft.inverse(&h[c], &mut want).unwrap();
+            for k in 0..n {
+                assert!((o[c][k] - want[k]).abs() < 1e-9 * peak, "o{c}[{k}]");
+            }
+        }
+        // causal: nothing before the glitch starts (the padding holds the response; what is
+        // left is the slowest closed-loop pole's, τ ≈ 1200 s, e^{−6} after 7700 s of padding)
+        let before = o[0][..299].iter().fold(0.0, |m: f64, v| m.max(v.abs()));
+        assert!(before < 5e-3 * peak, "{before:e} of {peak:e}");
+        // no commanded force: g1 stays zero; the suspension reacts through g2
+        assert!(tel[0].iter().all(|v| *v == 0.0));
+        assert!(tel[1].iter().any(|v| v.abs() > 0.0));
     }
 
     // ---- actuators, force injections, telemetry ----

@@ -39,6 +39,9 @@ pub struct Prepared {
     /// The index (in the study's models) of the model `likelihood` is of: the `[fit]` model's
     /// for `fit`, the first compared model's for `select`.
     pub model: usize,
+    /// What glitch gating did, per experiment (empty when the study gates nothing: no
+    /// `[analysis] glitches = "gate"` and no listed `[[experiment]] glitches`).
+    pub glitch_gates: Vec<crate::likelihood::GlitchGate>,
 }
 
 /// The data of a study and where they came from: the `[analysis] dataset` directory, or every
@@ -161,13 +164,15 @@ pub fn prepare_for(study: &Study, models: &[usize]) -> Result<Prepared, Analysis
     let first = *models
         .first()
         .ok_or_else(|| AnalysisError::Likelihood("a job needs at least one model".into()))?;
-    let (dataset, origin) = load_data_for(study, models)?;
+    let (mut dataset, origin) = load_data_for(study, models)?;
+    let glitch_gates = gate_glitches(study, first, &mut dataset)?;
     let likelihood = likelihood_of(study, first, &dataset)?;
     Ok(Prepared {
         dataset,
         origin,
         likelihood,
         model: first,
+        glitch_gates,
     })
 }
 
@@ -630,6 +635,106 @@ pub fn gap_notes(study: &Study, dataset: &Dataset) -> Vec<String> {
         }
     }
     out
+}
+
+/// Gates the glitches of `dataset` (module [`crate::likelihood::glitch_gate`]): the regions
+/// listed in `[[experiment]] glitches` and, with `[analysis] glitches = "gate"`, those found on
+/// the whitened residual of model `mi` at its reference point ([`reference_point`]). They become
+/// gaps of the fit stretch; the channels without a noise-only series (the commanded inputs)
+/// keep their values there, which the gaps' edge correction needs. Returns one summary per
+/// experiment, none when the study gates nothing (the dataset is then untouched).
+pub fn gate_glitches(
+    study: &Study,
+    mi: usize,
+    dataset: &mut Dataset,
+) -> Result<Vec<crate::likelihood::GlitchGate>, AnalysisError> {
+    use crate::likelihood::{
+        DEFAULT_GLITCH_PAD, DEFAULT_GLITCH_THRESHOLD, GlitchGate, GlitchTreatment, detect_glitches,
+    };
+    let a = &study.analysis;
+    let gate = a.glitches == GlitchTreatment::Gate;
+    if !gate && study.glitch_lists.is_empty() {
+        return Ok(Vec::new());
+    }
+    let opts = spectra_options(study);
+    let model = &study.models.models[mi];
+    let reference = reference_point(study, mi);
+    let threshold = a.glitch_threshold.unwrap_or(DEFAULT_GLITCH_THRESHOLD);
+    let pad = a.glitch_pad.unwrap_or(DEFAULT_GLITCH_PAD);
+    let mut out = Vec::new();
+    for e in &mut dataset.experiments {
+        let name = e.name.clone();
+        let fail = |msg: String| {
+            AnalysisError::Likelihood(format!("experiment `{name}`: glitch gating: {msg}"))
+        };
+        let n = e.n_samples();
+        let listed_times = study
+            .glitch_lists
+            .iter()
+            .find(|(name, _)| *name == e.name)
+            .map(|(_, l)| l.as_slice())
+            .unwrap_or(&[]);
+        let listed =
+            crate::data::gaps::from_times(listed_times, e.fs, n, "glitches").map_err(fail)?;
+        let detected = if gate {
+            // the model as it applies to this experiment's stretch
+            let here = model
+                .specialise(&study.covariates_of(&e.name))
+                .map_err(&fail)?
+                .unwrap_or_else(|| model.clone());
+            detect_glitches(e, here.as_ref(), &reference, &opts, threshold, pad).map_err(fail)?
+        } else {
+            Vec::new()
+        };
+        let before = crate::data::gaps::missing(&e.gaps);
+        let mut all = listed.clone();
+        all.extend_from_slice(&detected);
+        let regions = crate::data::gaps::normalise(all);
+        if !regions.is_empty() {
+            // the commanded inputs are known through a gate, as through a telemetry gap
+            if e.gaps.is_empty() && e.n_noise_samples() > 0 {
+                e.known_in_gaps = e
+                    .channel_names()
+                    .into_iter()
+                    .filter(|c| e.noise_channel(c).is_none())
+                    .collect();
+            }
+            e.add_gaps(&regions);
+            crate::data::gaps::check(&e.gaps, n).map_err(|m| {
+                fail(format!(
+                    "{m}: the gates leave no valid data; raise glitch_threshold or shorten the listed glitches"
+                ))
+            })?;
+        }
+        out.push(GlitchGate {
+            experiment: e.name.clone(),
+            detected: detected.len(),
+            listed: listed.len(),
+            regions: regions
+                .iter()
+                .map(|r| [r[0] as f64 / e.fs, r[1] as f64 / e.fs])
+                .collect(),
+            seconds: (crate::data::gaps::missing(&e.gaps) - before) as f64 / e.fs,
+        });
+    }
+    Ok(out)
+}
+
+/// One line per experiment that glitch gating touched ([`gate_glitches`]), and one saying
+/// that nothing was gated when that is so (the gates also appear as gaps in [`gap_notes`]).
+pub fn glitch_notes(gates: &[crate::likelihood::GlitchGate]) -> Vec<String> {
+    let touched: Vec<String> = gates
+        .iter()
+        .filter(|g| !g.regions.is_empty())
+        .map(|g| g.describe())
+        .collect();
+    if touched.is_empty() && !gates.is_empty() {
+        return vec![format!(
+            "glitch gating: nothing gated in any of the {} experiment(s)",
+            gates.len()
+        )];
+    }
+    touched
 }
 
 /// Warnings about fitting model `mi` to `dataset`: a start point (fixed and start values) the

@@ -9,6 +9,7 @@
 
 mod exact;
 mod fisher;
+pub mod glitch_gate;
 mod map;
 mod noise_matrix;
 mod relbin;
@@ -21,6 +22,9 @@ pub use exact::{Likelihood, LikelihoodError};
 pub use fisher::{
     cramer_rao, default_step, describe_unconstrained, fisher_exact, fisher_numeric,
     gradient_and_fisher, gradient_hessian_numeric,
+};
+pub use glitch_gate::{
+    DEFAULT_GLITCH_PAD, DEFAULT_GLITCH_THRESHOLD, GlitchGate, GlitchTreatment, detect_glitches,
 };
 pub use map::{
     MapError, RUNAWAY_WIDTHS, ScoringResult, fisher_scoring, fisher_scoring_unbounded,

@@ -26,10 +26,13 @@
 //! * [`welch`]: one-sided Welch PSD/CSD estimates and their interpolation.
 //! * [`multires`]: Welch with a segment length per band (longer segments where the band's
 //!   bottom needs the resolution).
+//! * [`glitch_gate`]: whitening against a noise PSD and gating of the samples that exceed a
+//!   threshold (`[analysis] glitches = "gate"`).
 //! * [`synth`]: Gaussian noise with an exactly prescribed one- or two-channel spectrum.
 
 mod error;
 pub mod fft;
+pub mod glitch_gate;
 pub mod multires;
 pub mod synth;
 pub mod welch;

@@ -25,6 +25,7 @@ mod tests {
             statistic: crate::likelihood::Statistic::Whittle,
             likelihood: LikelihoodKind::Exact,
             noise_averages: None,
+            glitch_gates: vec![],
             n_bins: 1,
             n_coarse_bins: None,
             rho_opt_at_map: f64::NAN,

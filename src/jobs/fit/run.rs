@@ -47,6 +47,7 @@ pub fn run(
     })?;
     let mut warnings = model_warnings(study, model.model, &prep.dataset);
     warnings.extend(gap_notes(study, &prep.dataset));
+    warnings.extend(crate::jobs::prepare::glitch_notes(&prep.glitch_gates));
     if !map.converged {
         warnings.push(format!(
             "the MAP search stopped after {} iterations without converging; the chains may start far from the mode",
@@ -149,6 +150,7 @@ pub fn run(
         statistic,
         likelihood: kind,
         noise_averages: crate::jobs::prepare::noise_averages_for_summary(study, exact),
+        glitch_gates: prep.glitch_gates.clone(),
         n_bins: exact.n_bins(),
         n_coarse_bins: n_coarse,
         rho_opt_at_map: exact.snr(&map.theta),

@@ -56,6 +56,9 @@ pub struct FitSummary {
     /// nor per-band resolution makes them matter).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub noise_averages: Option<Vec<crate::jobs::prepare::NoiseAverages>>,
+    /// What glitch gating did, per experiment (absent when the study gates nothing).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub glitch_gates: Vec<crate::likelihood::GlitchGate>,
     pub n_bins: usize,
     pub n_coarse_bins: Option<usize>,
     pub rho_opt_at_map: f64,

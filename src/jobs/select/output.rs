@@ -266,6 +266,7 @@ mod tests {
             n_bins: 1,
             statistic: crate::likelihood::Statistic::Whittle,
             noise_averages: None,
+            glitch_gates: vec![],
             schwarz_n: 1.0,
             models: vec![],
             pairs: vec![PairResult {

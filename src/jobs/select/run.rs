@@ -305,6 +305,7 @@ fn summarise(
         .flat_map(|mi| model_warnings(study, mi, &prep.dataset))
         .collect();
     warnings.extend(gap_notes(study, &prep.dataset));
+    warnings.extend(crate::jobs::prepare::glitch_notes(&prep.glitch_gates));
     for m in &models {
         warnings.extend(m.notes.iter().map(|n| format!("model `{}`: {n}", m.name)));
         if let Some(w) = m.tempering.as_ref().and_then(|t| t.broken_ladder_warning()) {
@@ -342,6 +343,7 @@ fn summarise(
         n_bins: first.n_bins(),
         statistic: first.statistic(),
         noise_averages: crate::jobs::prepare::noise_averages_for_summary(study, first),
+        glitch_gates: prep.glitch_gates.clone(),
         schwarz_n: plan.n_sbic,
         posterior_model_probabilities: pair::posterior_probabilities(&models, &pairs),
         models,

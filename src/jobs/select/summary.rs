@@ -23,6 +23,9 @@ pub struct SelectSummary {
     /// nor per-band resolution makes them matter).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub noise_averages: Option<Vec<crate::jobs::prepare::NoiseAverages>>,
+    /// What glitch gating did, per experiment (absent when the study gates nothing).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub glitch_gates: Vec<crate::likelihood::GlitchGate>,
     pub schwarz_n: f64,
     pub models: Vec<ModelOutcome>,
     pub pairs: Vec<PairResult>,
