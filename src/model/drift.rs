@@ -200,8 +200,8 @@ impl DriftModel {
             .collect()
     }
 
-    /// This model's parameter values in stretch `cov` mapped onto the parent: its θ of the
-    /// parent for this θ (`None` when `cov` is no stretch of the model).
+    /// The parent's θ for this model's θ in the experiment with covariates `cov`; an error
+    /// when `cov` names no stretch of the model or lacks a covariate it drifts in.
     pub fn parent_values(&self, theta: &[f64], cov: &Covariates) -> Result<Vec<f64>, String> {
         Ok(self.at(cov)?.expand(theta))
     }
