@@ -112,9 +112,10 @@ impl ExperimentSpectra {
             let name = format!("{}@{}s", e.name, fmt_seconds(run[0] as f64 / e.fs));
             let sub = e.slice(&name, run);
             // the run's lowest bins see the window's main lobe over the steep noise: keep
-            // bins from MIN_CYCLES periods per run up
+            // bins from MIN_CYCLES periods per run up (half a bin below, so that rounding of
+            // `k·fs/len` cannot drop bin MIN_CYCLES itself)
             let mut ro = opts.clone();
-            ro.band[0] = lo.max(MIN_CYCLES * e.fs / len as f64);
+            ro.band[0] = lo.max((MIN_CYCLES - 0.5) * e.fs / len as f64);
             let sp = Self::tapered(&sub, &ro, model, theta_ref, model_csd, taper)?;
             out.push((sp, run, taper));
         }
@@ -338,5 +339,50 @@ fn fmt_seconds(t: f64) -> String {
         format!("{t:.0}")
     } else {
         format!("{t}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::hermitian::Mat2;
+    use crate::likelihood::NoiseSource;
+    use crate::likelihood::tests::{ltp_model, small_study};
+
+    /// A run whose only in-band bin is its `MIN_CYCLES`-th: `3·(fs/len)` rounds below
+    /// `3·fs/len` for `len = 136` at 1 Hz, which once dropped the bin and failed the whole experiment.
+    #[test]
+    fn a_run_keeps_its_lowest_bin_despite_rounding() {
+        let len = 136usize;
+        let fs = 1.0;
+        assert!(
+            3.0 * (fs / len as f64) < 3.0 * fs / len as f64,
+            "the rounding case"
+        );
+        let study = small_study(7, 1e-9, "circular");
+        let sim = crate::experiment::simulate(&study.simulation_plan()).unwrap();
+        let mut e = sim.dataset.experiments[0].clone();
+        let n = e.n_samples();
+        e.add_gaps(&[[n - len - 60, n - len]]);
+        let sys = study.system();
+        let csd = |f: f64| -> Mat2 { sys.noise_csd(f) };
+        let opts = SpectraOptions {
+            noise: NoiseSource::Model,
+            band: [1e-3, 3.5 / len as f64],
+            ..Default::default()
+        };
+        let m = ltp_model();
+        let runs = ExperimentSpectra::of_experiment(
+            &e,
+            &opts,
+            m.as_ref(),
+            &study.truth.to_array(),
+            Some(&csd),
+        )
+        .unwrap();
+        let last = runs.last().unwrap();
+        assert_eq!(last.n, len);
+        assert_eq!(last.freqs.len(), 1);
+        assert!((last.freqs[0] - 3.0 * fs / len as f64).abs() < 1e-15);
     }
 }
