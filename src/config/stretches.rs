@@ -93,6 +93,7 @@ fn covariates_of_entry(s: &StretchEntry) -> Covariates {
     Covariates {
         stretch: Some(s.name.clone()),
         values,
+        experiment: None,
     }
 }
 

@@ -637,10 +637,13 @@ impl Study {
         }
     }
 
-    /// The stretch and covariates of experiment `name` (empty when the study has no
-    /// stretches).
+    /// The stretch and covariates of experiment `name` (no stretch and no values when the
+    /// study has no stretches), with the experiment's name.
     pub fn covariates_of(&self, name: &str) -> crate::model::Covariates {
-        self.stretches.covariates_of(name)
+        crate::model::Covariates {
+            experiment: Some(name.to_string()),
+            ..self.stretches.covariates_of(name)
+        }
     }
 
     /// The model that generates the data (`[simulation] model` at `[simulation.truth]`), if

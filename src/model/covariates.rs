@@ -16,6 +16,10 @@ pub struct Covariates {
     pub stretch: Option<String>,
     /// Covariate values by name, in the stretch's order (`time` first, in seconds).
     pub values: Vec<(String, f64)>,
+    /// The experiment's name (`None`: not known, as for a model evaluated on no experiment),
+    /// which a model with parameters of single experiments reads (modelled glitches,
+    /// [`crate::model::glitch`]).
+    pub experiment: Option<String>,
 }
 
 impl Covariates {
@@ -24,6 +28,7 @@ impl Covariates {
         Self {
             stretch: stretch.map(str::to_string),
             values: values.iter().map(|(k, v)| (k.to_string(), *v)).collect(),
+            experiment: None,
         }
     }
 
@@ -32,7 +37,7 @@ impl Covariates {
         self.values.iter().find(|(k, _)| k == name).map(|(_, v)| *v)
     }
 
-    /// Whether there is nothing: no stretch and no values.
+    /// Whether there is no stretch and no covariate value (whatever the experiment).
     pub fn is_empty(&self) -> bool {
         self.stretch.is_none() && self.values.is_empty()
     }

@@ -264,6 +264,28 @@ impl LtpModel {
         s
     }
 
+    /// `H_to(f; θ)` (rows `o1, o12`, columns TM1, TM2) of the continuous loop: the residual
+    /// `o − H_io i` carries a force on a test mass through it unchanged.
+    fn force<T: DualNum<Primitive = f64> + Copy>(
+        &self,
+        th: &[T],
+        bin: &Bin,
+        out: &mut [Complex<T>],
+    ) -> bool {
+        if self.opts.response != LoopResponse::Continuous {
+            return false;
+        }
+        let c = self.bin_consts_struct(bin);
+        let r_df = match self.opts.thruster.param() {
+            Some(_) => self.opts.thruster.factor(th[N_PARAMS], c.f),
+            None => Complex::new(T::one(), T::zero()),
+        };
+        let t7: &[T; N_PARAMS] = th[..N_PARAMS].try_into().expect("length checked");
+        let h = crate::ltp::h_to_matrix(t7, &c, &self.opts.masses, r_df);
+        out[..4].copy_from_slice(&[h[0][0], h[0][1], h[1][0], h[1][1]]);
+        true
+    }
+
     fn fill<T: DualNum<Primitive = f64> + Copy>(
         &self,
         th: &[T],
@@ -351,6 +373,19 @@ impl Model for LtpModel {
 
     fn coefficients_dual(&self, theta: &[Dual64], bin: &Bin, out: &mut [Complex<Dual64>]) {
         self.fill(theta, bin, out);
+    }
+
+    fn force_response(&self, theta: &[f64], bin: &Bin, out: &mut [Complex64]) -> bool {
+        self.force(theta, bin, out)
+    }
+
+    fn force_response_dual(
+        &self,
+        theta: &[Dual64],
+        bin: &Bin,
+        out: &mut [Complex<Dual64>],
+    ) -> bool {
+        self.force(theta, bin, out)
     }
 
     fn check(&self, theta: &[f64]) -> Result<(), String> {

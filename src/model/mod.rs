@@ -26,6 +26,7 @@ mod bin;
 mod checks;
 mod covariates;
 pub mod drift;
+pub mod glitch;
 pub mod ltp;
 mod ltp_kernel;
 pub mod reparam;
@@ -42,6 +43,7 @@ pub use bin::{
 pub use checks::{check_identifiable, coefficients_at, validate_shape};
 pub use covariates::Covariates;
 pub use drift::{DriftModel, DriftRule};
+pub use glitch::{GLITCH_CHANNEL, GlitchModel};
 pub use ltp::{LoopResponse, LtpModel, LtpModelOptions, ThrusterResponse};
 pub use reparam::{Reparam, ReparamModel};
 pub use tied::TiedModel;

@@ -265,6 +265,23 @@ impl Model for ReparamModel {
         }))
     }
 
+    fn force_response(&self, theta: &[f64], bin: &Bin, out: &mut [Complex64]) -> bool {
+        self.map
+            .with(theta, |p| self.parent.force_response(p, bin, out))
+    }
+
+    fn force_response_dual(
+        &self,
+        theta: &[Dual64],
+        bin: &Bin,
+        out: &mut [Complex<Dual64>],
+    ) -> bool {
+        let mut buf = [Dual64::from(0.0); MAX_PARENT_PARAMS];
+        let n = self.map.len();
+        self.map.expand_into(theta, &mut buf[..n]);
+        self.parent.force_response_dual(&buf[..n], bin, out)
+    }
+
     /// The same map on the parent specialised to the experiment (a tied model of a drifting
     /// one drifts too).
     fn specialise(&self, cov: &Covariates) -> Result<Option<Arc<dyn Model>>, String> {

@@ -139,6 +139,24 @@ pub trait Model: Send + Sync + std::fmt::Debug {
         Ok(None)
     }
 
+    /// How forces per unit mass on the two test masses (TM1, TM2; m s⁻²) that no data channel
+    /// records — glitches ([`crate::model::glitch`]) — enter the residual channels:
+    /// `out[r·2 + j]` is residual `r`'s response to a unit force on test mass `j + 1`. `false`
+    /// (the default): the model does not say, and glitches cannot be modelled on it.
+    fn force_response(&self, _theta: &[f64], _bin: &Bin, _out: &mut [Complex64]) -> bool {
+        false
+    }
+
+    /// As [`Model::force_response`] with dual-number parameters (exact derivatives).
+    fn force_response_dual(
+        &self,
+        _theta: &[Dual64],
+        _bin: &Bin,
+        _out: &mut [Complex<Dual64>],
+    ) -> bool {
+        false
+    }
+
     /// `Σ_k r_kᴴ C_k⁻¹ r_k` over a block of bins: the hot path of the exact likelihood.
     ///
     /// The default evaluates [`Model::coefficients`] bin by bin; models with a faster kernel

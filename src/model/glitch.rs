@@ -1,0 +1,552 @@
+//! Glitches as part of the model (`[analysis] glitches = "model"`): a parent model plus force
+//! glitches on the test masses, each with its own parameters, so that the likelihood fits them
+//! jointly with the physics instead of cutting the data out (gating).
+//!
+//! A glitch has the simulator's shape ([`crate::experiment::Glitch`]): a force per unit mass
+//! `(a1, a2)·s(t − t0)` on test masses 1 and 2, `s(u) = (e^{−u/τ} − e^{−u/τ_r})/c` for `u ≥ 0`,
+//! `c` its peak, so that `a1, a2` are peak forces. Glitch `j` adds the parameters `g<j>_t0`
+//! (s from its experiment's first sample), `g<j>_tau` (s), `g<j>_a1` and `g<j>_a2` (m s⁻²) after
+//! the parent's; the rise time `τ_r` is fixed. Each glitch belongs to one experiment and acts
+//! only there ([`Model::specialise`] with the experiment's name).
+//!
+//! # How a force no channel records enters the residual
+//! The model reads one more data channel, [`GLITCH_CHANNEL`]: the unit impulse at the
+//! experiment's first sample, whose DFT is 1 in every bin under the rectangular window. Its
+//! coefficient carries the glitches' response,
+//!
+//! ```text
+//! M_r,δ(f; θ) = −Σ_g Σ_j H_rj(f; θ) a_gj S(f; t0_g, τ_g)
+//! ```
+//!
+//! with `H` the parent's [`Model::force_response`] and `S` the DFT of the sampled shape over
+//! the record of `N` samples (`T = N/fs`, `n0 = ⌈t0 fs⌉`, `ω = 2πf`), the geometric sum
+//!
+//! ```text
+//! S = [u(τ) − u(τ_r)]/c,  u(τ') = [e^{−(n0/fs − t0)/τ'} e^{−iωn0/fs} − e^{−(T − t0)/τ'}] / (1 − e^{−1/(fs τ')} e^{−iω/fs})
+//! ```
+//!
+//! exact on the DFT grid ([`shape_dft`], tested against an FFT of the samples). As for the
+//! injections' response `H_io i`, the loop's response is applied in the frequency domain (a
+//! circular convolution): the part of a glitch's response that would outlast the record wraps to
+//! its start. The data of such a model must be gap-free and analysed with the rectangular
+//! window (the impulse would otherwise be windowed away); `jobs::prepare` checks both.
+
+use super::bin::{Bin, with_buffer};
+use super::covariates::Covariates;
+use super::traits::Model;
+use num_complex::{Complex, Complex64};
+use num_dual::{Dual64, DualNum};
+use std::f64::consts::PI;
+use std::sync::Arc;
+
+/// The synthetic data channel of modelled glitches: the unit impulse at the first sample.
+pub const GLITCH_CHANNEL: &str = "glitch_impulse";
+
+/// Parameters per glitch (`t0`, `tau`, `a1`, `a2`).
+pub const GLITCH_PARAMS: usize = 4;
+
+/// A parent model plus force glitches (see the module docs).
+#[derive(Debug, Clone)]
+pub struct GlitchModel {
+    name: String,
+    parent: Arc<dyn Model>,
+    names: Vec<String>,
+    units: Vec<String>,
+    data: Vec<String>,
+    /// Number of the parent's parameters (the glitches' follow).
+    np: usize,
+    /// The experiment of each glitch.
+    experiments: Vec<String>,
+    /// Duration `N/fs` of each experiment that has glitches (s).
+    durations: Vec<(String, f64)>,
+    /// Rise time `τ_r` (s).
+    rise: f64,
+    /// Specialised to one experiment: its glitches and duration. `None`: no glitch acts.
+    here: Option<(Vec<usize>, f64)>,
+}
+
+impl GlitchModel {
+    /// `parent` plus one glitch in each of `experiments` (in order: glitch `j + 1` is in
+    /// `experiments[j]`), every experiment's duration (s) in `durations`, rise time `rise` (s).
+    /// The parent must say how a force on a test mass enters its residual
+    /// ([`Model::force_response`]).
+    pub fn new(
+        name: &str,
+        parent: Arc<dyn Model>,
+        experiments: Vec<String>,
+        durations: Vec<(String, f64)>,
+        rise: f64,
+    ) -> Result<Self, String> {
+        let probe = {
+            let mut c = vec![Complex64::new(0.0, 0.0); parent.n_consts()];
+            parent.bin_consts(1e-3, 1.0, &mut c);
+            let th = vec![0.0; parent.param_names().len()];
+            let mut out = vec![Complex64::new(0.0, 0.0); 2 * parent.residual_channels().len()];
+            parent.force_response(
+                &th,
+                &Bin {
+                    f: 1e-3,
+                    fs: 1.0,
+                    consts: &c,
+                },
+                &mut out,
+            )
+        };
+        if !probe {
+            return Err(format!(
+                "model `{}` does not say how a force on a test mass enters its residual, so glitches cannot be modelled on it (the continuous LTP loop, kind = \"ltp\", and models tied to or drifting from it can); use glitches = \"gate\"",
+                parent.name()
+            ));
+        }
+        if parent.data_channels().iter().any(|c| c == GLITCH_CHANNEL) {
+            return Err(format!(
+                "model `{}` already reads `{GLITCH_CHANNEL}`",
+                parent.name()
+            ));
+        }
+        if !(rise.is_finite() && rise > 0.0) {
+            return Err(format!("glitch rise time {rise} s: need > 0"));
+        }
+        for e in &experiments {
+            if !durations.iter().any(|(d, t)| d == e && *t > 0.0) {
+                return Err(format!("no duration of experiment `{e}`"));
+            }
+        }
+        let np = parent.param_names().len();
+        let mut names = parent.param_names().to_vec();
+        let mut units = parent.param_units();
+        for j in 1..=experiments.len() {
+            for (p, u) in [("t0", "s"), ("tau", "s"), ("a1", "m s⁻²"), ("a2", "m s⁻²")] {
+                names.push(format!("g{j}_{p}"));
+                units.push(u.into());
+            }
+        }
+        if let Some(n) = parent
+            .param_names()
+            .iter()
+            .find(|n| names[np..].contains(n))
+        {
+            return Err(format!(
+                "model `{}` has a parameter `{n}`, the name of a glitch parameter",
+                parent.name()
+            ));
+        }
+        let mut data = parent.data_channels().to_vec();
+        data.push(GLITCH_CHANNEL.into());
+        Ok(Self {
+            name: name.into(),
+            parent,
+            names,
+            units,
+            data,
+            np,
+            experiments,
+            durations,
+            rise,
+            here: None,
+        })
+    }
+
+    /// Number of glitches.
+    pub fn n_glitches(&self) -> usize {
+        self.experiments.len()
+    }
+
+    /// The index in θ of the first parameter (`t0`) of glitch `j` (0-based).
+    pub fn glitch_index(&self, j: usize) -> usize {
+        self.np + GLITCH_PARAMS * j
+    }
+
+    /// The experiment of each glitch.
+    pub fn experiments(&self) -> &[String] {
+        &self.experiments
+    }
+
+    /// The parent model.
+    pub fn parent(&self) -> &Arc<dyn Model> {
+        &self.parent
+    }
+
+    /// Fills `out` (`R × (C_p + 1)`) from the parent's coefficients and force response
+    /// `(pc, pf)` (`R × C_p`, `R × 2`) at θ.
+    fn fill<T: DualNum<Primitive = f64> + Copy>(
+        &self,
+        th: &[T],
+        bin: &Bin,
+        pc: &[Complex<T>],
+        pf: Option<&[Complex<T>]>,
+        out: &mut [Complex<T>],
+    ) {
+        let nr = self.parent.residual_channels().len();
+        let cp = self.data.len() - 1;
+        let c = cp + 1;
+        for r in 0..nr {
+            out[r * c..r * c + cp].copy_from_slice(&pc[r * cp..(r + 1) * cp]);
+            out[r * c + cp] = Complex::new(T::zero(), T::zero());
+        }
+        let (Some((active, duration)), Some(pf)) = (&self.here, pf) else {
+            return;
+        };
+        for &g in active {
+            let i = self.glitch_index(g);
+            let s = shape_dft(th[i], th[i + 1], self.rise, *duration, bin.f, bin.fs);
+            let (a1, a2) = (th[i + 2], th[i + 3]);
+            for r in 0..nr {
+                out[r * c + cp] -= (pf[2 * r] * a1 + pf[2 * r + 1] * a2) * s;
+            }
+        }
+    }
+}
+
+/// The DFT of a glitch's sampled shape (module docs), generic over dual numbers in `t0` and
+/// `tau`; zero for a glitch that starts after the record.
+pub fn shape_dft<T: DualNum<Primitive = f64> + Copy>(
+    t0: T,
+    tau: T,
+    rise: f64,
+    duration: f64,
+    f: f64,
+    fs: f64,
+) -> Complex<T> {
+    let n0 = (t0.re() * fs).ceil().max(0.0);
+    if n0 >= (duration * fs).round() {
+        return Complex::new(T::zero(), T::zero());
+    }
+    let w = 2.0 * PI * f / fs;
+    let (s0, c0) = (w * n0).sin_cos();
+    let ph0 = Complex::new(T::from(c0), T::from(-s0));
+    let (sw, cw) = w.sin_cos();
+    let one = Complex::new(T::one(), T::zero());
+    let start = T::from(n0 / fs) - t0;
+    let end = T::from(duration) - t0;
+    let u = |tau: T| -> Complex<T> {
+        let head = (-start / tau).exp();
+        let tail = (-end / tau).exp();
+        let decay = (-(tau * fs).recip()).exp();
+        let z = Complex::new(decay * cw, -(decay * sw));
+        (ph0 * head - Complex::new(tail, T::zero())) / (one - z)
+    };
+    (u(tau) - u(T::from(rise))) / peak(tau, rise)
+}
+
+/// The peak of `e^{−u/τ} − e^{−u/τ_r}`, at `u* = ln(τ/τ_r) τ τ_r / (τ − τ_r)`.
+fn peak<T: DualNum<Primitive = f64> + Copy>(tau: T, rise: f64) -> T {
+    let u = (tau / rise).ln() * tau * rise / (tau - rise);
+    (-u / tau).exp() - (-u / rise).exp()
+}
+
+impl Model for GlitchModel {
+    fn name(&self) -> &str {
+        &self.name
+    }
+
+    fn param_names(&self) -> &[String] {
+        &self.names
+    }
+
+    fn param_units(&self) -> Vec<String> {
+        self.units.clone()
+    }
+
+    fn data_channels(&self) -> &[String] {
+        &self.data
+    }
+
+    fn residual_channels(&self) -> &[String] {
+        self.parent.residual_channels()
+    }
+
+    fn n_consts(&self) -> usize {
+        self.parent.n_consts()
+    }
+
+    fn bin_consts(&self, f: f64, fs: f64, out: &mut [Complex64]) {
+        self.parent.bin_consts(f, fs, out)
+    }
+
+    fn coefficients(&self, theta: &[f64], bin: &Bin, out: &mut [Complex64]) {
+        let nr = self.parent.residual_channels().len();
+        let cp = self.data.len() - 1;
+        let p = &theta[..self.np];
+        with_buffer(nr * cp + 2 * nr, |buf| {
+            let (pc, pf) = buf.split_at_mut(nr * cp);
+            self.parent.coefficients(p, bin, pc);
+            let has = self.here.is_some() && self.parent.force_response(p, bin, pf);
+            self.fill(theta, bin, pc, has.then_some(&*pf), out);
+        })
+    }
+
+    fn coefficients_dual(&self, theta: &[Dual64], bin: &Bin, out: &mut [Complex<Dual64>]) {
+        let nr = self.parent.residual_channels().len();
+        let cp = self.data.len() - 1;
+        let z = Complex::new(Dual64::from(0.0), Dual64::from(0.0));
+        let mut pc = vec![z; nr * cp];
+        let mut pf = vec![z; 2 * nr];
+        let p = &theta[..self.np];
+        self.parent.coefficients_dual(p, bin, &mut pc);
+        let has = self.here.is_some() && self.parent.force_response_dual(p, bin, &mut pf);
+        self.fill(theta, bin, &pc, has.then_some(&pf[..]), out);
+    }
+
+    fn check(&self, theta: &[f64]) -> Result<(), String> {
+        self.parent.check(&theta[..self.np])?;
+        for j in 0..self.n_glitches() {
+            let tau = theta[self.glitch_index(j) + 1];
+            if !(tau > self.rise) {
+                return Err(format!(
+                    "g{}_tau = {tau} s: a glitch decays slower than it rises ({} s)",
+                    j + 1,
+                    self.rise
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    fn data_noise_csd(&self, theta: &[f64], bin: &Bin, out: &mut [Complex64]) -> bool {
+        let cp = self.data.len() - 1;
+        let mut inner = vec![Complex64::new(0.0, 0.0); cp * cp];
+        if !self
+            .parent
+            .data_noise_csd(&theta[..self.np], bin, &mut inner)
+        {
+            return false;
+        }
+        // the impulse is noiseless: a zero row and column
+        out.fill(Complex64::new(0.0, 0.0));
+        for r in 0..cp {
+            out[r * (cp + 1)..r * (cp + 1) + cp].copy_from_slice(&inner[r * cp..(r + 1) * cp]);
+        }
+        true
+    }
+
+    /// The model on experiment `cov.experiment`: its glitches act, the others' do not.
+    fn specialise(&self, cov: &Covariates) -> Result<Option<Arc<dyn Model>>, String> {
+        let parent = self
+            .parent
+            .specialise(cov)?
+            .unwrap_or_else(|| self.parent.clone());
+        let exp = cov.experiment.as_deref();
+        let active: Vec<usize> = (0..self.n_glitches())
+            .filter(|&j| Some(self.experiments[j].as_str()) == exp)
+            .collect();
+        let duration = match exp {
+            Some(e) if !active.is_empty() => self
+                .durations
+                .iter()
+                .find(|(d, _)| d == e)
+                .map(|(_, t)| *t)
+                .ok_or_else(|| format!("no duration of experiment `{e}`"))?,
+            _ => 0.0,
+        };
+        Ok(Some(Arc::new(Self {
+            parent,
+            here: Some((active, duration)),
+            ..self.clone()
+        })))
+    }
+
+    fn force_response(&self, theta: &[f64], bin: &Bin, out: &mut [Complex64]) -> bool {
+        self.parent.force_response(&theta[..self.np], bin, out)
+    }
+
+    fn force_response_dual(
+        &self,
+        theta: &[Dual64],
+        bin: &Bin,
+        out: &mut [Complex<Dual64>],
+    ) -> bool {
+        self.parent.force_response_dual(&theta[..self.np], bin, out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::experiment::Glitch;
+    use crate::model::{LtpModel, coefficients_at};
+    use crate::signal::RealFft;
+
+    /// The closed form equals the FFT of the sampled shape, for starts on and off the sample
+    /// grid and a glitch cut by the record's end.
+    #[test]
+    fn shape_dft_is_the_fft_of_the_samples() {
+        let (n, fs) = (4096usize, 2.0);
+        let duration = n as f64 / fs;
+        for (t0, tau) in [(100.0, 40.0), (333.37, 200.0), (1900.2, 300.0), (0.0, 12.0)] {
+            let g = Glitch {
+                t0,
+                amplitude: 1.0,
+                decay: tau,
+                rise: 2.0,
+                tm: 1,
+            };
+            let x: Vec<f64> = (0..n).map(|k| g.at(k as f64 / fs)).collect();
+            let mut fft = RealFft::new(n).unwrap();
+            let mut spec = vec![Complex64::new(0.0, 0.0); fft.spectrum_len()];
+            fft.forward(&x, &mut spec).unwrap();
+            let big = spec.iter().map(|z| z.norm()).fold(0.0, f64::max);
+            for k in [1usize, 7, 100, 1000, 2047] {
+                let s = shape_dft(t0, tau, 2.0, duration, k as f64 * fs / n as f64, fs);
+                assert!(
+                    (s - spec[k]).norm() < 1e-10 * big,
+                    "t0 {t0} k {k}: {s} vs {}",
+                    spec[k]
+                );
+            }
+        }
+    }
+
+    /// Dual derivatives in `t0` and `tau` equal central differences.
+    #[test]
+    fn shape_dft_derivatives_are_exact() {
+        let (duration, fs, f) = (4000.0, 1.0, 0.013);
+        for (t0, tau) in [(100.3, 40.0), (2500.6, 700.0)] {
+            let d = |a: usize| {
+                let mut x = [Dual64::from(t0), Dual64::from(tau)];
+                x[a] = x[a].derivative();
+                let s = shape_dft(x[0], x[1], 2.0, duration, f, fs);
+                Complex64::new(s.re.eps, s.im.eps)
+            };
+            let h = 1e-4;
+            let fd_t0 = (shape_dft(t0 + h, tau, 2.0, duration, f, fs)
+                - shape_dft(t0 - h, tau, 2.0, duration, f, fs))
+                / (2.0 * h);
+            let fd_tau = (shape_dft(t0, tau + h, 2.0, duration, f, fs)
+                - shape_dft(t0, tau - h, 2.0, duration, f, fs))
+                / (2.0 * h);
+            assert!(
+                (d(0) - fd_t0).norm() < 1e-6 * fd_t0.norm(),
+                "{} {fd_t0}",
+                d(0)
+            );
+            assert!(
+                (d(1) - fd_tau).norm() < 1e-6 * fd_tau.norm(),
+                "{} {fd_tau}",
+                d(1)
+            );
+        }
+    }
+
+    fn model() -> GlitchModel {
+        let p: Arc<dyn Model> = Arc::new(LtpModel::new("ltp", Default::default()));
+        GlitchModel::new(
+            "ltp",
+            p,
+            vec!["a".into(), "b".into(), "a".into()],
+            vec![("a".into(), 3000.0), ("b".into(), 5000.0)],
+            2.0,
+        )
+        .unwrap()
+    }
+
+    fn theta(m: &GlitchModel) -> Vec<f64> {
+        let mut th = crate::ltp::LtpParams::default().to_array().to_vec();
+        for j in 0..m.n_glitches() {
+            th.extend([
+                300.4 + 500.0 * j as f64,
+                60.0,
+                2e-13,
+                -1e-13 * (j + 1) as f64,
+            ]);
+        }
+        th
+    }
+
+    /// On its experiment the impulse's coefficient is minus the force response times the
+    /// glitches' forces; elsewhere, and unspecialised, it is zero; the parent's coefficients
+    /// are kept.
+    #[test]
+    fn coefficients_add_the_glitches_of_the_experiment_only() {
+        let m = model();
+        let th = theta(&m);
+        let (f, fs) = (0.01, 1.0);
+        let parent = coefficients_at(m.parent().as_ref(), &th[..7], f, fs);
+        let on = |e: Option<&str>| {
+            let cov = Covariates {
+                experiment: e.map(str::to_string),
+                ..Default::default()
+            };
+            let s = m.specialise(&cov).unwrap().unwrap();
+            coefficients_at(s.as_ref(), &th, f, fs)
+        };
+        let plain = coefficients_at(&m, &th, f, fs);
+        let a = on(Some("a"));
+        let c = on(Some("c"));
+        let mut cst = vec![Complex64::new(0.0, 0.0); m.n_consts()];
+        m.bin_consts(f, fs, &mut cst);
+        let bin = Bin {
+            f,
+            fs,
+            consts: &cst,
+        };
+        let mut h = [Complex64::new(0.0, 0.0); 4];
+        assert!(m.force_response(&th, &bin, &mut h));
+        for r in 0..2 {
+            assert_eq!(&a[r * 5..r * 5 + 4], &parent[r * 4..r * 4 + 4]);
+            assert_eq!(plain[r * 5 + 4], Complex64::new(0.0, 0.0));
+            assert_eq!(c[r * 5 + 4], Complex64::new(0.0, 0.0));
+            let mut want = Complex64::new(0.0, 0.0);
+            for g in [0usize, 2] {
+                let i = 7 + 4 * g;
+                let s = shape_dft(th[i], th[i + 1], 2.0, 3000.0, f, fs);
+                want -= (h[2 * r] * th[i + 2] + h[2 * r + 1] * th[i + 3]) * s;
+            }
+            assert!((a[r * 5 + 4] - want).norm() < 1e-12 * want.norm());
+        }
+    }
+
+    /// Every parameter's dual derivative of the specialised coefficients equals a central
+    /// difference.
+    #[test]
+    fn dual_coefficients_have_exact_derivatives() {
+        let m = model();
+        let cov = Covariates {
+            experiment: Some("a".into()),
+            ..Default::default()
+        };
+        let s = m.specialise(&cov).unwrap().unwrap();
+        let th = theta(&m);
+        let (f, fs) = (0.004, 1.0);
+        let mut cst = vec![Complex64::new(0.0, 0.0); m.n_consts()];
+        m.bin_consts(f, fs, &mut cst);
+        let bin = Bin {
+            f,
+            fs,
+            consts: &cst,
+        };
+        for a in [0usize, 3, 6, 7, 8, 9, 10, 15] {
+            let mut d: Vec<Dual64> = th.iter().map(|&v| Dual64::from(v)).collect();
+            d[a] = d[a].derivative();
+            let mut out = vec![Complex::new(Dual64::from(0.0), Dual64::from(0.0)); 10];
+            s.coefficients_dual(&d, &bin, &mut out);
+            let h = 1e-6 * th[a].abs().max(1e-30);
+            let (mut up, mut dn) = (th.clone(), th.clone());
+            up[a] += h;
+            dn[a] -= h;
+            let cu = coefficients_at(s.as_ref(), &up, f, fs);
+            let cd = coefficients_at(s.as_ref(), &dn, f, fs);
+            let z = coefficients_at(s.as_ref(), &th, f, fs);
+            let fd: Vec<Complex64> = (0..10).map(|k| (cu[k] - cd[k]) / (2.0 * h)).collect();
+            // central differences of the loop's entries carry ~1e−6 of the largest
+            let scale = fd.iter().map(|z| z.norm()).fold(0.0, f64::max);
+            for k in 0..10 {
+                let v = Complex64::new(out[k].re.re, out[k].im.re);
+                assert!((v - z[k]).norm() <= 1e-13 * z[k].norm(), "{v} vs {}", z[k]);
+                let ex = Complex64::new(out[k].re.eps, out[k].im.eps);
+                assert!(
+                    (ex - fd[k]).norm() <= 1e-4 * fd[k].norm() + 1e-6 * scale,
+                    "param {a} comp {k}: {ex} vs {}",
+                    fd[k]
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn a_parent_without_a_force_response_is_refused() {
+        let p: Arc<dyn Model> = Arc::new(crate::model::AccelModel::new("acc", Default::default()));
+        let e = GlitchModel::new("x", p, vec![], vec![], 2.0).unwrap_err();
+        assert!(e.contains("glitches = \"gate\""), "{e}");
+    }
+}
