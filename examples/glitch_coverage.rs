@@ -1,7 +1,8 @@
-//! The bias glitches cause and the bias gating removes: Fisher-error coverage over noise
-//! realisations of a study with `[simulation.glitches]`, fitted three ways from the same noise
-//! streams — glitches with no treatment (`[analysis] glitches = "none"`), glitches gated
-//! (`"gate"`), and no glitches at all. For each seed the MAP of the `[fit]` model is found by
+//! The bias glitches cause and the bias gating and modelling remove: Fisher-error coverage over
+//! noise realisations of a study with `[simulation.glitches]`, fitted four ways from the same
+//! noise streams — glitches with no treatment (`[analysis] glitches = "none"`), glitches gated
+//! (`"gate"`), glitches modelled (`"model"`: fitted jointly with the physics, the physics'
+//! errors marginalised over them), and no glitches at all. For each seed the MAP of the `[fit]` model is found by
 //! Fisher scoring from the prior centre (as `occam fit` does) and the Fisher matrix is
 //! evaluated there. Per parameter and case it reports the 1σ coverage against 0.683 ± 3
 //! binomial standard deviations (`!` outside), the mean pull (bias, standard error 1/√N) and
@@ -24,14 +25,18 @@ use std::time::Instant;
 /// Nominal 1σ coverage of a calibrated Gaussian error bar.
 const COVER: f64 = 0.683;
 
-/// One fit: (MAP − truth, σ_Fisher) per free parameter, and the gate's record
-/// (glitches injected, found, seconds gated), or why the realisation is left out.
-type Outcome = Result<(Vec<(f64, f64)>, [f64; 3]), String>;
+/// One fit: (MAP − truth, σ_Fisher) per free parameter of the study's `[fit]` model, and the
+/// record (glitches injected, found, seconds gated, glitches modelled, candidates left out,
+/// glitch parameters on a prior bound), or why the realisation is left out.
+type Outcome = Result<(Vec<(f64, f64)>, [f64; 6]), String>;
 
 fn realisation(base: &Study, seed: u64, truth: &[f64]) -> Outcome {
     let mut study = base.clone();
     study.seed = seed;
     let prep = prepare(&study).map_err(|e| format!("seed {seed}: prepare: {e}"))?;
+    let n_base = study.fit_model.free.len();
+    // with modelled glitches the model carries them: its spec and starts
+    let study = prep.study(&study).clone();
     // the injected glitches' start times, per experiment, and whether a gate covers them
     let (mut injected, mut found) = (0.0, 0.0);
     if let Some(g) = prep
@@ -45,7 +50,13 @@ fn realisation(base: &Study, seed: u64, truth: &[f64]) -> Outcome {
             for gl in rec["fit"].as_array().into_iter().flatten() {
                 let t0 = gl["t0"].as_f64().unwrap_or(f64::NAN);
                 injected += 1.0;
-                if gate.is_some_and(|x| x.regions.iter().any(|r| r[0] <= t0 && t0 < r[1])) {
+                let modelled = prep
+                    .glitch_candidates
+                    .iter()
+                    .any(|c| &c.experiment == name && c.region[0] <= t0 && t0 < c.region[1]);
+                if modelled
+                    || gate.is_some_and(|x| x.regions.iter().any(|r| r[0] <= t0 && t0 < r[1]))
+                {
                     found += 1.0;
                 }
             }
@@ -60,18 +71,28 @@ fn realisation(base: &Study, seed: u64, truth: &[f64]) -> Outcome {
     if !map.converged {
         return Err(format!("seed {seed}: MAP search did not converge"));
     }
-    if map.at_bound.iter().any(|b| *b) {
+    if map.at_bound[..n_base].iter().any(|b| *b) {
         return Err(format!("seed {seed}: MAP on a prior bound"));
     }
+    let glitch_bounds = map.at_bound[n_base..].iter().filter(|b| **b).count() as f64;
     let f = fisher_exact(lik, &map.theta, &spec.free);
     let sd = cramer_rao(&f).ok_or_else(|| format!("seed {seed}: singular Fisher matrix"))?;
-    let rows = spec
-        .free
+    let rows = spec.free[..n_base]
         .iter()
         .zip(&sd)
         .map(|(&i, &s)| (map.theta[i] - truth[i], s))
         .collect();
-    Ok((rows, [injected, found, gated]))
+    Ok((
+        rows,
+        [
+            injected,
+            found,
+            gated,
+            prep.glitch_candidates.len() as f64,
+            prep.glitch_dropped.len() as f64,
+            glitch_bounds,
+        ],
+    ))
 }
 
 /// Per free parameter: (coverage, bias, pull sd), and the number of usable realisations.
@@ -108,6 +129,8 @@ fn main() {
     none.analysis.glitch_pad = None;
     let mut gated = base.clone();
     gated.analysis.glitches = GlitchTreatment::Gate;
+    let mut modelled = base.clone();
+    modelled.analysis.glitches = GlitchTreatment::Model;
     let mut clean = none.clone();
     clean.simulation.glitches = None;
     // the false alarms: the gate on glitch-free data
@@ -124,6 +147,7 @@ fn main() {
     let cases = [
         ("no treatment", run(&none)),
         ("gated", run(&gated)),
+        ("modelled", run(&modelled)),
         ("glitch-free", run(&clean)),
     ];
     let false_alarm: Vec<f64> = (0..n)
@@ -137,7 +161,7 @@ fn main() {
         })
         .collect();
     println!(
-        "{n} realisations of {path}: no treatment, gated, glitch-free; {:.1} s",
+        "{n} realisations of {path}: no treatment, gated, modelled, glitch-free; {:.1} s",
         t0.elapsed().as_secs_f64()
     );
     for (label, out) in &cases {
@@ -162,7 +186,7 @@ fn main() {
         1.0 / m.sqrt()
     );
     println!(
-        "| parameter | bias none / gated / free | pull sd none / gated / free | coverage none / gated / free |"
+        "| parameter | bias none / gated / modelled / free | pull sd none / gated / modelled / free | coverage none / gated / modelled / free |"
     );
     println!("|---|---|---|---|");
     for (j, &i) in free.iter().enumerate() {
@@ -175,34 +199,57 @@ fn main() {
             }
         };
         println!(
-            "| {} | {:.2} / {:.2} / {:.2} | {:.2} / {:.2} / {:.2} | {:.2}{} / {:.2}{} / {:.2}{} |",
+            "| {} | {:.2} / {:.2} / {:.2} / {:.2} | {:.2} / {:.2} / {:.2} / {:.2} | {:.2}{} / {:.2}{} / {:.2}{} / {:.2}{} |",
             names[i],
             f(0, 1),
             f(1, 1),
             f(2, 1),
+            f(3, 1),
             f(0, 2),
             f(1, 2),
             f(2, 2),
+            f(3, 2),
             f(0, 0),
             flag(0),
             f(1, 0),
             flag(1),
             f(2, 0),
             flag(2),
+            f(3, 0),
+            flag(3),
         );
     }
-    let rec: Vec<[f64; 3]> = cases[1]
-        .1
-        .iter()
-        .filter_map(|o| o.as_ref().ok().map(|x| x.1))
-        .collect();
-    let (inj, found, secs) = rec
-        .iter()
-        .fold((0.0, 0.0, 0.0), |a, r| (a.0 + r[0], a.1 + r[1], a.2 + r[2]));
+    let totals = |c: usize| -> (Vec<f64>, usize) {
+        let rec: Vec<[f64; 6]> = cases[c]
+            .1
+            .iter()
+            .filter_map(|o| o.as_ref().ok().map(|x| x.1))
+            .collect();
+        let mut t = vec![0.0; 6];
+        for r in &rec {
+            for (a, b) in t.iter_mut().zip(r) {
+                *a += b;
+            }
+        }
+        (t, rec.len().max(1))
+    };
+    let (t, k) = totals(1);
     println!(
-        "gate: {found} of {inj} injected glitches found ({:.1} %); {:.0} s gated per realisation on average",
-        100.0 * found / inj,
-        secs / rec.len().max(1) as f64
+        "gate: {} of {} injected glitches found ({:.1} %); {:.0} s gated per realisation on average",
+        t[1],
+        t[0],
+        100.0 * t[1] / t[0],
+        t[2] / k as f64
+    );
+    let (t, k) = totals(2);
+    println!(
+        "model: {} of {} injected glitches inside a modelled candidate's region ({:.1} %); {:.2} glitches modelled and {:.2} candidates left out per realisation; {:.2} glitch parameters per realisation on a prior bound at the MAP",
+        t[1],
+        t[0],
+        100.0 * t[1] / t[0],
+        t[3] / k as f64,
+        t[4] / k as f64,
+        t[5] / k as f64
     );
     let fa: Vec<f64> = false_alarm
         .iter()

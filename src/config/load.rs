@@ -869,10 +869,54 @@ fn validate_analysis(a: &AnalysisOptions, file: &str) -> Result<(), ConfigError>
             "glitch_threshold and glitch_pad apply to detection only: set glitches = \"gate\" or remove them".into(),
         ));
     }
+    let modelled = a.glitches == crate::likelihood::GlitchTreatment::Model;
+    if !modelled
+        && (a.glitch_decay.is_some() || a.glitch_amplitude.is_some() || a.glitch_rise.is_some())
+    {
+        return Err(bad(
+            "glitches",
+            "glitch_decay, glitch_amplitude and glitch_rise set the modelled glitches' priors: set glitches = \"model\" or remove them".into(),
+        ));
+    }
+    let rise = a
+        .glitch_rise
+        .unwrap_or(crate::likelihood::DEFAULT_GLITCH_RISE);
+    if !(rise.is_finite() && rise > 0.0) {
+        return Err(bad(
+            "glitch_rise",
+            format!("must be a duration > 0 s (got {rise})"),
+        ));
+    }
+    if let Some([lo, hi]) = a.glitch_decay
+        && !(lo.is_finite() && hi.is_finite() && lo > rise && hi > lo)
+    {
+        return Err(bad(
+            "glitch_decay",
+            format!(
+                "[{lo}, {hi}] s: need rise time ({rise} s) < lo < hi (the decay time's log-uniform prior)"
+            ),
+        ));
+    }
+    if let Some(amp) = a.glitch_amplitude
+        && !(amp.is_finite() && amp > 0.0 && amp <= 1e-6)
+    {
+        return Err(bad(
+            "glitch_amplitude",
+            format!(
+                "must be in (0, 1e−6] m s⁻², the largest peak force per unit mass a glitch may have (got {amp})"
+            ),
+        ));
+    }
+    if modelled && a.window != crate::signal::Window::Rectangular {
+        return Err(bad(
+            "glitches",
+            "glitches = \"model\" needs window = \"rectangular\": the model's glitches act through an impulse at the first sample, which a tapered window removes".into(),
+        ));
+    }
     if !a.glitches.is_none() && a.statistic == crate::likelihood::Statistic::LogPeriodogram {
         return Err(bad(
             "glitches",
-            "gating makes gaps, which statistic = \"log_periodogram\" does not handle: use \"whittle\" or \"student_t\"".into(),
+            "statistic = \"log_periodogram\" (a Welch average of the residual's time series) handles neither the gaps that gating makes nor modelled glitches: use \"whittle\" or \"student_t\"".into(),
         ));
     }
     if a.log_periodogram.averages == 0 {

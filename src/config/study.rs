@@ -344,9 +344,10 @@ pub struct AnalysisOptions {
     /// (default [`crate::likelihood::DEFAULT_GAP_TAPER`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub gap_taper: Option<f64>,
-    /// `none` (default) or `gate`: find glitches on the whitened residual at the reference
-    /// point and gate them ([`crate::likelihood::glitch_gate`]). Listed `[[experiment]]
-    /// glitches` are gated either way.
+    /// `none` (default), `gate` or `model`: find glitches on the whitened residual at the
+    /// reference point and gate them ([`crate::likelihood::glitch_gate`]) or fit them as part
+    /// of the model ([`crate::model::glitch`]). Listed `[[experiment]] glitches` are gated
+    /// either way.
     #[serde(skip_serializing_if = "crate::likelihood::GlitchTreatment::is_none")]
     pub glitches: crate::likelihood::GlitchTreatment,
     /// Detection threshold (σ of the whitened residual; default
@@ -357,6 +358,18 @@ pub struct AnalysisOptions {
     /// [`crate::likelihood::DEFAULT_GLITCH_PAD`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub glitch_pad: Option<f64>,
+    /// `glitches = "model"`: the prior range `[lo, hi]` of a glitch's decay time (s,
+    /// log-uniform; default [`crate::likelihood::DEFAULT_GLITCH_DECAY`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub glitch_decay: Option<[f64; 2]>,
+    /// `glitches = "model"`: a glitch's peak force per unit mass on each test mass is uniform
+    /// in `[−A, A]` (m s⁻²; default [`crate::likelihood::DEFAULT_GLITCH_AMPLITUDE`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub glitch_amplitude: Option<f64>,
+    /// `glitches = "model"`: a glitch's rise time (s, fixed; default
+    /// [`crate::likelihood::DEFAULT_GLITCH_RISE`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub glitch_rise: Option<f64>,
 }
 
 impl Default for AnalysisOptions {
@@ -380,6 +393,9 @@ impl Default for AnalysisOptions {
             glitches: Default::default(),
             glitch_threshold: None,
             glitch_pad: None,
+            glitch_decay: None,
+            glitch_amplitude: None,
+            glitch_rise: None,
         }
     }
 }

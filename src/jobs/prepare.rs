@@ -42,6 +42,40 @@ pub struct Prepared {
     /// What glitch gating did, per experiment (empty when the study gates nothing: no
     /// `[analysis] glitches = "gate"` and no listed `[[experiment]] glitches`).
     pub glitch_gates: Vec<crate::likelihood::GlitchGate>,
+    /// With `[analysis] glitches = "model"`: the study whose models carry the glitches found
+    /// on the data, with their starts in `[fit] start` ([`crate::jobs::glitch_model`]); the
+    /// job runs on it. `None` otherwise.
+    pub study: Option<Box<Study>>,
+    /// The modelled glitches (empty unless `glitches = "model"`).
+    pub glitch_candidates: Vec<crate::jobs::glitch_model::GlitchCandidate>,
+    /// The candidates found but not modelled: the data did not support them.
+    pub glitch_dropped: Vec<crate::jobs::glitch_model::GlitchCandidate>,
+}
+
+impl Prepared {
+    /// The study the job runs on: [`Prepared::study`] when glitches are modelled, else `study`.
+    pub fn study<'a>(&'a self, study: &'a Study) -> &'a Study {
+        self.study.as_deref().unwrap_or(study)
+    }
+
+    /// The notes of what was done to the data's glitches (gated or modelled).
+    pub fn glitch_notes(&self) -> Vec<String> {
+        let mut out = glitch_notes(&self.glitch_gates);
+        if self.study.is_some() {
+            let names: Vec<String> = self
+                .dataset
+                .experiments
+                .iter()
+                .map(|e| e.name.clone())
+                .collect();
+            out.extend(crate::jobs::glitch_model::glitch_model_notes(
+                &self.glitch_candidates,
+                &self.glitch_dropped,
+                &names,
+            ));
+        }
+        out
+    }
 }
 
 /// The data of a study and where they came from: the `[analysis] dataset` directory, or every
@@ -166,14 +200,63 @@ pub fn prepare_for(study: &Study, models: &[usize]) -> Result<Prepared, Analysis
         .ok_or_else(|| AnalysisError::Likelihood("a job needs at least one model".into()))?;
     let (mut dataset, origin) = load_data_for(study, models)?;
     let glitch_gates = gate_glitches(study, first, &mut dataset)?;
-    let likelihood = likelihood_of(study, first, &dataset)?;
+    let build = |s: &Study, d: &Dataset| -> Result<(Likelihood, Vec<f64>), String> {
+        let lik = likelihood_of(s, first, d).map_err(|e| e.to_string())?;
+        Ok((lik, default_start(s, &first_spec(s, first))))
+    };
+    let modelled = crate::jobs::glitch_model::model_glitches(
+        study,
+        models,
+        &mut dataset,
+        &spectra_options(study),
+        &reference_point(study, first),
+        &build,
+    )
+    .map_err(|m| AnalysisError::Likelihood(format!("glitches = \"model\": {m}")))?;
+    let Some((modelled, likelihood)) = modelled else {
+        let likelihood = likelihood_of(study, first, &dataset)?;
+        return Ok(Prepared {
+            dataset,
+            origin,
+            likelihood,
+            model: first,
+            glitch_gates,
+            study: None,
+            glitch_candidates: Vec::new(),
+            glitch_dropped: Vec::new(),
+        });
+    };
     Ok(Prepared {
         dataset,
         origin,
         likelihood,
         model: first,
         glitch_gates,
+        study: Some(Box::new(modelled.study)),
+        glitch_candidates: modelled.candidates,
+        glitch_dropped: modelled.dropped,
     })
+}
+
+/// The spec of model `mi` with every parameter free (the physics' start and fixed values of
+/// the `[fit]` model when it is `mi`).
+fn first_spec(study: &Study, mi: usize) -> ModelSpec {
+    if study.fit_model.model == mi {
+        return study.fit_model.clone();
+    }
+    if let Some(s) = study.select_models.iter().find(|s| s.spec.model == mi) {
+        return s.spec.clone();
+    }
+    let n = study.models.models[mi].param_names().len();
+    ModelSpec {
+        model: mi,
+        free: (0..n).collect(),
+        base: study.models.priors[mi]
+            .kinds()
+            .iter()
+            .map(|k| k.centre())
+            .collect(),
+    }
 }
 
 /// The models a `select` of `study` uses: the `[fit]` model when some `[[select.model]]` is a

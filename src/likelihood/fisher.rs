@@ -102,12 +102,22 @@ pub fn gradient_and_fisher(
     for (ei, e) in lik.spectra().iter().enumerate() {
         let m = lik.model_of(ei).as_ref();
         for k in 0..e.len() {
-            let mut r = [ZERO; MAX_RESIDUALS];
+            let mut r = None;
             for (i, &a) in free.iter().enumerate() {
+                // a parameter the experiment's model does not read has no derivative there
+                if !m.reads_param(a) {
+                    dr[i] = [ZERO; MAX_RESIDUALS];
+                    continue;
+                }
                 let (rk, drk) = dual_residual(m, e, k, th, a, &mut buf, &mut coef);
-                r = rk;
+                r = Some(rk);
                 dr[i] = drk;
             }
+            let mut r = match (r, free.first()) {
+                (Some(r), _) => r,
+                (None, Some(&a)) => dual_residual(m, e, k, th, a, &mut buf, &mut coef).0,
+                (None, None) => [ZERO; MAX_RESIDUALS],
+            };
             if d == 0 {
                 continue;
             }

@@ -38,6 +38,9 @@ pub enum GlitchTreatment {
     None,
     /// Detect glitches on the whitened residual and gate them.
     Gate,
+    /// Detect glitches on the whitened residual and fit each as part of the model
+    /// ([`crate::model::glitch`]).
+    Model,
 }
 
 impl GlitchTreatment {
@@ -52,6 +55,13 @@ impl GlitchTreatment {
 pub const DEFAULT_GLITCH_THRESHOLD: f64 = 5.0;
 /// Default `[analysis] glitch_pad` (s on each side of a gated region).
 pub const DEFAULT_GLITCH_PAD: f64 = 60.0;
+/// Default `[analysis] glitch_decay`: the prior range of a modelled glitch's decay time (s).
+pub const DEFAULT_GLITCH_DECAY: [f64; 2] = [10.0, 3000.0];
+/// Default `[analysis] glitch_amplitude`: a modelled glitch's peak force per unit mass on
+/// either test mass lies in `[−A, A]` (m s⁻²), above every LPF glitch.
+pub const DEFAULT_GLITCH_AMPLITUDE: f64 = 1e-10;
+/// Default `[analysis] glitch_rise`: a modelled glitch's rise time (s), held fixed.
+pub const DEFAULT_GLITCH_RISE: f64 = 2.0;
 /// A gated region grows while the whitened envelope exceeds this (σ).
 pub const GLITCH_RELEASE: f64 = 2.0;
 /// Length of the whitened envelope's moving RMS window (s).

@@ -139,6 +139,13 @@ pub trait Model: Send + Sync + std::fmt::Debug {
         Ok(None)
     }
 
+    /// Whether the coefficients depend on parameter `a` at all (`false` lets the Fisher
+    /// matrix skip it: a model specialised to one experiment does not read the parameters of
+    /// another's glitches). The default: every parameter.
+    fn reads_param(&self, _a: usize) -> bool {
+        true
+    }
+
     /// How forces per unit mass on the two test masses (TM1, TM2; m s⁻²) that no data channel
     /// records — glitches ([`crate::model::glitch`]) — enter the residual channels:
     /// `out[r·2 + j]` is residual `r`'s response to a unit force on test mass `j + 1`. `false`

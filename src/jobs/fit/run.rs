@@ -27,6 +27,8 @@ pub fn run(
     observer: Option<&(dyn Fn(&Progress) + Sync)>,
     resume: bool,
 ) -> Result<FitOutcome, FitError> {
+    // modelled glitches: the model carries them (`Prepared::study`)
+    let study = prep.study(study);
     let exact = &prep.likelihood;
     let model = &study.fit_model;
     let free = &model.free;
@@ -47,7 +49,7 @@ pub fn run(
     })?;
     let mut warnings = model_warnings(study, model.model, &prep.dataset);
     warnings.extend(gap_notes(study, &prep.dataset));
-    warnings.extend(crate::jobs::prepare::glitch_notes(&prep.glitch_gates));
+    warnings.extend(prep.glitch_notes());
     if !map.converged {
         warnings.push(format!(
             "the MAP search stopped after {} iterations without converging; the chains may start far from the mode",

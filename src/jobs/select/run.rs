@@ -81,6 +81,8 @@ pub fn run_observed(
     work: Option<&crate::jobs::progress::Work>,
     mut ckpt: Option<Checkpointing<'_>>,
 ) -> Result<SelectSummary, SelectError> {
+    // modelled glitches: the models carry them (`Prepared::study`)
+    let study = prep.study(study);
     if let Some(w) = work {
         w.start(work_units(study));
     }
@@ -305,7 +307,7 @@ fn summarise(
         .flat_map(|mi| model_warnings(study, mi, &prep.dataset))
         .collect();
     warnings.extend(gap_notes(study, &prep.dataset));
-    warnings.extend(crate::jobs::prepare::glitch_notes(&prep.glitch_gates));
+    warnings.extend(prep.glitch_notes());
     for m in &models {
         warnings.extend(m.notes.iter().map(|n| format!("model `{}`: {n}", m.name)));
         if let Some(w) = m.tempering.as_ref().and_then(|t| t.broken_ladder_warning()) {

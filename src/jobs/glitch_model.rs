@@ -1,0 +1,476 @@
+//! `[analysis] glitches = "model"`: the glitches found on the data become parameters of the
+//! models a job uses ([`crate::model::glitch`]), fitted with the physics rather than cut out.
+//!
+//! 1. **Candidates.** The detector of gating ([`crate::likelihood::detect_glitches`], same
+//!    threshold and pad) runs on the whitened residual of the first model at its reference
+//!    point; each detected region is one candidate glitch, its start time's prior the region
+//!    ([`t0_window`]).
+//! 2. **Models.** Each model the job uses is wrapped in a [`GlitchModel`] with every
+//!    candidate (parameters `g<j>_t0`, `g<j>_tau`, `g<j>_a1`, `g<j>_a2`; priors uniform in the
+//!    window, log-uniform in `[analysis] glitch_decay`, uniform in `±glitch_amplitude`), and
+//!    every `[fit]` and `[[select.model]]` model on it frees them. The data gain the impulse
+//!    channel the glitches act through.
+//! 3. **Starts, and which candidates stay.** A glitch's likelihood is exactly quadratic in its
+//!    amplitudes, so each candidate's start is the best of a grid in `(t0, τ)` with the
+//!    amplitudes solved there ([`glitch_starts`]); the MAP search refines all jointly. They
+//!    become `[fit] start` values. A candidate whose start gains less `ln L` than a glitch at
+//!    the detection threshold (`threshold²/2`) is left out and reported: the detector splits a
+//!    large glitch's long response into several regions, and fitting the first leaves the
+//!    others with nothing to explain.
+
+use crate::config::Study;
+use crate::data::dataset::Dataset;
+use crate::density::LogDensity;
+use crate::likelihood::{
+    DEFAULT_GLITCH_AMPLITUDE, DEFAULT_GLITCH_DECAY, DEFAULT_GLITCH_PAD, DEFAULT_GLITCH_RISE,
+    DEFAULT_GLITCH_THRESHOLD, Likelihood, SpectraOptions, detect_glitches,
+};
+use crate::model::glitch::{GLITCH_PARAMS, shape_dft};
+use crate::model::{GLITCH_CHANNEL, GlitchModel, Model};
+use crate::prior::{Prior, PriorKind};
+use num_complex::Complex64;
+use serde::Serialize;
+use std::sync::Arc;
+
+/// One candidate glitch of `glitches = "model"`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct GlitchCandidate {
+    /// Its parameters' prefix, `g<j>`.
+    pub name: String,
+    pub experiment: String,
+    /// The detected region (s from the fit stretch's first sample), pads included.
+    pub region: [f64; 2],
+    /// The prior window of its start time (s).
+    pub t0: [f64; 2],
+    /// The `ln L` its start gains over no glitch ([`glitch_starts`]).
+    pub gain: f64,
+}
+
+/// The study with its models carrying the candidates, and the candidates.
+#[derive(Debug, Clone)]
+pub struct ModelledGlitches {
+    pub study: Study,
+    /// The glitches the models carry.
+    pub candidates: Vec<GlitchCandidate>,
+    /// The candidates left out: their best start gained too little ([`KEEP_FRACTION`]).
+    pub dropped: Vec<GlitchCandidate>,
+}
+
+/// The prior window of a candidate's start time for a detected region `[r0, r1]` (s) in a
+/// stretch of `duration` s: the whole region. The detector's moving means, envelope and the
+/// whitening's two-sided response open a region hundreds of seconds before a large glitch
+/// starts (measured on `examples/glitches.toml`: 480 s before one of 1.9e−13 m s⁻²), so no
+/// narrower window is safe.
+pub fn t0_window([r0, r1]: [f64; 2], duration: f64) -> [f64; 2] {
+    [r0.max(0.0), r1.min(duration)]
+}
+
+/// A candidate is kept when its best start gains at least this many times `threshold²/2` of
+/// `ln L`: what a glitch at the detection threshold gains. Below it the data do not constrain
+/// its shape (its start time and decay are then unidentifiable and the Fisher matrix singular).
+pub const KEEP_FRACTION: f64 = 1.0;
+
+/// What [`model_glitches`] needs of the job layer: the likelihood of a study's first model on
+/// the data and the start of its MAP search.
+pub type BuildLikelihood<'a> =
+    dyn Fn(&Study, &Dataset) -> Result<(Likelihood, Vec<f64>), String> + 'a;
+
+/// Detects the candidates on `dataset` and returns the study whose models `models` carry the
+/// ones the data support, their starts in `[fit] start`, with the likelihood of its first
+/// model (module docs); `None` unless `[analysis] glitches = "model"`. Adds the impulse
+/// channel to every experiment of `dataset`. `opts` and `reference` are the spectra options
+/// and the first model's reference point; `build` builds a likelihood.
+pub fn model_glitches(
+    study: &Study,
+    models: &[usize],
+    dataset: &mut Dataset,
+    opts: &SpectraOptions,
+    reference: &[f64],
+    build: &BuildLikelihood<'_>,
+) -> Result<Option<(ModelledGlitches, Likelihood)>, String> {
+    use crate::likelihood::GlitchTreatment;
+    let a = &study.analysis;
+    if a.glitches != GlitchTreatment::Model {
+        return Ok(None);
+    }
+    let first = *models.first().ok_or("a job needs at least one model")?;
+    let model = &study.models.models[first];
+    let threshold = a.glitch_threshold.unwrap_or(DEFAULT_GLITCH_THRESHOLD);
+    let pad = a.glitch_pad.unwrap_or(DEFAULT_GLITCH_PAD);
+    let rise = a.glitch_rise.unwrap_or(DEFAULT_GLITCH_RISE);
+    let mut found = Vec::new();
+    let mut durations = Vec::new();
+    for e in &mut dataset.experiments {
+        if e.has_gaps() {
+            return Err(format!(
+                "experiment `{}` has gaps; modelled glitches need gap-free fit stretches (the impulse they act through starts the stretch): use glitches = \"gate\"",
+                e.name
+            ));
+        }
+        let here = model
+            .specialise(&study.covariates_of(&e.name))?
+            .unwrap_or_else(|| model.clone());
+        let regions = detect_glitches(e, here.as_ref(), reference, opts, threshold, pad)
+            .map_err(|m| format!("experiment `{}`: {m}", e.name))?;
+        let duration = e.n_samples() as f64 / e.fs;
+        for r in regions {
+            let region = [r[0] as f64 / e.fs, r[1] as f64 / e.fs];
+            found.push(GlitchCandidate {
+                name: String::new(),
+                experiment: e.name.clone(),
+                region,
+                t0: t0_window(region, duration),
+                gain: 0.0,
+            });
+        }
+        durations.push((e.name.clone(), duration));
+        let mut impulse = vec![0.0; e.n_samples()];
+        if let Some(x) = impulse.first_mut() {
+            *x = 1.0;
+        }
+        e.set_channel(GLITCH_CHANNEL, impulse);
+    }
+    let min_gain = KEEP_FRACTION * 0.5 * threshold * threshold;
+    // every candidate, then those whose best start gains enough
+    let all = with_glitches(study, models, &named(found), &durations)?;
+    let (lik, start) = build(&all.study, dataset)?;
+    let starts = glitch_starts(&lik, &start, &all.candidates, rise);
+    let mut kept: Vec<GlitchCandidate> = Vec::new();
+    let mut kept_starts = Vec::new();
+    for (c, st) in all.candidates.iter().zip(&starts) {
+        if st.gain >= min_gain {
+            kept.push(GlitchCandidate {
+                gain: st.gain,
+                ..c.clone()
+            });
+            kept_starts.push(*st);
+        }
+    }
+    let dropped: Vec<GlitchCandidate> = all
+        .candidates
+        .iter()
+        .zip(&starts)
+        .filter(|(_, st)| st.gain < min_gain)
+        .map(|(c, st)| GlitchCandidate {
+            gain: st.gain,
+            ..c.clone()
+        })
+        .collect();
+    let (mut out, lik) = if dropped.is_empty() {
+        (all, lik)
+    } else {
+        let out = with_glitches(study, models, &named(kept), &durations)?;
+        let (lik, _) = build(&out.study, dataset)?;
+        (out, lik)
+    };
+    for (c, st) in out.candidates.iter_mut().zip(&kept_starts) {
+        c.gain = st.gain;
+    }
+    out.dropped = dropped;
+    let names = lik.model().param_names();
+    let first_glitch = names.len() - GLITCH_PARAMS * out.candidates.len();
+    let values = kept_starts.iter().flat_map(|s| s.values);
+    out.study
+        .fit
+        .start
+        .get_or_insert_with(Default::default)
+        .extend(names[first_glitch..].iter().cloned().zip(values));
+    Ok(Some((out, lik)))
+}
+
+/// `candidates` named `g1, g2, …` in order.
+fn named(mut candidates: Vec<GlitchCandidate>) -> Vec<GlitchCandidate> {
+    for (j, c) in candidates.iter_mut().enumerate() {
+        c.name = format!("g{}", j + 1);
+    }
+    candidates
+}
+
+/// The study whose models `models` carry `candidates` (module docs, step 2).
+fn with_glitches(
+    study: &Study,
+    models: &[usize],
+    candidates: &[GlitchCandidate],
+    durations: &[(String, f64)],
+) -> Result<ModelledGlitches, String> {
+    let a = &study.analysis;
+    let rise = a.glitch_rise.unwrap_or(DEFAULT_GLITCH_RISE);
+    let decay = a.glitch_decay.unwrap_or(DEFAULT_GLITCH_DECAY);
+    let amp = a.glitch_amplitude.unwrap_or(DEFAULT_GLITCH_AMPLITUDE);
+    let mut out = study.clone();
+    let mut wrapped = models.to_vec();
+    wrapped.sort_unstable();
+    wrapped.dedup();
+    for &mi in &wrapped {
+        let parent = out.models.models[mi].clone();
+        let np = parent.param_names().len();
+        let m = GlitchModel::new(
+            parent.name(),
+            parent.clone(),
+            candidates.iter().map(|c| c.experiment.clone()).collect(),
+            durations.to_vec(),
+            rise,
+        )?;
+        let mut kinds = out.models.priors[mi].kinds().to_vec();
+        for c in candidates {
+            kinds.extend([
+                PriorKind::Uniform {
+                    lo: c.t0[0],
+                    hi: c.t0[1],
+                },
+                PriorKind::LogUniform {
+                    lo: decay[0],
+                    hi: decay[1],
+                },
+                PriorKind::Uniform { lo: -amp, hi: amp },
+                PriorKind::Uniform { lo: -amp, hi: amp },
+            ]);
+        }
+        let prior = Prior::new(m.param_names().to_vec(), kinds).map_err(|e| e.to_string())?;
+        let added = m.param_names().len() - np;
+        let centres: Vec<f64> = prior.kinds()[np..].iter().map(|k| k.centre()).collect();
+        let free_more = |spec: &mut crate::config::ModelSpec| {
+            if spec.model == mi {
+                spec.free.extend(np..np + added);
+                spec.base.extend_from_slice(&centres);
+            }
+        };
+        free_more(&mut out.fit_model);
+        for s in &mut out.select_models {
+            free_more(&mut s.spec);
+        }
+        out.models.models[mi] = Arc::new(m);
+        out.models.priors[mi] = prior;
+    }
+    Ok(ModelledGlitches {
+        study: out,
+        candidates: candidates.to_vec(),
+        dropped: Vec::new(),
+    })
+}
+
+/// Grid of the start search: start times per candidate window and decay times over the
+/// prior range (log-spaced), then twice a finer grid around the best point.
+const T0_GRID: usize = 61;
+const TAU_GRID: usize = 8;
+const REFINE_T0: usize = 11;
+const REFINE_TAU: usize = 5;
+
+/// A candidate's start: its four parameters and the `ln L` they gain over no glitch.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GlitchStart {
+    /// `t0`, `tau`, `a1`, `a2`.
+    pub values: [f64; GLITCH_PARAMS],
+    pub gain: f64,
+}
+
+/// Start values of the glitches of `lik`'s model (a [`GlitchModel`] whose glitches are the
+/// last `4·n` parameters, rise time `rise`), the other parameters at `theta`. Each candidate's
+/// is the `(t0, τ)` of a grid over its prior (refined twice around the best point) that gains
+/// most `ln L`, the amplitudes at their conditional maximum there (exact: the residual is
+/// linear in them, `r = r0 + Σ_j a_j v_j` with `v_j = −H_j S`, so `ln L = ln L0 − 2aᵀB − aᵀAa`,
+/// `B_j = Re Σ v_jᴴC⁻¹r0`, `A_jl = Re Σ v_jᴴC⁻¹v_l`, maximal at `a = −A⁻¹B`, gain `BᵀA⁻¹B`),
+/// clipped to the prior; only its experiment's bins enter. Two passes: in time order with the
+/// earlier candidates at their starts, then each again with all the others at theirs, so that
+/// a candidate that only repeats another glitch's response gains little.
+pub fn glitch_starts(
+    lik: &Likelihood,
+    theta: &[f64],
+    candidates: &[GlitchCandidate],
+    rise: f64,
+) -> Vec<GlitchStart> {
+    let names = lik.model().param_names();
+    let first = names.len() - GLITCH_PARAMS * candidates.len();
+    let mut th = theta.to_vec();
+    for j in 0..candidates.len() {
+        let i = first + GLITCH_PARAMS * j;
+        th[i + 2] = 0.0;
+        th[i + 3] = 0.0;
+    }
+    let mut out = vec![
+        GlitchStart {
+            values: [0.0; GLITCH_PARAMS],
+            gain: 0.0
+        };
+        candidates.len()
+    ];
+    for _pass in 0..2 {
+        for (j, c) in candidates.iter().enumerate() {
+            let i = first + GLITCH_PARAMS * j;
+            th[i + 2] = 0.0;
+            th[i + 3] = 0.0;
+            out[j] = best_start(lik, &th, first, i, c, rise);
+            th[i..i + GLITCH_PARAMS].copy_from_slice(&out[j].values);
+        }
+    }
+    out
+}
+
+/// [`glitch_starts`] of one candidate (parameters from `i`), the others at `th`.
+fn best_start(
+    lik: &Likelihood,
+    th: &[f64],
+    np: usize,
+    i: usize,
+    c: &GlitchCandidate,
+    rise: f64,
+) -> GlitchStart {
+    let kinds = lik.prior().kinds();
+    let zero = Complex64::new(0.0, 0.0);
+    let none = GlitchStart {
+        values: [th[i], th[i + 1], 0.0, 0.0],
+        gain: 0.0,
+    };
+    let (
+        PriorKind::Uniform { lo: t_lo, hi: t_hi },
+        PriorKind::LogUniform { lo: d_lo, hi: d_hi },
+        PriorKind::Uniform { hi: amp, .. },
+    ) = (kinds[i], kinds[i + 1], kinds[i + 2])
+    else {
+        return none;
+    };
+    let Some(e) = lik.spectra().iter().find(|e| e.name == c.experiment) else {
+        return none;
+    };
+    let nr = e.nr;
+    let mut r0 = Vec::with_capacity(e.len() * nr);
+    lik.visit_residuals(e, th, |_, r, _| r0.extend_from_slice(r));
+    let m = lik.model_for(e);
+    let ncst = m.n_consts();
+    let mut h = vec![zero; e.len() * 2 * nr];
+    for k in 0..e.len() {
+        m.force_response(
+            &th[..np],
+            &e.bin(k, ncst),
+            &mut h[k * 2 * nr..(k + 1) * 2 * nr],
+        );
+    }
+    let duration = e.n as f64 / e.fs;
+    let (mut v1, mut v2) = (vec![zero; nr], vec![zero; nr]);
+    let mut at = |t0: f64, tau: f64| -> Option<GlitchStart> {
+        let (mut bb, mut aa) = ([0.0; 2], [0.0; 3]);
+        for k in 0..e.len() {
+            let s = shape_dft(t0, tau, rise, duration, e.freqs[k], e.fs);
+            let hk = &h[k * 2 * nr..(k + 1) * 2 * nr];
+            for r in 0..nr {
+                v1[r] = -hk[2 * r] * s;
+                v2[r] = -hk[2 * r + 1] * s;
+            }
+            let rk = &r0[k * nr..(k + 1) * nr];
+            bb[0] += e.inner(k, &v1, rk);
+            bb[1] += e.inner(k, &v2, rk);
+            aa[0] += e.inner(k, &v1, &v1);
+            aa[1] += e.inner(k, &v1, &v2);
+            aa[2] += e.inner(k, &v2, &v2);
+        }
+        let det = aa[0] * aa[2] - aa[1] * aa[1];
+        if !(det > 0.0 && aa[0] > 0.0) {
+            return None;
+        }
+        let x1 = (-(aa[2] * bb[0] - aa[1] * bb[1]) / det).clamp(-amp, amp);
+        let x2 = (-(aa[0] * bb[1] - aa[1] * bb[0]) / det).clamp(-amp, amp);
+        let gain = -2.0 * (bb[0] * x1 + bb[1] * x2)
+            - (aa[0] * x1 * x1 + 2.0 * aa[1] * x1 * x2 + aa[2] * x2 * x2);
+        gain.is_finite().then_some(GlitchStart {
+            values: [t0, tau, x1, x2],
+            gain,
+        })
+    };
+    let mut best = none;
+    let (mut t_step, mut ln_step) = (
+        (t_hi - t_lo) / (T0_GRID - 1) as f64,
+        (d_hi / d_lo).ln() / (TAU_GRID - 1) as f64,
+    );
+    let grid = |lo: f64, step: f64, n: usize| (0..n).map(move |a| lo + step * a as f64);
+    let mut points: Vec<(f64, f64)> = grid(t_lo, t_step, T0_GRID)
+        .flat_map(|t| grid(d_lo.ln(), ln_step, TAU_GRID).map(move |l| (t, l)))
+        .collect();
+    for _round in 0..3 {
+        for &(t0, l) in &points {
+            if let Some(s) = at(t0.clamp(t_lo, t_hi), l.clamp(d_lo.ln(), d_hi.ln()).exp())
+                && s.gain > best.gain
+            {
+                best = s;
+            }
+        }
+        // a finer grid around the best point
+        let (t0, l) = (best.values[0], best.values[1].ln());
+        t_step /= ((REFINE_T0 - 1) / 2) as f64;
+        ln_step /= ((REFINE_TAU - 1) / 2) as f64;
+        let half_t = t_step * ((REFINE_T0 - 1) / 2) as f64;
+        let half_l = ln_step * ((REFINE_TAU - 1) / 2) as f64;
+        points = grid(t0 - half_t, t_step, REFINE_T0)
+            .flat_map(|t| grid(l - half_l, ln_step, REFINE_TAU).map(move |l| (t, l)))
+            .collect();
+    }
+    best
+}
+
+/// One line per experiment with candidates, for the run's notes: the glitches modelled and the
+/// candidates left out.
+pub fn glitch_model_notes(
+    candidates: &[GlitchCandidate],
+    dropped: &[GlitchCandidate],
+    experiments: &[String],
+) -> Vec<String> {
+    let mut out = Vec::new();
+    for e in experiments {
+        let here: Vec<String> = candidates
+            .iter()
+            .filter(|c| &c.experiment == e)
+            .map(|c| {
+                format!(
+                    "{} (t0 in [{:.0}, {:.0}] s, start gains {:.0} in ln L)",
+                    c.name, c.t0[0], c.t0[1], c.gain
+                )
+            })
+            .collect();
+        let left: Vec<String> = dropped
+            .iter()
+            .filter(|c| &c.experiment == e)
+            .map(|c| {
+                format!(
+                    "[{:.0}, {:.0}] s (gains {:.1})",
+                    c.region[0], c.region[1], c.gain
+                )
+            })
+            .collect();
+        if here.is_empty() && left.is_empty() {
+            continue;
+        }
+        let mut line = format!(
+            "glitch modelling: experiment `{e}`: {} glitch(es) fitted with the model",
+            here.len()
+        );
+        if !here.is_empty() {
+            line += &format!(": {}", here.join("; "));
+        }
+        if !left.is_empty() {
+            line += &format!(
+                "; {} candidate(s) left out, their best glitch gaining less ln L than one at the detection threshold: {}",
+                left.len(),
+                left.join("; ")
+            );
+        }
+        out.push(line);
+    }
+    if out.is_empty() {
+        out.push(format!(
+            "glitch modelling: no glitch found in any of the {} experiment(s)",
+            experiments.len()
+        ));
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn t0_window_is_the_region_inside_the_stretch() {
+        assert_eq!(t0_window([1000.0, 1500.0], 9000.0), [1000.0, 1500.0]);
+        assert_eq!(t0_window([-3.0, 100.0], 9000.0), [0.0, 100.0]);
+        assert_eq!(t0_window([8900.0, 9100.0], 9000.0), [8900.0, 9000.0]);
+    }
+}
