@@ -155,6 +155,35 @@ fn bad_glitch_settings_name_the_key() {
             "analysis.glitches",
             "glitches = \"gate\"",
         ),
+        (
+            GLITCHES.replace("glitches = \"gate\"", "glitch_decay = [30.0, 300.0]"),
+            "analysis.glitches",
+            "glitches = \"model\"",
+        ),
+        (
+            GLITCHES.replace(
+                "glitches = \"gate\"",
+                "glitches = \"model\"\nglitch_decay = [1.0, 300.0]",
+            ),
+            "analysis.glitch_decay",
+            "rise time",
+        ),
+        (
+            GLITCHES.replace(
+                "glitches = \"gate\"",
+                "glitches = \"model\"\nglitch_amplitude = 1.0",
+            ),
+            "analysis.glitch_amplitude",
+            "m s⁻²",
+        ),
+        (
+            GLITCHES.replace(
+                "glitches = \"gate\"",
+                "glitches = \"model\"\nwindow = \"hann\"",
+            ),
+            "analysis.glitches",
+            "rectangular",
+        ),
     ];
     for (extra, field, what) in cases {
         let p = tn3045(&extra, dir.path());
