@@ -64,8 +64,11 @@ pub const LEGACY_OUTPUTS: &[&str] = &[
     "report.html",
 ];
 
+/// Most parameters the trace and corner plots show (the first ones of the chains).
+pub const MAX_PLOTTED: usize = 16;
+
 /// Writes `summary.json`, `table.txt`, `table.md`, `chains.npz` and the trace and corner plots
-/// into `out`; every file atomically.
+/// (of the first [`MAX_PLOTTED`] parameters) into `out`; every file atomically.
 pub fn write_outputs(o: &FitOutcome, out: &Path) -> Result<(), FitError> {
     let io = |p: &Path, e: std::io::Error| FitError::Other(format!("{}: {e}", p.display()));
     std::fs::create_dir_all(out).map_err(|e| io(out, e))?;
@@ -78,12 +81,17 @@ pub fn write_outputs(o: &FitOutcome, out: &Path) -> Result<(), FitError> {
     let p = out.join("table.md");
     crate::atomic::write_bytes(&p, t.to_markdown().as_bytes()).map_err(|e| io(&p, e))?;
     write_chains_npz(&o.chains, &out.join("chains.npz"))?;
-    let names = o.chains.names().to_vec();
+    // the plots show the first MAX_PLOTTED parameters: the model's own come first, modelled
+    // glitches (four parameters each) after them, and a 70-parameter corner plot would be
+    // thousands of panels
+    let all = o.chains.names().len();
+    let shown = all.min(MAX_PLOTTED);
+    let names = o.chains.names()[..shown].to_vec();
     let per_chain: Vec<Vec<Vec<f64>>> = o
         .chains
         .chains()
         .iter()
-        .map(|c| c.samples.chunks(names.len()).map(|s| s.to_vec()).collect())
+        .map(|c| c.samples.chunks(all).map(|s| s[..shown].to_vec()).collect())
         .collect();
     // NaN marks a parameter whose true value is unknown; the plots leave it unmarked.
     let truth: Option<Vec<f64>> = o.summary.rows.iter().any(|r| r.truth.is_some()).then(|| {
