@@ -68,7 +68,7 @@ pub const LEGACY_OUTPUTS: &[&str] = &[
 pub const MAX_PLOTTED: usize = 16;
 
 /// Writes `summary.json`, `table.txt`, `table.md`, `chains.npz` and the trace and corner plots
-/// (of the first [`MAX_PLOTTED`] parameters) into `out`; every file atomically.
+/// (of the first `MAX_PLOTTED` parameters) into `out`; every file atomically.
 pub fn write_outputs(o: &FitOutcome, out: &Path) -> Result<(), FitError> {
     let io = |p: &Path, e: std::io::Error| FitError::Other(format!("{}: {e}", p.display()));
     std::fs::create_dir_all(out).map_err(|e| io(out, e))?;
