@@ -347,3 +347,32 @@ fn a_modelled_glitch_at_its_true_parameters_explains_noiseless_data() {
         assert!(wrong > 0.5 * none, "{wrong} vs {none}");
     }
 }
+
+/// `glitches = "model"` on glitch-free data: whatever the detector's false alarms, every
+/// modelled candidate gained at least a threshold glitch's `ln L` at its start and every
+/// left-out one less; the model carries exactly the kept ones (four parameters each, freed in
+/// `[fit]`, starts in `[fit] start`), and with none it is the plain model.
+#[test]
+fn modelled_glitches_on_glitch_free_data_keep_only_supported_candidates() {
+    let dir = tempfile::tempdir().unwrap();
+    let s = Study::load(&tn3045("\n[analysis]\nglitches = \"model\"\n", dir.path())).unwrap();
+    let prep = occam::jobs::prepare::prepare(&s).unwrap();
+    let st = prep.study(&s);
+    let kept = prep.glitch_candidates.len();
+    let min = 0.5 * 5.0 * 5.0;
+    assert!(prep.glitch_candidates.iter().all(|c| c.gain >= min));
+    assert!(prep.glitch_dropped.iter().all(|c| c.gain < min));
+    let names = st.models.models[st.fit_model.model].param_names();
+    assert_eq!(names.len(), 7 + 4 * kept);
+    assert_eq!(st.fit_model.free.len(), 7 + 4 * kept);
+    let starts = st.fit.start.clone().unwrap_or_default();
+    for n in &names[7..] {
+        assert!(starts.contains_key(n), "no start for {n}");
+    }
+    let notes = prep.glitch_notes().join("\n");
+    eprintln!("{notes}");
+    assert!(notes.contains("glitch modelling"), "{notes}");
+    if kept == 0 {
+        assert_eq!(prep.likelihood.model().param_names().len(), 7);
+    }
+}

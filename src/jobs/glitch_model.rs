@@ -193,6 +193,14 @@ fn with_glitches(
     candidates: &[GlitchCandidate],
     durations: &[(String, f64)],
 ) -> Result<ModelledGlitches, String> {
+    if candidates.is_empty() {
+        // nothing to carry: the models stay as they are (and keep their fast kernels)
+        return Ok(ModelledGlitches {
+            study: study.clone(),
+            candidates: Vec::new(),
+            dropped: Vec::new(),
+        });
+    }
     let a = &study.analysis;
     let rise = a.glitch_rise.unwrap_or(DEFAULT_GLITCH_RISE);
     let decay = a.glitch_decay.unwrap_or(DEFAULT_GLITCH_DECAY);

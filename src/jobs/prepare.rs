@@ -238,8 +238,8 @@ pub fn prepare_for(study: &Study, models: &[usize]) -> Result<Prepared, Analysis
     })
 }
 
-/// The spec of model `mi` with every parameter free (the physics' start and fixed values of
-/// the `[fit]` model when it is `mi`).
+/// The spec whose start the glitch search uses for model `mi`: the `[fit]` model's when it is
+/// `mi`, else that of the first `[[select.model]]` on it, else every parameter free.
 fn first_spec(study: &Study, mi: usize) -> ModelSpec {
     if study.fit_model.model == mi {
         return study.fit_model.clone();
