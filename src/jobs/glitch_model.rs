@@ -71,21 +71,23 @@ pub fn t0_window([r0, r1]: [f64; 2], duration: f64) -> [f64; 2] {
 pub const KEEP_FRACTION: f64 = 1.0;
 
 /// What [`model_glitches`] needs of the job layer: the likelihood of a study's first model on
-/// the data and the start of its MAP search.
-pub type BuildLikelihood<'a> =
-    dyn Fn(&Study, &Dataset) -> Result<(Likelihood, Vec<f64>), String> + 'a;
+/// the data.
+pub type BuildLikelihood<'a> = dyn Fn(&Study, &Dataset) -> Result<Likelihood, String> + 'a;
 
 /// Detects the candidates on `dataset` and returns the study whose models `models` carry the
 /// ones the data support, their starts in `[fit] start`, with the likelihood of its first
 /// model (module docs); `None` unless `[analysis] glitches = "model"`. Adds the impulse
-/// channel to every experiment of `dataset`. `opts` and `reference` are the spectra options
-/// and the first model's reference point; `build` builds a likelihood.
+/// channel to every experiment of `dataset`. `opts` are the spectra options; `physics` the
+/// first model's parameters fitted without glitches (its MAP), where the glitches are
+/// detected and their starts found (at the prior centre the residual would be the
+/// injections' response, not the glitches); they also become the start of the loop's
+/// parameters that `[fit] start` does not give. `build` builds a likelihood.
 pub fn model_glitches(
     study: &Study,
     models: &[usize],
     dataset: &mut Dataset,
     opts: &SpectraOptions,
-    reference: &[f64],
+    physics: &[f64],
     build: &BuildLikelihood<'_>,
 ) -> Result<Option<(ModelledGlitches, Likelihood)>, String> {
     use crate::likelihood::GlitchTreatment;
@@ -110,7 +112,7 @@ pub fn model_glitches(
         let here = model
             .specialise(&study.covariates_of(&e.name))?
             .unwrap_or_else(|| model.clone());
-        let regions = detect_glitches(e, here.as_ref(), reference, opts, threshold, pad)
+        let regions = detect_glitches(e, here.as_ref(), physics, opts, threshold, pad)
             .map_err(|m| format!("experiment `{}`: {m}", e.name))?;
         let duration = e.n_samples() as f64 / e.fs;
         for r in regions {
@@ -133,8 +135,17 @@ pub fn model_glitches(
     let min_gain = KEEP_FRACTION * 0.5 * threshold * threshold;
     // every candidate, then those whose best start gains enough
     let all = with_glitches(study, models, &named(found), &durations)?;
-    let (lik, start) = build(&all.study, dataset)?;
-    let starts = glitch_starts(&lik, &start, &all.candidates, rise);
+    let lik = build(&all.study, dataset)?;
+    let at: Vec<f64> = physics
+        .iter()
+        .copied()
+        .chain(
+            lik.prior().kinds()[physics.len()..]
+                .iter()
+                .map(|k| k.centre()),
+        )
+        .collect();
+    let starts = glitch_starts(&lik, &at, &all.candidates, rise);
     let mut kept: Vec<GlitchCandidate> = Vec::new();
     let mut kept_starts = Vec::new();
     for (c, st) in all.candidates.iter().zip(&starts) {
@@ -160,7 +171,7 @@ pub fn model_glitches(
         (all, lik)
     } else {
         let out = with_glitches(study, models, &named(kept), &durations)?;
-        let (lik, _) = build(&out.study, dataset)?;
+        let lik = build(&out.study, dataset)?;
         (out, lik)
     };
     for (c, st) in out.candidates.iter_mut().zip(&kept_starts) {
@@ -170,11 +181,11 @@ pub fn model_glitches(
     let names = lik.model().param_names();
     let first_glitch = names.len() - GLITCH_PARAMS * out.candidates.len();
     let values = kept_starts.iter().flat_map(|s| s.values);
-    out.study
-        .fit
-        .start
-        .get_or_insert_with(Default::default)
-        .extend(names[first_glitch..].iter().cloned().zip(values));
+    let start = out.study.fit.start.get_or_insert_with(Default::default);
+    for (n, v) in names[..physics.len()].iter().zip(physics) {
+        start.entry(n.clone()).or_insert(*v);
+    }
+    start.extend(names[first_glitch..].iter().cloned().zip(values));
     Ok(Some((out, lik)))
 }
 

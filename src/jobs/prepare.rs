@@ -200,20 +200,7 @@ pub fn prepare_for(study: &Study, models: &[usize]) -> Result<Prepared, Analysis
         .ok_or_else(|| AnalysisError::Likelihood("a job needs at least one model".into()))?;
     let (mut dataset, origin) = load_data_for(study, models)?;
     let glitch_gates = gate_glitches(study, first, &mut dataset)?;
-    let build = |s: &Study, d: &Dataset| -> Result<(Likelihood, Vec<f64>), String> {
-        let lik = likelihood_of(s, first, d).map_err(|e| e.to_string())?;
-        Ok((lik, default_start(s, &first_spec(s, first))))
-    };
-    let modelled = crate::jobs::glitch_model::model_glitches(
-        study,
-        models,
-        &mut dataset,
-        &spectra_options(study),
-        &reference_point(study, first),
-        &build,
-    )
-    .map_err(|m| AnalysisError::Likelihood(format!("glitches = \"model\": {m}")))?;
-    let Some((modelled, likelihood)) = modelled else {
+    if study.analysis.glitches != crate::likelihood::GlitchTreatment::Model {
         let likelihood = likelihood_of(study, first, &dataset)?;
         return Ok(Prepared {
             dataset,
@@ -225,7 +212,31 @@ pub fn prepare_for(study: &Study, models: &[usize]) -> Result<Prepared, Analysis
             glitch_candidates: Vec::new(),
             glitch_dropped: Vec::new(),
         });
-    };
+    }
+    // the loop fitted without glitches: where they are found and their starts made
+    let plain = likelihood_of(study, first, &dataset)?;
+    let spec = first_spec(study, first);
+    let physics = crate::likelihood::fisher_scoring(
+        &plain,
+        &default_start(study, &spec),
+        &spec.free,
+        1e-3,
+        100,
+    )
+    .map(|m| m.theta)
+    .unwrap_or_else(|_| reference_point(study, first));
+    drop(plain);
+    let build = |s: &Study, d: &Dataset| likelihood_of(s, first, d).map_err(|e| e.to_string());
+    let (modelled, likelihood) = crate::jobs::glitch_model::model_glitches(
+        study,
+        models,
+        &mut dataset,
+        &spectra_options(study),
+        &physics,
+        &build,
+    )
+    .map_err(|m| AnalysisError::Likelihood(format!("glitches = \"model\": {m}")))?
+    .ok_or_else(|| AnalysisError::Likelihood("glitches = \"model\" made no model".into()))?;
     Ok(Prepared {
         dataset,
         origin,
