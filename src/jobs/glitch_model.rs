@@ -2,8 +2,8 @@
 //! models a job uses ([`crate::model::glitch`]), fitted with the physics rather than cut out.
 //!
 //! 1. **Candidates.** The detector of gating ([`crate::likelihood::detect_glitches`], same
-//!    threshold and pad) runs on the whitened residual of the first model at its reference
-//!    point; each detected region is one candidate glitch, its start time's prior the region
+//!    threshold and pad) runs on the whitened residual of the first model at its MAP without
+//!    glitches; each detected region is one candidate glitch, its start time's prior the region
 //!    ([`t0_window`]).
 //! 2. **Models.** Each model the job uses is wrapped in a [`GlitchModel`] with every
 //!    candidate (parameters `g<j>_t0`, `g<j>_tau`, `g<j>_a1`, `g<j>_a2`; priors uniform in the
