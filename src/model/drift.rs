@@ -341,6 +341,21 @@ impl Model for DriftModel {
         self.first().data_noise_csd(theta, bin, out)
     }
 
+    /// As the coefficients: the first stretch's (a glitch model over a drifting one asks
+    /// here whether it can carry glitches; the likelihood uses the specialised models).
+    fn force_response(&self, theta: &[f64], bin: &Bin, out: &mut [Complex64]) -> bool {
+        self.first().force_response(theta, bin, out)
+    }
+
+    fn force_response_dual(
+        &self,
+        theta: &[Dual64],
+        bin: &Bin,
+        out: &mut [Complex<Dual64>],
+    ) -> bool {
+        self.first().force_response_dual(theta, bin, out)
+    }
+
     /// Valid in every stretch.
     fn check(&self, theta: &[f64]) -> Result<(), String> {
         for (m, c) in self.in_stretch.iter().zip(&self.stretches) {

@@ -575,6 +575,52 @@ mod tests {
         }
     }
 
+    /// Glitches can be put on a drifting loop: it gives the force response of the stretch it
+    /// is specialised to.
+    #[test]
+    fn a_drifting_parent_carries_glitches() {
+        use crate::model::{DriftModel, DriftRule};
+        let cov = |k: usize| Covariates::new(Some(&format!("s{k}")), &[("time", k as f64 * 1e5)]);
+        let ltp: Arc<dyn Model> = Arc::new(LtpModel::new("ltp", Default::default()));
+        let d: Arc<dyn Model> = Arc::new(
+            DriftModel::new(
+                "d",
+                ltp.clone(),
+                vec![cov(0), cov(1)],
+                &[("w1sq".to_string(), DriftRule::Linear("time".into()))],
+            )
+            .unwrap(),
+        );
+        let m = GlitchModel::new(
+            "g",
+            d.clone(),
+            vec!["a".into()],
+            vec![("a".into(), 3000.0)],
+            2.0,
+        )
+        .unwrap();
+        // w1sq, its slope, then the loop's others: in stretch 1 w1sq is −1.3e−6 + 0.5e5·1e−12
+        let mut th = vec![-1.3e-6, 1e-12, -1.9e-6, 0.2, 0.2, 0.82, 1.08, 4e-4];
+        th.extend([300.4, 60.0, 2e-13, -1e-13]);
+        let mut here = cov(1);
+        here.experiment = Some("a".into());
+        let s = m.specialise(&here).unwrap().unwrap();
+        let mut c = vec![Complex64::new(0.0, 0.0); ltp.n_consts()];
+        ltp.bin_consts(0.01, 1.0, &mut c);
+        let bin = Bin {
+            f: 0.01,
+            fs: 1.0,
+            consts: &c,
+        };
+        let (mut got, mut want) = ([Complex64::new(0.0, 0.0); 4], [Complex64::new(0.0, 0.0); 4]);
+        assert!(s.force_response(&th, &bin, &mut got));
+        let loop_th = [-1.3e-6 + 0.5e5 * 1e-12, -1.9e-6, 0.2, 0.2, 0.82, 1.08, 4e-4];
+        assert!(ltp.force_response(&loop_th, &bin, &mut want));
+        for (a, b) in got.iter().zip(&want) {
+            assert!((a - b).norm() <= 1e-12 * b.norm(), "{a} vs {b}");
+        }
+    }
+
     #[test]
     fn a_parent_without_a_force_response_is_refused() {
         let p: Arc<dyn Model> = Arc::new(crate::model::AccelModel::new("acc", Default::default()));
