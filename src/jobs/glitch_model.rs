@@ -6,13 +6,14 @@
 //!    glitches; each detected region is one candidate glitch, its start time's prior the region
 //!    ([`t0_window`]).
 //! 2. **Models.** Each model the job uses is wrapped in a [`GlitchModel`] with every
-//!    candidate (parameters `g<j>_t0`, `g<j>_tau`, `g<j>_a1`, `g<j>_a2`; priors uniform in the
-//!    window, log-uniform in `[analysis] glitch_decay`, uniform in `±glitch_amplitude`), and
+//!    candidate (parameters `g<j>_t0`, `g<j>_tau`, `g<j>_a`, the differential force `Δg`;
+//!    priors uniform in the window, log-uniform in `[analysis] glitch_decay`, uniform in
+//!    `±glitch_amplitude`), and
 //!    every `[fit]` and `[[select.model]]` model on it frees them. The data gain the impulse
 //!    channel the glitches act through.
 //! 3. **Starts, and which candidates stay.** A glitch's likelihood is exactly quadratic in its
-//!    amplitudes, so each candidate's start is the best of a grid in `(t0, τ)` with the
-//!    amplitudes solved there ([`glitch_starts`]); the MAP search refines all jointly. They
+//!    amplitude, so each candidate's start is the best of a grid in `(t0, τ)` with the
+//!    amplitude solved there ([`glitch_starts`]); the MAP search refines all jointly. They
 //!    become `[fit] start` values. A candidate whose start gains less `ln L` than a glitch at
 //!    the detection threshold (`threshold²/2`) is left out and reported: the detector splits a
 //!    large glitch's long response into several regions, and fitting the first leaves the
@@ -242,7 +243,6 @@ fn with_glitches(
                     hi: decay[1],
                 },
                 PriorKind::Uniform { lo: -amp, hi: amp },
-                PriorKind::Uniform { lo: -amp, hi: amp },
             ]);
         }
         let prior = Prior::new(m.param_names().to_vec(), kinds).map_err(|e| e.to_string())?;
@@ -275,21 +275,21 @@ const TAU_GRID: usize = 8;
 const REFINE_T0: usize = 11;
 const REFINE_TAU: usize = 5;
 
-/// A candidate's start: its four parameters and the `ln L` they gain over no glitch.
+/// A candidate's start: its three parameters and the `ln L` they gain over no glitch.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GlitchStart {
-    /// `t0`, `tau`, `a1`, `a2`.
+    /// `t0`, `tau`, `a`.
     pub values: [f64; GLITCH_PARAMS],
     pub gain: f64,
 }
 
 /// Start values of the glitches of `lik`'s model (a [`GlitchModel`] whose glitches are the
-/// last `4·n` parameters, rise time `rise`), the other parameters at `theta`. Each candidate's
+/// last `3·n` parameters, rise time `rise`), the other parameters at `theta`. Each candidate's
 /// is the `(t0, τ)` of a grid over its prior (refined twice around the best point) that gains
-/// most `ln L`, the amplitudes at their conditional maximum there (exact: the residual is
-/// linear in them, `r = r0 + Σ_j a_j v_j` with `v_j = −H_j S`, so `ln L = ln L0 − 2aᵀB − aᵀAa`,
-/// `B_j = Re Σ v_jᴴC⁻¹r0`, `A_jl = Re Σ v_jᴴC⁻¹v_l`, maximal at `a = −A⁻¹B`, gain `BᵀA⁻¹B`),
-/// clipped to the prior; only its experiment's bins enter. Two passes: in time order with the
+/// most `ln L`, the amplitude at its conditional maximum there (exact: the residual is
+/// linear in it, `r = r0 + a v` with `v = −H S`, so `ln L = ln L0 − 2aB − a²A`,
+/// `B = Re Σ vᴴC⁻¹r0`, `A = Re Σ vᴴC⁻¹v`, maximal at `a = −B/A`, gain `B²/A`), clipped to
+/// the prior; only its experiment's bins enter. Two passes: in time order with the
 /// earlier candidates at their starts, then each again with all the others at theirs, so that
 /// a candidate that only repeats another glitch's response gains little.
 pub fn glitch_starts(
@@ -304,7 +304,6 @@ pub fn glitch_starts(
     for j in 0..candidates.len() {
         let i = first + GLITCH_PARAMS * j;
         th[i + 2] = 0.0;
-        th[i + 3] = 0.0;
     }
     let mut out = vec![
         GlitchStart {
@@ -317,7 +316,6 @@ pub fn glitch_starts(
         for (j, c) in candidates.iter().enumerate() {
             let i = first + GLITCH_PARAMS * j;
             th[i + 2] = 0.0;
-            th[i + 3] = 0.0;
             out[j] = best_start(lik, &th, first, i, c, rise);
             th[i..i + GLITCH_PARAMS].copy_from_slice(&out[j].values);
         }
@@ -337,7 +335,7 @@ fn best_start(
     let kinds = lik.prior().kinds();
     let zero = Complex64::new(0.0, 0.0);
     let none = GlitchStart {
-        values: [th[i], th[i + 1], 0.0, 0.0],
+        values: [th[i], th[i + 1], 0.0],
         gain: 0.0,
     };
     let (
@@ -356,42 +354,29 @@ fn best_start(
     lik.visit_residuals(e, th, |_, r, _| r0.extend_from_slice(r));
     let m = lik.model_for(e);
     let ncst = m.n_consts();
-    let mut h = vec![zero; e.len() * 2 * nr];
+    let mut h = vec![zero; e.len() * nr];
     for k in 0..e.len() {
-        m.force_response(
-            &th[..np],
-            &e.bin(k, ncst),
-            &mut h[k * 2 * nr..(k + 1) * 2 * nr],
-        );
+        m.force_response(&th[..np], &e.bin(k, ncst), &mut h[k * nr..(k + 1) * nr]);
     }
     let duration = e.n as f64 / e.fs;
-    let (mut v1, mut v2) = (vec![zero; nr], vec![zero; nr]);
+    let mut v = vec![zero; nr];
     let mut at = |t0: f64, tau: f64| -> Option<GlitchStart> {
-        let (mut bb, mut aa) = ([0.0; 2], [0.0; 3]);
+        let (mut b, mut a) = (0.0, 0.0);
         for k in 0..e.len() {
             let s = shape_dft(t0, tau, rise, duration, e.freqs[k], e.fs);
-            let hk = &h[k * 2 * nr..(k + 1) * 2 * nr];
-            for r in 0..nr {
-                v1[r] = -hk[2 * r] * s;
-                v2[r] = -hk[2 * r + 1] * s;
+            for (vr, hr) in v.iter_mut().zip(&h[k * nr..(k + 1) * nr]) {
+                *vr = -hr * s;
             }
-            let rk = &r0[k * nr..(k + 1) * nr];
-            bb[0] += e.inner(k, &v1, rk);
-            bb[1] += e.inner(k, &v2, rk);
-            aa[0] += e.inner(k, &v1, &v1);
-            aa[1] += e.inner(k, &v1, &v2);
-            aa[2] += e.inner(k, &v2, &v2);
+            b += e.inner(k, &v, &r0[k * nr..(k + 1) * nr]);
+            a += e.inner(k, &v, &v);
         }
-        let det = aa[0] * aa[2] - aa[1] * aa[1];
-        if !(det > 0.0 && aa[0] > 0.0) {
+        if !(a > 0.0) {
             return None;
         }
-        let x1 = (-(aa[2] * bb[0] - aa[1] * bb[1]) / det).clamp(-amp, amp);
-        let x2 = (-(aa[0] * bb[1] - aa[1] * bb[0]) / det).clamp(-amp, amp);
-        let gain = -2.0 * (bb[0] * x1 + bb[1] * x2)
-            - (aa[0] * x1 * x1 + 2.0 * aa[1] * x1 * x2 + aa[2] * x2 * x2);
+        let x = (-b / a).clamp(-amp, amp);
+        let gain = -2.0 * b * x - a * x * x;
         gain.is_finite().then_some(GlitchStart {
-            values: [t0, tau, x1, x2],
+            values: [t0, tau, x],
             gain,
         })
     };

@@ -283,36 +283,31 @@ pub fn h_io_matrix<T: DualNum<Primitive = f64> + Copy>(
     )
 }
 
-/// The response of the outputs `(o1, o12)` to forces per unit mass on the test masses
-/// `(TM1, TM2)` that no actuator commands (a glitch), with an extra factor `r_df` on the
-/// drag-free actuation as in [`h_io_matrix`], generic over dual numbers.
+/// The response of the outputs `(o1, o12)` to a differential force per unit mass between the
+/// test masses that no actuator commands (a glitch, `Δg = g2 − g1` along `x12`, nothing along
+/// `x1`), with an extra factor `r_df` on the drag-free actuation as in [`h_io_matrix`], generic
+/// over dual numbers.
 ///
 /// # Formula
-/// `H_to = E S P⁻¹ W` with `W = [[1 + e1, e2], [−1, 1]]` (the forces in the coordinates
-/// `x1, x12`, `e_i = m_i/m_sc`): [`ClosedLoop::h_go`] times `W`, as the simulator puts a
-/// glitch in.
+/// `H_Δg = E S P⁻¹ (0, 1)ᵀ`, the `x12` column of [`ClosedLoop::h_go`]. A force `(a1, a2)` on
+/// the test masses enters the coordinates `x1, x12` as `W (a1, a2)`, `W = [[1 + e1, e2],
+/// [−1, 1]]` (`e_i = m_i/m_sc`), as the simulator puts a glitch in: `Δg = a2 − a1` plus a
+/// force `(1 + e1) a1 + e2 a2` along `x1` that drag-free control hides (on Table I's set-up, for a
+/// glitch decaying in 30 s to 3000 s, its amplitude's Cramér–Rao bound is 7e−12 to 4e−11
+/// m s⁻², `Δg`'s 5e−16 to 7e−15), which is why a modelled glitch is its `Δg` alone.
 #[inline]
-pub fn h_to_matrix<T: DualNum<Primitive = f64> + Copy>(
+pub fn h_dg_column<T: DualNum<Primitive = f64> + Copy>(
     th: &[T; N_PARAMS],
     c: &BinConsts,
     m: &Masses,
     r_df: Complex<T>,
-) -> [[Complex<T>; 2]; 2] {
+) -> [Complex<T>; 2] {
     let ([[p00, p01], [p10, p11]], _, _) = loop_matrix(th, c, m, r_df, None);
     let inv = (p00 * p11 - p01 * p10).inv();
     let e: Complex<T> = lift(c.e_oms);
     let d21 = th[6];
-    // E S P⁻¹, S = [[1, 0], [δ21, 1]]
-    let g00 = e * p11 * inv;
-    let g01 = -e * p01 * inv;
-    let g10 = e * (p11 * d21 - p10) * inv;
-    let g11 = e * (p00 - p01 * d21) * inv;
-    let e1 = T::from(1.0 + m.m1 / m.msc);
-    let e2 = T::from(m.m2 / m.msc);
-    [
-        [g00 * e1 - g01, g00 * e2 + g01],
-        [g10 * e1 - g11, g10 * e2 + g11],
-    ]
+    // E S P⁻¹ (0, 1)ᵀ, S = [[1, 0], [δ21, 1]]
+    [-e * p01 * inv, e * (p00 - p01 * d21) * inv]
 }
 
 /// [`h_io_matrix`] with a frequency response `r_sus` of the TM2 (suspension) actuator beyond its
@@ -656,32 +651,23 @@ mod tests {
         }
     }
 
-    /// The force response of the model layer is the simulator's glitch path: `H_go` times the
-    /// test-mass-to-coordinate map of `System::glitch_response`.
+    /// The force response of the model layer is the simulator's glitch path for a force along
+    /// `x12`: the second column of `H_go`.
     #[test]
-    fn test_mass_force_response_is_h_go_times_the_coordinate_map() {
+    fn differential_force_response_is_the_x12_column_of_h_go() {
         let ctrl = Controllers::default();
         let m = Masses::default();
         let p = LtpParams {
             d21: 3e-3,
             ..Default::default()
         };
-        let (e1, e2) = (m.m1 / m.msc, m.m2 / m.msc);
         for f in [2e-4, 3e-3, 0.05, 0.7] {
             let bc = BinConsts::new(f, &ctrl, 0.3);
             let cl = ClosedLoop::at(&p, &bc, &m);
-            let h = h_to_matrix(&p.to_array(), &bc, &m, c(1.0, 0.0));
+            let h = h_dg_column(&p.to_array(), &bc, &m, c(1.0, 0.0));
             for r in 0..2 {
-                let want = [
-                    cl.h_go[r][0] * (1.0 + e1) - cl.h_go[r][1],
-                    cl.h_go[r][0] * e2 + cl.h_go[r][1],
-                ];
-                for j in 0..2 {
-                    assert!(
-                        (h[r][j] - want[j]).norm() < 1e-12 * want[j].norm(),
-                        "{f} {r} {j}"
-                    );
-                }
+                let want = cl.h_go[r][1];
+                assert!((h[r] - want).norm() < 1e-12 * want.norm(), "{f} {r}");
             }
         }
     }

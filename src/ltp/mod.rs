@@ -26,7 +26,7 @@ pub mod timedomain;
 
 pub use closed_loop::{
     BinConsts, ClosedLoop, LoopError, LoopKernel, check_stable, closed_loop_poles, h_io_matrix,
-    h_io_matrix_actuated, h_to_matrix, response,
+    h_io_matrix_actuated, h_dg_column, response,
 };
 pub use controllers::{Controllers, design_lead_integrator};
 pub use discrete_response::{

@@ -281,8 +281,7 @@ impl LtpModel {
             None => Complex::new(T::one(), T::zero()),
         };
         let t7: &[T; N_PARAMS] = th[..N_PARAMS].try_into().expect("length checked");
-        let h = crate::ltp::h_to_matrix(t7, &c, &self.opts.masses, r_df);
-        out[..4].copy_from_slice(&[h[0][0], h[0][1], h[1][0], h[1][1]]);
+        out[..2].copy_from_slice(&crate::ltp::h_dg_column(t7, &c, &self.opts.masses, r_df));
         true
     }
 

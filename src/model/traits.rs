@@ -146,10 +146,13 @@ pub trait Model: Send + Sync + std::fmt::Debug {
         true
     }
 
-    /// How forces per unit mass on the two test masses (TM1, TM2; m s⁻²) that no data channel
-    /// records — glitches ([`crate::model::glitch`]) — enter the residual channels:
-    /// `out[r·2 + j]` is residual `r`'s response to a unit force on test mass `j + 1`. `false`
-    /// (the default): the model does not say, and glitches cannot be modelled on it.
+    /// How a differential force per unit mass between the test masses that no data channel
+    /// records — a glitch ([`crate::model::glitch`]), `Δg = g2 − g1` in m s⁻² — enters the
+    /// residual channels: `out[r]` is residual `r`'s response to a unit `Δg`. A force on one
+    /// test mass also has a part along the loop's first coordinate, which drag-free control
+    /// hides from the read-outs: four orders of magnitude less well measured than `Δg` on
+    /// Table I's set-up ([`crate::ltp::h_dg_column`]), so a modelled glitch leaves it out.
+    /// `false` (the default): the model does not say, and glitches cannot be modelled on it.
     fn force_response(&self, _theta: &[f64], _bin: &Bin, _out: &mut [Complex64]) -> bool {
         false
     }

@@ -82,7 +82,7 @@ pub fn write_outputs(o: &FitOutcome, out: &Path) -> Result<(), FitError> {
     crate::atomic::write_bytes(&p, t.to_markdown().as_bytes()).map_err(|e| io(&p, e))?;
     write_chains_npz(&o.chains, &out.join("chains.npz"))?;
     // the plots show the first MAX_PLOTTED parameters: the model's own come first, modelled
-    // glitches (four parameters each) after them, and a 70-parameter corner plot would be
+    // glitches (three parameters each) after them, and a 70-parameter corner plot would be
     // thousands of panels
     let all = o.chains.names().len();
     let shown = all.min(MAX_PLOTTED);
