@@ -214,18 +214,7 @@ pub fn prepare_for(study: &Study, models: &[usize]) -> Result<Prepared, Analysis
         });
     }
     // the loop fitted without glitches: where they are found and their starts made
-    let plain = likelihood_of(study, first, &dataset)?;
-    let spec = first_spec(study, first);
-    let physics = crate::likelihood::fisher_scoring(
-        &plain,
-        &default_start(study, &spec),
-        &spec.free,
-        1e-3,
-        100,
-    )
-    .map(|m| m.theta)
-    .unwrap_or_else(|_| reference_point(study, first));
-    drop(plain);
+    let physics = loop_map(study, first, &dataset)?;
     let build = |s: &Study, d: &Dataset| likelihood_of(s, first, d).map_err(|e| e.to_string());
     let (modelled, likelihood) = crate::jobs::glitch_model::model_glitches(
         study,
@@ -733,10 +722,12 @@ pub fn gap_notes(study: &Study, dataset: &Dataset) -> Vec<String> {
 
 /// Gates the glitches of `dataset` (module [`crate::likelihood::glitch_gate`]): the regions
 /// listed in `[[experiment]] glitches` and, with `[analysis] glitches = "gate"`, those found on
-/// the whitened residual of model `mi` at its reference point ([`reference_point`]). They become
-/// gaps of the fit stretch; the channels without a noise-only series (the commanded inputs)
-/// keep their values there, which the gaps' edge correction needs. Returns one summary per
-/// experiment, none when the study gates nothing (the dataset is then untouched).
+/// the whitened residual of model `mi` at its MAP on the data with the listed regions gated
+/// ([`loop_map`]: at a point that is not the data's, such as the prior centre of a real data
+/// set, the residual would hold the injections' response, and the detector would gate it). They
+/// become gaps of the fit stretch; the channels without a noise-only series (the commanded
+/// inputs) keep their values there, which the gaps' edge correction needs. Returns one summary
+/// per experiment, none when the study gates nothing (the dataset is then untouched).
 pub fn gate_glitches(
     study: &Study,
     mi: usize,
@@ -750,56 +741,77 @@ pub fn gate_glitches(
     if !gate && study.glitch_lists.is_empty() {
         return Ok(Vec::new());
     }
-    let opts = spectra_options(study);
-    let model = &study.models.models[mi];
-    let reference = reference_point(study, mi);
-    let threshold = a.glitch_threshold.unwrap_or(DEFAULT_GLITCH_THRESHOLD);
-    let pad = a.glitch_pad.unwrap_or(DEFAULT_GLITCH_PAD);
-    let mut out = Vec::new();
+    let fail = |name: &str, msg: String| {
+        AnalysisError::Likelihood(format!("experiment `{name}`: glitch gating: {msg}"))
+    };
+    // gates `regions` (samples), checking that valid data remain
+    let add = |e: &mut crate::data::dataset::ExperimentData,
+               regions: &[[usize; 2]]|
+     -> Result<(), AnalysisError> {
+        if regions.is_empty() {
+            return Ok(());
+        }
+        // the commanded inputs are known through a gate, as through a telemetry gap
+        if e.gaps.is_empty() && e.n_noise_samples() > 0 {
+            e.known_in_gaps = e
+                .channel_names()
+                .into_iter()
+                .filter(|c| e.noise_channel(c).is_none())
+                .collect();
+        }
+        e.add_gaps(regions);
+        crate::data::gaps::check(&e.gaps, e.n_samples()).map_err(|m| {
+            fail(
+                &e.name,
+                format!(
+                    "{m}: the gates leave no valid data; raise glitch_threshold or shorten the listed glitches"
+                ),
+            )
+        })
+    };
+    // the listed regions first: the MAP the detector runs at is made without them
+    let mut before = Vec::new();
+    let mut listed = Vec::new();
     for e in &mut dataset.experiments {
-        let name = e.name.clone();
-        let fail = |msg: String| {
-            AnalysisError::Likelihood(format!("experiment `{name}`: glitch gating: {msg}"))
-        };
-        let n = e.n_samples();
-        let listed_times = study
+        before.push(crate::data::gaps::missing(&e.gaps));
+        let times = study
             .glitch_lists
             .iter()
             .find(|(name, _)| *name == e.name)
             .map(|(_, l)| l.as_slice())
             .unwrap_or(&[]);
-        let listed =
-            crate::data::gaps::from_times(listed_times, e.fs, n, "glitches").map_err(fail)?;
-        let detected = if gate {
-            // the model as it applies to this experiment's stretch
-            let here = model
-                .specialise(&study.covariates_of(&e.name))
-                .map_err(&fail)?
-                .unwrap_or_else(|| model.clone());
-            detect_glitches(e, here.as_ref(), &reference, &opts, threshold, pad).map_err(fail)?
-        } else {
-            Vec::new()
+        let l = crate::data::gaps::from_times(times, e.fs, e.n_samples(), "glitches")
+            .map_err(|m| fail(&e.name, m))?;
+        add(e, &crate::data::gaps::normalise(l.clone()))?;
+        listed.push(l);
+    }
+    let at = if gate {
+        Some(loop_map(study, mi, dataset)?)
+    } else {
+        None
+    };
+    let opts = spectra_options(study);
+    let model = &study.models.models[mi];
+    let threshold = a.glitch_threshold.unwrap_or(DEFAULT_GLITCH_THRESHOLD);
+    let pad = a.glitch_pad.unwrap_or(DEFAULT_GLITCH_PAD);
+    let mut out = Vec::new();
+    for ((e, before), listed) in dataset.experiments.iter_mut().zip(before).zip(listed) {
+        let detected = match &at {
+            Some(at) => {
+                // the model as it applies to this experiment's stretch
+                let here = model
+                    .specialise(&study.covariates_of(&e.name))
+                    .map_err(|m| fail(&e.name, m))?
+                    .unwrap_or_else(|| model.clone());
+                detect_glitches(e, here.as_ref(), at, &opts, threshold, pad)
+                    .map_err(|m| fail(&e.name, m))?
+            }
+            None => Vec::new(),
         };
-        let before = crate::data::gaps::missing(&e.gaps);
+        add(e, &crate::data::gaps::normalise(detected.clone()))?;
         let mut all = listed.clone();
         all.extend_from_slice(&detected);
         let regions = crate::data::gaps::normalise(all);
-        if !regions.is_empty() {
-            // the commanded inputs are known through a gate, as through a telemetry gap
-            if e.gaps.is_empty() && e.n_noise_samples() > 0 {
-                e.known_in_gaps = e
-                    .channel_names()
-                    .into_iter()
-                    .filter(|c| e.noise_channel(c).is_none())
-                    .collect();
-            }
-            e.add_gaps(&regions);
-            crate::data::gaps::check(&e.gaps, n).map_err(|m| {
-                fail(format!(
-                    "{m}: the gates leave no valid data; raise glitch_threshold or shorten the listed glitches"
-                ))
-            })?;
-        }
         out.push(GlitchGate {
             experiment: e.name.clone(),
             detected: detected.len(),
@@ -812,6 +824,24 @@ pub fn gate_glitches(
         });
     }
     Ok(out)
+}
+
+/// The MAP of model `mi` (its `[fit]` or first `[[select.model]]` free parameters, from their
+/// start) on `dataset` as it is, without modelled glitches; the reference point
+/// ([`reference_point`]) when the search fails. Glitches are found there, and the starts of
+/// modelled glitches made.
+pub fn loop_map(study: &Study, mi: usize, dataset: &Dataset) -> Result<Vec<f64>, AnalysisError> {
+    let plain = likelihood_of(study, mi, dataset)?;
+    let spec = first_spec(study, mi);
+    Ok(crate::likelihood::fisher_scoring(
+        &plain,
+        &default_start(study, &spec),
+        &spec.free,
+        1e-3,
+        100,
+    )
+    .map(|m| m.theta)
+    .unwrap_or_else(|_| reference_point(study, mi)))
 }
 
 /// One line per experiment that glitch gating touched ([`gate_glitches`]), and one saying

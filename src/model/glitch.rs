@@ -233,6 +233,31 @@ pub fn shape_dft<T: DualNum<Primitive = f64> + Copy>(
     (u(tau) - u(T::from(rise))) / peak(tau, rise)
 }
 
+thread_local! {
+    /// The real templates of the last bin evaluated on this thread, keyed by
+    /// `(f, fs, t0, τ, τ_r, duration)`.
+    static SHAPES: std::cell::RefCell<Vec<([f64; 6], Complex64)>> =
+        const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// [`shape_dft`] in `f64`, remembered for the bin: a Fisher matrix evaluates every bin once
+/// per free parameter, and all but one glitch's template are the same in each pass (they
+/// would otherwise cost most of its time).
+fn real_shape_memo(t0: f64, tau: f64, rise: f64, duration: f64, f: f64, fs: f64) -> Complex64 {
+    let key = [f, fs, t0, tau, rise, duration];
+    SHAPES.with_borrow_mut(|memo| {
+        if memo.first().is_some_and(|(k, _)| k[0] != f || k[1] != fs) {
+            memo.clear();
+        }
+        if let Some((_, s)) = memo.iter().find(|(k, _)| *k == key) {
+            return *s;
+        }
+        let s = shape_dft(t0, tau, rise, duration, f, fs);
+        memo.push((key, s));
+        s
+    })
+}
+
 /// The peak of `e^{−u/τ} − e^{−u/τ_r}`, at `u* = ln(τ/τ_r) τ τ_r / (τ − τ_r)`.
 fn peak<T: DualNum<Primitive = f64> + Copy>(tau: T, rise: f64) -> T {
     let u = (tau / rise).ln() * tau * rise / (tau - rise);
@@ -288,13 +313,31 @@ impl Model for GlitchModel {
         let mut pc = vec![z; nr * cp];
         let mut pf = vec![z; nr];
         let p = &theta[..self.np];
-        self.parent.coefficients_dual(p, bin, &mut pc);
-        let has = self.here.is_some() && self.parent.force_response_dual(p, bin, &mut pf);
-        // a Fisher matrix seeds one parameter at a time: a glitch whose t0 and τ carry no
-        // derivative has a real template (the dual arithmetic would cost most of the time)
+        // a Fisher matrix seeds one parameter at a time: for a glitch's parameter the parent's
+        // coefficients and force response are real (their dual evaluation would cost most of
+        // the time), and a glitch whose t0 and τ carry no derivative has a real template
+        let has = if p.iter().all(|x| x.eps == 0.0) {
+            let re: Vec<f64> = p.iter().map(|x| x.re).collect();
+            let lift = |v: Complex64| Complex::new(Dual64::from(v.re), Dual64::from(v.im));
+            with_buffer(nr * cp + nr, |buf| {
+                let (bc, bf) = buf.split_at_mut(nr * cp);
+                self.parent.coefficients(&re, bin, bc);
+                for (o, v) in pc.iter_mut().zip(bc.iter()) {
+                    *o = lift(*v);
+                }
+                let has = self.here.is_some() && self.parent.force_response(&re, bin, bf);
+                for (o, v) in pf.iter_mut().zip(bf.iter()) {
+                    *o = lift(*v);
+                }
+                has
+            })
+        } else {
+            self.parent.coefficients_dual(p, bin, &mut pc);
+            self.here.is_some() && self.parent.force_response_dual(p, bin, &mut pf)
+        };
         let shape = |t0: Dual64, tau: Dual64, d| {
             if t0.eps == 0.0 && tau.eps == 0.0 {
-                let s = shape_dft(t0.re, tau.re, self.rise, d, bin.f, bin.fs);
+                let s = real_shape_memo(t0.re, tau.re, self.rise, d, bin.f, bin.fs);
                 Complex::new(Dual64::from(s.re), Dual64::from(s.im))
             } else {
                 shape_dft(t0, tau, self.rise, d, bin.f, bin.fs)
