@@ -18,6 +18,7 @@
 use occam::config::Study;
 use occam::jobs::prepare::{default_start, prepare, reference_point};
 use occam::likelihood::{GlitchTreatment, cramer_rao, fisher_exact, fisher_scoring};
+use occam::model::map_tolerance;
 use rayon::prelude::*;
 use std::path::Path;
 use std::time::Instant;
@@ -66,8 +67,14 @@ fn realisation(base: &Study, seed: u64, truth: &[f64]) -> Outcome {
     let lik = &prep.likelihood;
     let spec = &study.fit_model;
     let start = default_start(&study, spec);
-    let map = fisher_scoring(lik, &start, &spec.free, 1e-3, 200)
-        .map_err(|e| format!("seed {seed}: MAP: {e}"))?;
+    let map = fisher_scoring(
+        lik,
+        &start,
+        &spec.free,
+        map_tolerance(lik.model().as_ref()),
+        200,
+    )
+    .map_err(|e| format!("seed {seed}: MAP: {e}"))?;
     if !map.converged {
         return Err(format!("seed {seed}: MAP search did not converge"));
     }

@@ -294,7 +294,11 @@ fn a_modelled_glitch_at_its_true_parameters_explains_noiseless_data() {
             let g = &data.extra["glitches"][&e.name]["fit"][0];
             let (t0, a) = (g["t0"].as_f64().unwrap(), g["amplitude"].as_f64().unwrap());
             // Δg = g2 − g1
-            let dg = if g["tm"].as_u64().unwrap() == 1 { -a } else { a };
+            let dg = if g["tm"].as_u64().unwrap() == 1 {
+                -a
+            } else {
+                a
+            };
             theta.extend([t0, 100.0, dg]);
             let mut impulse = vec![0.0; e.n_samples()];
             impulse[0] = 1.0;
@@ -402,7 +406,10 @@ fn the_gate_detects_at_the_data_s_map_not_at_the_reference_point() {
                 DEFAULT_GLITCH_PAD,
             )
             .unwrap();
-            spans.iter().map(|r| (r[1] - r[0]) as f64 / e.fs).sum::<f64>()
+            spans
+                .iter()
+                .map(|r| (r[1] - r[0]) as f64 / e.fs)
+                .sum::<f64>()
         })
         .sum();
     let mut gated = data.clone();

@@ -214,7 +214,7 @@ pub fn prepare_for(study: &Study, models: &[usize]) -> Result<Prepared, Analysis
         });
     }
     // the loop fitted without glitches: where they are found and their starts made
-    let physics = loop_map(study, first, &dataset)?;
+    let physics = detection_point(study, first, &dataset)?;
     let build = |s: &Study, d: &Dataset| likelihood_of(s, first, d).map_err(|e| e.to_string());
     let (modelled, likelihood) = crate::jobs::glitch_model::model_glitches(
         study,
@@ -733,9 +733,7 @@ pub fn gate_glitches(
     mi: usize,
     dataset: &mut Dataset,
 ) -> Result<Vec<crate::likelihood::GlitchGate>, AnalysisError> {
-    use crate::likelihood::{
-        DEFAULT_GLITCH_PAD, DEFAULT_GLITCH_THRESHOLD, GlitchGate, GlitchTreatment, detect_glitches,
-    };
+    use crate::likelihood::{GlitchGate, GlitchTreatment};
     let a = &study.analysis;
     let gate = a.glitches == GlitchTreatment::Gate;
     if !gate && study.glitch_lists.is_empty() {
@@ -744,23 +742,8 @@ pub fn gate_glitches(
     let fail = |name: &str, msg: String| {
         AnalysisError::Likelihood(format!("experiment `{name}`: glitch gating: {msg}"))
     };
-    // gates `regions` (samples), checking that valid data remain
-    let add = |e: &mut crate::data::dataset::ExperimentData,
-               regions: &[[usize; 2]]|
-     -> Result<(), AnalysisError> {
-        if regions.is_empty() {
-            return Ok(());
-        }
-        // the commanded inputs are known through a gate, as through a telemetry gap
-        if e.gaps.is_empty() && e.n_noise_samples() > 0 {
-            e.known_in_gaps = e
-                .channel_names()
-                .into_iter()
-                .filter(|c| e.noise_channel(c).is_none())
-                .collect();
-        }
-        e.add_gaps(regions);
-        crate::data::gaps::check(&e.gaps, e.n_samples()).map_err(|m| {
+    let add = |e: &mut crate::data::dataset::ExperimentData, regions: &[[usize; 2]]| {
+        add_gates(e, regions).map_err(|m| {
             fail(
                 &e.name,
                 format!(
@@ -786,26 +769,14 @@ pub fn gate_glitches(
         listed.push(l);
     }
     let at = if gate {
-        Some(loop_map(study, mi, dataset)?)
+        Some(detection_point(study, mi, dataset)?)
     } else {
         None
     };
-    let opts = spectra_options(study);
-    let model = &study.models.models[mi];
-    let threshold = a.glitch_threshold.unwrap_or(DEFAULT_GLITCH_THRESHOLD);
-    let pad = a.glitch_pad.unwrap_or(DEFAULT_GLITCH_PAD);
     let mut out = Vec::new();
     for ((e, before), listed) in dataset.experiments.iter_mut().zip(before).zip(listed) {
         let detected = match &at {
-            Some(at) => {
-                // the model as it applies to this experiment's stretch
-                let here = model
-                    .specialise(&study.covariates_of(&e.name))
-                    .map_err(|m| fail(&e.name, m))?
-                    .unwrap_or_else(|| model.clone());
-                detect_glitches(e, here.as_ref(), at, &opts, threshold, pad)
-                    .map_err(|m| fail(&e.name, m))?
-            }
+            Some(at) => detect_at(study, mi, e, at).map_err(|m| fail(&e.name, m))?,
             None => Vec::new(),
         };
         add(e, &crate::data::gaps::normalise(detected.clone()))?;
@@ -824,6 +795,72 @@ pub fn gate_glitches(
         });
     }
     Ok(out)
+}
+
+/// Gates `regions` (samples) of `e`'s fit stretch; an error when no valid data remain. The
+/// channels without a noise-only series (the commanded inputs) are known through a gate, as
+/// through a telemetry gap.
+fn add_gates(
+    e: &mut crate::data::dataset::ExperimentData,
+    regions: &[[usize; 2]],
+) -> Result<(), String> {
+    if regions.is_empty() {
+        return Ok(());
+    }
+    if e.gaps.is_empty() && e.n_noise_samples() > 0 {
+        e.known_in_gaps = e
+            .channel_names()
+            .into_iter()
+            .filter(|c| e.noise_channel(c).is_none())
+            .collect();
+    }
+    e.add_gaps(regions);
+    crate::data::gaps::check(&e.gaps, e.n_samples())
+}
+
+/// The glitches the detector finds in `e` on the whitened residual of model `mi` (as it
+/// applies to `e`'s stretch) at `at`, with `[analysis]`'s threshold and pad.
+fn detect_at(
+    study: &Study,
+    mi: usize,
+    e: &crate::data::dataset::ExperimentData,
+    at: &[f64],
+) -> Result<Vec<[usize; 2]>, String> {
+    use crate::likelihood::{DEFAULT_GLITCH_PAD, DEFAULT_GLITCH_THRESHOLD, detect_glitches};
+    let a = &study.analysis;
+    let model = &study.models.models[mi];
+    let here = model
+        .specialise(&study.covariates_of(&e.name))?
+        .unwrap_or_else(|| model.clone());
+    detect_glitches(
+        e,
+        here.as_ref(),
+        at,
+        &spectra_options(study),
+        a.glitch_threshold.unwrap_or(DEFAULT_GLITCH_THRESHOLD),
+        a.glitch_pad.unwrap_or(DEFAULT_GLITCH_PAD),
+    )
+}
+
+/// Where glitches are detected (gated or modelled): the MAP of model `mi` without glitches
+/// ([`loop_map`]) on `dataset` with the glitches detected at its MAP on `dataset` as it is
+/// gated. The first MAP is pulled by the glitches, and at a wrong point the residual holds
+/// part of the injections' response, which the detector flags; the second is made without
+/// them. The first when gating would leave an experiment without data.
+pub fn detection_point(
+    study: &Study,
+    mi: usize,
+    dataset: &Dataset,
+) -> Result<Vec<f64>, AnalysisError> {
+    let first = loop_map(study, mi, dataset)?;
+    let mut gated = dataset.clone();
+    for e in &mut gated.experiments {
+        let spans = detect_at(study, mi, e, &first).map_err(AnalysisError::Likelihood)?;
+        if add_gates(e, &crate::data::gaps::normalise(spans)).is_err() {
+            return Ok(first);
+        }
+    }
+    loop_map(study, mi, &gated)
 }
 
 /// The MAP of model `mi` (its `[fit]` or first `[[select.model]]` free parameters, from their

@@ -25,8 +25,8 @@ mod params;
 pub mod timedomain;
 
 pub use closed_loop::{
-    BinConsts, ClosedLoop, LoopError, LoopKernel, check_stable, closed_loop_poles, h_io_matrix,
-    h_io_matrix_actuated, h_dg_column, response,
+    BinConsts, ClosedLoop, LoopError, LoopKernel, check_stable, closed_loop_poles, h_dg_column,
+    h_io_matrix, h_io_matrix_actuated, response,
 };
 pub use controllers::{Controllers, design_lead_integrator};
 pub use discrete_response::{

@@ -43,7 +43,7 @@ pub use bin::{
 pub use checks::{check_identifiable, coefficients_at, validate_shape};
 pub use covariates::Covariates;
 pub use drift::{DriftModel, DriftRule};
-pub use glitch::{GLITCH_CHANNEL, GlitchModel};
+pub use glitch::{GLITCH_CHANNEL, GlitchModel, map_tolerance};
 pub use ltp::{LoopResponse, LtpModel, LtpModelOptions, ThrusterResponse};
 pub use reparam::{Reparam, ReparamModel};
 pub use tied::TiedModel;

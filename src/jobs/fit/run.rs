@@ -9,6 +9,7 @@ use crate::jobs::prepare::{
 };
 use crate::likelihood::{cramer_rao, fisher_exact, fisher_scoring};
 use crate::linalg::SpdOptions;
+use crate::model::map_tolerance;
 use crate::nested::SubModel;
 use crate::sampler::{Adapt, Chains, MetropolisHastings, MhSettings, Progress, RunOutcome, Start};
 use nalgebra::DMatrix;
@@ -37,7 +38,14 @@ pub fn run(
     let start = default_start(study, model);
     let free_names: Vec<String> = free.iter().map(|&i| names[i].clone()).collect();
     let value_of = |n: &str| names.iter().position(|p| p == n).map(|i| start[i]);
-    let map = fisher_scoring(exact, &start, free, 1e-3, 200).map_err(|e| match e {
+    let map = fisher_scoring(
+        exact,
+        &start,
+        free,
+        map_tolerance(exact.model().as_ref()),
+        200,
+    )
+    .map_err(|e| match e {
         crate::likelihood::MapError::Singular {
             unconstrained,
             detail,

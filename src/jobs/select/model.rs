@@ -21,6 +21,7 @@ use crate::likelihood::{
     fisher_scoring_unbounded, refine_statistic_max,
 };
 use crate::linalg::{self, SpdOptions};
+use crate::model::map_tolerance;
 use crate::nested::SubModel;
 use crate::prior::{Prior, PriorKind};
 use crate::sampler::{Chains, MetropolisHastings, MhSettings, RunOutcome, Start};
@@ -212,7 +213,13 @@ struct MapStage {
 /// The bounded MAP search from the plan's start; notes a failure and a MAP on the prior box.
 fn map_search(m: &ModelPlan<'_>, notes: &mut Vec<String>) -> MapStage {
     let (exact, free, names) = (m.exact, &m.spec.free, &m.param_names);
-    let map = fisher_scoring(exact, &m.start, free, 1e-3, 200);
+    let map = fisher_scoring(
+        exact,
+        &m.start,
+        free,
+        map_tolerance(exact.model().as_ref()),
+        200,
+    );
     let (map_theta, map_err) = match &map {
         Ok(r) => (Some(r.theta.clone()), None),
         Err(e) => (None, Some(format!("MAP search: {e}"))),
@@ -424,7 +431,7 @@ fn laplace_fisher_stage(
     };
     let min_margin_sigma = lf_raw.as_ref().map_or(0.0, |e| e.min_margin_sigma);
     let unb = if whittle {
-        fisher_scoring_unbounded(exact, &map.base, free, 1e-3, 200).map_err(|e| {
+        fisher_scoring_unbounded(exact, &map.base, free, map_tolerance(exact.model().as_ref()), 200).map_err(|e| {
             format!("the unconstrained maximum of ln L was not found ({e}); the box-corrected expansion needs it")
         })
     } else {
