@@ -332,6 +332,8 @@ fn a_modelled_glitch_at_its_true_parameters_explains_noiseless_data() {
             without[7 + 3 * j + 2] = 0.0;
         }
         let none = lik.residual_power(&without);
+        // ρ_opt is the injections' response: the glitches are not part of it
+        assert_eq!(lik.snr(&theta), lik.snr(&without));
         eprintln!(
             "{on:?}: residual power {with:.3e} with the glitches modelled, {none:.3e} without"
         );

@@ -146,7 +146,8 @@ pub struct ExperimentSpectra {
     pub consts: Vec<Complex64>,
     /// Which data channels carry anything in band.
     pub active: Vec<bool>,
-    /// Which data channels are known inputs (no noise): the "signal" of ρ_opt.
+    /// Which data channels are known inputs (no noise, not the modelled glitches' impulse):
+    /// the "signal" of ρ_opt.
     pub is_input: Vec<bool>,
     /// Equivalent χ² degrees of freedom `ν = 2 M_eff` of the Welch noise estimate (Percival &
     /// Walden eq. 292b for the segments, window and overlap used); `None` for the noise model.
@@ -343,7 +344,13 @@ impl ExperimentSpectra {
         let active = (0..nc)
             .map(|c| (0..ks.len()).any(|k| data[k * nc + c] != zero))
             .collect();
-        let is_input = (0..nc).map(|c| !noisy.contains(&c)).collect();
+        // the modelled glitches' impulse is noiseless but no injection: their response is not
+        // the signal whose ρ_opt the run reports
+        let is_input = (0..nc)
+            .map(|c| {
+                !noisy.contains(&c) && model.data_channels()[c] != crate::model::GLITCH_CHANNEL
+            })
+            .collect();
         Ok(Self {
             name: e.name.clone(),
             fs,
