@@ -723,7 +723,7 @@ pub fn gap_notes(study: &Study, dataset: &Dataset) -> Vec<String> {
 /// Gates the glitches of `dataset` (module [`crate::likelihood::glitch_gate`]): the regions
 /// listed in `[[experiment]] glitches` and, with `[analysis] glitches = "gate"`, those found on
 /// the whitened residual of model `mi` at its MAP on the data with the listed regions gated
-/// ([`loop_map`]: at a point that is not the data's, such as the prior centre of a real data
+/// ([`detection_point`]: at a point that is not the data's, such as the prior centre of a real data
 /// set, the residual would hold the injections' response, and the detector would gate it). They
 /// become gaps of the fit stretch; the channels without a noise-only series (the commanded
 /// inputs) keep their values there, which the gaps' edge correction needs. Returns one summary
