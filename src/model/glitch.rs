@@ -83,6 +83,9 @@ pub struct GlitchModel {
     rise: f64,
     /// Specialised to one experiment: its glitches and duration. `None`: no glitch acts.
     here: Option<(Vec<usize>, f64)>,
+    /// This instance's key in the Fisher passes' memo of parent coefficients (unique per
+    /// construction and specialisation, never reused, unlike an address).
+    memo_id: u64,
 }
 
 impl GlitchModel {
@@ -164,6 +167,7 @@ impl GlitchModel {
             durations,
             rise,
             here: None,
+            memo_id: next_memo_id(),
         })
     }
 
@@ -259,8 +263,8 @@ thread_local! {
 /// The parent's real coefficients and force response at one bin and θ.
 #[derive(Default)]
 struct ParentMemo {
-    /// Parent (pointer), the bin's constants (pointer), `f`, `fs`.
-    key: [f64; 4],
+    /// The model's `memo_id`, the bin's constants (address), `f`, `fs` (bits).
+    key: [u64; 4],
     theta: Vec<f64>,
     pc: Vec<Complex64>,
     pf: Vec<Complex64>,
@@ -272,9 +276,15 @@ thread_local! {
     /// every bin once per free parameter, and for a glitch's parameter the parent's part is
     /// the same in each pass.
     static PARENT: std::cell::RefCell<ParentMemo> = std::cell::RefCell::new(ParentMemo {
-        key: [f64::NAN; 4],
+        key: [u64::MAX; 4],
         ..Default::default()
     });
+}
+
+/// A new [`GlitchModel`] instance's `memo_id`.
+fn next_memo_id() -> u64 {
+    static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
 }
 
 /// [`shape_dft`] in `f64`, remembered for the bin: a Fisher matrix evaluates every bin once
@@ -357,10 +367,10 @@ impl Model for GlitchModel {
             let lift = |v: &Complex64| Complex::new(Dual64::from(v.re), Dual64::from(v.im));
             PARENT.with_borrow_mut(|memo| {
                 let key = [
-                    Arc::as_ptr(&self.parent) as *const () as usize as f64,
-                    bin.consts.as_ptr() as usize as f64,
-                    bin.f,
-                    bin.fs,
+                    self.memo_id,
+                    bin.consts.as_ptr() as u64,
+                    bin.f.to_bits(),
+                    bin.fs.to_bits(),
                 ];
                 let hit = memo.key == key
                     && memo.theta.len() == p.len()
@@ -450,6 +460,7 @@ impl Model for GlitchModel {
         Ok(Some(Arc::new(Self {
             parent,
             here: Some((active, duration)),
+            memo_id: next_memo_id(),
             ..self.clone()
         })))
     }
