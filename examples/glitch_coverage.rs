@@ -12,6 +12,9 @@
 //!
 //!   cargo run --release --example glitch_coverage -- examples/glitches.toml 100
 //!
+//! A third argument names the cases to run (`none,gated,modelled,free`, the default all); the
+//! others print `–`.
+//!
 //! Realisations whose MAP search fails, does not converge or ends on a prior bound are counted
 //! and reported, not dropped silently.
 
@@ -125,6 +128,17 @@ fn main() {
     let args: Vec<String> = std::env::args().collect();
     let path = args.get(1).map_or("examples/glitches.toml", String::as_str);
     let n: u64 = args.get(2).map_or(100, |s| s.parse().expect("N"));
+    let wanted: Vec<&str> = args
+        .get(3)
+        .map_or("none,gated,modelled,free", String::as_str)
+        .split(',')
+        .collect();
+    for w in &wanted {
+        assert!(
+            ["none", "gated", "modelled", "free"].contains(w),
+            "unknown case `{w}`: none, gated, modelled or free"
+        );
+    }
     let base = Study::load(Path::new(path)).expect("study");
     assert!(
         base.simulation.glitches.is_some(),
@@ -145,19 +159,22 @@ fn main() {
     clean_gated.simulation.glitches = None;
     let truth = reference_point(&base, base.fit_model.model);
     let t0 = Instant::now();
-    let run = |s: &Study| -> Vec<Outcome> {
+    let run = |case: &str, s: &Study| -> Vec<Outcome> {
+        if !wanted.contains(&case) {
+            return Vec::new();
+        }
         (0..n)
             .into_par_iter()
             .map(|k| realisation(s, s.seed.wrapping_add(1000 + k), &truth))
             .collect()
     };
     let cases = [
-        ("no treatment", run(&none)),
-        ("gated", run(&gated)),
-        ("modelled", run(&modelled)),
-        ("glitch-free", run(&clean)),
+        ("no treatment", run("none", &none)),
+        ("gated", run("gated", &gated)),
+        ("modelled", run("modelled", &modelled)),
+        ("glitch-free", run("free", &clean)),
     ];
-    let false_alarm: Vec<f64> = (0..n)
+    let false_alarm: Vec<f64> = (0..if wanted.contains(&"gated") { n } else { 0 })
         .into_par_iter()
         .map(|k| {
             let mut s = clean_gated.clone();
@@ -181,7 +198,13 @@ fn main() {
     let names = base.models.models[base.fit_model.model].param_names();
     let free = &base.fit_model.free;
     let st: Vec<(Vec<[f64; 3]>, usize)> = cases.iter().map(|(_, o)| stats(o, free.len())).collect();
-    let m = st.iter().map(|s| s.1).min().unwrap_or(0) as f64;
+    let m = st
+        .iter()
+        .zip(&cases)
+        .filter(|(_, (_, o))| !o.is_empty())
+        .map(|(s, _)| s.1)
+        .min()
+        .unwrap_or(0) as f64;
     let band = 3.0 * (COVER * (1.0 - COVER) / m).sqrt();
     println!(
         "usable realisations: {}; 1σ coverage expected {COVER} ± {band:.3}; bias ± {:.3}",
@@ -197,34 +220,25 @@ fn main() {
     );
     println!("|---|---|---|---|");
     for (j, &i) in free.iter().enumerate() {
-        let f = |c: usize, q: usize| st[c].0[j][q];
-        let flag = |c: usize| {
-            if (f(c, 0) - COVER).abs() > band {
-                "!"
-            } else {
-                ""
-            }
+        // one of bias (q = 1), pull sd (2) or coverage (0, flagged) per case, `–` where not run
+        let col = |q: usize| {
+            (0..4)
+                .map(|c| {
+                    if cases[c].1.is_empty() {
+                        return "–".to_string();
+                    }
+                    let v = st[c].0[j][q];
+                    let flag = if q == 0 && (v - COVER).abs() > band {
+                        "!"
+                    } else {
+                        ""
+                    };
+                    format!("{v:.2}{flag}")
+                })
+                .collect::<Vec<_>>()
+                .join(" / ")
         };
-        println!(
-            "| {} | {:.2} / {:.2} / {:.2} / {:.2} | {:.2} / {:.2} / {:.2} / {:.2} | {:.2}{} / {:.2}{} / {:.2}{} / {:.2}{} |",
-            names[i],
-            f(0, 1),
-            f(1, 1),
-            f(2, 1),
-            f(3, 1),
-            f(0, 2),
-            f(1, 2),
-            f(2, 2),
-            f(3, 2),
-            f(0, 0),
-            flag(0),
-            f(1, 0),
-            flag(1),
-            f(2, 0),
-            flag(2),
-            f(3, 0),
-            flag(3),
-        );
+        println!("| {} | {} | {} | {} |", names[i], col(1), col(2), col(0));
     }
     let totals = |c: usize| -> (Vec<f64>, usize) {
         let rec: Vec<[f64; 6]> = cases[c]
@@ -241,23 +255,27 @@ fn main() {
         (t, rec.len().max(1))
     };
     let (t, k) = totals(1);
-    println!(
-        "gate: {} of {} injected glitches found ({:.1} %); {:.0} s gated per realisation on average",
-        t[1],
-        t[0],
-        100.0 * t[1] / t[0],
-        t[2] / k as f64
-    );
+    if !cases[1].1.is_empty() {
+        println!(
+            "gate: {} of {} injected glitches found ({:.1} %); {:.0} s gated per realisation on average",
+            t[1],
+            t[0],
+            100.0 * t[1] / t[0],
+            t[2] / k as f64
+        );
+    }
     let (t, k) = totals(2);
-    println!(
-        "model: {} of {} injected glitches inside a modelled candidate's region ({:.1} %); {:.2} glitches modelled and {:.2} candidates left out per realisation; {:.2} glitch parameters per realisation on a prior bound at the MAP",
-        t[1],
-        t[0],
-        100.0 * t[1] / t[0],
-        t[3] / k as f64,
-        t[4] / k as f64,
-        t[5] / k as f64
-    );
+    if !cases[2].1.is_empty() {
+        println!(
+            "model: {} of {} injected glitches inside a modelled candidate's region ({:.1} %); {:.2} glitches modelled and {:.2} candidates left out per realisation; {:.2} glitch parameters per realisation on a prior bound at the MAP",
+            t[1],
+            t[0],
+            100.0 * t[1] / t[0],
+            t[3] / k as f64,
+            t[4] / k as f64,
+            t[5] / k as f64
+        );
+    }
     let fa: Vec<f64> = false_alarm
         .iter()
         .copied()
@@ -265,11 +283,13 @@ fn main() {
         .collect();
     let fa_total: f64 = fa.iter().sum();
     let fa_any = fa.iter().filter(|x| **x > 0.0).count();
-    println!(
-        "false alarms on glitch-free data: {fa_total:.0} s gated over {} realisations ({fa_any} with any), {:.2e} of the data",
-        fa.len(),
-        fa_total / (fa.len() as f64 * data_seconds(&base))
-    );
+    if !fa.is_empty() {
+        println!(
+            "false alarms on glitch-free data: {fa_total:.0} s gated over {} realisations ({fa_any} with any), {:.2e} of the data",
+            fa.len(),
+            fa_total / (fa.len() as f64 * data_seconds(&base))
+        );
+    }
 }
 
 /// Seconds of fit-stretch data per realisation of `study`.
