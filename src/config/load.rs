@@ -863,10 +863,20 @@ fn validate_analysis(a: &AnalysisOptions, file: &str) -> Result<(), ConfigError>
             format!("must be a duration ≥ 0 s (got {p})"),
         ));
     }
-    if a.glitches.is_none() && (a.glitch_threshold.is_some() || a.glitch_pad.is_some()) {
+    if let Some(p) = a.glitch_tail
+        && !(p.is_finite() && p >= 0.0)
+    {
+        return Err(bad(
+            "glitch_tail",
+            format!("must be a duration ≥ 0 s (got {p})"),
+        ));
+    }
+    if a.glitches.is_none()
+        && (a.glitch_threshold.is_some() || a.glitch_pad.is_some() || a.glitch_tail.is_some())
+    {
         return Err(bad(
             "glitches",
-            "glitch_threshold and glitch_pad apply to detection only: set glitches = \"gate\" or remove them".into(),
+            "glitch_threshold, glitch_pad and glitch_tail apply to detection only: set glitches = \"gate\" or remove them".into(),
         ));
     }
     let modelled = a.glitches == crate::likelihood::GlitchTreatment::Model;

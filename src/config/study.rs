@@ -358,6 +358,10 @@ pub struct AnalysisOptions {
     /// [`crate::likelihood::DEFAULT_GLITCH_PAD`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub glitch_pad: Option<f64>,
+    /// Seconds gated after a detected glitch's region, beyond `glitch_pad`: the loop's response
+    /// to the force outlasts it (default [`crate::likelihood::DEFAULT_GLITCH_TAIL`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub glitch_tail: Option<f64>,
     /// `glitches = "model"`: the prior range `[lo, hi]` of a glitch's decay time (s,
     /// log-uniform; default [`crate::likelihood::DEFAULT_GLITCH_DECAY`]).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -393,6 +397,7 @@ impl Default for AnalysisOptions {
             glitches: Default::default(),
             glitch_threshold: None,
             glitch_pad: None,
+            glitch_tail: None,
             glitch_decay: None,
             glitch_amplitude: None,
             glitch_rise: None,

@@ -822,7 +822,8 @@ fn add_gates(
 }
 
 /// The glitches the detector finds in `e` on the whitened residual of model `mi` (as it
-/// applies to `e`'s stretch) at `at`, at `threshold` σ with `[analysis]`'s pad.
+/// applies to `e`'s stretch) at `at`, at `threshold` σ with `[analysis]`'s pad, each region
+/// extended by `glitch_tail` after its end (the loop's response outlasts the force).
 fn detect_at(
     study: &Study,
     mi: usize,
@@ -830,20 +831,28 @@ fn detect_at(
     at: &[f64],
     threshold: f64,
 ) -> Result<Vec<[usize; 2]>, String> {
-    use crate::likelihood::{DEFAULT_GLITCH_PAD, detect_glitches};
+    use crate::likelihood::{DEFAULT_GLITCH_PAD, DEFAULT_GLITCH_TAIL, detect_glitches};
     let a = &study.analysis;
     let model = &study.models.models[mi];
     let here = model
         .specialise(&study.covariates_of(&e.name))?
         .unwrap_or_else(|| model.clone());
-    detect_glitches(
+    let found = detect_glitches(
         e,
         here.as_ref(),
         at,
         &spectra_options(study),
         threshold,
         a.glitch_pad.unwrap_or(DEFAULT_GLITCH_PAD),
-    )
+    )?;
+    let tail = (a.glitch_tail.unwrap_or(DEFAULT_GLITCH_TAIL) * e.fs).round() as usize;
+    let n = e.n_samples();
+    Ok(crate::data::gaps::normalise(
+        found
+            .into_iter()
+            .map(|r| [r[0], r[1].saturating_add(tail).min(n)])
+            .collect(),
+    ))
 }
 
 /// The thresholds of [`detection_point`]'s passes, as multiples of `glitch_threshold`: the

@@ -55,6 +55,12 @@ impl GlitchTreatment {
 pub const DEFAULT_GLITCH_THRESHOLD: f64 = 5.0;
 /// Default `[analysis] glitch_pad` (s on each side of a gated region).
 pub const DEFAULT_GLITCH_PAD: f64 = 60.0;
+/// Default `[analysis] glitch_tail` (s gated after a detected region, beyond its pad): the
+/// LTP loop's slowest closed-loop time constant. The read-outs' response to a force glitch
+/// rings for about this long after the force has faded below the detector's release; left in
+/// the data it biased the stiffnesses and `d21` by up to 8.5σ on `examples/glitches.toml`
+/// (docs/src/guide/glitches.md).
+pub const DEFAULT_GLITCH_TAIL: f64 = 1200.0;
 /// Default `[analysis] glitch_decay`: the prior range of a modelled glitch's decay time (s).
 pub const DEFAULT_GLITCH_DECAY: [f64; 2] = [10.0, 3000.0];
 /// Default `[analysis] glitch_amplitude`: a modelled glitch's peak force per unit mass on
