@@ -795,6 +795,7 @@ pub fn gate_glitches(
                 .map(|r| [r[0] as f64 / e.fs, r[1] as f64 / e.fs])
                 .collect(),
             seconds: (crate::data::gaps::missing(&e.gaps) - before) as f64 / e.fs,
+            remaining: (e.n_samples() - crate::data::gaps::missing(&e.gaps)) as f64 / e.fs,
         });
     }
     Ok(out)

@@ -85,13 +85,19 @@ pub struct GlitchGate {
     pub regions: Vec<[f64; 2]>,
     /// Seconds gated that were not already missing.
     pub seconds: f64,
+    /// Seconds of valid fit data left after gating (and the stretch's own gaps).
+    pub remaining: f64,
 }
+
+/// Above this share of an experiment's valid fit data gated, the gate's line says that a
+/// parameter only that experiment constrains may be lost, and what to do.
+pub const GATED_MOST: f64 = 0.5;
 
 impl GlitchGate {
     /// One line for the terminal and the run's warnings.
     pub fn describe(&self) -> String {
         format!(
-            "experiment `{}`: glitch gating removed {:.0} s in {} region(s) ({} detected, {} listed){}",
+            "experiment `{}`: glitch gating removed {:.0} s in {} region(s) ({} detected, {} listed){}{}",
             self.experiment,
             self.seconds,
             self.regions.len(),
@@ -108,6 +114,14 @@ impl GlitchGate {
                         .collect::<Vec<_>>()
                         .join(", ")
                 )
+            },
+            if self.seconds > GATED_MOST * (self.seconds + self.remaining) {
+                format!(
+                    "; only {:.0} s of its fit data are left, and a parameter that only this experiment constrains may be lost (the MAP search then names it): raise glitch_threshold, lower glitch_tail, or fit the glitches (glitches = \"model\")",
+                    self.remaining
+                )
+            } else {
+                String::new()
             }
         )
     }
@@ -415,6 +429,27 @@ pub fn detect_glitches(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A gate that leaves less than half of an experiment's data says what may be lost and
+    /// what to do; one that leaves most of it does not.
+    #[test]
+    fn a_gate_that_removes_most_of_an_experiment_says_so() {
+        let gate = |seconds: f64, remaining: f64| GlitchGate {
+            experiment: "inv2".into(),
+            detected: 3,
+            listed: 0,
+            regions: vec![[100.0, 100.0 + seconds]],
+            seconds,
+            remaining,
+        };
+        let most = gate(12_000.0, 7_000.0).describe();
+        assert!(
+            most.contains("only 7000 s") && most.contains("glitch_tail"),
+            "{most}"
+        );
+        let some = gate(6_000.0, 13_000.0).describe();
+        assert!(!some.contains("only"), "{some}");
+    }
 
     #[test]
     fn bridges_are_straight_lines_between_the_neighbours() {
