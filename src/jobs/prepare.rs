@@ -893,7 +893,11 @@ pub fn detection_point(
             }
         }
         if any {
-            at = loop_map(study, mi, &next)?;
+            // a pass that gates away what a parameter needs ends the ladder where it was
+            match try_loop_map(study, mi, &next)? {
+                Some(m) => at = m,
+                None => return Ok(at),
+            }
             gated = next;
         }
     }
@@ -905,6 +909,15 @@ pub fn detection_point(
 /// ([`reference_point`]) when the search fails. Glitches are found there, and the starts of
 /// modelled glitches made.
 pub fn loop_map(study: &Study, mi: usize, dataset: &Dataset) -> Result<Vec<f64>, AnalysisError> {
+    Ok(try_loop_map(study, mi, dataset)?.unwrap_or_else(|| reference_point(study, mi)))
+}
+
+/// [`loop_map`], `None` when the search fails (a singular Fisher matrix, a bad start).
+fn try_loop_map(
+    study: &Study,
+    mi: usize,
+    dataset: &Dataset,
+) -> Result<Option<Vec<f64>>, AnalysisError> {
     let plain = likelihood_of(study, mi, dataset)?;
     let spec = first_spec(study, mi);
     Ok(crate::likelihood::fisher_scoring(
@@ -915,7 +928,7 @@ pub fn loop_map(study: &Study, mi: usize, dataset: &Dataset) -> Result<Vec<f64>,
         100,
     )
     .map(|m| m.theta)
-    .unwrap_or_else(|_| reference_point(study, mi)))
+    .ok())
 }
 
 /// One line per experiment that glitch gating touched ([`gate_glitches`]), and one saying
