@@ -747,7 +747,7 @@ pub fn gate_glitches(
             fail(
                 &e.name,
                 format!(
-                    "{m}: the gates leave no valid data; raise glitch_threshold or shorten the listed glitches"
+                    "{m}: the gates leave no valid data; raise glitch_threshold, lower glitch_tail or shorten the listed glitches"
                 ),
             )
         })
@@ -768,9 +768,7 @@ pub fn gate_glitches(
         add(e, &crate::data::gaps::normalise(l.clone()))?;
         listed.push(l);
     }
-    let threshold = a
-        .glitch_threshold
-        .unwrap_or(crate::likelihood::DEFAULT_GLITCH_THRESHOLD);
+    let threshold = detection_threshold(study);
     let at = if gate {
         Some(detection_point(study, mi, dataset)?)
     } else {
@@ -856,6 +854,14 @@ fn detect_at(
     ))
 }
 
+/// `[analysis] glitch_threshold` or its default (σ of the whitened residual).
+fn detection_threshold(study: &Study) -> f64 {
+    study
+        .analysis
+        .glitch_threshold
+        .unwrap_or(crate::likelihood::DEFAULT_GLITCH_THRESHOLD)
+}
+
 /// The thresholds of [`detection_point`]'s passes, as multiples of `glitch_threshold`: the
 /// loudest glitches first. A first fit on data with every glitch in it is pulled by tens of σ
 /// (measured on `examples/glitches.toml`, seed 3018: −61σ in `w2sq`); its residual then holds
@@ -875,10 +881,7 @@ pub fn detection_point(
     mi: usize,
     dataset: &Dataset,
 ) -> Result<Vec<f64>, AnalysisError> {
-    let threshold = study
-        .analysis
-        .glitch_threshold
-        .unwrap_or(crate::likelihood::DEFAULT_GLITCH_THRESHOLD);
+    let threshold = detection_threshold(study);
     let mut at = loop_map(study, mi, dataset)?;
     let mut gated = dataset.clone();
     for m in DETECTION_LADDER {
