@@ -35,9 +35,10 @@
 //! its start. The data of such a model must be gap-free and analysed with the rectangular
 //! window (the impulse would otherwise be windowed away); `jobs::prepare` checks both.
 
-use super::bin::{Bin, with_buffer};
+use super::bin::{Bin, BinBlock, with_buffer};
 use super::covariates::Covariates;
-use super::traits::Model;
+use super::glitch_kernel::{GlitchKernel, ParentKernel};
+use super::traits::{BlockKernel, Model};
 use num_complex::{Complex, Complex64};
 use num_dual::{Dual64, DualNum};
 use std::f64::consts::PI;
@@ -306,7 +307,7 @@ fn real_shape_memo(t0: f64, tau: f64, rise: f64, duration: f64, f: f64, fs: f64)
 }
 
 /// The peak of `e^{−u/τ} − e^{−u/τ_r}`, at `u* = ln(τ/τ_r) τ τ_r / (τ − τ_r)`.
-fn peak<T: DualNum<Primitive = f64> + Copy>(tau: T, rise: f64) -> T {
+pub(super) fn peak<T: DualNum<Primitive = f64> + Copy>(tau: T, rise: f64) -> T {
     let u = (tau / rise).ln() * tau * rise / (tau - rise);
     (-u / tau).exp() - (-u / rise).exp()
 }
@@ -478,6 +479,37 @@ impl Model for GlitchModel {
 
     fn force_response(&self, theta: &[f64], bin: &Bin, out: &mut [Complex64]) -> bool {
         self.parent.force_response(&theta[..self.np], bin, out)
+    }
+
+    /// Specialised to an experiment: [`super::glitch_kernel`]'s kernel, or the parent's where
+    /// no glitch acts.
+    fn prepare_kernel(&self, b: &BinBlock) -> Option<Arc<dyn BlockKernel>> {
+        let (active, duration) = self.here.as_ref()?;
+        if active.is_empty() {
+            let nc = self.data.len();
+            if b.n == 0 || b.data.len() != b.n * nc {
+                return None;
+            }
+            let data: Vec<Complex64> = b
+                .data
+                .chunks(nc)
+                .flat_map(|d| d[..nc - 1].iter().copied())
+                .collect();
+            let inner = self
+                .parent
+                .prepare_kernel(&BinBlock { data: &data, ..*b })?;
+            return Some(Arc::new(ParentKernel { inner, np: self.np }));
+        }
+        let glitches = active.iter().map(|&g| self.glitch_index(g)).collect();
+        let k = GlitchKernel::new(
+            self.parent.clone(),
+            self.np,
+            glitches,
+            self.rise,
+            *duration,
+            b,
+        )?;
+        Some(Arc::new(k))
     }
 
     fn force_response_dual(

@@ -27,6 +27,7 @@ mod checks;
 mod covariates;
 pub mod drift;
 pub mod glitch;
+mod glitch_kernel;
 pub mod ltp;
 mod ltp_kernel;
 pub mod reparam;
