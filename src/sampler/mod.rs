@@ -17,6 +17,7 @@
 //! | `diagnostics` | ESS, integrated autocorrelation time, split-R̂, [`Warning`]s |
 //! | `checkpoint` | atomic JSON checkpoints and their match against the run |
 //! | `optimize` | bounded Nelder–Mead with restarts, [`find_map`] |
+//! | `birth_death` | reversible-jump birth and death of optional components (glitches), [`birth_death()`] |
 //!
 //! # Conventions
 //! * Natural logs throughout; the acceptance test uses `ln π + ln L`, never χ².
@@ -27,6 +28,7 @@
 
 mod adapt;
 mod anneal;
+mod birth_death;
 mod bits;
 mod chain;
 mod chains;
@@ -45,6 +47,9 @@ mod test_targets;
 #[cfg(test)]
 mod tests;
 
+pub use birth_death::{
+    BATCHES, BirthDeathOptions, BirthDeathResult, Component, Moves, birth_death,
+};
 pub use chain::{Progress, chain_rng};
 pub use chains::{BestPoint, Chain, ChainCounts, Chains, MaxPosterior, PhaseCounts};
 pub use diagnostics::{Diagnostics, Thresholds, Warning, ess, split_rhat};
