@@ -67,13 +67,21 @@ pub(super) struct GlitchKernel {
     rise_den: Vec<Complex64>,
 }
 
-/// What one thread keeps of one kernel between evaluations.
-struct Cache {
-    id: u64,
+/// `P`, `u`, `v` at the parent's parameters `theta_p`.
+#[derive(Default)]
+struct LoopState {
     theta_p: Vec<f64>,
     power: f64,
     u: Vec<Complex64>,
     v: Vec<f64>,
+}
+
+/// What one thread keeps of one kernel between evaluations: two loop states (a Metropolis
+/// step evaluates a proposal and, if it is rejected, returns to the current point; the next
+/// block's move must not recompute the loop), the most recent first.
+struct Cache {
+    id: u64,
+    loops: [LoopState; 2],
     /// `(t0, τ)` and the template of each active glitch.
     templates: Vec<([f64; 2], Vec<Complex64>)>,
 }
@@ -149,7 +157,7 @@ impl GlitchKernel {
     }
 
     /// `P`, `u`, `v` at the parent's parameters `p` (module docs).
-    fn loop_pass(&self, p: &[f64], c: &mut Cache) {
+    fn loop_pass(&self, p: &[f64], c: &mut LoopState) {
         let cp = self.parent.data_channels().len();
         let nr = self.parent.residual_channels().len();
         let zero = Complex64::new(0.0, 0.0);
@@ -241,19 +249,21 @@ impl BlockKernel for GlitchKernel {
                     }
                     caches.push(Cache {
                         id: self.id,
-                        theta_p: Vec::new(),
-                        power: 0.0,
-                        u: Vec::new(),
-                        v: Vec::new(),
+                        loops: Default::default(),
                         templates: vec![([f64::NAN; 2], Vec::new()); self.glitches.len()],
                     });
                     caches.len() - 1
                 }
             };
             let c = &mut caches[at];
-            if c.theta_p.as_slice() != p || c.u.len() != self.n {
-                self.loop_pass(p, c);
+            let hit = |l: &LoopState| l.theta_p.as_slice() == p && l.u.len() == self.n;
+            if !hit(&c.loops[0]) {
+                c.loops.swap(0, 1);
+                if !hit(&c.loops[0]) {
+                    self.loop_pass(p, &mut c.loops[0]);
+                }
             }
+            let lp = &c.loops[0];
             let mut templates = std::mem::take(&mut c.templates);
             for (&i, (key, t)) in self.glitches.iter().zip(templates.iter_mut()) {
                 let want = [th[i], th[i + 1]];
@@ -266,14 +276,14 @@ impl BlockKernel for GlitchKernel {
                     *key = want;
                 }
             }
-            let mut s = c.power;
+            let mut s = lp.power;
             for k in 0..self.n {
                 let mut g = Complex64::new(0.0, 0.0);
                 for (&i, (_, t)) in self.glitches.iter().zip(&templates) {
                     g += t[k] * th[i + 2];
                 }
                 g *= self.impulse[k];
-                s += c.v[k] * g.norm_sqr() - 2.0 * (g.conj() * c.u[k]).re;
+                s += lp.v[k] * g.norm_sqr() - 2.0 * (g.conj() * lp.u[k]).re;
             }
             c.templates = templates;
             s
@@ -400,6 +410,9 @@ mod tests {
         step(9, 0.0);
         step(13, 2.5);
         moves.push(base.clone());
+        // a rejected loop move and back, twice: both loop states are kept
+        let loop_moved = moves[9].clone();
+        moves.extend([loop_moved.clone(), base.clone(), loop_moved, base.clone()]);
         for (q, th) in moves.iter().enumerate() {
             let want = residual_power_generic(a.as_ref(), th, &b);
             let got = kernel.residual_power(th);
