@@ -283,6 +283,15 @@ fn fit(path: PathBuf, output: Option<PathBuf>, resume: bool, flags: RunFlags) ->
             .map(|a| (a * 100.0).round() / 100.0)
             .collect::<Vec<_>>()
     );
+    if let Some(g) = &s.glitch_count {
+        for line in g.describe() {
+            println!("{line}");
+        }
+        println!("loop parameters marginalised over the number of glitches:");
+        for r in &g.parameters {
+            println!("{}", occam::jobs::glitch_count::marginal_line(r));
+        }
+    }
     for w in &s.warnings {
         eprintln!("warning: {w}");
     }

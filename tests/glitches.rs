@@ -175,6 +175,27 @@ fn bad_glitch_settings_name_the_key() {
             "glitches = \"gate\"",
         ),
         (
+            GLITCHES.replace("glitches = \"gate\"", "glitches = \"gate\"\nglitch_count = \"rj\""),
+            "analysis.glitch_count",
+            "glitches = \"model\"",
+        ),
+        (
+            GLITCHES.replace(
+                "glitches = \"gate\"",
+                "glitches = \"model\"\nglitch_count_iterations = 1000",
+            ),
+            "analysis.glitch_count_iterations",
+            "glitch_count = \"rj\"",
+        ),
+        (
+            GLITCHES.replace(
+                "glitches = \"gate\"",
+                "glitches = \"model\"\nglitch_count = \"rj\"\nglitch_count_iterations = 100",
+            ),
+            "analysis.glitch_count_iterations",
+            "400..=10000000",
+        ),
+        (
             GLITCHES.replace("glitches = \"gate\"", "glitch_decay = [30.0, 300.0]"),
             "analysis.glitches",
             "glitches = \"model\"",

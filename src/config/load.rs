@@ -10,8 +10,8 @@ use super::limits::{
 };
 use super::models::{self, ModelDef, ModelEntry, ModelSet, ModelSpec};
 use super::study::{
-    AnalysisOptions, ExperimentEntry, FitOptions, InjectionEntry, SelectModel, SelectOptions,
-    SimulationOptions, Study, StudyFile,
+    AnalysisOptions, ExperimentEntry, FitOptions, InjectionEntry, MAX_GLITCH_COUNT_ITERATIONS,
+    MIN_GLITCH_COUNT_ITERATIONS, SelectModel, SelectOptions, SimulationOptions, Study, StudyFile,
 };
 use crate::experiment::options::{MAX_AMPLITUDE, Method};
 use crate::experiment::{ExperimentDesign, SineSegment, Waveform};
@@ -887,6 +887,28 @@ fn validate_analysis(a: &AnalysisOptions, file: &str) -> Result<(), ConfigError>
             "glitches",
             "glitch_decay, glitch_amplitude and glitch_rise set the modelled glitches' priors: set glitches = \"model\" or remove them".into(),
         ));
+    }
+    if !modelled && (!a.glitch_count.is_all() || a.glitch_count_iterations.is_some()) {
+        return Err(bad(
+            "glitch_count",
+            "glitch_count and glitch_count_iterations choose how many modelled glitches there are: set glitches = \"model\" or remove them".into(),
+        ));
+    }
+    if let Some(n) = a.glitch_count_iterations {
+        if a.glitch_count.is_all() {
+            return Err(bad(
+                "glitch_count_iterations",
+                "sets the reversible jump's length: set glitch_count = \"rj\" or remove it".into(),
+            ));
+        }
+        if !(MIN_GLITCH_COUNT_ITERATIONS..=MAX_GLITCH_COUNT_ITERATIONS).contains(&n) {
+            return Err(bad(
+                "glitch_count_iterations",
+                format!(
+                    "must be in {MIN_GLITCH_COUNT_ITERATIONS}..={MAX_GLITCH_COUNT_ITERATIONS} (got {n}): a quarter is burn-in and the rest makes the 20 batches of its errors"
+                ),
+            ));
+        }
     }
     let rise = a
         .glitch_rise

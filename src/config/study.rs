@@ -374,6 +374,41 @@ pub struct AnalysisOptions {
     /// [`crate::likelihood::DEFAULT_GLITCH_RISE`]).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub glitch_rise: Option<f64>,
+    /// `glitches = "model"`: how many of the candidates are glitches. `all` (default): every
+    /// candidate whose start gains enough ([`crate::jobs::glitch_model::KEEP_FRACTION`]);
+    /// `rj`: `occam fit` also runs the reversible jump over which of them are on
+    /// ([`crate::jobs::glitch_count`]).
+    #[serde(skip_serializing_if = "GlitchCountMethod::is_all")]
+    pub glitch_count: GlitchCountMethod,
+    /// `glitch_count = "rj"`: iterations of the reversible jump (default
+    /// [`DEFAULT_GLITCH_COUNT_ITERATIONS`]; the first quarter is burn-in).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub glitch_count_iterations: Option<usize>,
+}
+
+/// Default `[analysis] glitch_count_iterations`.
+pub const DEFAULT_GLITCH_COUNT_ITERATIONS: usize = 4000;
+/// Fewest `glitch_count_iterations`: a quarter burn-in, 20 batches of 15 kept.
+pub const MIN_GLITCH_COUNT_ITERATIONS: usize = 400;
+/// Most `glitch_count_iterations` (each costs ~10 ms on `examples/glitches.toml`: a day).
+pub const MAX_GLITCH_COUNT_ITERATIONS: usize = 10_000_000;
+
+/// `[analysis] glitch_count`: how the number of modelled glitches is chosen.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum GlitchCountMethod {
+    /// Every candidate whose start gains at least a glitch at the detection threshold.
+    #[default]
+    All,
+    /// Those, and the reversible jump's posterior over which of them are glitches.
+    Rj,
+}
+
+impl GlitchCountMethod {
+    /// Whether this is the default (serialisation skips it).
+    pub fn is_all(&self) -> bool {
+        *self == GlitchCountMethod::All
+    }
 }
 
 impl Default for AnalysisOptions {
@@ -401,6 +436,8 @@ impl Default for AnalysisOptions {
             glitch_decay: None,
             glitch_amplitude: None,
             glitch_rise: None,
+            glitch_count: GlitchCountMethod::All,
+            glitch_count_iterations: None,
         }
     }
 }

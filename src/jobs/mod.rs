@@ -16,6 +16,7 @@ pub mod demo;
 pub mod design;
 pub mod exec;
 pub mod fit;
+pub mod glitch_count;
 pub mod glitch_model;
 mod job;
 #[cfg(feature = "mpi")]

@@ -267,8 +267,8 @@ pub fn birth_death(
     let mut block_moves = vec![Moves::default(); blocks.len()];
     let mut jumps = vec![[Moves::default(); 2]; k_max];
     let kept = opts.iterations - opts.burn;
-    let mut counts = Vec::with_capacity(kept);
-    let mut incl: Vec<Vec<f64>> = vec![Vec::with_capacity(kept); k_max];
+    let mut counts: Vec<u32> = Vec::with_capacity(kept);
+    let mut incl: Vec<Vec<bool>> = vec![Vec::with_capacity(kept); k_max];
     let (mut sum, mut sum2, mut n_on) = (
         vec![0.0; th.len()],
         vec![0.0; th.len()],
@@ -342,9 +342,9 @@ pub fn birth_death(
             }
         }
         if !burning {
-            counts.push(state.iter().filter(|&&s| s).count());
+            counts.push(state.iter().filter(|&&s| s).count() as u32);
             for (x, &s) in incl.iter_mut().zip(&state) {
-                x.push(f64::from(u8::from(s)));
+                x.push(s);
             }
             let mut present = vec![false; th.len()];
             for &i in base {
@@ -372,12 +372,15 @@ pub fn birth_death(
         .map(|k| {
             let x: Vec<f64> = counts
                 .iter()
-                .map(|&c| f64::from(u8::from(c == k)))
+                .map(|&c| f64::from(u8::from(c as usize == k)))
                 .collect();
             batch_error(&x)
         })
         .collect();
-    let inclusion = incl.iter().map(|x| batch_error(x)).collect();
+    let inclusion = incl
+        .iter()
+        .map(|x| batch_error(&x.iter().map(|&s| f64::from(u8::from(s))).collect::<Vec<_>>()))
+        .collect();
     let (mut mean, mut sd) = (vec![f64::NAN; th.len()], vec![f64::NAN; th.len()]);
     for i in 0..th.len() {
         if n_on[i] > 0 {

@@ -170,9 +170,27 @@ impl ChainState {
                         break;
                     }
                 }
+                // in many dimensions with some of the centre on the prior's bounds (modelled
+                // glitches: a candidate's amplitude or start at its box's edge) almost every
+                // draw leaves the box: then the coordinates that do take the centre's value
+                if found.is_none() {
+                    let bounds = target.prior().bounds();
+                    for _ in 0..1000 {
+                        proposal.propose(centre, *spread, &mut rng, &mut p);
+                        for ((x, c), (lo, hi)) in p.iter_mut().zip(centre).zip(&bounds) {
+                            if !(*lo <= *x && *x <= *hi) {
+                                *x = *c;
+                            }
+                        }
+                        if let Ok(v) = evaluate_start(target, &p) {
+                            found = Some(v);
+                            break;
+                        }
+                    }
+                }
                 let v = found.ok_or_else(|| {
                     err(format!(
-                        "1000 draws around the centre with spread {spread} all fell outside the prior or where ln L is not finite; lower the spread or move the centre"
+                        "2000 draws around the centre with spread {spread} (the last 1000 with the coordinates outside the prior set to the centre's) all fell outside the prior or where ln L is not finite; lower the spread or move the centre"
                     ))
                 })?;
                 (p, v)

@@ -26,6 +26,7 @@ mod tests {
             likelihood: LikelihoodKind::Exact,
             noise_averages: None,
             glitch_gates: vec![],
+            glitch_count: None,
             n_bins: 1,
             n_coarse_bins: None,
             rho_opt_at_map: f64::NAN,

@@ -133,6 +133,19 @@ pub fn run(
     let diag = chains.diagnostics()?;
     warnings.extend(diag.warnings().iter().map(|w| w.to_string()));
     let truth = truth_of(study, model.model, &prep.dataset);
+    let glitch_count = count_glitches(study, prep, free, &map.theta, &fisher, truth.as_deref());
+    let glitch_count = match glitch_count {
+        Ok(g) => {
+            if let Some(g) = &g {
+                warnings.extend(g.warnings());
+            }
+            g
+        }
+        Err(e) => {
+            warnings.push(format!("glitch count: not run: {e}"));
+            None
+        }
+    };
     let units = exact.model().param_units();
     let rows = free
         .iter()
@@ -161,6 +174,7 @@ pub fn run(
         likelihood: kind,
         noise_averages: crate::jobs::prepare::noise_averages_for_summary(study, exact),
         glitch_gates: prep.glitch_gates.clone(),
+        glitch_count,
         n_bins: exact.n_bins(),
         n_coarse_bins: n_coarse,
         rho_opt_at_map: exact.snr(&map.theta),
@@ -190,6 +204,31 @@ pub fn run(
         map_full: map.theta,
         fisher,
     })
+}
+
+/// `[analysis] glitch_count = "rj"`: the reversible jump over the modelled candidates
+/// ([`crate::jobs::glitch_count`]); `None` when not asked for or there is no candidate.
+fn count_glitches(
+    study: &Study,
+    prep: &Prepared,
+    free: &[usize],
+    map: &[f64],
+    fisher: &DMatrix<f64>,
+    truth: Option<&[Option<f64>]>,
+) -> Result<Option<crate::jobs::glitch_count::GlitchCount>, String> {
+    if study.analysis.glitch_count.is_all() || prep.glitch_candidates.is_empty() {
+        return Ok(None);
+    }
+    crate::jobs::glitch_count::glitch_count(
+        study,
+        &prep.likelihood,
+        &prep.glitch_candidates,
+        free,
+        map,
+        fisher,
+        truth,
+    )
+    .map(Some)
 }
 
 /// The error of a singular Fisher matrix at `at` ("MAP"): which parameters the data do not

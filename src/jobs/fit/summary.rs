@@ -59,6 +59,10 @@ pub struct FitSummary {
     /// What glitch gating did, per experiment (absent when the study gates nothing).
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub glitch_gates: Vec<crate::likelihood::GlitchGate>,
+    /// `[analysis] glitch_count = "rj"`: the posterior of the number of modelled glitches
+    /// (absent otherwise).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub glitch_count: Option<crate::jobs::glitch_count::GlitchCount>,
     pub n_bins: usize,
     pub n_coarse_bins: Option<usize>,
     pub rho_opt_at_map: f64,

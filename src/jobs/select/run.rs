@@ -308,6 +308,11 @@ fn summarise(
         .collect();
     warnings.extend(gap_notes(study, &prep.dataset));
     warnings.extend(prep.glitch_notes());
+    if !study.analysis.glitch_count.is_all() {
+        warnings.push(
+            "glitch_count = \"rj\" is run by `occam fit`; `occam select` compares the models with every modelled candidate on".into(),
+        );
+    }
     for m in &models {
         warnings.extend(m.notes.iter().map(|n| format!("model `{}`: {n}", m.name)));
         if let Some(w) = m.tempering.as_ref().and_then(|t| t.broken_ladder_warning()) {
