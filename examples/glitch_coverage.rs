@@ -18,7 +18,9 @@
 //! Realisations whose MAP search fails, does not converge or ends on a prior bound are counted
 //! and reported, not dropped silently.
 
+use occam::config::GlitchCountMethod;
 use occam::config::Study;
+use occam::jobs::glitch_count::glitch_count;
 use occam::jobs::prepare::{default_start, prepare, reference_point};
 use occam::likelihood::{GlitchTreatment, cramer_rao, fisher_exact, fisher_scoring};
 use occam::model::map_tolerance;
@@ -31,8 +33,9 @@ const COVER: f64 = 0.683;
 
 /// One fit: (MAP − truth, σ_Fisher) per free parameter of the study's `[fit]` model, and the
 /// record (glitches injected, found, seconds gated, glitches modelled, candidates left out,
-/// glitch parameters on a prior bound), or why the realisation is left out.
-type Outcome = Result<(Vec<(f64, f64)>, [f64; 6]), String>;
+/// glitch parameters on a prior bound, the reversible jump's mean number of glitches), or why
+/// the realisation is left out.
+type Outcome = Result<(Vec<(f64, f64)>, [f64; 7]), String>;
 
 fn realisation(base: &Study, seed: u64, truth: &[f64]) -> Outcome {
     let mut study = base.clone();
@@ -87,11 +90,47 @@ fn realisation(base: &Study, seed: u64, truth: &[f64]) -> Outcome {
     let glitch_bounds = map.at_bound[n_base..].iter().filter(|b| **b).count() as f64;
     let f = fisher_exact(lik, &map.theta, &spec.free);
     let sd = cramer_rao(&f).ok_or_else(|| format!("seed {seed}: singular Fisher matrix"))?;
-    let rows = spec.free[..n_base]
+    let mut rows: Vec<(f64, f64)> = spec.free[..n_base]
         .iter()
         .zip(&sd)
         .map(|(&i, &s)| (map.theta[i] - truth[i], s))
         .collect();
+    // the number of glitches by the reversible jump: its marginal mean and sd
+    let mut mean_count = f64::NAN;
+    if !study.analysis.glitch_count.is_all() && !prep.glitch_candidates.is_empty() {
+        let g = glitch_count(
+            &study,
+            lik,
+            &prep.glitch_candidates,
+            &spec.free,
+            &map.theta,
+            &f,
+            None,
+        )
+        .map_err(|e| format!("seed {seed}: glitch count: {e}"))?;
+        mean_count = g
+            .count
+            .iter()
+            .enumerate()
+            .map(|(k, p)| k as f64 * p.0)
+            .sum();
+        // the same seed's MAP pulls beside the marginal ones, for a side-by-side comparison
+        let pulls = |v: &[(f64, f64)]| v.iter().map(|(d, s)| d / s).collect::<Vec<_>>();
+        let marginal: Vec<(f64, f64)> = spec.free[..n_base]
+            .iter()
+            .zip(&g.parameters)
+            .map(|(&i, p)| (p.mean - truth[i], p.sd))
+            .collect();
+        eprintln!(
+            "seed {seed}: MAP pulls {:.2?}; marginal pulls {:.2?}; mean count {mean_count:.2} of {} candidates",
+            pulls(&rows),
+            pulls(&marginal),
+            g.candidates.len()
+        );
+        for ((row, &i), p) in rows.iter_mut().zip(&spec.free[..n_base]).zip(&g.parameters) {
+            *row = (p.mean - truth[i], p.sd);
+        }
+    }
     Ok((
         rows,
         [
@@ -101,6 +140,7 @@ fn realisation(base: &Study, seed: u64, truth: &[f64]) -> Outcome {
             prep.glitch_candidates.len() as f64,
             prep.glitch_dropped.len() as f64,
             glitch_bounds,
+            mean_count,
         ],
     ))
 }
@@ -130,13 +170,13 @@ fn main() {
     let n: u64 = args.get(2).map_or(100, |s| s.parse().expect("N"));
     let wanted: Vec<&str> = args
         .get(3)
-        .map_or("none,gated,modelled,free", String::as_str)
+        .map_or("none,gated,modelled,counted,free", String::as_str)
         .split(',')
         .collect();
     for w in &wanted {
         assert!(
-            ["none", "gated", "modelled", "free"].contains(w),
-            "unknown case `{w}`: none, gated, modelled or free"
+            ["none", "gated", "modelled", "counted", "free"].contains(w),
+            "unknown case `{w}`: none, gated, modelled, counted or free"
         );
     }
     let base = Study::load(Path::new(path)).expect("study");
@@ -152,6 +192,8 @@ fn main() {
     gated.analysis.glitches = GlitchTreatment::Gate;
     let mut modelled = base.clone();
     modelled.analysis.glitches = GlitchTreatment::Model;
+    let mut counted = modelled.clone();
+    counted.analysis.glitch_count = GlitchCountMethod::Rj;
     let mut clean = none.clone();
     clean.simulation.glitches = None;
     // the false alarms: the gate on glitch-free data
@@ -172,6 +214,7 @@ fn main() {
         ("no treatment", run("none", &none)),
         ("gated", run("gated", &gated)),
         ("modelled", run("modelled", &modelled)),
+        ("counted", run("counted", &counted)),
         ("glitch-free", run("free", &clean)),
     ];
     let false_alarm: Vec<f64> = (0..if wanted.contains(&"gated") { n } else { 0 })
@@ -185,7 +228,7 @@ fn main() {
         })
         .collect();
     println!(
-        "{n} realisations of {path}: no treatment, gated, modelled, glitch-free; {:.1} s",
+        "{n} realisations of {path}: no treatment, gated, modelled, counted, glitch-free; {:.1} s",
         t0.elapsed().as_secs_f64()
     );
     for (label, out) in &cases {
@@ -216,13 +259,13 @@ fn main() {
         1.0 / m.sqrt()
     );
     println!(
-        "| parameter | bias none / gated / modelled / free | pull sd none / gated / modelled / free | coverage none / gated / modelled / free |"
+        "| parameter | bias none / gated / modelled / counted / free | pull sd none / gated / modelled / counted / free | coverage none / gated / modelled / counted / free |"
     );
     println!("|---|---|---|---|");
     for (j, &i) in free.iter().enumerate() {
         // one of bias (q = 1), pull sd (2) or coverage (0, flagged) per case, `–` where not run
         let col = |q: usize| {
-            (0..4)
+            (0..cases.len())
                 .map(|c| {
                     if cases[c].1.is_empty() {
                         return "–".to_string();
@@ -241,12 +284,12 @@ fn main() {
         println!("| {} | {} | {} | {} |", names[i], col(1), col(2), col(0));
     }
     let totals = |c: usize| -> (Vec<f64>, usize) {
-        let rec: Vec<[f64; 6]> = cases[c]
+        let rec: Vec<[f64; 7]> = cases[c]
             .1
             .iter()
             .filter_map(|o| o.as_ref().ok().map(|x| x.1))
             .collect();
-        let mut t = vec![0.0; 6];
+        let mut t = vec![0.0; 7];
         for r in &rec {
             for (a, b) in t.iter_mut().zip(r) {
                 *a += b;
@@ -274,6 +317,15 @@ fn main() {
             t[3] / k as f64,
             t[4] / k as f64,
             t[5] / k as f64
+        );
+    }
+    let (t, k) = totals(3);
+    if !cases[3].1.is_empty() {
+        println!(
+            "counted: {} glitches injected, {:.2} candidates modelled and {:.2} glitches by the reversible jump (posterior mean) per realisation",
+            t[0] / k as f64,
+            t[3] / k as f64,
+            t[6] / k as f64
         );
     }
     let fa: Vec<f64> = false_alarm

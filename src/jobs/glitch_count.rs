@@ -32,7 +32,9 @@ pub struct CandidateCount {
     pub experiment: String,
     /// The detected region (s from the fit stretch's first sample).
     pub region: [f64; 2],
-    /// Posterior probability that it is a glitch, and its batch-means error.
+    /// Posterior probability that it is a glitch, and its batch-means error (null when the
+    /// chain never switched it after burn-in: then the probability is near 0 or 1, not known
+    /// how near).
     pub probability: f64,
     pub error: f64,
     pub births: Moves,
@@ -96,20 +98,32 @@ impl GlitchCount {
         )];
         for c in &self.candidates {
             let switched = c.births.accepted + c.deaths.accepted;
-            let how = if switched == 0 {
+            let p = if switched == 0 {
                 format!(
-                    "never switched in {} proposals (the probability is then a bound, not an estimate)",
-                    c.births.proposed + c.deaths.proposed
+                    "{} (never switched after burn-in: it resisted {} {}; the chain says only that p is near {}, not how near)",
+                    c.probability,
+                    c.births.proposed + c.deaths.proposed,
+                    if c.probability > 0.5 {
+                        "deaths"
+                    } else {
+                        "births"
+                    },
+                    c.probability
                 )
             } else {
                 format!(
-                    "{} of {} births and {} of {} deaths accepted",
-                    c.births.accepted, c.births.proposed, c.deaths.accepted, c.deaths.proposed
+                    "{:.3} ± {:.3}; {} of {} births and {} of {} deaths accepted",
+                    c.probability,
+                    c.error,
+                    c.births.accepted,
+                    c.births.proposed,
+                    c.deaths.accepted,
+                    c.deaths.proposed
                 )
             };
             out.push(format!(
-                "  {} ({}, {:.0}–{:.0} s): p = {:.3} ± {:.3}; {how}",
-                c.name, c.experiment, c.region[0], c.region[1], c.probability, c.error
+                "  {} ({}, {:.0}–{:.0} s): p = {p}",
+                c.name, c.experiment, c.region[0], c.region[1]
             ));
         }
         out
@@ -265,7 +279,6 @@ pub fn marginal_line(r: &MarginalRow) -> String {
         r.name,
         fmt_short(r.mean),
         fmt_short(r.sd),
-        r.pull
-            .map_or(String::new(), |p| format!(" (pull {p:+.2})"))
+        r.pull.map_or(String::new(), |p| format!(" (pull {p:+.2})"))
     )
 }

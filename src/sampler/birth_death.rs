@@ -30,8 +30,9 @@
 //! # Errors
 //! Every probability it reports has a batch-means standard error (20 batches of the kept
 //! iterations): the spread of the batch means over √20, which grows with the chain's
-//! correlation time and is 0 for a state the chain never left; a component whose births were
-//! never accepted, or never rejected, says so through [`BirthDeathResult::jumps`].
+//! correlation time. For a component the kept chain never switched the error is NaN, not the
+//! batch means' 0: the chain then says only that the probability is near 0 or 1, not how near
+//! ([`BirthDeathResult::jumps`] holds how many proposals it resisted).
 
 use crate::density::LogDensity;
 use crate::sampler::chain::chain_rng;
@@ -83,14 +84,15 @@ pub struct BirthDeathResult {
     pub kept: usize,
     /// `p(k | d)` for `k = 0..=K`, and its batch-means error.
     pub count: Vec<(f64, f64)>,
-    /// Each component's probability of being on, and its error.
+    /// Each component's probability of being on, and its error (NaN when the kept chain never
+    /// switched it).
     pub inclusion: Vec<(f64, f64)>,
     /// Each parameter's posterior mean and standard deviation: over all kept iterations for
     /// the base parameters, over those with its component on for a component's (NaN when
     /// never on).
     pub mean: Vec<f64>,
     pub sd: Vec<f64>,
-    /// Births and deaths per component.
+    /// Births and deaths per component, after burn-in.
     pub jumps: Vec<[Moves; 2]>,
     /// Block moves: the base block, then each component's.
     pub blocks: Vec<Moves>,
@@ -331,14 +333,17 @@ pub fn birth_death(
             let lq = ln_birth_density(&phi, gauss[c].as_ref(), ln_pi, eps);
             let t = target(&prop, &next);
             let ln_ratio = if birth { t - cur - lq } else { t - cur + lq };
-            let m = &mut jumps[c][usize::from(!birth)];
-            m.proposed += 1;
             // NaN (a birth outside the prior and its q) is a rejection
-            if rng.random::<f64>().ln() < ln_ratio {
+            let accept = rng.random::<f64>().ln() < ln_ratio;
+            if !burning {
+                let m = &mut jumps[c][usize::from(!birth)];
+                m.proposed += 1;
+                m.accepted += u64::from(accept);
+            }
+            if accept {
                 th = prop;
                 state = next;
                 cur = t;
-                m.accepted += 1;
             }
         }
         if !burning {
@@ -379,7 +384,19 @@ pub fn birth_death(
         .collect();
     let inclusion = incl
         .iter()
-        .map(|x| batch_error(&x.iter().map(|&s| f64::from(u8::from(s))).collect::<Vec<_>>()))
+        .zip(&jumps)
+        .map(|(x, j)| {
+            let x: Vec<f64> = x.iter().map(|&s| f64::from(u8::from(s))).collect();
+            let (p, e) = batch_error(&x);
+            (
+                p,
+                if j[0].accepted + j[1].accepted == 0 {
+                    f64::NAN
+                } else {
+                    e
+                },
+            )
+        })
         .collect();
     let (mut mean, mut sd) = (vec![f64::NAN; th.len()], vec![f64::NAN; th.len()]);
     for i in 0..th.len() {
@@ -577,17 +594,22 @@ mod tests {
     }
 
     /// A component the data reject (Bayes factor 1e−5) is almost never on and says so: its
-    /// inclusion probability and its error are near zero, its births almost never accepted;
-    /// one they demand (1e15 for) is never switched off, with error 0.
+    /// inclusion probability is near zero, its births almost never accepted; one they demand
+    /// (1e15 for) is never switched off, and its error is NaN, not 0.
     #[test]
     fn components_never_visited_or_never_left_report_it() {
         let toy = Toy::with_factors(&[1e-5, 1e15], 1e5);
         let r = run(&toy, &[true, true], 5, 20_000);
         let (p0, e0) = r.inclusion[0];
         let (p1, e1) = r.inclusion[1];
-        assert!(p0 < 5e-3 && e0 < 5e-3, "{p0} ± {e0}");
-        assert_eq!((p1, e1), (1.0, 0.0));
+        assert!(p0 < 5e-3 && (e0.is_nan() || e0 < 5e-3), "{p0} ± {e0}");
+        assert_eq!(p1, 1.0);
+        assert!(
+            e1.is_nan(),
+            "never switched: no error to stand behind, got {e1}"
+        );
         assert_eq!(r.jumps[1][1].accepted, 0, "never died");
+        assert!(r.jumps[1][1].proposed > 1000, "{:?}", r.jumps[1]);
         assert!(r.jumps[0][0].accepted <= 10, "{:?}", r.jumps[0]);
         // a parameter whose component was never on has no posterior mean to print
         assert_eq!(r.mean[1].is_nan(), p0 == 0.0);

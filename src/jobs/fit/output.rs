@@ -98,6 +98,7 @@ pub fn write_outputs(o: &FitOutcome, out: &Path) -> Result<(), FitError> {
         o.summary
             .rows
             .iter()
+            .take(shown)
             .map(|r| r.truth.unwrap_or(f64::NAN))
             .collect()
     });
