@@ -481,8 +481,8 @@ impl Model for GlitchModel {
         self.parent.force_response(&theta[..self.np], bin, out)
     }
 
-    /// Specialised to an experiment: [`super::glitch_kernel`]'s kernel, or the parent's where
-    /// no glitch acts.
+    /// Specialised to an experiment: the prepared kernel of `model/glitch_kernel.rs`, or the
+    /// parent's where no glitch acts.
     fn prepare_kernel(&self, b: &BinBlock) -> Option<Arc<dyn BlockKernel>> {
         let (active, duration) = self.here.as_ref()?;
         if active.is_empty() {
