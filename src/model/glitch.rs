@@ -523,7 +523,7 @@ impl Model for GlitchModel {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use crate::experiment::Glitch;
     use crate::model::{LtpModel, coefficients_at};
@@ -619,7 +619,8 @@ mod tests {
         assert_eq!(map_tolerance(&plain), 1e-3);
     }
 
-    fn model() -> GlitchModel {
+    /// The LTP loop with glitches in experiments `a` (two: `g1`, `g3`) and `b` (`g2`).
+    pub(in crate::model) fn model() -> GlitchModel {
         let p: Arc<dyn Model> = Arc::new(LtpModel::new("ltp", Default::default()));
         GlitchModel::new(
             "ltp",

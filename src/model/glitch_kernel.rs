@@ -294,7 +294,8 @@ impl BlockKernel for GlitchKernel {
 #[cfg(test)]
 mod tests {
     use super::super::glitch::GlitchModel;
-    use super::super::{Covariates, LtpModel, residual_power_generic};
+    use super::super::glitch::tests::model;
+    use super::super::{Covariates, residual_power_generic};
     use super::*;
     use rand::{RngExt, SeedableRng};
 
@@ -356,18 +357,6 @@ mod tests {
                 consts: &self.consts,
             }
         }
-    }
-
-    fn model() -> GlitchModel {
-        let p: Arc<dyn Model> = Arc::new(LtpModel::new("ltp", Default::default()));
-        GlitchModel::new(
-            "ltp",
-            p,
-            vec!["a".into(), "b".into(), "a".into()],
-            vec![("a".into(), 3000.0), ("b".into(), 5000.0)],
-            2.0,
-        )
-        .unwrap()
     }
 
     fn on(m: &GlitchModel, e: &str) -> Arc<dyn Model> {
