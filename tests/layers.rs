@@ -109,7 +109,10 @@ fn library_code(text: &str) -> String {
                 pending_cfg_test = true;
                 continue;
             }
-            if pending_cfg_test && t.starts_with("mod ") && t.ends_with('{') {
+            // `mod tests {`, or with a visibility (`pub(super) mod tests {`, a fixture shared
+            // with a sibling's tests)
+            let is_mod = t.starts_with("mod ") || (t.starts_with("pub") && t.contains(" mod "));
+            if pending_cfg_test && is_mod && t.ends_with('{') {
                 skip_depth = Some(depth);
             }
             pending_cfg_test = false;
@@ -257,7 +260,7 @@ fn no_module_uses_its_own_layer_or_one_above() {
 #[test]
 fn the_check_sees_uses_and_ignores_comments_and_tests() {
     let code = library_code(
-        "use crate::{ltp::{A, B}, signal};\n// crate::jobs in a comment\nfn f() { crate::model::x(); }\n#[cfg(test)]\nmod tests {\n    use crate::jobs;\n}\nfn g() { crate::data::y(); }\n",
+        "use crate::{ltp::{A, B}, signal};\n// crate::jobs in a comment\nfn f() { crate::model::x(); }\n#[cfg(test)]\nmod tests {\n    use crate::jobs;\n}\nfn g() { crate::data::y(); }\n#[cfg(test)]\npub(super) mod tests2 {\n    use crate::experiment;\n}\n",
     );
     let used = crate_uses(&code);
     let want: BTreeSet<String> = ["ltp", "signal", "model", "data"]

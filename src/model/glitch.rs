@@ -37,7 +37,7 @@
 
 use super::bin::{Bin, BinBlock, with_buffer};
 use super::covariates::Covariates;
-use super::glitch_kernel::{GlitchKernel, ParentKernel};
+use super::glitch_kernel::{GlitchKernel, ParentKernel, peak};
 use super::traits::{BlockKernel, Model};
 use num_complex::{Complex, Complex64};
 use num_dual::{Dual64, DualNum};
@@ -304,12 +304,6 @@ fn real_shape_memo(t0: f64, tau: f64, rise: f64, duration: f64, f: f64, fs: f64)
         memo.push((key, s));
         s
     })
-}
-
-/// The peak of `e^{−u/τ} − e^{−u/τ_r}`, at `u* = ln(τ/τ_r) τ τ_r / (τ − τ_r)`.
-pub(super) fn peak<T: DualNum<Primitive = f64> + Copy>(tau: T, rise: f64) -> T {
-    let u = (tau / rise).ln() * tau * rise / (tau - rise);
-    (-u / tau).exp() - (-u / rise).exp()
 }
 
 impl Model for GlitchModel {

@@ -25,14 +25,20 @@
 //! per bin and glitch one complex division remains. Tested against the generic path
 //! ([`super::residual_power_generic`]) to rounding.
 
-use super::bin::{Bin, BinBlock, residual};
-use super::glitch::peak;
+use super::bin::{Bin, BinBlock, MAX_CHANNELS, residual};
 use super::traits::{BlockKernel, Model};
 use crate::hermitian::quad;
 use num_complex::Complex64;
+use num_dual::DualNum;
 use std::cell::RefCell;
 use std::f64::consts::PI;
 use std::sync::Arc;
+
+/// The peak of `e^{−u/τ} − e^{−u/τ_r}`, at `u* = ln(τ/τ_r) τ τ_r / (τ − τ_r)`.
+pub(super) fn peak<T: DualNum<Primitive = f64> + Copy>(tau: T, rise: f64) -> T {
+    let u = (tau / rise).ln() * tau * rise / (tau - rise);
+    (-u / tau).exp() - (-u / rise).exp()
+}
 
 /// Bins between exact phasors of a template.
 const BLOCK: usize = 256;
@@ -161,7 +167,7 @@ impl GlitchKernel {
         let cp = self.parent.data_channels().len();
         let nr = self.parent.residual_channels().len();
         let zero = Complex64::new(0.0, 0.0);
-        let mut coef = [zero; super::MAX_CHANNELS * 2];
+        let mut coef = [zero; MAX_CHANNELS * 2];
         let coef = &mut coef[..nr * cp];
         let mut h = [zero; 2];
         c.u.resize(self.n, zero);
