@@ -449,6 +449,17 @@ fn dataset_cases() -> Vec<DatasetCase> {
             want: &["array `inv1.o1`", "4294967280 bytes", "damaged"],
         },
         DatasetCase {
+            name: "npz: a flipped bit (stored CRC-32 does not match)",
+            brk: NpzBytes(|b| {
+                // 61.0 occurs only in inv1.o1; its lowest mantissa byte changes the value by
+                // an ulp, which parses as a number: only the CRC tells
+                let at = b.windows(8).position(|w| w == 61f64.to_le_bytes()).unwrap();
+                b[at] ^= 1;
+            }),
+            file: "dataset.npz",
+            want: &["array `inv1.o1`", "CRC-32", "rewrite it"],
+        },
+        DatasetCase {
             name: "missing archive",
             brk: Remove("dataset.npz"),
             file: "dataset.npz",
@@ -916,4 +927,74 @@ fn command_line_dataset_path_and_budget() {
         .unwrap();
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("OCCAM_MEMORY_BUDGET = \"lots\""), "{err}");
+}
+
+/// Inputs that are not regular files — a FIFO (which blocks a reader until a writer comes)
+/// and a character device (`/dev/zero` never ends) — are refused by name, as data files, as
+/// injection files and as study files, without blocking or reading.
+#[cfg(unix)]
+#[test]
+fn special_files_are_refused_by_name() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let fifo = d.join("pipe.csv");
+    assert!(
+        std::process::Command::new("mkfifo")
+            .arg(&fifo)
+            .status()
+            .unwrap()
+            .success()
+    );
+    std::os::unix::fs::symlink("/dev/zero", d.join("zero.csv")).unwrap();
+    std::os::unix::fs::symlink("/dev/zero", d.join("zero.npz")).unwrap();
+    std::fs::write(
+        d.join("study.toml"),
+        "seed = 1\noutput = \"out\"\n[[experiment]]\nname = \"inv1\"\nfs = 2.0\nx12 = { kind = \"file\", path = \"pipe.csv\" }\n",
+    )
+    .unwrap();
+    let d2 = d.to_path_buf();
+    // on a regression the reads block or run out of memory: a thread with a deadline turns
+    // that into a failure instead of a hung test
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let load = |f: &str, fs: Option<f64>| {
+            let src = DataSource {
+                data: f.into(),
+                columns: BTreeMap::new(),
+                fs,
+                noise_data: None,
+                gaps: Vec::new(),
+                noise_gaps: Vec::new(),
+            };
+            let chans = vec!["o1".to_string(), "o12".to_string()];
+            src.load("inv1", &d2, &chans)
+                .map(|_| ())
+                .unwrap_err()
+                .to_string()
+        };
+        let study = |f: &str| {
+            occam::config::Study::load(&d2.join(f))
+                .map(|_| ())
+                .unwrap_err()
+                .to_string()
+        };
+        let got = vec![
+            ("pipe.csv", "a FIFO", load("pipe.csv", None)),
+            ("zero.csv", "a character device", load("zero.csv", None)),
+            (
+                "zero.npz",
+                "a character device",
+                load("zero.npz", Some(10.0)),
+            ),
+            ("pipe.csv", "a FIFO", study("study.toml")),
+            ("pipe.csv", "a FIFO", study("pipe.csv")),
+        ];
+        tx.send(got).unwrap();
+    });
+    let got = rx
+        .recv_timeout(std::time::Duration::from_secs(20))
+        .expect("a special file blocked the reader");
+    for (file, kind, e) in got {
+        assert!(e.contains(file) && e.contains(kind), "{file}: {e}");
+    }
 }

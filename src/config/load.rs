@@ -22,7 +22,7 @@ impl Study {
     /// Reads and validates a study file.
     pub fn load(path: &Path) -> Result<Study, ConfigError> {
         let file = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|error| ConfigError::Io {
+        let text = crate::data::infile::read_to_string(path).map_err(|error| ConfigError::Io {
             file: file.clone(),
             error,
         })?;

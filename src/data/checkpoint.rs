@@ -224,14 +224,14 @@ pub fn read<T: DeserializeOwned>(
             ),
         ));
     }
-    let bytes = std::fs::read(path).map_err(|e| io("cannot read", e.to_string()))?;
+    let bytes = super::infile::read(path).map_err(|e| io("cannot read", e.to_string()))?;
     decode(&bytes, path, kind, version, identity)
 }
 
 /// The kind and identity of the checkpoint at `path` (its envelope only; the payload is not
 /// decoded): whether a file holds the state of a given run, before trying to resume it.
 pub fn head(path: &Path) -> Result<(String, String), CheckpointError> {
-    let file = std::fs::File::open(path).map_err(|e| CheckpointError::Io {
+    let file = super::infile::open(path).map_err(|e| CheckpointError::Io {
         path: path.to_path_buf(),
         what: "cannot open".into(),
         msg: e.to_string(),

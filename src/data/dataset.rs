@@ -129,7 +129,7 @@ impl NpzDigest {
 
     /// The digest of the file at `path`, read in pieces.
     pub fn of_file(path: &Path) -> Result<Self, DataError> {
-        let f = std::fs::File::open(path).map_err(io_err(path))?;
+        let f = super::infile::open(path).map_err(io_err(path))?;
         let (n, h) = Fnv1a::of_reader(std::io::BufReader::new(f)).map_err(io_err(path))?;
         Ok(NpzDigest::new(n, h))
     }
@@ -625,6 +625,7 @@ impl Dataset {
     /// ([`crate::data::memory_budget`]) before anything is read.
     pub fn read(path: &Path) -> Result<Dataset, DataError> {
         let (json, npz) = Self::files(path)?;
+        super::infile::check(&json).map_err(io_err(&json))?;
         let jlen = std::fs::metadata(&json).map_err(io_err(&json))?.len();
         check_budget(&json, "the sidecar", jlen.saturating_mul(4))?;
         let text = std::fs::read(&json).map_err(io_err(&json))?;
@@ -925,6 +926,7 @@ const CSV_MEMORY_FACTOR: u64 = 9;
 /// (1-based, counting the header and comments) and the column. The file's size is checked
 /// against the memory budget ([`crate::data::memory_budget`]) before it is read.
 pub fn read_csv(path: &Path) -> Result<CsvTable, DataError> {
+    super::infile::check(path).map_err(io_err(path))?;
     let len = std::fs::metadata(path).map_err(io_err(path))?.len();
     check_budget(
         path,

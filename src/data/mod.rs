@@ -9,6 +9,7 @@ pub mod dataset;
 mod error;
 mod fnv;
 pub mod gaps;
+pub mod infile;
 pub mod memory;
 pub mod npz;
 pub mod npz_write;

@@ -34,7 +34,7 @@ impl<'a> NpzBytes<'a> {
 impl NpzArchive<std::io::BufReader<std::fs::File>> {
     /// Opens the archive file `path`.
     pub fn open(path: &std::path::Path) -> Result<Self, String> {
-        let f = std::fs::File::open(path).map_err(|e| e.to_string())?;
+        let f = super::infile::open(path).map_err(|e| e.to_string())?;
         let len = f.metadata().map_err(|e| e.to_string())?.len();
         NpzArchive::new(std::io::BufReader::new(f), len)
     }
@@ -125,7 +125,18 @@ impl<R: Read + Seek> NpzArchive<R> {
             .take(size)
             .read_to_end(&mut bytes)
             .map_err(|e| format!("array `{name}`: cannot read the archive entry: {e}"))?;
-        Ok(bytes)
+        // The archive checks an entry's CRC-32 only when it is read to its end, which `take`
+        // stops just short of: one more read reaches it (numpy refuses a mismatch; so do we).
+        let mut past = [0u8; 1];
+        match f.read(&mut past) {
+            Ok(0) => Ok(bytes),
+            Ok(_) => Err(format!(
+                "array `{name}`: the entry holds more than the {size} bytes its directory states; the archive is damaged (rewrite it)"
+            )),
+            Err(e) => Err(format!(
+                "array `{name}`: {e} (the stored CRC-32 does not match the data: the file was damaged after it was written; rewrite it)"
+            )),
+        }
     }
 }
 
@@ -577,6 +588,37 @@ mod tests {
             "1,".repeat(100)
         );
         assert!(parse_npy(&raw(&deep, &[])).unwrap_err().contains("tuple"));
+    }
+
+    #[test]
+    fn a_crc_mismatch_is_refused() {
+        use std::io::Write;
+        let values: Vec<f64> = (0..64).map(|i| i as f64).collect();
+        let mut zip = zip::ZipWriter::new(std::io::Cursor::new(Vec::new()));
+        let stored = zip::write::SimpleFileOptions::default()
+            .compression_method(zip::CompressionMethod::Stored);
+        zip.start_file("x.npy", stored).unwrap();
+        zip.write_all(&npy(&values)).unwrap();
+        let good = zip.finish().unwrap().into_inner();
+        assert_eq!(
+            NpzBytes::from_bytes(&good)
+                .unwrap()
+                .read_f64("x", 1 << 20)
+                .unwrap(),
+            values
+        );
+        // flip one mantissa bit of the last sample: the array still parses, the CRC does not match
+        let at = good
+            .windows(8)
+            .rposition(|w| w == 63f64.to_le_bytes())
+            .unwrap();
+        let mut bad = good.clone();
+        bad[at] ^= 1;
+        let e = NpzBytes::from_bytes(&bad)
+            .unwrap()
+            .read_f64("x", 1 << 20)
+            .unwrap_err();
+        assert!(e.contains("array `x`") && e.contains("CRC-32"), "{e}");
     }
 
     #[test]

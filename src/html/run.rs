@@ -80,7 +80,8 @@ fn read_text(path: &Path) -> Result<Option<String>, ReportError> {
     if len > MAX_INLINE_BYTES {
         return Ok(None);
     }
-    let bytes = std::fs::read(path).map_err(|e| file_err(path, format!("cannot read it: {e}")))?;
+    let bytes = crate::data::infile::read(path)
+        .map_err(|e| file_err(path, format!("cannot read it: {e}")))?;
     Ok(Some(String::from_utf8_lossy(&bytes).into_owned()))
 }
 

@@ -124,7 +124,7 @@ pub fn study_toml(
     segs: &[Vec<(f64, f64)>],
     label: &str,
 ) -> Result<String, DesignError> {
-    let text = std::fs::read_to_string(path)
+    let text = crate::data::infile::read_to_string(path)
         .map_err(|e| DesignError::Io(format!("{}: {e}", path.display())))?;
     let mut t: toml::Table =
         toml::from_str(&text).map_err(|e| DesignError::Io(format!("{}: {e}", path.display())))?;

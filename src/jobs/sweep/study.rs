@@ -66,7 +66,7 @@ pub struct SweepResult {
 impl Sweep {
     /// Plans the sweep of the study file at `path`.
     pub fn load(path: &Path, args: SweepArgs) -> anyhow::Result<Sweep> {
-        let text = std::fs::read_to_string(path)
+        let text = crate::data::infile::read_to_string(path)
             .with_context(|| format!("{}: cannot read the study file", path.display()))?;
         let base_dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
         Self::from_text(&text, &path.display().to_string(), &base_dir, args)
