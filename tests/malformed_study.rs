@@ -476,6 +476,15 @@ fn corpus() -> Vec<(&'static str, String, &'static str)> {
             "fit.fixed.a_df",
         ),
         (
+            "a prior probability 1e310 times below another's",
+            s(
+                "",
+                &format!("{}prior_probability = 1e-310\n", select(SELECT_OK, "")),
+                "",
+            ),
+            "select.model[1].prior_probability",
+        ),
+        (
             "unstable fixed value in a select model",
             s(
                 "",

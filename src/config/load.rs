@@ -1214,11 +1214,31 @@ fn validate_select(
             "model selection needs at least two [[select.model]] tables".into(),
         ));
     }
-    let total: f64 = out.iter().map(|m| m.prior_probability).sum();
-    for m in &mut out {
-        m.prior_probability /= total;
-    }
+    normalise_prior_probabilities(&mut out, file)?;
     Ok(out)
+}
+
+/// Scales the models' prior probabilities to sum to one. They are divided by the largest
+/// first, so that values near `f64::MAX` cannot overflow their sum (two of 1e308 are equal
+/// priors); a ratio so extreme that a probability would vanish is refused, naming the model,
+/// because that model could never be chosen whatever the data.
+fn normalise_prior_probabilities(out: &mut [SelectModel], file: &str) -> Result<(), ConfigError> {
+    let max = out.iter().map(|m| m.prior_probability).fold(0.0, f64::max);
+    for m in out.iter_mut() {
+        m.prior_probability /= max;
+    }
+    let total: f64 = out.iter().map(|m| m.prior_probability).sum();
+    for (i, m) in out.iter_mut().enumerate() {
+        m.prior_probability /= total;
+        if m.prior_probability < 1e-300 {
+            return Err(invalid(
+                file,
+                format!("select.model[{i}].prior_probability"),
+                "is below 1e-300 of the largest model's: that model could never be chosen; drop it or give a prior probability within 1e300 of the others".into(),
+            ));
+        }
+    }
+    Ok(())
 }
 
 fn to_waveform(
@@ -1440,6 +1460,31 @@ design = "tn3045_x1"
 
     fn err(s: &str) -> String {
         load(s).unwrap_err().to_string()
+    }
+
+    #[test]
+    fn prior_probabilities_near_the_largest_float_do_not_overflow() {
+        let two = |a: &str, b: &str| {
+            format!(
+                "{OK}[select]\n[[select.model]]\nname = \"X\"\nprior_probability = {a}\n[[select.model]]\nname = \"Y\"\nfree = [\"w1sq\", \"w2sq\", \"a_sus\", \"d21\"]\nfixed = {{ dt1 = 0.2, dt2 = 0.2, a_df = 0.82 }}\nprior_probability = {b}\n"
+            )
+        };
+        let p = |s: &Study| -> Vec<f64> {
+            s.select_models
+                .iter()
+                .map(|m| m.prior_probability)
+                .collect()
+        };
+        // their plain sum is +inf, which made every probability 0 and the reversible jump fail
+        assert_eq!(p(&load(&two("1e308", "1e308")).unwrap()), [0.5, 0.5]);
+        assert_eq!(
+            p(&load(&two("3e307", "1e308")).unwrap()),
+            [0.23076923076923075, 0.7692307692307692]
+        );
+        let q = p(&load(&two("1e-300", "1e-301")).unwrap());
+        assert!((q[0] - 10.0 / 11.0).abs() < 1e-15, "{q:?}");
+        let e = err(&two("1.7e308", "1e-10"));
+        assert!(e.contains("select.model[1].prior_probability"), "{e}");
     }
 
     #[test]
