@@ -272,6 +272,15 @@ fn bad_data_files_are_reported_with_file_line_and_column() {
         &[("a.csv", &good), ("n.csv", &noise)],
     );
     assert!(e.contains("a.csv") && e.contains("`x12`"), "{e}");
+    // a map for a channel no model reads (a typo of `o12`): refused, not ignored
+    let e = study_error(
+        &study("columns = { o21 = \"o12\" }\n"),
+        &[("a.csv", &good), ("n.csv", &noise)],
+    );
+    assert!(
+        e.contains("experiment[0].columns.o21") && e.contains("no model of the study reads"),
+        "{e}"
+    );
     // non-uniform time
     let bad = good.replacen("\n10,", "\n10.5,", 1);
     let e = study_error(&study(""), &[("a.csv", &bad), ("n.csv", &noise)]);

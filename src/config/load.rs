@@ -89,6 +89,7 @@ impl StudyFile {
         validate_analysis(&self.analysis, file)?;
         self.check_bands(&experiments.designs, file)?;
         let models = self.resolve_models(&stretches, file)?;
+        check_columns(&self.experiment, &models, file)?;
         super::generator::check(
             &self.simulation,
             &models,
@@ -1216,6 +1217,42 @@ fn validate_select(
     }
     normalise_prior_probabilities(&mut out, file)?;
     Ok(out)
+}
+
+/// Every `columns` entry of a read experiment maps `t` or a channel some model of the study
+/// reads: an entry for no channel (a typo such as `o21`, a stale map) would otherwise be
+/// ignored, leaving the user believing the column they named was fitted.
+fn check_columns(
+    experiments: &[ExperimentEntry],
+    models: &super::models::ModelSet,
+    file: &str,
+) -> Result<(), ConfigError> {
+    let mut read: Vec<&str> = Vec::new();
+    for m in &models.models {
+        for c in m.data_channels() {
+            if !read.contains(&c.as_str()) {
+                read.push(c);
+            }
+        }
+    }
+    for (k, e) in experiments.iter().enumerate() {
+        if let Some(c) = e
+            .columns
+            .keys()
+            .find(|c| *c != "t" && !read.contains(&c.as_str()))
+        {
+            let listed: Vec<String> = read.iter().map(|c| format!("`{c}`")).collect();
+            return Err(invalid(
+                file,
+                format!("experiment[{k}].columns.{c}"),
+                format!(
+                    "maps channel `{c}`, which no model of the study reads (they read {}); remove the entry or correct the channel's name",
+                    listed.join(", ")
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// Scales the models' prior probabilities to sum to one. They are divided by the largest
