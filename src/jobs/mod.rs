@@ -24,6 +24,7 @@ pub mod mpi;
 pub mod prepare;
 pub mod progress;
 pub mod report;
+pub mod run_identity;
 pub mod select;
 pub mod simulate;
 pub mod sweep;

@@ -64,6 +64,13 @@ impl Job for Fit<'_> {
         for line in crate::jobs::prepare::noise_averages_lines(study, &prep.likelihood) {
             (ctx.log)(&line);
         }
+        crate::jobs::run_identity::check_or_record(
+            study,
+            &prep.dataset,
+            out,
+            ctx.resume,
+            CHECKPOINT_FILE,
+        )?;
         let chains = study.fit.chains;
         let counts: Vec<AtomicU64> = (0..chains).map(|_| AtomicU64::new(0)).collect();
         if let Some(w) = ctx.work {

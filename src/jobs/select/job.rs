@@ -42,6 +42,13 @@ impl Job for Select<'_, '_> {
         let prep = crate::jobs::prepare::prepare_select(study)
             .with_context(|| format!("preparing the data of {}", study.source))?;
         let identity = identity(study, &prep.dataset);
+        crate::jobs::run_identity::check_or_record(
+            study,
+            &prep.dataset,
+            out,
+            ctx.resume,
+            CHECKPOINT_FILE,
+        )?;
         let state = if ctx.resume {
             let c = SelectCheckpoint::read(&ckpt_path, &identity)?;
             let names: Vec<String> = study.select_models.iter().map(|m| m.name.clone()).collect();
