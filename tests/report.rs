@@ -355,6 +355,22 @@ fn user_text_is_escaped_and_figures_lose_scripts() {
         "# </pre><script>alert(4)</script>\nseed = 1\n",
     )
     .unwrap();
+    // as edited, the report refuses the summary (its size is not the manifest's) ...
+    let (ok, _, err) = occam(&["report", "a<b>&c"], d);
+    assert!(
+        !ok && err.contains("changed since the run wrote it"),
+        "{err}"
+    );
+    // ... so the hostile tool rewrites the manifest's sizes too: what it wrote is escaped
+    let m = run.join("manifest.json");
+    let mut man: serde_json::Value = serde_json::from_str(&read(&m)).unwrap();
+    for f in man["files"].as_array_mut().unwrap() {
+        let len = std::fs::metadata(run.join(f["name"].as_str().unwrap()))
+            .unwrap()
+            .len();
+        f["bytes"] = len.into();
+    }
+    std::fs::write(&m, man.to_string()).unwrap();
     let (ok, _, err) = occam(&["report", "a<b>&c"], d);
     assert!(ok, "{err}");
     let html = read(&run.join("report.html"));

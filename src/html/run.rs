@@ -101,14 +101,40 @@ fn read_json(path: &Path) -> Result<Value, ReportError> {
     })
 }
 
+/// The keys a summary of each kind always has (`fit` and `select`: `summary.json`; `sweep`:
+/// `sweep.json`): a page is built only on a summary of the run's own kind.
+const SHAPES: [(&str, [&str; 2]); 3] = [
+    ("fit", ["rows", "acceptance"]),
+    ("select", ["pairs", "models"]),
+    ("sweep", ["axes", "points"]),
+];
+
+/// Whether `v` has the keys of a `kind` summary ([`SHAPES`]).
+fn has_shape(kind: &str, v: &Value) -> bool {
+    SHAPES
+        .iter()
+        .find(|(k, _)| *k == kind)
+        .is_none_or(|(_, keys)| keys.iter().all(|k| v.get(k).is_some()))
+}
+
+/// The size of `name` in `dir` against what the manifest recorded: why the file cannot be
+/// trusted, or `None` when it is the run's (or the manifest does not list it).
+fn changed_since_run(dir: &Path, manifest: &Manifest, name: &str) -> Option<String> {
+    let want = manifest.files.iter().find(|f| f.name == name)?.bytes;
+    let got = std::fs::metadata(dir.join(name)).ok()?.len();
+    (got != want).then(|| {
+        format!("changed since the run wrote it: {got} bytes, manifest.json records {want}")
+    })
+}
+
 /// The command of a run without a manifest, from the shape of its summary.
 fn kind_from_files(dir: &Path) -> Result<Option<(RunKind, String, Value)>, ReportError> {
     let summary = dir.join("summary.json");
     if summary.is_file() {
         let v = read_json(&summary)?;
-        let kind = if v.get("rows").is_some() && v.get("acceptance").is_some() {
+        let kind = if has_shape("fit", &v) {
             RunKind::Fit
-        } else if v.get("pairs").is_some() && v.get("models").is_some() {
+        } else if has_shape("select", &v) {
             RunKind::Select
         } else {
             return Err(file_err(
@@ -177,7 +203,30 @@ impl Run {
                                 ),
                             ));
                         }
-                        Some((n.to_string(), read_json(&p)?))
+                        if let Some(why) = changed_since_run(dir, m, n) {
+                            return Err(file_err(
+                                &p,
+                                format!(
+                                    "{why}: it was replaced or damaged after the run; rerun the command"
+                                ),
+                            ));
+                        }
+                        let v = read_json(&p)?;
+                        if !has_shape(kind.name(), &v) {
+                            return Err(file_err(
+                                &p,
+                                format!(
+                                    "not a {} summary (no `{}`), though manifest.json lists a {} run; rerun the command",
+                                    kind.name(),
+                                    SHAPES
+                                        .iter()
+                                        .find(|(k, _)| *k == kind.name())
+                                        .map_or(String::new(), |(_, keys)| keys.join("`, no `")),
+                                    kind.name()
+                                ),
+                            ));
+                        }
+                        Some((n.to_string(), v))
                     }
                     None => None,
                 };
@@ -254,6 +303,17 @@ impl Run {
                 });
                 continue;
             }
+            if let Some(why) = self
+                .manifest
+                .as_ref()
+                .and_then(|m| changed_since_run(&self.dir, m, name))
+            {
+                self.skipped.push(Skipped {
+                    name: name.clone(),
+                    why,
+                });
+                continue;
+            }
             let Some(text) = read_text(&p)? else {
                 self.skipped.push(Skipped {
                     name: name.clone(),
@@ -276,7 +336,16 @@ impl Run {
             }
         }
         let sp = self.dir.join(RESOLVED_STUDY);
-        if sp.is_file() {
+        let changed = self
+            .manifest
+            .as_ref()
+            .and_then(|m| changed_since_run(&self.dir, m, RESOLVED_STUDY));
+        if let Some(why) = changed {
+            self.skipped.push(Skipped {
+                name: RESOLVED_STUDY.into(),
+                why,
+            });
+        } else if sp.is_file() {
             self.study = read_text(&sp)?;
             if self.study.is_none() {
                 self.skipped.push(Skipped {
@@ -363,5 +432,57 @@ mod tests {
         std::fs::write(d.join(MANIFEST), "garbage").unwrap();
         let e = Run::read(d).unwrap_err().to_string();
         assert!(e.contains("not a valid occam manifest"), "{e}");
+    }
+
+    #[test]
+    fn files_changed_after_the_run_are_not_trusted() {
+        let t = tempfile::tempdir().unwrap();
+        let d = t.path();
+        let fit = r#"{"rows": [], "acceptance": []}"#;
+        let manifest = |summary: usize| {
+            format!(
+                r#"{{"format":"occam-run","command":"fit","version":"0","files":[
+                {{"name":"summary.json","bytes":{summary}}},{{"name":"corner.svg","bytes":11}},
+                {{"name":"study.resolved.toml","bytes":9}}]}}"#
+            )
+        };
+        std::fs::write(d.join(MANIFEST), manifest(fit.len())).unwrap();
+        std::fs::write(d.join("summary.json"), fit).unwrap();
+        std::fs::write(d.join("corner.svg"), "<svg></svg>").unwrap();
+        std::fs::write(d.join(RESOLVED_STUDY), "seed = 1\n").unwrap();
+        let r = Run::read(d).unwrap();
+        assert!(r.skipped.is_empty() && r.figures.len() == 1 && r.study.is_some());
+        // the summary replaced by other JSON: refused, not shown as a run without warnings
+        std::fs::write(
+            d.join("summary.json"),
+            r#"{"pairs": [], "models": [], "x": 1}"#,
+        )
+        .unwrap();
+        let e = Run::read(d).unwrap_err().to_string();
+        assert!(
+            e.contains("summary.json") && e.contains("35 bytes, manifest.json records 30"),
+            "{e}"
+        );
+        // of the recorded size, but not a fit's summary
+        let other = r#"{"pairs": [], "models": [1]}"#;
+        std::fs::write(d.join(MANIFEST), manifest(other.len())).unwrap();
+        std::fs::write(d.join("summary.json"), other).unwrap();
+        let e = Run::read(d).unwrap_err().to_string();
+        assert!(e.contains("not a fit summary (no `rows`"), "{e}");
+        // a figure or the resolved study edited: listed as skipped, with the sizes
+        std::fs::write(d.join(MANIFEST), manifest(fit.len())).unwrap();
+        std::fs::write(d.join("summary.json"), fit).unwrap();
+        std::fs::write(d.join("corner.svg"), "<svg>x</svg>").unwrap();
+        std::fs::write(d.join(RESOLVED_STUDY), "seed = 12\n").unwrap();
+        let r = Run::read(d).unwrap();
+        assert!(r.figures.is_empty() && r.study.is_none());
+        let why: Vec<&str> = r.skipped.iter().map(|s| s.why.as_str()).collect();
+        assert_eq!(
+            why,
+            [
+                "changed since the run wrote it: 12 bytes, manifest.json records 11",
+                "changed since the run wrote it: 10 bytes, manifest.json records 9"
+            ]
+        );
     }
 }

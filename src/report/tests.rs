@@ -373,7 +373,9 @@ fn draw_trace_with_ln_posterior_and_burn_in() {
             "burn-in",
         ],
     );
-    let d = dir.path();
+    // the refusals write into a fresh directory, which must stay empty
+    let d2 = tempfile::tempdir().unwrap();
+    let d = d2.path();
     let bad = |lp: &[Vec<f64>], it: Option<(usize, usize)>, units: &[String]| {
         draw_trace(
             d,
@@ -389,8 +391,6 @@ fn draw_trace_with_ln_posterior_and_burn_in() {
         )
     };
     let none: &[String] = &[];
-    let d2 = tempfile::tempdir().unwrap();
-    let d = d2.path();
     assert_invalid(bad(&[vec![], vec![]], None, none), "ln_posterior", d);
     assert_invalid(bad(&[vec![0.0; 3]], None, none), "ln_posterior[0]", d);
     assert_invalid(bad(&[], Some((10, 0)), none), "iterations", d);
