@@ -230,6 +230,55 @@ fn bad_models_are_reported_with_file_model_and_entry() {
         &[],
     );
     assert!(e.contains("blocks.p") && e.contains("`g`"), "{e}");
+    // numerical faults: each named by model, entry and cause (they surfaced as "the residual
+    // noise CSD is singular" or "parameters have no effect")
+    let prior = "[prior]\na = { kind = \"uniform\", lo = 0.0, hi = 2.0 }\n";
+    let faults = [
+        (
+            USER_MODEL.replace("\"-a\"", "\"-a/0\""),
+            &[
+                "coefficients.o1.i1",
+                "NaN",
+                "a division by an expression that is zero here",
+            ][..],
+        ),
+        (
+            format!(
+                "{}[model.define]\nz = \"a/(s - s)\"\n",
+                USER_MODEL.replace("\"-a\"", "\"-a + z\"")
+            ),
+            &[
+                "define.z",
+                "NaN",
+                "a division by an expression that is zero here",
+            ],
+        ),
+        (
+            format!(
+                "{}[model.define]\nz = \"(a*1e10)^40\"\n",
+                USER_MODEL.replace("\"-a\"", "\"-a + z\"")
+            ),
+            &["define.z", "an overflow (a power beyond 1.8e308)"],
+        ),
+        (
+            format!(
+                "{}[model.blocks]\nt = {{ kind = \"delay\", tau = \"a - 2\" }}\n",
+                USER_MODEL.replace("\"-a\"", "\"-a*t\"")
+            ),
+            &[
+                "blocks.t.tau",
+                "a delay must be ≥ 0 s",
+                "prior centre (a = 1)",
+            ],
+        ),
+    ];
+    for (model, want) in faults {
+        let e = study_error(&format!("{base}{prior}{model}"), &[]);
+        assert!(e.contains("s.toml") && e.contains("`g`"), "{e}");
+        for w in want {
+            assert!(e.contains(w), "lacks {w}: {e}");
+        }
+    }
 }
 
 /// Bad data files: each error names the file, the line and the column.

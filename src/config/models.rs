@@ -481,22 +481,38 @@ impl ModelSet {
                     )
                 })?;
             }
-            crate::model::check_identifiable(
-                set.models[k].as_ref(),
-                &centre,
-                check_freqs,
-                check_fs,
-            )
-            .map_err(|e| {
-                bad(
-                    format!("model.{}", d.name()),
-                    format!(
-                        "{e} (checked at the prior centre over {:.1e}–{:.1e} Hz)",
-                        check_freqs[0],
-                        check_freqs[check_freqs.len() - 1]
-                    ),
-                )
-            })?;
+            if let ModelDef::User(_) = d {
+                // a delay or pole frequency that is impossible at the centre (the sampler
+                // would start there)
+                set.models[k].check(&centre).map_err(|e| {
+                    bad(
+                        format!("model.{}", d.name()),
+                        format!(
+                            "{e}; checked at the prior centre ({}): centre the priors where every block is possible",
+                            fmt_point(set.models[k].param_names(), &centre)
+                        ),
+                    )
+                })?;
+            }
+            crate::model::check_finite(set.models[k].as_ref(), &centre, check_freqs, check_fs)
+                .and_then(|()| {
+                    crate::model::check_identifiable(
+                        set.models[k].as_ref(),
+                        &centre,
+                        check_freqs,
+                        check_fs,
+                    )
+                })
+                .map_err(|e| {
+                    bad(
+                        format!("model.{}", d.name()),
+                        format!(
+                            "{e} (checked at the prior centre over {:.1e}–{:.1e} Hz)",
+                            check_freqs[0],
+                            check_freqs[check_freqs.len() - 1]
+                        ),
+                    )
+                })?;
         }
         for n in prior.keys() {
             if !set.models.iter().any(|m| m.param_names().contains(n)) {

@@ -1,5 +1,5 @@
-//! Checks of a model as a whole: its shape ([`validate_shape`]), that every parameter moves
-//! some coefficient ([`check_identifiable`]), and its coefficients at one frequency.
+//! Checks of a model as a whole: its shape ([`validate_shape`]), finite coefficients
+//! ([`check_finite`]), that every parameter moves some coefficient ([`check_identifiable`]), and its coefficients at one frequency.
 
 use super::bin::{Bin, MAX_CHANNELS, MAX_CONSTS, MAX_RESIDUALS};
 use super::traits::Model;
@@ -40,6 +40,33 @@ pub fn validate_shape(m: &dyn Model) -> Result<(), String> {
             if list[..i].contains(a) {
                 return Err(format!("model `{name}`: {what} `{a}` is listed twice"));
             }
+        }
+    }
+    Ok(())
+}
+
+/// Errors if some coefficient is not finite at `theta` over `freqs`, naming the model, the
+/// coefficient (`coefficients.<residual>.<data>`), the frequency and, where the model can say,
+/// the part it comes from and why ([`Model::explain_non_finite`]). Run before
+/// [`check_identifiable`]: a NaN coefficient would otherwise surface as "no effect" or as a
+/// singular noise matrix, far from its cause.
+pub fn check_finite(m: &dyn Model, theta: &[f64], freqs: &[f64], fs: f64) -> Result<(), String> {
+    let nc = m.data_channels().len();
+    for &f in freqs {
+        let c = coefficients_at(m, theta, f, fs);
+        if let Some(k) = c
+            .iter()
+            .position(|z| !(z.re.is_finite() && z.im.is_finite()))
+        {
+            let entry = format!(
+                "coefficients.{}.{}",
+                m.residual_channels()[k / nc],
+                m.data_channels()[k % nc]
+            );
+            let what = m
+                .explain_non_finite(theta, f, fs)
+                .unwrap_or_else(|| format!("{entry} is {}", c[k]));
+            return Err(format!("model `{}`: at f = {f:.4e} Hz, {what}", m.name()));
         }
     }
     Ok(())

@@ -41,7 +41,7 @@ pub use bin::{
     Bin, BinBlock, MAX_CHANNELS, MAX_CONSTS, MAX_RESIDUALS, quad, quad_whitened, residual,
     residual_into, tri_len, with_buffer,
 };
-pub use checks::{check_identifiable, coefficients_at, validate_shape};
+pub use checks::{check_finite, check_identifiable, coefficients_at, validate_shape};
 pub use covariates::Covariates;
 pub use drift::{DriftModel, DriftRule};
 pub use glitch::{GLITCH_CHANNEL, GlitchModel, map_tolerance};

@@ -129,6 +129,13 @@ pub trait Model: Send + Sync + std::fmt::Debug {
         Ok(())
     }
 
+    /// Where a non-finite coefficient at θ and frequency `f` comes from, for a model built
+    /// from parts (a user model: the first block or define that is not finite, and why);
+    /// `None` (the default) when the model has no parts to name.
+    fn explain_non_finite(&self, _theta: &[f64], _f: f64, _fs: f64) -> Option<String> {
+        None
+    }
+
     /// The model as it applies to one experiment, with the same parameters, for a model whose
     /// coefficients depend on the experiment's stretch or covariates (a parameter that drifts
     /// between stretches, [`crate::model::drift`]). `Ok(None)` (the default): the same model for

@@ -562,6 +562,15 @@ impl<'a> Scope<'a> {
             Kind::S => Operand::S,
             Kind::Pi => Operand::Const(PI),
         };
+        let slot_names: Vec<String> = kept_blocks
+            .iter()
+            .map(|(n, _)| format!("blocks.{n}"))
+            .chain(
+                live_defines
+                    .iter()
+                    .map(|&d| format!("define.{}", defines[d].0)),
+            )
+            .collect();
         let mut ops = Vec::new();
         for &d in &live_defines {
             expr::emit(&defines[d].1, &resolve, &mut ops);
@@ -581,6 +590,7 @@ impl<'a> Scope<'a> {
             n_consts,
             ops,
             n_slots,
+            slot_names,
         })
     }
 }

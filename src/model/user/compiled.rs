@@ -30,6 +30,8 @@ pub struct UserModel {
     /// Defines (stored into slots after the blocks) then coefficients (`Out`).
     pub(super) ops: Vec<Op>,
     pub(super) n_slots: usize,
+    /// `blocks.<name>` per block slot, then `define.<name>` per define slot (for messages).
+    pub(super) slot_names: Vec<String>,
 }
 
 impl UserModel {
@@ -138,6 +140,48 @@ impl Model for UserModel {
     fn prepare_kernel(&self, block: &BinBlock) -> Option<Arc<dyn BlockKernel>> {
         (self.res.len() <= 2)
             .then(|| Arc::new(UserKernel::new(&self.program(), block)) as Arc<dyn BlockKernel>)
+    }
+
+    /// Evaluates the blocks, then each define and coefficient on its own (each is one run of
+    /// the program ending in a store), and names the first that is not finite with the cause
+    /// its value points to.
+    fn explain_non_finite(&self, theta: &[f64], f: f64, _fs: f64) -> Option<String> {
+        let zero = Complex64::new(0.0, 0.0);
+        let mut slots = vec![zero; self.n_slots];
+        let bad = |z: Complex64| !(z.re.is_finite() && z.im.is_finite());
+        for (k, (name, b)) in self.blocks.iter().enumerate() {
+            slots[k] = b.eval::<f64>(theta, f);
+            if bad(slots[k]) {
+                return Some(format!("blocks.{name} is {} here", slots[k]));
+            }
+        }
+        let mut out = vec![zero; self.data.len() * self.res.len()];
+        let (mut start, omega) = (0, 2.0 * PI * f);
+        for (i, op) in self.ops.iter().enumerate() {
+            let (value, what) = match *op {
+                Op::Store(s) => {
+                    expr::run(&self.ops[start..=i], theta, omega, &mut slots, &mut out);
+                    (slots[s as usize], self.slot_names[s as usize].clone())
+                }
+                Op::Out(c) => {
+                    expr::run(&self.ops[start..=i], theta, omega, &mut slots, &mut out);
+                    let (r, d) = (c as usize / self.data.len(), c as usize % self.data.len());
+                    (
+                        out[c as usize],
+                        format!("coefficients.{}.{}", self.res[r], self.data[d]),
+                    )
+                }
+                _ => continue,
+            };
+            let segment = &self.ops[start..=i];
+            start = i + 1;
+            if bad(value) {
+                let why = expr::first_fault(segment, theta, omega, &slots)
+                    .unwrap_or("a non-finite intermediate value");
+                return Some(format!("{what} is {value}: {why}"));
+            }
+        }
+        None
     }
 
     /// θ has the right length and finite values, and every θ-dependent block field is

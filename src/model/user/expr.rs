@@ -443,6 +443,69 @@ pub fn run<T: DualNum<Primitive = f64> + Copy>(
     }
 }
 
+/// Why the program `ops` (one define or coefficient, ending in a store) gives a non-finite
+/// value at θ = `th`, `s = iω` and block/define values `slots`: the first operation that makes
+/// one of finite operands — a division by zero (which a complex quotient turns into NaN) or
+/// an overflow. `None` when every step is finite or a non-finite value comes in from a slot.
+pub fn first_fault(
+    ops: &[Op],
+    th: &[f64],
+    omega: f64,
+    slots: &[Complex64],
+) -> Option<&'static str> {
+    let finite = |z: Complex64| z.re.is_finite() && z.im.is_finite();
+    let mut st: Vec<Complex64> = Vec::with_capacity(MAX_STACK);
+    for op in ops {
+        let v = match *op {
+            Op::Const(c) => c,
+            Op::S => Complex64::new(0.0, omega),
+            Op::Param(i) => Complex64::new(th[i as usize], 0.0),
+            Op::Slot(i) => {
+                let v = slots[i as usize];
+                if !finite(v) {
+                    return None;
+                }
+                v
+            }
+            Op::Store(_) | Op::Out(_) => return None,
+            Op::Neg => -st.pop()?,
+            Op::Pow(n) => {
+                let a = st.pop()?;
+                let v = powi(a, n);
+                if !finite(v) {
+                    return Some(if a == Complex64::new(0.0, 0.0) {
+                        "a negative power of an expression that is zero here"
+                    } else {
+                        "an overflow (a power beyond 1.8e308)"
+                    });
+                }
+                v
+            }
+            Op::Add | Op::Sub | Op::Mul | Op::Div => {
+                let b = st.pop()?;
+                let a = st.pop()?;
+                let v = match *op {
+                    Op::Add => a + b,
+                    Op::Sub => a - b,
+                    Op::Mul => a * b,
+                    _ => a / b,
+                };
+                if !finite(v) {
+                    return Some(match *op {
+                        Op::Div if b == Complex64::new(0.0, 0.0) => {
+                            "a division by an expression that is zero here"
+                        }
+                        _ => "an overflow (a value beyond 1.8e308)",
+                    });
+                }
+                v
+            }
+        };
+        st.push(v);
+    }
+    None
+}
+
 /// The value of `pi` in expressions.
 pub const PI_VALUE: f64 = PI;
 
