@@ -47,6 +47,7 @@ pub use error::ConfigError;
 pub use limits::{DELAY_PARAMS, MAX_ASD, MAX_CORNER, MAX_DELAY, MAX_TARGET_SNR, MIN_ASD};
 pub use models::{
     BUILTIN_LTP, DriftModelEntry, LtpModelEntry, ModelDef, ModelEntry, ModelSet, ModelSpec,
+    fmt_point,
 };
 pub use resolved::{RESOLVED_FILE, resolved_toml, write_resolved};
 pub use study::{

@@ -951,6 +951,58 @@ pub fn glitch_notes(gates: &[crate::likelihood::GlitchGate]) -> Vec<String> {
     touched
 }
 
+/// The first corner of model `mi`'s prior box that the model's check rejects (a delay that
+/// goes negative, a pole frequency through zero, an unstable state-space system), as a
+/// warning: the samplers explore the whole box and do not call the check per draw. Every
+/// corner for up to [`MAX_CORNER_PARAMS`] parameters, else each parameter's two ends with
+/// the others at the centre; an unbounded (Gaussian) side is taken at the centre (not
+/// checked).
+fn box_corner_fault(study: &Study, mi: usize) -> Option<String> {
+    let m = &study.models.models[mi];
+    let kinds = study.models.priors[mi].kinds();
+    let centre: Vec<f64> = kinds.iter().map(crate::prior::PriorKind::centre).collect();
+    if m.check(&centre).is_err() {
+        return None; // refused at load, or warned about as a start
+    }
+    let ends: Vec<[f64; 2]> = kinds
+        .iter()
+        .zip(&centre)
+        .map(|(k, &c)| {
+            let (lo, hi) = k.bounds();
+            [
+                if lo.is_finite() { lo } else { c },
+                if hi.is_finite() { hi } else { c },
+            ]
+        })
+        .collect();
+    let n = ends.len();
+    let points: Box<dyn Iterator<Item = Vec<f64>>> = if n <= MAX_CORNER_PARAMS {
+        Box::new(
+            (0..1usize << n).map(move |bits| (0..n).map(|i| ends[i][(bits >> i) & 1]).collect()),
+        )
+    } else {
+        let c = centre.clone();
+        Box::new((0..2 * n).map(move |j| {
+            let mut p = c.clone();
+            p[j / 2] = ends[j / 2][j % 2];
+            p
+        }))
+    };
+    for p in points {
+        if let Err(why) = m.check(&p) {
+            return Some(format!(
+                "model `{}` fails its check inside the prior box, at {}: {why}; the samplers draw from the whole box and do not check each draw, so narrow the prior to where the model holds",
+                study.models.defs[mi].name(),
+                crate::config::fmt_point(m.param_names(), &p)
+            ));
+        }
+    }
+    None
+}
+
+/// Most parameters whose prior box is checked at every corner ([`box_corner_fault`]).
+pub const MAX_CORNER_PARAMS: usize = 12;
+
 /// Warnings about fitting model `mi` to `dataset`: a start point (fixed and start values) the
 /// model rejects ([`crate::model::Model::check`]), and a continuous-time closed loop fitted to
 /// data from the discretised loop (`[simulation] method = "time"`), which the zero-order
@@ -968,6 +1020,11 @@ pub fn model_warnings(study: &Study, mi: usize, dataset: &Dataset) -> Vec<String
             ));
             break;
         }
+    }
+    if study.models.defs[mi].is_user_defined()
+        && let Some(why) = box_corner_fault(study, mi)
+    {
+        w.push(why);
     }
     w.extend(noise_warnings(study, mi, dataset));
     // a guidance-injection model on data with force injections: their response is in the
@@ -1029,4 +1086,34 @@ pub fn identity(study: &Study, data: &Dataset) -> String {
         }
     }
     format!("{:016x}", h.finish())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn study(tau: &str, lo: f64) -> Study {
+        Study::from_toml(
+            &format!(
+                "seed = 1\noutput = \"o\"\n[fit]\nmodel = \"g\"\n[prior]\na = {{ kind = \"uniform\", lo = {lo}, hi = 2.0 }}\nb = {{ kind = \"gaussian\", mu = 1.0, sigma = 5.0 }}\n[[model]]\nkind = \"user\"\nname = \"g\"\nparameters = [\"a\", \"b\"]\ndata = [\"o1\", \"i1\"]\nresidual = [\"o1\"]\n[model.blocks]\nt = {{ kind = \"delay\", tau = \"{tau}\" }}\n[model.coefficients.o1]\no1 = \"1\"\ni1 = \"-a*b*t\"\n[[experiment]]\nname = \"inv1\"\ndesign = \"tn3045_x1\"\n"
+            ),
+            "s.toml",
+            std::path::Path::new("."),
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn a_prior_box_reaching_an_impossible_block_is_found_at_its_corner() {
+        // the delay a − 1 is negative below a = 1: the centre (1.25) is fine, the corner not
+        let g = |s: &Study| box_corner_fault(s, s.models.index("g").unwrap());
+        let w = g(&study("a - 1", 0.5)).unwrap();
+        assert!(
+            w.contains("model `g`") && w.contains("a = 0.5") && w.contains("blocks.t.tau"),
+            "{w}"
+        );
+        assert_eq!(g(&study("a - 1", 1.0)), None);
+        // a Gaussian side is not checked beyond its centre (b = 1 gives a delay of 0)
+        assert_eq!(g(&study("a*b - 1", 1.0)), None);
+    }
 }
