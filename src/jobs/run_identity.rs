@@ -29,7 +29,7 @@ use serde::{Deserialize, Serialize};
 use std::path::Path;
 
 /// The file beside a run's checkpoint that holds its [`RunIdentity`].
-pub const FILE: &str = "identity.json";
+pub const FILE: &str = "checkpoint.identity.json";
 
 /// A run's identity and the hashes of its parts.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]

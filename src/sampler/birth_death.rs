@@ -165,6 +165,71 @@ fn ln_count_prior(k: usize, n: usize) -> f64 {
     -(lf(n) - lf(k) - lf(n - k))
 }
 
+/// The mean of a 0/1 series and its standard error: batch means, floored by the error of a
+/// two-state Markov chain with the series' own switching rates. With few switches (a
+/// component born and killed a few dozen times) batch means see only a handful of switches
+/// per batch and under-state the error (1σ coverage near 0.4 at ~40 switches); the two-state
+/// chain's `Var(p̂) = p(1−p)(2 − a − b)/((a + b) n)`, `a`, `b` the per-iteration leave
+/// probabilities of the two states (sojourns over iterations spent there), is what the
+/// switches alone allow. Its sojourns are geometric; sojourns whose length varies more
+/// (leave probabilities varying with θ) make it a lower bound, which batch means then carry.
+fn indicator_error(x: &[f64]) -> (f64, f64) {
+    let (mean, bm) = batch_error(x);
+    let n = x.len() as f64;
+    let on = x.iter().filter(|&&v| v == 1.0).count() as f64;
+    let runs = |state: f64| {
+        x.iter()
+            .enumerate()
+            .filter(|&(i, &v)| v == state && (i == 0 || x[i - 1] != state))
+            .count() as f64
+    };
+    if on == 0.0 || on == n || bm.is_nan() {
+        return (mean, bm);
+    }
+    let (a, b) = (runs(1.0) / on, runs(0.0) / (n - on));
+    let p = on / n;
+    let floor = p * (1.0 - p) * (2.0 - a - b).max(0.0) / ((a + b) * n);
+    (mean, bm.max(floor.sqrt()))
+}
+
+/// [`indicator_error`] for a component's on/off series, with the regenerative error too:
+/// each death resets the component (its parameters return to their null values), so the
+/// chain of that component starts afresh at every switch to off, and the tours between
+/// deaths are independent: `Var(p̂) = Σ (T_i − p̂ L_i)² / (Σ L_i)²` over tours of length
+/// `L_i` with `T_i` iterations on. Unlike the two-state floor it sees on-sojourns whose
+/// length varies with the component's parameters (a birth deep in the likelihood lives
+/// long, one at its edge dies soon), which made the floor alone state 0.7 of the scatter.
+fn inclusion_error(x: &[f64]) -> (f64, f64) {
+    let (p, e) = indicator_error(x);
+    if e.is_nan() {
+        return (p, e);
+    }
+    let (mut tours, mut on, mut len) = (Vec::new(), 0.0, 0.0);
+    for (i, &v) in x.iter().enumerate() {
+        if i > 0 && v == 0.0 && x[i - 1] == 1.0 {
+            tours.push((on, len));
+            (on, len) = (0.0, 0.0);
+        }
+        on += v;
+        len += 1.0;
+    }
+    tours.push((on, len));
+    if tours.len() < 2 {
+        return (p, e);
+    }
+    // the jackknife over tours: the ratio's delete-one-tour values; with a few dozen tours
+    // it is the more conservative of the ratio estimator's variance estimates
+    let (t_sum, l_sum) = (p * x.len() as f64, x.len() as f64);
+    let m = tours.len() as f64;
+    let drop: Vec<f64> = tours
+        .iter()
+        .map(|(t, l)| (t_sum - t) / (l_sum - l))
+        .collect();
+    let mean = drop.iter().sum::<f64>() / m;
+    let var = (m - 1.0) / m * drop.iter().map(|d| (d - mean).powi(2)).sum::<f64>();
+    (p, e.max(var.sqrt()))
+}
+
 /// Batch means' mean and standard error of a series.
 fn batch_error(x: &[f64]) -> (f64, f64) {
     let n = x.len();
@@ -404,7 +469,7 @@ pub fn birth_death(
                 .iter()
                 .map(|&c| f64::from(u8::from(c as usize == k)))
                 .collect();
-            batch_error(&x)
+            indicator_error(&x)
         })
         .collect();
     let inclusion = incl
@@ -412,7 +477,7 @@ pub fn birth_death(
         .zip(&jumps)
         .map(|(x, j)| {
             let x: Vec<f64> = x.iter().map(|&s| f64::from(u8::from(s))).collect();
-            let (p, e) = batch_error(&x);
+            let (p, e) = inclusion_error(&x);
             (
                 p,
                 if j[0].accepted + j[1].accepted == 0 {
@@ -616,6 +681,44 @@ mod tests {
         }
         // the base parameter is unaffected by the components: N(1, 0.5²)
         assert!((r.mean[0] - 1.0).abs() < 0.05 && (r.sd[0] - 0.5).abs() < 0.05);
+    }
+
+    /// Rare jumps: births drawn from a prior 600 times wider than the likelihood, so each
+    /// component is born and killed only a few dozen times per run. Batch means alone stated
+    /// errors half the scatter (RMS z 1.97, 1σ coverage about 0.4); with the two-state floor
+    /// and the jackknife over tours between deaths, the 1σ intervals of 1200 runs cover
+    /// within three binomial sd of 0.683 (0.665 with these seeds); errors 20 % smaller or
+    /// larger leave that band (0.574, 0.735). The tails stay heavier than a Gaussian's: 2σ
+    /// intervals cover 0.92, not 0.954 (a run whose component stayed mostly on or off states
+    /// a small error).
+    #[test]
+    fn errors_cover_when_jumps_are_rare() {
+        let toy = Toy::with_factors(&[1.0, 1.0], 300.0);
+        let (_, inc) = toy.exact();
+        let (mut z, mut switches) = (Vec::new(), 0.0);
+        let seeds = 600;
+        for seed in 0..seeds {
+            let r = run(&toy, &[false, false], seed, 20_000);
+            for (c, &(p, e)) in r.inclusion.iter().enumerate() {
+                let j = r.jumps[c];
+                switches += (j[0].accepted + j[1].accepted) as f64;
+                assert!(e > 0.0, "seed {seed}: component {c} never switched");
+                z.push(((p - inc[c]) / e).abs());
+            }
+        }
+        let n = z.len() as f64;
+        let cover = |scale: f64| z.iter().filter(|&&z| z * scale < 1.0).count() as f64 / n;
+        let mean_switches = switches / (2.0 * seeds as f64);
+        let band = 3.0 * (0.683 * 0.317 / n).sqrt();
+        eprintln!(
+            "rare jumps: 1σ coverage {} (errors ×0.8: {}, ×1.2: {}) over {n} runs, {mean_switches} switches per component",
+            cover(1.0),
+            cover(1.0 / 0.8),
+            cover(1.0 / 1.2)
+        );
+        eprintln!("2σ coverage {}", cover(0.5));
+        assert!((10.0..80.0).contains(&mean_switches), "{mean_switches}");
+        assert!((cover(1.0) - 0.683).abs() < band, "coverage {}", cover(1.0));
     }
 
     /// A component the data reject (Bayes factor 1e−5) is almost never on and says so: its
