@@ -51,6 +51,24 @@ impl PriorKind {
         }
     }
 
+    /// The marginal's standard deviation: `(hi − lo)/√12` of a box (log-uniform included, a
+    /// spread in the parameter itself), `σ` of a Gaussian — the spread a proposal never needs
+    /// to exceed.
+    ///
+    /// ```
+    /// use occam::prior::PriorKind;
+    /// assert_eq!(PriorKind::Gaussian { mu: 0.0, sigma: 2.0 }.sd(), 2.0);
+    /// assert!((PriorKind::Uniform { lo: 0.0, hi: 12f64.sqrt() }.sd() - 1.0).abs() < 1e-15);
+    /// ```
+    pub fn sd(&self) -> f64 {
+        match *self {
+            PriorKind::Uniform { lo, hi } | PriorKind::LogUniform { lo, hi } => {
+                (hi - lo) / 12f64.sqrt()
+            }
+            PriorKind::Gaussian { sigma, .. } => sigma,
+        }
+    }
+
     fn validate(&self, name: &str) -> Result<(), PriorError> {
         let bad = |what: String| {
             Err(PriorError::Invalid {

@@ -57,5 +57,5 @@ pub use driver::{Driver, Ended, Sampler};
 pub use error::SamplerError;
 pub use mh::{MetropolisHastings, RunOutcome};
 pub use optimize::{MapEstimate, Minimum, NelderMeadSettings, find_map, nelder_mead};
-pub use proposal::{GaussianProposal, Proposal};
+pub use proposal::{GaussianProposal, Proposal, cap_to_prior};
 pub use settings::{Adapt, Anneal, MhSettings, Start};

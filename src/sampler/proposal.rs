@@ -8,6 +8,34 @@ use serde::{Deserialize, Serialize};
 use super::error::SamplerError;
 use crate::linalg::{LinalgError, SpdOptions};
 
+/// `cov` with every marginal standard deviation capped at the prior's
+/// ([`crate::prior::PriorKind::sd`]; correlations kept): where the Fisher Gaussian is wider
+/// than the prior — a MAP on a bound, a parameter the data barely constrain — the prior is the
+/// better description of the posterior, and a random walk or a start draw from the wider
+/// Gaussian almost never lands inside the box. Rows and columns follow `prior`'s parameters.
+///
+/// ```
+/// use nalgebra::DMatrix;
+/// use occam::prior::{Prior, PriorKind};
+/// let prior = Prior::new(
+///     vec!["a".into(), "b".into()],
+///     vec![PriorKind::Gaussian { mu: 0.0, sigma: 1.0 }, PriorKind::Gaussian { mu: 0.0, sigma: 10.0 }],
+/// ).unwrap();
+/// let c = occam::sampler::cap_to_prior(&DMatrix::from_row_slice(2, 2, &[4.0, 1.0, 1.0, 1.0]), &prior);
+/// assert_eq!(c, DMatrix::from_row_slice(2, 2, &[1.0, 0.5, 0.5, 1.0]));
+/// ```
+pub fn cap_to_prior(cov: &DMatrix<f64>, prior: &crate::prior::Prior) -> DMatrix<f64> {
+    let n = cov.nrows();
+    let f: Vec<f64> = (0..n)
+        .map(|i| {
+            let sd = cov[(i, i)].sqrt();
+            let cap = prior.kinds()[i].sd();
+            if sd > cap { cap / sd } else { 1.0 }
+        })
+        .collect();
+    DMatrix::from_fn(n, n, |i, j| cov[(i, j)] * f[i] * f[j])
+}
+
 /// A Metropolis–Hastings proposal `q(θ' | θ)`.
 ///
 /// Like emcee's moves, a proposal writes the candidate and returns its log Hastings ratio

@@ -23,7 +23,7 @@ use crate::likelihood::{
 use crate::linalg::{self, SpdOptions};
 use crate::model::map_tolerance;
 use crate::nested::SubModel;
-use crate::prior::{Prior, PriorKind};
+use crate::prior::Prior;
 use crate::sampler::{Chains, MetropolisHastings, MhSettings, RunOutcome, Start};
 use nalgebra::DMatrix;
 use rand::SeedableRng;
@@ -60,37 +60,11 @@ fn free_vec(th: &[f64], free: &[usize]) -> Vec<f64> {
     free.iter().map(|&i| th[i]).collect()
 }
 
-/// Standard deviation of one prior marginal: the spread a proposal never needs to exceed.
-fn prior_sd(k: &PriorKind) -> f64 {
-    match *k {
-        PriorKind::Uniform { lo, hi } | PriorKind::LogUniform { lo, hi } => {
-            (hi - lo) / 12f64.sqrt()
-        }
-        PriorKind::Gaussian { sigma, .. } => sigma,
-    }
-}
-
-/// `cov` with every marginal standard deviation capped at the prior's (correlations kept):
-/// where the Fisher Gaussian is wider than the prior, the prior is the better description of
-/// the posterior, and a random walk or a start draw from the wider Gaussian almost never lands
-/// inside the box.
-pub(super) fn cap_to_prior(cov: &DMatrix<f64>, prior: &Prior) -> DMatrix<f64> {
-    let n = cov.nrows();
-    let f: Vec<f64> = (0..n)
-        .map(|i| {
-            let sd = cov[(i, i)].sqrt();
-            let cap = prior_sd(&prior.kinds()[i]);
-            if sd > cap { cap / sd } else { 1.0 }
-        })
-        .collect();
-    DMatrix::from_fn(n, n, |i, j| cov[(i, j)] * f[i] * f[j])
-}
-
 /// The prior's own covariance (diagonal): the proposal of last resort.
 fn prior_cov(prior: &Prior) -> DMatrix<f64> {
     DMatrix::from_diagonal(&nalgebra::DVector::from_iterator(
         prior.dim(),
-        prior.kinds().iter().map(|k| prior_sd(k).powi(2)),
+        prior.kinds().iter().map(|k| k.sd().powi(2)),
     ))
 }
 
@@ -167,7 +141,7 @@ fn sample_matrix(chains: &Chains) -> DMatrix<f64> {
 /// prior's marginal widths, or the prior's covariance when the Fisher matrix is singular.
 pub(super) fn walk_cov(fisher_cov: Option<&DMatrix<f64>>, prior: &Prior) -> DMatrix<f64> {
     fisher_cov
-        .map(|c| cap_to_prior(c, prior))
+        .map(|c| crate::sampler::cap_to_prior(c, prior))
         .unwrap_or_else(|| prior_cov(prior))
 }
 
@@ -774,6 +748,7 @@ fn tempering(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::prior::PriorKind;
 
     #[test]
     fn caps_each_marginal_at_the_prior_and_keeps_correlations() {
@@ -787,7 +762,7 @@ mod tests {
         .unwrap();
         // a: σ = 10 (10 box widths), b: σ = 0.01; correlation 0.5
         let cov = DMatrix::from_row_slice(2, 2, &[100.0, 0.05, 0.05, 1e-4]);
-        let c = cap_to_prior(&cov, &prior);
+        let c = crate::sampler::cap_to_prior(&cov, &prior);
         let sd_box = 1.0 / 12f64.sqrt();
         assert!((c[(0, 0)].sqrt() - sd_box).abs() < 1e-15);
         assert!((c[(1, 1)] - 1e-4).abs() < 1e-18);
@@ -826,7 +801,10 @@ mod tests {
         let t = CornerTarget { sd: 5.0, prior };
         let corner = vec![1.0; d];
         let fisher_cov = DMatrix::from_diagonal_element(d, d, 25.0);
-        for cov in [fisher_cov.clone(), cap_to_prior(&fisher_cov, t.prior())] {
+        for cov in [
+            fisher_cov.clone(),
+            crate::sampler::cap_to_prior(&fisher_cov, t.prior()),
+        ] {
             let starts = chain_starts(&t, &corner, &cov, 8, 3).unwrap();
             assert_eq!(starts.len(), 8);
             for s in &starts {
