@@ -13,6 +13,54 @@ fn ln_b(p: &PairResult, method: &str) -> Option<f64> {
         .and_then(|e| e.ln_b)
 }
 
+/// Every row, for the test log (and the note's figures).
+fn show(p: &PairResult) {
+    for e in &p.estimates {
+        eprintln!(
+            "{:<28} {:>12?} ± {:<10?} agrees {:?}",
+            e.method, e.ln_b, e.std_err, e.agrees
+        );
+    }
+}
+
+/// Asserts that row `m` (with its stated error) is within `k` combined σ of `reference`
+/// (value, σ), and returns its distance in those σ.
+fn within(p: &PairResult, m: &str, reference: (f64, f64), k: f64) -> f64 {
+    let e = p.estimates.iter().find(|e| e.method == m).unwrap();
+    let (v, s) = (
+        e.ln_b.unwrap_or_else(|| panic!("{m} gave no number")),
+        e.std_err.unwrap_or_else(|| panic!("{m} states no error")),
+    );
+    let z = (v - reference.0).abs() / s.hypot(reference.1);
+    assert!(
+        z < k,
+        "{m}: {v} ± {s} is {z:.1} σ from {} ± {}",
+        reference.0,
+        reference.1
+    );
+    z
+}
+
+/// `(ln B, σ)` of a row.
+fn value(p: &PairResult, m: &str) -> (f64, f64) {
+    let e = p.estimates.iter().find(|e| e.method == m).unwrap();
+    (e.ln_b.unwrap(), e.std_err.unwrap_or(0.0))
+}
+
+/// nautilus on the exact likelihood of the same data (`bench/peer/results/*.nautilus.json`):
+/// the independent references of the ρ_opt = 60 and nominal-amplitude regimes.
+const NAUTILUS_RHO60: (f64, f64) = (0.09571981523185968, 0.012739854459202234);
+const NAUTILUS_NOMINAL: (f64, f64) = (-14.229583978652954, 0.010770460116461862);
+
+/// The statistical rows of the table.
+const STATISTICAL: [&str; 5] = [
+    "RJMCMC visits",
+    "RJMCMC Rao-Blackwell",
+    "RJMCMC bridge",
+    "Thermodynamic integration",
+    "Stepping-stone",
+];
+
 fn study(file: &str) -> Study {
     let mut s = Study::load(Path::new(file)).unwrap();
     s.select.rj_iterations = 40_000;
@@ -27,6 +75,7 @@ fn competitive_regime_prefers_the_simpler_model_but_not_decisively() {
     let prep = prepare(&s).unwrap();
     let out = run(&s, &prep, None).unwrap();
     let p = &out.pairs[0];
+    show(p);
     assert_eq!((p.x.as_str(), p.y.as_str()), ("X", "Y"));
     assert!(
         out.rj.as_ref().unwrap().visits.iter().all(|&v| v > 1000),
@@ -35,17 +84,26 @@ fn competitive_regime_prefers_the_simpler_model_but_not_decisively() {
     );
     let rj = ln_b(p, "RJMCMC visits").unwrap();
     assert!((0.05f64.ln()..0.0).contains(&rj), "RJ ln B = {rj}");
-    for m in [
-        "RJMCMC Rao-Blackwell",
-        "RJMCMC bridge",
-        "Laplace-Fisher box",
-        "Laplace-Metropolis MVE",
-        "Laplace-Metropolis MCD",
-    ] {
+    // every statistical row within 3 combined σ of the bridge (the reference; rows sharing
+    // its chain are correlated with it, which makes the bound looser, not tighter)
+    let bridge = value(p, "RJMCMC bridge");
+    for m in STATISTICAL {
+        within(p, m, bridge, 3.0);
+    }
+    // the Laplace–Fisher box is exact in the Gaussian limit, which this regime is close to
+    // (0.009 nat from the bridge, measured); the Laplace–Metropolis rows carry the sample
+    // covariance's systematic (0.3–0.4 nat here) and must at least prefer Y and agree
+    let lf = ln_b(p, "Laplace-Fisher box").unwrap();
+    assert!(
+        (lf - bridge.0).abs() < 0.05,
+        "Laplace-Fisher box {lf} vs bridge {bridge:?}"
+    );
+    for m in ["Laplace-Metropolis MVE", "Laplace-Metropolis MCD"] {
         let v = ln_b(p, m).unwrap_or_else(|| panic!("{m} gave no number"));
-        // every estimator prefers Y, and the exact-in-the-limit ones agree with RJ to 0.5 nat
-        assert!(v < 0.0, "{m}: ln B = {v}");
-        assert!((v - rj).abs() < 0.5, "{m}: {v} vs RJ {rj}");
+        assert!(
+            v < 0.0 && (v - bridge.0).abs() < 0.5,
+            "{m}: {v} vs bridge {bridge:?}"
+        );
     }
 }
 
@@ -55,6 +113,7 @@ fn high_snr_regime_rj_never_enters_x_but_bridge_and_laplace_are_finite() {
     let prep = prepare(&s).unwrap();
     let out = run(&s, &prep, None).unwrap();
     let p = &out.pairs[0];
+    show(p);
     assert_eq!(
         out.rj.as_ref().unwrap().visits[0],
         0,
@@ -73,16 +132,21 @@ fn high_snr_regime_rj_never_enters_x_but_bridge_and_laplace_are_finite() {
     assert!(rj.running.iter().all(|pt| pt.pairs[0].visits.is_none()));
     let bridge = ln_b(p, "RJMCMC bridge").unwrap();
     let lf = ln_b(p, "Laplace-Fisher box").unwrap();
-    assert!(bridge < -10.0, "bridge ln B = {bridge}");
-    // the one-sided Rao-Blackwell estimate stays finite too
-    let rb = ln_b(p, "RJMCMC Rao-Blackwell").unwrap();
+    // the headline against nautilus on the same data: within 2.5 combined σ (measured 0.7)
+    within(p, "RJMCMC bridge", NAUTILUS_NOMINAL, 2.5);
+    // the one-sided Rao-Blackwell estimate stays finite, and right, too; the tempering rows
+    // are wide here (TI ± 0.7) but must cover the reference
+    for m in [
+        "RJMCMC Rao-Blackwell",
+        "Thermodynamic integration",
+        "Stepping-stone",
+    ] {
+        within(p, m, NAUTILUS_NOMINAL, 3.0);
+    }
+    // Laplace–Fisher is exact in the Gaussian limit: 0.008 nat from nautilus, measured
     assert!(
-        (rb - bridge).abs() < 0.5,
-        "Rao-Blackwell {rb} vs bridge {bridge}"
-    );
-    assert!(
-        (bridge - lf).abs() < 0.5,
-        "bridge {bridge} vs Laplace-Fisher {lf}"
+        (lf - NAUTILUS_NOMINAL.0).abs() < 0.05,
+        "Laplace-Fisher {lf} vs nautilus {NAUTILUS_NOMINAL:?}"
     );
     // the raw Laplace-Fisher sits at the bounded MAP Δt = 0: the formula does not apply there
     let raw = p
@@ -102,6 +166,7 @@ fn low_snr_regime_every_estimator_reports_or_explains() {
     let prep = prepare(&s).unwrap();
     let out = run(&s, &prep, None).unwrap();
     let p = &out.pairs[0];
+    show(p);
     for e in &p.estimates {
         assert!(
             e.ln_b.is_some() || e.note.as_ref().is_some_and(|n| n.len() > 20),
@@ -114,13 +179,14 @@ fn low_snr_regime_every_estimator_reports_or_explains() {
     }
     // jumps are accepted both ways, and often
     assert!(p.jumps.accepted_x_to_y > 1000 && p.jumps.accepted_y_to_x > 1000);
-    let bridge = ln_b(p, "RJMCMC bridge").unwrap();
-    let visits = ln_b(p, "RJMCMC visits").unwrap();
-    assert!(bridge.abs() < 1.0, "bridge ln B = {bridge}");
-    assert!(
-        (bridge - visits).abs() < 0.1,
-        "bridge {bridge} vs visits {visits}"
-    );
+    // the models cannot be told apart: every statistical row within 3 combined σ of
+    // thermodynamic integration (0.014 ± 0.003; with the exact likelihood 0.014 ± 0.004 and
+    // the bridge 0.012 ± 0.007, docs/src/results.md)
+    let ti = value(p, "Thermodynamic integration");
+    assert!(ti.0.abs() < 0.05, "TI {ti:?}");
+    for m in STATISTICAL {
+        within(p, m, ti, 3.0);
+    }
     // the tempering estimators need no jump and no Gaussian: they agree with the RJ bridge
     assert!(p.all_agree, "{:#?}", p.estimates);
     for m in ["Thermodynamic integration", "Stepping-stone"] {
@@ -156,18 +222,14 @@ fn rho_60_rj_and_tempering_estimators_agree() {
     let prep = prepare(&s).unwrap();
     let out = run(&s, &prep, None).unwrap();
     let p = &out.pairs[0];
+    show(p);
     assert!(p.all_agree, "{:#?}", p.estimates);
     for e in &p.estimates {
         assert!(e.ln_b.is_some() || e.note.is_some(), "{}", e.method);
     }
-    for m in [
-        "RJMCMC visits",
-        "RJMCMC Rao-Blackwell",
-        "RJMCMC bridge",
-        "Thermodynamic integration",
-        "Stepping-stone",
-    ] {
-        let v = ln_b(p, m).unwrap_or_else(|| panic!("{m} gave no number"));
-        assert!(v.abs() < 0.5, "{m}: ln B = {v}");
+    // every statistical row against nautilus on the same data, within 3 combined σ
+    // (measured: 0.2–1.0 σ)
+    for m in STATISTICAL {
+        within(p, m, NAUTILUS_RHO60, 3.0);
     }
 }

@@ -1000,7 +1000,7 @@ fn box_corner_fault(study: &Study, mi: usize) -> Option<String> {
     None
 }
 
-/// Most parameters whose prior box is checked at every corner ([`box_corner_fault`]).
+/// Most parameters whose prior box is checked at every corner (more: each parameter's two ends).
 pub const MAX_CORNER_PARAMS: usize = 12;
 
 /// Warnings about fitting model `mi` to `dataset`: a start point (fixed and start values) the
