@@ -36,6 +36,11 @@ name = "inv1"
 design = "tn3045_x1"
 "#;
 
+fn study_plan(path: &Path) -> occam::jobs::design::DesignPlan {
+    let study = Study::load(path).unwrap();
+    study.design.clone().unwrap().validate(&study).unwrap()
+}
+
 #[test]
 fn design_writes_a_runnable_study_that_beats_the_baseline() {
     let dir = tempfile::tempdir().unwrap();
@@ -57,7 +62,27 @@ fn design_writes_a_runnable_study_that_beats_the_baseline() {
         }
         w => panic!("not a sine train: {w:?}"),
     }
-    assert!(Study::load(&out.join("baseline.toml")).is_ok());
+    // the studies written are the designs that were scored: their proxies, recomputed from
+    // the files, are the report's (the comparisons above hold by construction of the search;
+    // this does not)
+    let plan = study_plan(&path);
+    let study = Study::load(&path).unwrap();
+    let again = |f: &str| {
+        let s = Study::load(&out.join(f)).unwrap();
+        occam::jobs::design::asimov_score(&study, &plan, s.experiments.clone())
+            .unwrap()
+            .ln_b
+    };
+    for (f, want) in [
+        ("design.toml", r.chosen.proxy.ln_b),
+        ("baseline.toml", r.baseline.proxy.ln_b),
+    ] {
+        let got = again(f);
+        assert!(
+            (got - want).abs() <= 1e-9 * want.abs().max(1.0),
+            "{f}: proxy {got} recomputed, {want} reported"
+        );
+    }
     let json: serde_json::Value =
         serde_json::from_slice(&std::fs::read(out.join("design.json")).unwrap()).unwrap();
     assert!(json["chosen"]["proxy"]["ln_b"].as_f64().is_some());
