@@ -1075,17 +1075,23 @@ pub fn identity(study: &Study, data: &Dataset) -> String {
     h.update(&serde_json::to_vec(&v).expect("a study serialises"));
     for e in &data.experiments {
         h.update(e.name.as_bytes());
-        h.update(&e.fs.to_bits().to_le_bytes());
-        let named = e.extra.iter().chain(&e.noise_extra);
-        let fixed = e.o.iter().chain(&e.i).chain(&e.noise);
-        for s in fixed.chain(named.map(|(_, s)| s)) {
-            h.update(&(s.len() as u64).to_le_bytes());
-            for x in s {
-                h.update(&x.to_bits().to_le_bytes());
-            }
-        }
+        hash_samples(&mut h, e);
     }
     format!("{:016x}", h.finish())
+}
+
+/// Adds an experiment's sample rate and every sample of every channel (outputs, injections,
+/// noise-only stretch, named channels) to `h`.
+pub fn hash_samples(h: &mut crate::data::Fnv1a, e: &crate::data::dataset::ExperimentData) {
+    h.update(&e.fs.to_bits().to_le_bytes());
+    let named = e.extra.iter().chain(&e.noise_extra);
+    let fixed = e.o.iter().chain(&e.i).chain(&e.noise);
+    for s in fixed.chain(named.map(|(_, s)| s)) {
+        h.update(&(s.len() as u64).to_le_bytes());
+        for x in s {
+            h.update(&x.to_bits().to_le_bytes());
+        }
+    }
 }
 
 #[cfg(test)]

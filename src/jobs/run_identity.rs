@@ -49,15 +49,7 @@ impl RunIdentity {
         parts.retain(|(k, _)| k != "output");
         for e in &data.experiments {
             let mut h = Fnv1a::default();
-            h.update(&e.fs.to_bits().to_le_bytes());
-            let named = e.extra.iter().chain(&e.noise_extra);
-            let fixed = e.o.iter().chain(&e.i).chain(&e.noise);
-            for s in fixed.chain(named.map(|(_, s)| s)) {
-                h.update(&(s.len() as u64).to_le_bytes());
-                for x in s {
-                    h.update(&x.to_bits().to_le_bytes());
-                }
-            }
+            crate::jobs::prepare::hash_samples(&mut h, e);
             parts.push((
                 format!("the data of experiment `{}`", e.name),
                 format!("{:016x}", h.finish()),
