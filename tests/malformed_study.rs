@@ -531,6 +531,11 @@ fn corpus() -> Vec<(&'static str, String, &'static str)> {
         ),
         // counts and messages
         (
+            "map_starts beyond its limit",
+            s("", "[fit]\nmap_starts = 100000", ""),
+            "fit.map_starts",
+        ),
+        (
             "checkpoint_every zero",
             s("", "[fit]\ncheckpoint_every = 0", ""),
             "fit.checkpoint_every",

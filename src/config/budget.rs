@@ -55,6 +55,9 @@ pub const MAX_ITERATIONS: usize = 1_000_000_000;
 /// run on the thread pool; more chains than that are not a sampler setting but a typo.
 pub const MAX_CHAINS: usize = 4096;
 
+/// Largest `[fit] map_starts`: each start is a full MAP search of every model.
+pub const MAX_MAP_STARTS: usize = 64;
+
 /// Bytes per sweep task record kept in memory (identity, outcome, error text).
 pub const SWEEP_RECORD_BYTES: f64 = 4096.0;
 

@@ -1033,6 +1033,16 @@ fn validate_fit(f: &FitOptions, models: &ModelSet, file: &str) -> Result<(), Con
             format!("must be > 0 (got {})", f.proposal_scale),
         ));
     }
+    if f.map_starts > budget::MAX_MAP_STARTS {
+        return Err(bad(
+            "map_starts",
+            format!(
+                "must be at most {} quasi-random starts, each a full MAP search (got {})",
+                budget::MAX_MAP_STARTS,
+                f.map_starts
+            ),
+        ));
+    }
     if let Some(start) = &f.start {
         for (n, v) in start {
             // the start applies to every model that has the parameter (`select` too)

@@ -467,7 +467,13 @@ pub struct FitOptions {
     /// Start of the MAP search (default: the centre of each prior box, or the mean of a
     /// Gaussian prior).
     pub start: Option<std::collections::BTreeMap<String, f64>>,
+    /// Quasi-random starts of the MAP search besides `start` (every model's, `select`'s too;
+    /// [`crate::likelihood::multi_start_map`]); 0 searches from `start` alone.
+    pub map_starts: usize,
 }
+
+/// Default of [`FitOptions::map_starts`].
+pub const DEFAULT_MAP_STARTS: usize = 4;
 
 impl Default for FitOptions {
     fn default() -> Self {
@@ -484,6 +490,7 @@ impl Default for FitOptions {
             checkpoint_every: 5_000,
             proposal_scale: 1.0,
             start: None,
+            map_starts: DEFAULT_MAP_STARTS,
         }
     }
 }

@@ -589,6 +589,34 @@ pub fn default_start(study: &Study, model: &ModelSpec) -> Vec<f64> {
     th
 }
 
+/// Fisher-scoring iterations of one MAP search of a fit or select model.
+pub const MAP_MAX_ITER: usize = 200;
+
+/// The multi-start MAP search over `free` on `exact` ([`crate::likelihood::multi_start_map`]):
+/// from `start` (e.g. [`default_start`]), then from `n_quasi` (`[fit] map_starts`)
+/// quasi-random points of the prior.
+pub fn map_search(
+    exact: &crate::likelihood::Likelihood,
+    free: &[usize],
+    start: &[f64],
+    n_quasi: usize,
+) -> Result<crate::likelihood::MultiStartMap, crate::likelihood::MapError> {
+    use crate::density::LogDensity;
+    use crate::likelihood::{MapStart, StartFrom, multi_start_map, quasi_random_starts};
+    let mut starts = vec![MapStart {
+        from: StartFrom::Given,
+        theta: start.to_vec(),
+    }];
+    starts.extend(quasi_random_starts(exact.prior(), start, free, n_quasi));
+    multi_start_map(
+        exact,
+        &starts,
+        free,
+        crate::model::map_tolerance(exact.model().as_ref()),
+        MAP_MAX_ITER,
+    )
+}
+
 /// The true parameter values of model `mi` that the dataset knows, by name (the loop's and,
 /// when the dataset records them, the actuators'; or those of the model that generated it).
 pub fn truth_of(study: &Study, mi: usize, dataset: &Dataset) -> Option<Vec<Option<f64>>> {

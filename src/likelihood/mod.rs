@@ -11,6 +11,7 @@ mod exact;
 mod fisher;
 pub mod glitch_gate;
 mod map;
+mod multistart;
 mod noise_matrix;
 mod relbin;
 pub mod residual_psd;
@@ -30,6 +31,9 @@ pub use glitch_gate::{
 pub use map::{
     MapError, RUNAWAY_WIDTHS, ScoringResult, fisher_scoring, fisher_scoring_unbounded,
     refine_statistic_max,
+};
+pub use multistart::{
+    CHAIN_MARGIN, MapStart, Maximum, MultiStartMap, StartFrom, multi_start_map, quasi_random_starts,
 };
 pub use relbin::{MAX_REFINEMENTS, RelBinError, RelBinLikelihood, RelBinOptions, RelBinValidation};
 pub use segments::GapSummary;

@@ -5,9 +5,10 @@ use super::summary::{FitError, FitOutcome, FitSummary, ParamRow, non_finite_warn
 use crate::config::{LikelihoodKind, Study};
 use crate::density::LogDensity;
 use crate::jobs::prepare::{
-    Prepared, default_start, gap_notes, model_warnings, relbin_of, truth_of,
+    MAP_MAX_ITER, Prepared, default_start, gap_notes, map_search, model_warnings, relbin_of,
+    truth_of,
 };
-use crate::likelihood::{cramer_rao, fisher_exact, fisher_scoring};
+use crate::likelihood::{Likelihood, MultiStartMap, ScoringResult, cramer_rao, fisher_exact};
 use crate::linalg::SpdOptions;
 use crate::model::map_tolerance;
 use crate::nested::SubModel;
@@ -38,14 +39,7 @@ pub fn run(
     let start = default_start(study, model);
     let free_names: Vec<String> = free.iter().map(|&i| names[i].clone()).collect();
     let value_of = |n: &str| names.iter().position(|p| p == n).map(|i| start[i]);
-    let map = fisher_scoring(
-        exact,
-        &start,
-        free,
-        map_tolerance(exact.model().as_ref()),
-        200,
-    )
-    .map_err(|e| match e {
+    let search = map_search(exact, free, &start, study.fit.map_starts).map_err(|e| match e {
         crate::likelihood::MapError::Singular {
             unconstrained,
             detail,
@@ -55,6 +49,7 @@ pub fn run(
         )),
         e => FitError::Map(e),
     })?;
+    let mut map = search.best().result.clone();
     let mut warnings = model_warnings(study, model.model, &prep.dataset);
     warnings.extend(gap_notes(study, &prep.dataset));
     warnings.extend(prep.glitch_notes());
@@ -71,9 +66,9 @@ pub fn run(
             at_bound.join("; ")
         ));
     }
-    let fisher = fisher_exact(exact, &map.theta, free);
+    let mut fisher = fisher_exact(exact, &map.theta, free);
     let value_of = |n: &str| names.iter().position(|p| p == n).map(|i| map.theta[i]);
-    let cr = cramer_rao(&fisher)
+    let mut cr = cramer_rao(&fisher)
         .ok_or_else(|| FitError::Other(singular_message(&fisher, &free_names, "MAP", &value_of)))?;
     if let Some(w) = near_singular_warning(&fisher, &free_names) {
         warnings.push(w);
@@ -135,6 +130,17 @@ pub fn run(
         }
     };
     let seconds_mcmc = t1.elapsed().as_secs_f64();
+    let mut search = search;
+    if let Some(w) = chains_above_map(
+        exact,
+        free,
+        &chains,
+        &mut search,
+        (&mut map, &mut fisher, &mut cr),
+    ) {
+        warnings.push(w);
+    }
+    warnings.extend(search.describe(&names));
     let diag = chains.diagnostics()?;
     warnings.extend(diag.warnings().iter().map(|w| w.to_string()));
     let truth = truth_of(study, model.model, &prep.dataset);
@@ -209,6 +215,53 @@ pub fn run(
         map_full: map.theta,
         fisher,
     })
+}
+
+/// When the chains' best sample lies above the MAP search's maximum, searches from there
+/// ([`MultiStartMap::search_from_chains`]); a higher maximum replaces `map` with its Fisher
+/// matrix and Cramér–Rao σ, and the warning says so.
+fn chains_above_map(
+    exact: &Likelihood,
+    free: &[usize],
+    chains: &Chains,
+    search: &mut MultiStartMap,
+    (map, fisher, cr): (&mut ScoringResult, &mut DMatrix<f64>, &mut Vec<f64>),
+) -> Option<String> {
+    let mut th = map.theta.clone();
+    for (&i, v) in free.iter().zip(chains.max_posterior().theta) {
+        th[i] = *v;
+    }
+    let tol = map_tolerance(exact.model().as_ref());
+    if search.search_from_chains(exact, &th, tol, MAP_MAX_ITER) != Some(true) {
+        return None;
+    }
+    let best = search.best().result.clone();
+    let f = fisher_exact(exact, &best.theta, free);
+    let below = best.ln_posterior - map.ln_posterior;
+    let Some(new_cr) = cramer_rao(&f) else {
+        return Some(format!(
+            "the chains climbed above the maximum the MAP search found: a search from their best sample found one {} nats higher, but the Fisher matrix there is singular; the MAP column and the Cramér–Rao σ are of the lower one",
+            crate::report::fmt_fixed(below, 2)
+        ));
+    };
+    let start: Vec<String> = free
+        .iter()
+        .map(|&i| {
+            format!(
+                "{} = {}",
+                exact.model().param_names()[i],
+                crate::report::fmt_roundtrip(best.theta[i])
+            )
+        })
+        .collect();
+    *map = best;
+    *fisher = f;
+    *cr = new_cr;
+    Some(format!(
+        "the chains climbed above the maximum the MAP search found: a search from their best sample found one {} nats higher, which the MAP column, the Cramér–Rao σ and ρ_opt report; the chains' proposal and relative binning were set up around the lower one — to sample around the higher one, rerun with [fit] start = {{ {} }}",
+        crate::report::fmt_fixed(below, 2),
+        start.join(", ")
+    ))
 }
 
 /// `[analysis] glitch_count = "rj"`: the reversible jump over the modelled candidates

@@ -16,9 +16,10 @@ use crate::evidence::{
     LaplaceEstimate, LaplaceOptions, McdOptions, MveOptions, RobustMethod, TemperingOptions,
     laplace_fisher, laplace_metropolis, schwarz_ln_z,
 };
+use crate::jobs::prepare::MAP_MAX_ITER;
 use crate::likelihood::{
-    Likelihood, RelBinLikelihood, Statistic, fisher_exact, fisher_scoring,
-    fisher_scoring_unbounded, refine_statistic_max,
+    Likelihood, MultiStartMap, RelBinLikelihood, Statistic, fisher_exact, fisher_scoring_unbounded,
+    refine_statistic_max,
 };
 use crate::linalg::{self, SpdOptions};
 use crate::model::map_tolerance;
@@ -182,45 +183,95 @@ struct MapStage {
     at_bound: Vec<String>,
     /// The MAP, or the start point without one: where the sub-models embed.
     base: Vec<f64>,
+    /// Every maximum the search found, when it found one.
+    search: Option<MultiStartMap>,
 }
 
-/// The bounded MAP search from the plan's start; notes a failure and a MAP on the prior box.
+/// The bounded multi-start MAP search from the plan's start; notes a failure and a MAP on
+/// the prior box.
 fn map_search(m: &ModelPlan<'_>, notes: &mut Vec<String>) -> MapStage {
-    let (exact, free, names) = (m.exact, &m.spec.free, &m.param_names);
-    let map = fisher_scoring(
-        exact,
-        &m.start,
-        free,
-        map_tolerance(exact.model().as_ref()),
-        200,
-    );
-    let (map_theta, map_err) = match &map {
-        Ok(r) => (Some(r.theta.clone()), None),
-        Err(e) => (None, Some(format!("MAP search: {e}"))),
+    let search = crate::jobs::prepare::map_search(m.exact, &m.spec.free, &m.start, m.map_starts)
+        .map_err(|e| format!("MAP search: {e}"));
+    let mut stage = MapStage {
+        theta: None,
+        err: None,
+        at_bound: Vec::new(),
+        base: m.start.clone(),
+        search: None,
     };
-    if let Some(e) = &map_err {
-        notes.push(e.clone());
+    match search {
+        Ok(s) => {
+            stage.search = Some(s);
+            stage.settle(m, notes);
+        }
+        Err(e) => {
+            notes.push(e.clone());
+            stage.err = Some(e);
+        }
     }
-    let map_at_bound = map
-        .as_ref()
-        .map(|r| r.bound_names(names, free))
-        .unwrap_or_default();
-    if let Ok(r) = &map
-        && !map_at_bound.is_empty()
-    {
-        notes.push(format!(
-            "the MAP is on a bound of the prior box: {}; the posterior is cut by the prior there",
-            r.bound_report(names, exact.prior().kinds(), free)
-                .join("; ")
-        ));
+    stage
+}
+
+impl MapStage {
+    /// Takes the highest maximum of the search as the MAP; notes a MAP on the prior box.
+    fn settle(&mut self, m: &ModelPlan<'_>, notes: &mut Vec<String>) {
+        const BOUND_NOTE: &str = "the MAP is on a bound of the prior box: ";
+        notes.retain(|n| !n.starts_with(BOUND_NOTE));
+        let Some(s) = &self.search else { return };
+        let r = &s.best().result;
+        let (names, free) = (&m.param_names, &m.spec.free);
+        self.at_bound = r.bound_names(names, free);
+        if !self.at_bound.is_empty() {
+            notes.push(format!(
+                "{BOUND_NOTE}{}; the posterior is cut by the prior there",
+                r.bound_report(names, m.exact.prior().kinds(), free)
+                    .join("; ")
+            ));
+        }
+        self.theta = Some(r.theta.clone());
+        self.base = r.theta.clone();
     }
-    let base = map_theta.clone().unwrap_or_else(|| m.start.clone());
-    MapStage {
-        theta: map_theta,
-        err: map_err,
-        at_bound: map_at_bound,
-        base,
+
+    /// Which maximum the Laplace–Fisher rows expand around, when the search found several.
+    fn which_maximum(&self) -> String {
+        match &self.search {
+            Some(s) if s.maxima.len() > 1 => format!(
+                "; at the highest of the {} maxima the MAP search found, from {}",
+                s.maxima.len(),
+                s.best().from
+            ),
+            _ => String::new(),
+        }
     }
+}
+
+/// When the chains' best sample lies above the highest maximum the MAP search found, searches
+/// from there ([`MultiStartMap::search_from_chains`]); a higher maximum becomes the MAP (noted)
+/// and `true` is returned.
+fn chains_above_map(
+    m: &ModelPlan<'_>,
+    map: &mut MapStage,
+    chains: Option<&Chains>,
+    notes: &mut Vec<String>,
+) -> bool {
+    let (Some(c), Some(s), Some(th0)) = (chains, map.search.as_mut(), map.theta.as_ref()) else {
+        return false;
+    };
+    let mut th = th0.clone();
+    for (&i, v) in m.spec.free.iter().zip(c.max_posterior().theta) {
+        th[i] = *v;
+    }
+    let before = s.best().result.ln_posterior;
+    let tol = map_tolerance(m.exact.model().as_ref());
+    if s.search_from_chains(m.exact, &th, tol, MAP_MAX_ITER) != Some(true) {
+        return false;
+    }
+    notes.push(format!(
+        "the chains climbed above the maximum the MAP search found: a search from their best sample found one {} nats higher, where the Laplace–Fisher rows and Schwarz now expand; the chains' proposal and relative binning were set up around the lower one — start the search near it ([fit] start) or raise [fit] map_starts",
+        crate::report::fmt_fixed(s.best().result.ln_posterior - before, 2)
+    ));
+    map.settle(m, notes);
+    true
 }
 
 /// The Fisher matrix at the MAP (or start point) and its inverse; a singular one is noted
@@ -491,7 +542,7 @@ pub(super) fn run_model(m: &ModelPlan<'_>, stage: Option<&StageFile>) -> Result<
     let mut notes = Vec::new();
 
     // MAP (bounded) and the Fisher matrix there
-    let map = map_search(m, &mut notes);
+    let mut map = map_search(m, &mut notes);
     let base = map.base.clone();
     let sub_exact = SubModel::new(exact, free.clone(), base.clone()).map_err(|e| e.to_string())?;
     let prior = sub_exact.prior().clone();
@@ -519,6 +570,12 @@ pub(super) fn run_model(m: &ModelPlan<'_>, stage: Option<&StageFile>) -> Result<
         &prior,
         &mut notes,
     );
+    // the chains may have climbed into a basin the starts missed
+    let (f_map, fisher_cov) = if chains_above_map(m, &mut map, chains.as_ref(), &mut notes) {
+        fisher_at(m, &map, &mut notes)
+    } else {
+        (f_map, fisher_cov)
+    };
     let lf = laplace_fisher_stage(
         m,
         &map,
@@ -541,6 +598,10 @@ pub(super) fn run_model(m: &ModelPlan<'_>, stage: Option<&StageFile>) -> Result<
     };
     let schwarz = schwarz_ln_z(ln_l_map, d, m.n_sbic).map_err(|e| e.to_string())?;
 
+    let which = map.which_maximum();
+    if let Some(d) = map.search.as_ref().and_then(|s| s.describe(&m.param_names)) {
+        notes.push(d);
+    }
     let box_assumes =
         "a Gaussian likelihood around its unconstrained maximum, cut by the prior box".to_string();
     let lm_assumes = "a Gaussian posterior with the chains' robust covariance, centred on the best sample, the prior box ignored".to_string();
@@ -550,7 +611,7 @@ pub(super) fn run_model(m: &ModelPlan<'_>, stage: Option<&StageFile>) -> Result<
         params: m.param_names.clone(),
         free: m.free_names.clone(),
         prior_probability: m.prior_probability,
-        map: base.clone(),
+        map: map.base.clone(),
         map_found: map.theta.is_some(),
         map_at_bound: map.at_bound,
         relbin: match &sampled {
@@ -562,9 +623,9 @@ pub(super) fn run_model(m: &ModelPlan<'_>, stage: Option<&StageFile>) -> Result<
         min_margin_sigma: lf.min_margin_sigma,
         laplace_fisher_raw: Evidence::systematic(
             lf.raw,
-            raw_assumes(exact.statistic(), lf.min_margin_sigma),
+            raw_assumes(exact.statistic(), lf.min_margin_sigma) + &which,
         ),
-        laplace_fisher_box: Evidence::systematic(lf.boxed, box_assumes),
+        laplace_fisher_box: Evidence::systematic(lf.boxed, box_assumes + &which),
         laplace_metropolis_mve: Evidence::systematic(lm_mve, lm_assumes.clone()),
         laplace_metropolis_mcd: Evidence::systematic(lm_mcd, lm_assumes),
         thermodynamic: Evidence::not_applicable("parallel tempering has not run yet".into()),

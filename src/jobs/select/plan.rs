@@ -84,6 +84,8 @@ pub(super) struct ModelPlan<'a> {
     pub free_names: Vec<String>,
     /// Start of the MAP search (full parameter vector).
     pub start: Vec<f64>,
+    /// Quasi-random starts of the MAP search besides `start` (`[fit] map_starts`).
+    pub map_starts: usize,
     /// The likelihood the samplers run on, and why it is not the configured one.
     pub sampled_kind: LikelihoodKind,
     pub sampled_why: Option<String>,
@@ -144,6 +146,7 @@ impl<'a> SelectPlan<'a> {
                     param_names,
                     free_names,
                     start: default_start(study, &m.spec),
+                    map_starts: study.fit.map_starts,
                     sampled_kind,
                     sampled_why,
                     relbin: relbin_options(study),
