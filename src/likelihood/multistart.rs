@@ -204,6 +204,10 @@ where
     for (s, end) in starts.iter().zip(ends) {
         match end {
             Ok(r) => out.add(s.from, r, &scale),
+            // a given start outside the prior is the study's mistake, not a basin to skip
+            Err(e @ MapError::StartOutsidePrior(_)) if s.from == StartFrom::Given => {
+                return Err(e);
+            }
             Err(e) => {
                 out.n_starts += 1;
                 out.failed.push((s.from, e.to_string()));
@@ -391,8 +395,15 @@ mod tests {
     /// real searches do). Parameter 0 is fixed at 7; parameter 1 is free.
     fn search(th: &[f64]) -> Result<ScoringResult, MapError> {
         let x = th[1];
-        if !x.is_finite() {
+        if x.is_nan() {
             return Err(MapError::StartOutsidePrior("x".into()));
+        }
+        if x.is_infinite() {
+            return Err(MapError::NonFinite {
+                what: "ln L".into(),
+                params: vec!["x".into()],
+                theta: th.to_vec(),
+            });
         }
         let (at, lp) = if x < 0.5 {
             (-1.0, 0.0)
@@ -519,20 +530,29 @@ mod tests {
     #[test]
     fn failed_starts_are_listed_and_only_all_failing_is_an_error() {
         let starts = [
-            start(StartFrom::Given, f64::NAN),
+            start(StartFrom::Given, f64::INFINITY),
             start(StartFrom::QuasiRandom(1), -3.0),
         ];
         let ms = multi_start(&starts, &[1], search, scale).unwrap();
         assert_eq!(ms.best().from, StartFrom::QuasiRandom(1));
         assert_eq!(ms.failed.len(), 1);
         let d = ms.describe(&names()).unwrap();
-        assert!(d.contains("failed: the start point: "), "{d}");
+        assert!(
+            d.contains("failed: the start point: MAP search: ln L is not finite"),
+            "{d}"
+        );
         let all_bad = [
-            start(StartFrom::Given, f64::NAN),
-            start(StartFrom::QuasiRandom(1), f64::INFINITY),
+            start(StartFrom::Given, f64::INFINITY),
+            start(StartFrom::QuasiRandom(1), f64::NAN),
         ];
         let e = multi_start(&all_bad, &[1], search, scale).unwrap_err();
-        assert_eq!(e, MapError::StartOutsidePrior("x".into()));
+        assert!(matches!(e, MapError::NonFinite { .. }), "{e}");
+        // the given start outside the prior is refused whatever the others find
+        let given_outside = [
+            start(StartFrom::Given, f64::NAN),
+            start(StartFrom::QuasiRandom(1), 3.0),
+        ];
+        assert!(multi_start(&given_outside, &[1], search, scale).is_err());
     }
 
     #[test]
