@@ -17,6 +17,7 @@
 //! | `diagnostics` | ESS, integrated autocorrelation time, split-R̂, [`Warning`]s |
 //! | `checkpoint` | atomic JSON checkpoints and their match against the run |
 //! | `optimize` | bounded Nelder–Mead with restarts, [`find_map`] |
+//! | `starts` | dispersed chain starts inside the prior around a MAP, [`chain_starts`] |
 //! | `birth_death` | reversible-jump birth and death of optional components (glitches), [`birth_death()`] |
 //!
 //! # Conventions
@@ -41,9 +42,10 @@ mod mh;
 mod optimize;
 mod proposal;
 mod settings;
+mod starts;
 
 #[cfg(test)]
-mod test_targets;
+pub(crate) mod test_targets;
 #[cfg(test)]
 mod tests;
 
@@ -59,3 +61,4 @@ pub use mh::{MetropolisHastings, RunOutcome};
 pub use optimize::{MapEstimate, Minimum, NelderMeadSettings, find_map, nelder_mead};
 pub use proposal::{GaussianProposal, Proposal, cap_to_prior};
 pub use settings::{Adapt, Anneal, MhSettings, Start};
+pub use starts::chain_starts;

@@ -7,6 +7,25 @@ use crate::density::LogDensity;
 use crate::prior::{Prior, PriorKind};
 use crate::sampler::chain_rng;
 
+/// Isotropic Gaussian likelihood of width `sd` centred on the corner `(1, …, 1)` of the
+/// prior (the unit box in the tests).
+pub(crate) struct CornerTarget {
+    pub(crate) sd: f64,
+    pub(crate) prior: Prior,
+}
+
+impl LogDensity for CornerTarget {
+    fn ln_likelihood(&self, th: &[f64]) -> f64 {
+        -0.5 * th
+            .iter()
+            .map(|x| ((x - 1.0) / self.sd).powi(2))
+            .sum::<f64>()
+    }
+    fn prior(&self) -> &Prior {
+        &self.prior
+    }
+}
+
 /// `N(μ, Σ)` likelihood (normalised in θ) under a uniform box `μ ± 20 √Σ_ii`, wide enough that
 /// the box holds all but `e^{-200}` of the mass: the posterior is the Gaussian.
 pub(crate) struct GaussianTarget {

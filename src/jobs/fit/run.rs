@@ -12,7 +12,9 @@ use crate::likelihood::{Likelihood, MultiStartMap, ScoringResult, cramer_rao, fi
 use crate::linalg::SpdOptions;
 use crate::model::map_tolerance;
 use crate::nested::SubModel;
-use crate::sampler::{Adapt, Chains, MetropolisHastings, MhSettings, Progress, RunOutcome, Start};
+use crate::sampler::{
+    Adapt, Chains, MetropolisHastings, MhSettings, Progress, RunOutcome, Start, chain_starts,
+};
 use nalgebra::DMatrix;
 use std::path::Path;
 use std::time::Instant;
@@ -78,13 +80,14 @@ pub fn run(
     // capped at the prior's widths, as select's walks are: with the MAP on a bound or a
     // parameter the data barely constrain, the Fisher Gaussian overhangs the box and an
     // uncapped walk proposed outside it almost always (0.1–0.3 % acceptance)
-    let cov = crate::sampler::cap_to_prior(
+    let walk = crate::sampler::cap_to_prior(
         &SpdOptions::lower()
             .factor(&fisher)
             .expect("checked above")
             .inverse(),
         &exact.prior().subset(free),
-    ) * (study.fit.proposal_scale * 2.38f64.powi(2) / d as f64);
+    );
+    let cov = &walk * (study.fit.proposal_scale * 2.38f64.powi(2) / d as f64);
     let f = &study.fit;
     let settings = MhSettings {
         n_iter: f.iterations,
@@ -117,14 +120,30 @@ pub fn run(
     };
     let (chains, n_coarse) = match kind {
         LikelihoodKind::Exact => (
-            sample(exact, model, &map.theta, &cov, settings, &ckpt, observer)?,
+            sample(
+                exact,
+                model,
+                &map.theta,
+                (&walk, &cov),
+                settings,
+                &ckpt,
+                observer,
+            )?,
             None,
         ),
         LikelihoodKind::Relbin => {
             let rb = relbin_of(study, exact, &map.theta)?;
             let n = rb.n_coarse();
             (
-                sample(&rb, model, &map.theta, &cov, settings, &ckpt, observer)?,
+                sample(
+                    &rb,
+                    model,
+                    &map.theta,
+                    (&walk, &cov),
+                    settings,
+                    &ckpt,
+                    observer,
+                )?,
                 Some(n),
             )
         }
@@ -364,7 +383,7 @@ fn sample<D: LogDensity>(
     parent: &D,
     model: &crate::config::ModelSpec,
     map: &[f64],
-    cov: &DMatrix<f64>,
+    (walk, cov): (&DMatrix<f64>, &DMatrix<f64>),
     settings: MhSettings,
     ck: &Checkpoint,
     observer: Option<&(dyn Fn(&Progress) + Sync)>,
@@ -377,6 +396,7 @@ fn sample<D: LogDensity>(
     let sub = SubModel::new(parent, model.free.clone(), base)?;
     std::fs::create_dir_all(out).map_err(|e| FitError::Other(format!("{}: {e}", out.display())))?;
     let ckpt = out.join(CHECKPOINT_FILE);
+    let (n_chains, seed) = (settings.n_chains, settings.seed);
     let mut mh = MetropolisHastings::new(&sub, cov, settings)?
         .checkpoint(&ckpt)
         .checkpoint_identity(ck.identity);
@@ -386,10 +406,11 @@ fn sample<D: LogDensity>(
     let outcome = if resume && ckpt.exists() {
         mh.resume(&ckpt)?
     } else {
-        mh.run(&Start::Around {
-            centre: model.free.iter().map(|&i| map[i]).collect(),
-            spread: 2.0,
-        })?
+        // select's starts: N(MAP, capped F⁻¹) truncated to the prior, prior draws where that
+        // Gaussian misses the box (a MAP on a corner)
+        let centre: Vec<f64> = model.free.iter().map(|&i| map[i]).collect();
+        let starts = chain_starts(&sub, &centre, walk, n_chains, seed).map_err(FitError::Other)?;
+        mh.run(&Start::PerChain(starts))?
     };
     match outcome {
         RunOutcome::Finished(c) => Ok(c),
