@@ -33,7 +33,8 @@
 //! independent.
 //!
 //! Run with `cargo run --release --example evidence_validation`; `-- --blocks UC` (any subset of
-//! `GUNPC`, default all) runs only the named blocks.
+//! `GUNPC`, default all) runs only the named blocks, and `-- --dims 1,8` only those dimensions.
+//! Block C lists the reason of every estimate it could not give under its table.
 
 use nalgebra::DMatrix;
 use occam::density::LogDensity;
@@ -67,6 +68,15 @@ const C_DIMS: [usize; 4] = [1, 2, 4, 8];
 const C_WIDTHS: [f64; 2] = [0.2, 0.5];
 /// Nominal 1σ coverage of a calibrated error bar.
 const COVER: f64 = 0.683;
+const RJ_NAMES: [&str; 3] = ["RJ visits", "RJ Rao-Blackwell", "RJ bridge"];
+const PT_NAMES: [&str; 2] = ["TI", "SS"];
+
+/// An estimate that is missing: the estimator and the error text of the call that failed.
+#[derive(Clone)]
+struct Missing {
+    name: &'static str,
+    why: String,
+}
 
 #[derive(Clone, Copy)]
 struct Case {
@@ -263,11 +273,16 @@ impl<'a> Pair<'a> {
 
     /// [visits, Rao-Blackwell, bridge] with the Fisher jump proposals.
     fn rjmcmc(&self, seed: u64) -> [Option<Err>; 3] {
-        self.rjmcmc_with(seed, self.fisher_proposals())
+        self.rjmcmc_with(seed, self.fisher_proposals()).0
     }
 
-    /// [visits, Rao-Blackwell, bridge] with the given jump proposals `(center, cov)` per model.
-    fn rjmcmc_with(&self, seed: u64, proposals: [(Vec<f64>, DMatrix<f64>); 2]) -> [Option<Err>; 3] {
+    /// [visits, Rao-Blackwell, bridge] with the given jump proposals `(center, cov)` per model,
+    /// and the reason of every estimate that is missing.
+    fn rjmcmc_with(
+        &self,
+        seed: u64,
+        proposals: [(Vec<f64>, DMatrix<f64>); 2],
+    ) -> ([Option<Err>; 3], Vec<Missing>) {
         let full: &dyn LogDensity = &self.full;
         let nested: &dyn LogDensity = &self.nested;
         let [(cf, vf), (cn, vn)] = proposals;
@@ -295,17 +310,52 @@ impl<'a> Pair<'a> {
             },
             ..RjOptions::default()
         };
-        let Ok(res) = run_rjmcmc(&models, &opts, None) else {
-            return [None, None, None];
+        let res = match run_rjmcmc(&models, &opts, None) {
+            Ok(r) => r,
+            Err(e) => {
+                let why = format!("run_rjmcmc: {e}");
+                let missing = RJ_NAMES.map(|name| Missing {
+                    name,
+                    why: why.clone(),
+                });
+                return ([None, None, None], missing.into());
+            }
         };
         let p = res.pair(0, 1).expect("pair");
-        [p.visits, p.rao_blackwell, p.bridge].map(|e| e.map(|e| self.err(e.ln_b, e.std_err)))
+        let est = [p.visits, p.rao_blackwell, p.bridge];
+        // The pair carries no text for an estimate it could not form; its counts say why.
+        let missing = RJ_NAMES
+            .iter()
+            .zip(&est)
+            .filter(|(_, e)| e.is_none())
+            .map(|(&name, _)| Missing {
+                name,
+                why: format!(
+                    "no estimate: visits {:?}, accepted jumps {}/{} and {}/{}",
+                    res.visits,
+                    p.accepted_k_to_l,
+                    p.proposals_k_to_l,
+                    p.accepted_l_to_k,
+                    p.proposals_l_to_k
+                ),
+            })
+            .collect();
+        (est.map(|e| e.map(|e| self.err(e.ln_b, e.std_err))), missing)
     }
 
     /// [TI, SS]: parallel tempering on each model from `(start, cov)`; the TI error bar is its
     /// Monte-Carlo and discretisation errors in quadrature. A model without free parameters
     /// has `ln Z = ln L` exactly.
     fn tempering(&self, seed: u64, proposals: &[(Vec<f64>, DMatrix<f64>); 2]) -> [Option<Err>; 2] {
+        self.tempering_why(seed, proposals).0
+    }
+
+    /// [`Pair::tempering`] with the reason of every estimate that is missing.
+    fn tempering_why(
+        &self,
+        seed: u64,
+        proposals: &[(Vec<f64>, DMatrix<f64>); 2],
+    ) -> ([Option<Err>; 2], Vec<Missing>) {
         let (n_temps, n_iter, burn_in) = PT;
         let opts = TemperingOptions {
             n_temps,
@@ -315,29 +365,73 @@ impl<'a> Pair<'a> {
             parallel: false,
             ..TemperingOptions::default()
         };
-        let one = |t: &dyn LogDensity, (start, cov): &(Vec<f64>, DMatrix<f64>)| {
+        // Per model: [TI, SS] as (ln Z, se), or why not.
+        type One = [Result<(f64, f64), String>; 2];
+        let one = |t: &dyn LogDensity, (start, cov): &(Vec<f64>, DMatrix<f64>)| -> One {
             if t.dim() == 0 {
                 let l = t.ln_likelihood(&[]);
-                return Some([(l, 0.0), (l, 0.0)]);
+                return [Ok((l, 0.0)), Ok((l, 0.0))];
             }
             let start: Vec<f64> = start
                 .iter()
                 .zip(t.prior().bounds())
                 .map(|(&m, (lo, hi))| m.clamp(lo, hi))
                 .collect();
-            let r = run_tempering(t, &start, cov, &opts).ok()?;
-            let ti = r.thermodynamic.ok()?;
-            let ss = r.stepping_stone.ok()?;
-            Some([(ti.ln_z, ti.total_err()), (ss.ln_z, ss.std_err)])
+            let r = match run_tempering(t, &start, cov, &opts) {
+                Ok(r) => r,
+                Err(e) => {
+                    let why = format!("run_tempering: {e}");
+                    return [Err(why.clone()), Err(why)];
+                }
+            };
+            [
+                r.thermodynamic
+                    .map(|ti| (ti.ln_z, ti.total_err()))
+                    .map_err(|e| format!("thermodynamic: {e}")),
+                r.stepping_stone
+                    .map(|ss| (ss.ln_z, ss.std_err))
+                    .map_err(|e| format!("stepping_stone: {e}")),
+            ]
         };
-        let (Some(f), Some(n)) = (
-            one(&self.full, &proposals[0]),
-            one(&self.nested, &proposals[1]),
-        ) else {
-            return [None, None];
-        };
-        [0, 1].map(|k| Some(self.err(f[k].0 - n[k].0, Some(f[k].1.hypot(n[k].1)))))
+        let f = one(&self.full, &proposals[0]);
+        let n = one(&self.nested, &proposals[1]);
+        let mut missing = Vec::new();
+        let est = [0, 1].map(|k| match (&f[k], &n[k]) {
+            (Ok(a), Ok(b)) => Some(self.err(a.0 - b.0, Some(a.1.hypot(b.1)))),
+            (a, b) => {
+                for (model, r) in [("full", a), ("nested", b)] {
+                    if let Err(e) = r {
+                        missing.push(Missing {
+                            name: PT_NAMES[k],
+                            why: format!("{model} model: {e}"),
+                        });
+                    }
+                }
+                None
+            }
+        });
+        (est, missing)
     }
+}
+
+/// Block C jump proposals `(mean, cov)` of [full, nested]: in-model chains from the box-aware
+/// Gaussian (precision of the likelihood plus that of the box, variance h²/3 per parameter),
+/// started at the corner-clamped maximum.
+fn corner_chains(p: &Pair, h: f64, c: &Case) -> [(Vec<f64>, DMatrix<f64>); 2] {
+    [
+        (&p.full as &dyn LogDensity, &p.full_cols),
+        (&p.nested as &dyn LogDensity, &p.nested_cols),
+    ]
+    .map(|(t, cols)| {
+        let post = p.lg.gaussian_posterior(cols).expect("posterior");
+        let mut prec = post.precision.clone();
+        for i in 0..cols.len() {
+            prec[(i, i)] += 3.0 / (h * h);
+        }
+        let cov0 = prec.try_inverse().unwrap_or_else(|| DMatrix::zeros(0, 0));
+        let start: Vec<f64> = post.mean.iter().map(|m| m.clamp(-h, h)).collect();
+        in_model_chain(t, &start, &cov0, c.problem_seed(36) + cols.len() as u64)
+    })
 }
 
 /// Mean and covariance of a short in-model random-walk Metropolis chain on `t` (2 000 pilot
@@ -360,6 +454,9 @@ fn in_model_chain(
         let l =
             cov.clone().cholesky().expect("proposal covariance").l() * (2.38 / (d as f64).sqrt());
         let mut kept: Vec<Vec<f64>> = Vec::with_capacity(keep);
+        // Accepted moves among the kept steps: fewer than d leave at most d distinct states,
+        // whose sample covariance is singular whatever its round-off says.
+        let mut moves = 0;
         for i in 0..n {
             let z = nalgebra::DVector::from_fn(d, |_, _| StandardNormal.sample(&mut *rng));
             let step = &l * z;
@@ -368,31 +465,51 @@ fn in_model_chain(
             if rng.random::<f64>().ln() < lq - lp {
                 cur = prop;
                 lp = lq;
+                if i >= n - keep {
+                    moves += 1;
+                }
             }
             if i >= n - keep {
                 kept.push(cur.clone());
             }
         }
-        let k = kept.len() as f64;
-        let mean: Vec<f64> = (0..d)
-            .map(|j| kept.iter().map(|x| x[j]).sum::<f64>() / k)
-            .collect();
-        let cov = DMatrix::from_fn(d, d, |a, b| {
-            kept.iter()
-                .map(|x| (x[a] - mean[a]) * (x[b] - mean[b]))
-                .sum::<f64>()
-                / (k - 1.0)
-        });
-        (mean, cov)
+        let (mean, cov) = moments(&kept);
+        (mean, cov, moves)
     };
-    let (_, pilot) = run(cov0, 2_000, 1_000, &mut rng);
-    // A pilot that barely moved has a singular covariance: keep the starting one then.
-    let pilot = if pilot.clone().cholesky().is_some() {
+    let (_, pilot, moves) = run(cov0, 2_000, 1_000, &mut rng);
+    let pilot = if pilot_usable(&pilot, moves) {
         pilot
     } else {
         cov0.clone()
     };
-    run(&pilot, 6_000, 5_000, &mut rng)
+    let (mean, cov, _) = run(&pilot, 6_000, 5_000, &mut rng);
+    (mean, cov)
+}
+
+/// Sample mean and covariance of `kept` (rows are states).
+fn moments(kept: &[Vec<f64>]) -> (Vec<f64>, DMatrix<f64>) {
+    let d = kept[0].len();
+    let k = kept.len() as f64;
+    let mean: Vec<f64> = (0..d)
+        .map(|j| kept.iter().map(|x| x[j]).sum::<f64>() / k)
+        .collect();
+    let cov = DMatrix::from_fn(d, d, |a, b| {
+        kept.iter()
+            .map(|x| (x[a] - mean[a]) * (x[b] - mean[b]))
+            .sum::<f64>()
+            / (k - 1.0)
+    });
+    (mean, cov)
+}
+
+/// Whether a pilot chain's covariance can be the main run's proposal. A pilot that barely
+/// moved has a singular covariance and the starting one is kept then. The Cholesky test alone
+/// misses a pilot that never left the corner (h, …, h): every kept state is the same, the
+/// covariance is (mean round-off)²·11ᵀ, about 1e-31, and nalgebra factors it. That happened
+/// in 4 of the 100 D = 8 runs of block C: the main run then crawled along the diagonal with
+/// steps of about 1e-14 and handed RJ and PT a rank-1 covariance, which both rejected.
+fn pilot_usable(cov: &DMatrix<f64>, moves: usize) -> bool {
+    moves >= cov.nrows() && cov.clone().cholesky().is_some()
 }
 
 /// Block C problem: design N(0, 1), box `[−h, h]^D`, truth on the corner `(h, …, h)`, noise
@@ -530,10 +647,10 @@ fn pooled(all: &[Vec<Option<Err>>; 5]) {
 }
 
 /// Block C: prior-dominated boxes with the truth and the MAP on a corner.
-fn block_c() {
+fn block_c(dims: &[usize]) {
     let t = Instant::now();
     let mut cs = Vec::new();
-    for &d in &C_DIMS {
+    for &d in C_DIMS.iter().filter(|d| dims.contains(d)) {
         for wi in 0..C_WIDTHS.len() {
             for seed in 0..SEEDS {
                 cs.push(Case {
@@ -550,29 +667,12 @@ fn block_c() {
             let h = C_WIDTHS[c.snr_idx] * SIGMA / (N_DATA as f64).sqrt();
             let lg = corner_problem(c.d, h, c.problem_seed(5));
             let p = Pair::new(&lg, c.d, c.problem_seed(35));
-            // In-model chains from the box-aware Gaussian: precision of the likelihood plus that
-            // of the box (variance h²/3 per parameter), started at the corner-clamped maximum.
-            let chains = [
-                (&p.full as &dyn LogDensity, &p.full_cols),
-                (&p.nested as &dyn LogDensity, &p.nested_cols),
-            ]
-            .map(|(t, cols)| {
-                let post = p.lg.gaussian_posterior(cols).expect("posterior");
-                let mut prec = post.precision.clone();
-                for i in 0..cols.len() {
-                    prec[(i, i)] += 3.0 / (h * h);
-                }
-                let cov0 = prec.try_inverse().unwrap_or_else(|| DMatrix::zeros(0, 0));
-                let start: Vec<f64> = post.mean.iter().map(|m| m.clamp(-h, h)).collect();
-                in_model_chain(t, &start, &cov0, c.problem_seed(36) + cols.len() as u64)
-            });
+            let chains = corner_chains(&p, h, c);
             let lf = p.laplace_fisher(true, c.problem_seed(40));
-            (
-                p.truth,
-                p.laplace_err(&lf),
-                p.rjmcmc_with(c.problem_seed(27), chains.clone()),
-                p.tempering(c.problem_seed(28), &chains),
-            )
+            let (rj, mut missing) = p.rjmcmc_with(c.problem_seed(27), chains.clone());
+            let (pt, pt_missing) = p.tempering_why(c.problem_seed(28), &chains);
+            missing.extend(pt_missing);
+            (p.truth, p.laplace_err(&lf), rj, pt, missing)
         })
         .collect();
     println!(
@@ -632,15 +732,38 @@ fn block_c() {
         );
     }
     pooled(&all);
+    let missing: Vec<_> = cs
+        .iter()
+        .zip(&rows)
+        .flat_map(|(c, r)| r.4.iter().map(move |m| (c, m)))
+        .collect();
+    if !missing.is_empty() {
+        println!("  missing estimates (D, w, seed, estimator: reason):");
+        for (c, m) in missing {
+            println!(
+                "  {:>3} {:>4} {:>3} {}: {}",
+                c.d, C_WIDTHS[c.snr_idx], c.seed, m.name, m.why
+            );
+        }
+    }
     println!("(block C: {:.1} s)\n", t.elapsed().as_secs_f64());
 }
 
 fn main() {
     let t0 = Instant::now();
-    let dims: Vec<usize> = (1..=10).collect();
-    let all = cases(&dims);
-    // `--blocks GUNPC` (any subset, default all) selects the blocks to run.
+    // `--blocks GUNPC` (any subset, default all) selects the blocks to run; `--dims 2,8`
+    // restricts every block to those dimensions (default all).
     let args: Vec<String> = std::env::args().collect();
+    let dims: Vec<usize> = match args.iter().position(|a| a == "--dims") {
+        Some(i) => args
+            .get(i + 1)
+            .expect("--dims needs a comma-separated list")
+            .split(',')
+            .map(|d| d.trim().parse().expect("--dims: positive integers"))
+            .collect(),
+        None => (1..=10).collect(),
+    };
+    let all = cases(&dims);
     let blocks = args
         .iter()
         .position(|a| a == "--blocks")
@@ -849,7 +972,12 @@ fn main() {
     if want('P') {
         // Block P.
         let t = Instant::now();
-        let pc = cases(&[1, 3, 10]);
+        let pc = cases(
+            &[1, 3, 10]
+                .into_iter()
+                .filter(|d| dims.contains(d))
+                .collect::<Vec<_>>(),
+        );
         let pr: Vec<_> = pc
             .par_iter()
             .map(|c| {
@@ -901,11 +1029,51 @@ fn main() {
     }
 
     if want('C') {
-        block_c();
+        block_c(&dims);
     }
     println!(
         "total {:.1} s on {} threads",
         t0.elapsed().as_secs_f64(),
         rayon::current_num_threads()
     );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use occam::linalg::SpdOptions;
+
+    /// Block C, D = 8, w = 0.2, seed 17: the full model's pilot chain never leaves the corner
+    /// (before the fix RJ and PT both failed on this run's rank-1 proposal covariance).
+    #[test]
+    fn a_pilot_stuck_on_the_corner_still_gives_positive_definite_proposals() {
+        let c = Case {
+            d: 8,
+            snr_idx: 0,
+            seed: 17,
+        };
+        let h = C_WIDTHS[c.snr_idx] * SIGMA / (N_DATA as f64).sqrt();
+        let lg = corner_problem(c.d, h, c.problem_seed(5));
+        let p = Pair::new(&lg, c.d, c.problem_seed(35));
+        for (mean, cov) in corner_chains(&p, h, &c) {
+            SpdOptions::default()
+                .factor(&cov)
+                .expect("in-model chain covariance");
+            assert!(mean.iter().all(|m| m.abs() < h), "{mean:?}");
+        }
+    }
+
+    /// The pilot of that run in small: its kept window, 1 000 copies of the corner. Their
+    /// covariance is 1.13e-31 in every entry (rank 1), and nalgebra factors it (so does
+    /// `SpdOptions::factor`): only the count of moves tells that the pilot never moved.
+    #[test]
+    fn a_pilot_that_never_moved_is_not_used() {
+        let h = C_WIDTHS[0] * SIGMA / (N_DATA as f64).sqrt();
+        let kept = vec![vec![h; 8]; 1_000];
+        let (_, cov) = moments(&kept);
+        assert!(cov.clone().cholesky().is_some());
+        assert!(!pilot_usable(&cov, 0));
+        let moved = DMatrix::<f64>::identity(8, 8) * 1e-4;
+        assert!(pilot_usable(&moved, 8) && !pilot_usable(&moved, 7));
+    }
 }
