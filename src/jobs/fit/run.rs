@@ -118,32 +118,17 @@ pub fn run(
         resume,
         identity: &identity,
     };
+    let around = (&map.theta[..], &walk, &cov);
     let (chains, n_coarse) = match kind {
         LikelihoodKind::Exact => (
-            sample(
-                exact,
-                model,
-                &map.theta,
-                (&walk, &cov),
-                settings,
-                &ckpt,
-                observer,
-            )?,
+            sample(exact, model, around, settings, &ckpt, observer)?,
             None,
         ),
         LikelihoodKind::Relbin => {
             let rb = relbin_of(study, exact, &map.theta)?;
             let n = rb.n_coarse();
             (
-                sample(
-                    &rb,
-                    model,
-                    &map.theta,
-                    (&walk, &cov),
-                    settings,
-                    &ckpt,
-                    observer,
-                )?,
+                sample(&rb, model, around, settings, &ckpt, observer)?,
                 Some(n),
             )
         }
@@ -382,8 +367,7 @@ struct Checkpoint<'a> {
 fn sample<D: LogDensity>(
     parent: &D,
     model: &crate::config::ModelSpec,
-    map: &[f64],
-    (walk, cov): (&DMatrix<f64>, &DMatrix<f64>),
+    (map, walk, cov): (&[f64], &DMatrix<f64>, &DMatrix<f64>),
     settings: MhSettings,
     ck: &Checkpoint,
     observer: Option<&(dyn Fn(&Progress) + Sync)>,
