@@ -16,6 +16,9 @@ pub struct ThermodynamicEstimate {
     pub discretisation_err: f64,
     /// `ln Z` by the plain trapezoid on the same ladder, for comparison.
     pub ln_z_trapezoid: f64,
+    /// `ln p̂`, the log of the fraction of prior draws where `L > 0`, included in `ln_z` and
+    /// `ln_z_trapezoid`: 0 when the likelihood is positive on the whole prior.
+    pub ln_support: f64,
 }
 
 impl ThermodynamicEstimate {
@@ -34,35 +37,55 @@ pub struct SteppingStoneEstimate {
     pub std_err: f64,
 }
 
-/// Per rung: the post-burn-in mean and variance of `ln L` and the mean's batch-means error
-/// (NaN where the mean is not finite).
-pub(crate) fn rung_moments(
-    series: &[f64],
-    n_t: usize,
-    n_post: usize,
-    batch: usize,
-) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
-    let col = |i: usize| (0..n_post).map(move |t| series[t * n_t + i]);
-    let mut mean = Vec::with_capacity(n_t);
-    let mut var = Vec::with_capacity(n_t);
-    let mut mean_se = Vec::with_capacity(n_t);
+/// Per rung, over the post-burn-in sweeps where `L > 0` (`ln L` finite): the mean and variance
+/// of `ln L`, the mean's batch-means error (NaN where no sweep had `L > 0`), and the fraction
+/// of sweeps where `L > 0`. Only the prior rung (β = 0) can hold a point where `L = 0`: a rung
+/// with β > 0 never accepts one.
+pub(crate) struct RungMoments {
+    pub(crate) mean: Vec<f64>,
+    pub(crate) var: Vec<f64>,
+    pub(crate) mean_se: Vec<f64>,
+    pub(crate) support: Vec<f64>,
+}
+
+pub(crate) fn rung_moments(series: &[f64], n_t: usize, n_post: usize, batch: usize) -> RungMoments {
+    let col = |i: usize| {
+        (0..n_post)
+            .map(move |t| series[t * n_t + i])
+            .filter(|l| l.is_finite())
+    };
+    let mut m = RungMoments {
+        mean: Vec::with_capacity(n_t),
+        var: Vec::with_capacity(n_t),
+        mean_se: Vec::with_capacity(n_t),
+        support: Vec::with_capacity(n_t),
+    };
     for i in 0..n_t {
-        let m = col(i).sum::<f64>() / n_post as f64;
-        let v = if m.is_finite() {
-            col(i).map(|l| (l - m).powi(2)).sum::<f64>() / n_post as f64
+        let k = col(i).count();
+        let p = k as f64 / n_post as f64;
+        let (mean, var, se) = if k == 0 {
+            (f64::NAN, f64::NAN, f64::NAN)
         } else {
-            f64::NAN
+            let mean = col(i).sum::<f64>() / k as f64;
+            let var = col(i).map(|l| (l - mean).powi(2)).sum::<f64>() / k as f64;
+            // the ratio estimator Σ 1(ℓ finite)(ℓ − mean) / Σ 1(ℓ finite), linearised
+            let se = batch_means_var(
+                |t| {
+                    let l = series[t * n_t + i];
+                    if l.is_finite() { (l - mean) / p } else { 0.0 }
+                },
+                n_post,
+                batch,
+            )
+            .sqrt();
+            (mean, var, se)
         };
-        let se = if m.is_finite() {
-            batch_means_var(|t| series[t * n_t + i], n_post, batch).sqrt()
-        } else {
-            f64::NAN
-        };
-        mean.push(m);
-        var.push(v);
-        mean_se.push(se);
+        m.mean.push(mean);
+        m.var.push(var);
+        m.mean_se.push(se);
+        m.support.push(p);
     }
-    (mean, var, mean_se)
+    m
 }
 
 /// `Var(ū)` of the mean of `u(0..n)` by batch means with batch size `b` (the first `n mod b`
@@ -106,22 +129,40 @@ pub(crate) fn hermite_with_error(betas: &[f64], f: &[f64], fp: &[f64]) -> (f64, 
 }
 
 /// Thermodynamic integration over the post-burn-in series (or why it does not apply).
+///
+/// Where the likelihood is zero on part of the prior (`ln L = −∞`: outside a model's region of
+/// validity), `E_β[ln L]` diverges as β → 0 and the integral alone misses the prior mass lost
+/// there. With `S` the support of `L` and `p = π(S)`, `Z = p · ∫ π_S L` for the prior `π_S`
+/// restricted to `S`, and every rung with β > 0 samples `π_S L^β` already; so
+/// `ln Z = ln p + ∫₀¹ E_{π_S L^β}[ln L] dβ`, with `p` and `E_{π_S}[ln L]` both from the prior
+/// rung's draws (the fraction with `L > 0`, and their mean).
 pub(crate) fn thermodynamic(
     betas: &[f64],
-    mean: &[f64],
-    var: &[f64],
+    m: &RungMoments,
     series: &[f64],
     batch: usize,
 ) -> Result<ThermodynamicEstimate, String> {
-    if let Some(i) = mean.iter().position(|m| !m.is_finite()) {
-        return Err(format!(
-            "E[ln L] at β = {} is not finite: the rung drew points where L = 0 (or ln L is not a number), so ∫ E_β[ln L] dβ diverges at that rung; use the stepping-stone estimate, or restrict the prior to where the likelihood is positive",
-            betas[i]
-        ));
+    let (mean, var) = (&m.mean, &m.var);
+    if let Some(i) =
+        (0..betas.len()).find(|&i| !mean[i].is_finite() || (i > 0 && m.support[i] < 1.0))
+    {
+        return Err(if m.support[i] == 0.0 {
+            format!(
+                "no draw of the rung at β = {} had L > 0 (ln L finite), so E_β[ln L] is undefined there; start the chain in the likelihood's support, or restrict the prior to it",
+                betas[i]
+            )
+        } else {
+            format!(
+                "E[ln L] at β = {} is not finite (ln L is not a number, or a rung with β > 0 holds a point where L = 0), so ∫ E_β[ln L] dβ diverges at that rung; use the stepping-stone estimate",
+                betas[i]
+            )
+        });
     }
     let n_t = betas.len();
     let n = series.len() / n_t;
-    let (ln_z, disc, trap) = hermite_with_error(betas, mean, var);
+    let p0 = m.support[0];
+    let (integral, disc, trap) = hermite_with_error(betas, mean, var);
+    let ln_support = p0.ln();
     let h = |i: usize| {
         if i + 1 < n_t {
             betas[i + 1] - betas[i]
@@ -135,21 +176,29 @@ pub(crate) fn thermodynamic(
     let c: Vec<f64> = (0..n_t)
         .map(|i| (h(i).powi(2) - if i > 0 { h(i - 1).powi(2) } else { 0.0 }) / 12.0)
         .collect();
+    // Per sweep, the linearised estimator: the rungs' weighted deviations, the prior rung's
+    // over its draws with L > 0 only (a ratio estimator), and ln p̂'s term (1_t − p)/p.
     let v = batch_means_var(
         |t| {
             let row = &series[t * n_t..(t + 1) * n_t];
-            (0..n_t)
-                .map(|i| w[i] * (row[i] - mean[i]) + c[i] * ((row[i] - mean[i]).powi(2) - var[i]))
-                .sum()
+            let term =
+                |i: usize| w[i] * (row[i] - mean[i]) + c[i] * ((row[i] - mean[i]).powi(2) - var[i]);
+            let first = if row[0].is_finite() {
+                term(0) / p0 + (1.0 - p0) / p0
+            } else {
+                -1.0
+            };
+            first + (1..n_t).map(term).sum::<f64>()
         },
         n,
         batch,
     );
     Ok(ThermodynamicEstimate {
-        ln_z,
+        ln_z: ln_support + integral,
         std_err: v.sqrt(),
         discretisation_err: disc,
-        ln_z_trapezoid: trap,
+        ln_z_trapezoid: ln_support + trap,
+        ln_support,
     })
 }
 

@@ -43,6 +43,14 @@
 //! Gaussian curve `f = c − (D/2)/(β + a)` with ladder ratios 1.4–2.5 the Hermite rule's error
 //! is 6–50 times smaller.
 //!
+//! **Where `L = 0`** on part of the prior (a model outside its region of validity returns
+//! `ln L = −∞`), `E_β[ln L]` diverges as β → 0 although `Z` is finite. With `S` the support of
+//! `L` and `p = π(S)`, every rung with β > 0 samples `π L^β ∝ π_S L^β` (it never accepts a
+//! point outside `S`), so `ln Z = ln p + ∫₀¹ E_{π_S L^β}[ln L] dβ`: `p` is estimated by the
+//! fraction of the prior rung's draws with `L > 0` and `E_{π_S}[ln L]` by their mean
+//! ([`ThermodynamicEstimate::ln_support`]; both enter the Monte-Carlo error below). Stepping
+//! stone needs nothing extra: its first ratio counts those draws as `L^Δβ = 0`.
+//!
 //! **Discretisation error**: Richardson's estimate for a fourth-order rule,
 //! `|I_H(ladder) − I_H(every other rung)|/15` (the coarse ladder keeps β = 0 and β = 1). On the
 //! Gaussian curve above it is within a factor 1.5 of the true error and errs on the large

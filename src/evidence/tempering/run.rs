@@ -30,7 +30,8 @@ pub struct TemperingResult {
     pub in_rung_acceptance: Vec<f64>,
     /// Final random-walk scale `s_i` per rung (0 for rung 0).
     pub proposal_scale: Vec<f64>,
-    /// `E_β[ln L]` per rung (post-burn-in mean).
+    /// `E_β[ln L]` per rung (post-burn-in mean; at β = 0 over the draws where `L > 0`, see
+    /// [`ThermodynamicEstimate::ln_support`]).
     pub mean_ln_l: Vec<f64>,
     /// Batch-means standard error of each `mean_ln_l`.
     pub mean_ln_l_std_err: Vec<f64>,
@@ -266,8 +267,8 @@ fn result(ladder: Ladder, opts: &TemperingOptions) -> TemperingResult {
         .batch_size
         .unwrap_or((n_post as f64).sqrt() as usize)
         .max(1);
-    let (mean, var, mean_se) = rung_moments(&series, n_t, n_post, batch);
-    let thermodynamic = thermodynamic(&betas, &mean, &var, &series, batch);
+    let moments = rung_moments(&series, n_t, n_post, batch);
+    let thermodynamic = thermodynamic(&betas, &moments, &series, batch);
     let stepping_stone = stepping_stone(&betas, &series, batch);
     let evals = pilot_evals + rungs.iter().map(|r| r.evals).sum::<u64>();
     TemperingResult {
@@ -285,9 +286,9 @@ fn result(ladder: Ladder, opts: &TemperingOptions) -> TemperingResult {
             .map(|r| if r.beta == 0.0 { 0.0 } else { r.ln_scale.exp() })
             .collect(),
         betas,
-        mean_ln_l: mean,
-        mean_ln_l_std_err: mean_se,
-        var_ln_l: var,
+        mean_ln_l: moments.mean,
+        mean_ln_l_std_err: moments.mean_se,
+        var_ln_l: moments.var,
         thermodynamic,
         stepping_stone,
         n_iter: opts.n_iter,
