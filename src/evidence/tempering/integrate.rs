@@ -188,7 +188,8 @@ pub(crate) fn thermodynamic(
             } else {
                 -1.0
             };
-            first + (1..n_t).map(term).sum::<f64>()
+            // summed in the order of the plain series, so that with p = 1 the bits are unchanged
+            (1..n_t).map(term).fold(first, |a, b| a + b)
         },
         n,
         batch,
