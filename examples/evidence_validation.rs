@@ -12,7 +12,8 @@
 //!   and without the box term, LM with exact posterior draws (θ̂ = best draw, as in K14), RJMCMC
 //!   (visit ratio, Rao-Blackwellised, bridge), and parallel tempering per model
 //!   ([`run_tempering`], 12 rungs, 12 000 sweeps of which 2 000 burn-in) giving thermodynamic
-//!   integration (TI; error bar = Monte-Carlo and discretisation errors in quadrature) and
+//!   integration (TI; error bar of ln B = the Monte-Carlo errors and the pair's discretisation
+//!   error in quadrature, `ThermodynamicEstimate::difference_err`) and
 //!   stepping stone (SS), each with 1σ coverage of its error bars.
 //! * **N**: narrow uniform priors U[−1.5σ/√n, 1.5σ/√n] (prior-dominated; the unconstrained
 //!   maximum lies outside the box whenever the signal is strong): LF raw vs box-corrected.
@@ -343,8 +344,9 @@ impl<'a> Pair<'a> {
         (est.map(|e| e.map(|e| self.err(e.ln_b, e.std_err))), missing)
     }
 
-    /// [TI, SS]: parallel tempering on each model from `(start, cov)`; the TI error bar is its
-    /// Monte-Carlo and discretisation errors in quadrature. A model without free parameters
+    /// [TI, SS]: parallel tempering on each model from `(start, cov)`; the TI error bar of ln B
+    /// is the two Monte-Carlo errors and the pair's discretisation error in quadrature. A model
+    /// without free parameters
     /// has `ln Z = ln L` exactly.
     fn tempering(&self, seed: u64, proposals: &[(Vec<f64>, DMatrix<f64>); 2]) -> [Option<Err>; 2] {
         self.tempering_why(seed, proposals).0
@@ -365,12 +367,12 @@ impl<'a> Pair<'a> {
             parallel: false,
             ..TemperingOptions::default()
         };
-        // Per model: [TI, SS] as (ln Z, se), or why not.
-        type One = [Result<(f64, f64), String>; 2];
+        // Per model: [TI, SS] as (ln Z, se, signed discretisation error), or why not.
+        type One = [Result<(f64, f64, f64), String>; 2];
         let one = |t: &dyn LogDensity, (start, cov): &(Vec<f64>, DMatrix<f64>)| -> One {
             if t.dim() == 0 {
                 let l = t.ln_likelihood(&[]);
-                return [Ok((l, 0.0)), Ok((l, 0.0))];
+                return [Ok((l, 0.0, 0.0)), Ok((l, 0.0, 0.0))];
             }
             let start: Vec<f64> = start
                 .iter()
@@ -386,10 +388,10 @@ impl<'a> Pair<'a> {
             };
             [
                 r.thermodynamic
-                    .map(|ti| (ti.ln_z, ti.total_err()))
+                    .map(|ti| (ti.ln_z, ti.std_err, ti.discretisation_shift))
                     .map_err(|e| format!("thermodynamic: {e}")),
                 r.stepping_stone
-                    .map(|ss| (ss.ln_z, ss.std_err))
+                    .map(|ss| (ss.ln_z, ss.std_err, 0.0))
                     .map_err(|e| format!("stepping_stone: {e}")),
             ]
         };
@@ -397,7 +399,9 @@ impl<'a> Pair<'a> {
         let n = one(&self.nested, &proposals[1]);
         let mut missing = Vec::new();
         let est = [0, 1].map(|k| match (&f[k], &n[k]) {
-            (Ok(a), Ok(b)) => Some(self.err(a.0 - b.0, Some(a.1.hypot(b.1)))),
+            // TI: the Monte-Carlo errors in quadrature and the pair's discretisation error
+            // (ThermodynamicEstimate::difference_err); SS has none
+            (Ok(a), Ok(b)) => Some(self.err(a.0 - b.0, Some(a.1.hypot(b.1).hypot(a.2 - b.2)))),
             (a, b) => {
                 for (model, r) in [("full", a), ("nested", b)] {
                     if let Err(e) = r {

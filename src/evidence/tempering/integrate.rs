@@ -14,6 +14,10 @@ pub struct ThermodynamicEstimate {
     /// Estimated quadrature error of `ln_z`: `|I_H − I_H(every other rung)|/15`. Not a
     /// random error; add it to `std_err` (in quadrature or linearly) for a total.
     pub discretisation_err: f64,
+    /// The same estimate with its sign, `(I_H − I_H(every other rung))/15`: the error of a
+    /// difference of two integrations is estimated by the difference of these
+    /// ([`ThermodynamicEstimate::difference_err`]), where much of it cancels.
+    pub discretisation_shift: f64,
     /// `ln Z` by the plain trapezoid on the same ladder, for comparison.
     pub ln_z_trapezoid: f64,
     /// `ln p̂`, the log of the fraction of prior draws where `L > 0`, included in `ln_z` and
@@ -25,6 +29,28 @@ impl ThermodynamicEstimate {
     /// `√(std_err² + discretisation_err²)`.
     pub fn total_err(&self) -> f64 {
         self.std_err.hypot(self.discretisation_err)
+    }
+
+    /// The error of `self.ln_z − other.ln_z` (a log Bayes factor) from two independent runs:
+    /// their Monte-Carlo errors in quadrature with Richardson's estimate for the difference,
+    /// `|shift_a − shift_b|`. Two models' integrands differ little along their ladders, so
+    /// their discretisation errors largely cancel in the difference; adding each model's in
+    /// quadrature instead overstates the error of ln B (1σ coverage 0.85 on the validation
+    /// example's uniform block).
+    ///
+    /// ```
+    /// use occam::evidence::tempering::ThermodynamicEstimate;
+    /// let ti = |shift: f64| ThermodynamicEstimate { ln_z: 0.0, std_err: 0.03,
+    ///     discretisation_err: shift.abs(), discretisation_shift: shift, ln_z_trapezoid: 0.0,
+    ///     ln_support: 0.0 };
+    /// let (a, b) = (ti(0.10), ti(0.09));
+    /// assert!((a.difference_err(&b) - (0.03f64.hypot(0.03)).hypot(0.01)).abs() < 1e-15);
+    /// assert!(a.difference_err(&b) < a.total_err().hypot(b.total_err()));
+    /// ```
+    pub fn difference_err(&self, other: &Self) -> f64 {
+        self.std_err
+            .hypot(other.std_err)
+            .hypot(self.discretisation_shift - other.discretisation_shift)
     }
 }
 
@@ -113,8 +139,8 @@ pub(crate) fn hermite_integral(betas: &[f64], f: &[f64], fp: &[f64]) -> (f64, f6
     (trap, trap + corr)
 }
 
-/// The Hermite integral and its discretisation-error estimate `|I_H − I_H(coarse)|/15`, the
-/// coarse ladder being every other rung counted from β = 1, with β = 0 always kept.
+/// The Hermite integral and its signed discretisation-error estimate `(I_H − I_H(coarse))/15`,
+/// the coarse ladder being every other rung counted from β = 1, with β = 0 always kept.
 pub(crate) fn hermite_with_error(betas: &[f64], f: &[f64], fp: &[f64]) -> (f64, f64, f64) {
     let (trap, fine) = hermite_integral(betas, f, fp);
     let n = betas.len();
@@ -125,7 +151,7 @@ pub(crate) fn hermite_with_error(betas: &[f64], f: &[f64], fp: &[f64]) -> (f64, 
     idx.reverse();
     let pick = |v: &[f64]| idx.iter().map(|&i| v[i]).collect::<Vec<f64>>();
     let (_, coarse) = hermite_integral(&pick(betas), &pick(f), &pick(fp));
-    (fine, (fine - coarse).abs() / 15.0, trap)
+    (fine, (fine - coarse) / 15.0, trap)
 }
 
 /// Thermodynamic integration over the post-burn-in series (or why it does not apply).
@@ -161,7 +187,7 @@ pub(crate) fn thermodynamic(
     let n_t = betas.len();
     let n = series.len() / n_t;
     let p0 = m.support[0];
-    let (integral, disc, trap) = hermite_with_error(betas, mean, var);
+    let (integral, shift, trap) = hermite_with_error(betas, mean, var);
     let ln_support = p0.ln();
     let h = |i: usize| {
         if i + 1 < n_t {
@@ -197,7 +223,8 @@ pub(crate) fn thermodynamic(
     Ok(ThermodynamicEstimate {
         ln_z: ln_support + integral,
         std_err: v.sqrt(),
-        discretisation_err: disc,
+        discretisation_err: shift.abs(),
+        discretisation_shift: shift,
         ln_z_trapezoid: ln_support + trap,
         ln_support,
     })

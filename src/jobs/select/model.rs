@@ -715,6 +715,11 @@ fn tempering(
                 .as_ref()
                 .map(|t| (t.ln_z, t.total_err().hypot(a), Some(t.discretisation_err)))
                 .map_err(|e| e.clone());
+            let shift = r
+                .thermodynamic
+                .as_ref()
+                .ok()
+                .map(|t| t.discretisation_shift);
             let ss = r
                 .stepping_stone
                 .as_ref()
@@ -730,11 +735,11 @@ fn tempering(
                 approximation_err: approx_err,
                 seconds: t0.elapsed().as_secs_f64(),
             };
-            (
-                Evidence::statistical(ti),
-                Evidence::statistical(ss),
-                Some(diag),
-            )
+            let ti = Evidence {
+                discretisation_shift: shift,
+                ..Evidence::statistical(ti)
+            };
+            (ti, Evidence::statistical(ss), Some(diag))
         }
         Ok(TemperingOutcome::Stopped { sweeps }) => {
             let why = || {

@@ -10,8 +10,14 @@ pub struct Evidence {
     pub ln_z: Option<f64>,
     /// Monte-Carlo standard error (statistical estimators only).
     pub std_err: Option<f64>,
-    /// Quadrature error of a systematic estimator's box mass (not a statistical error).
+    /// Quadrature error of a systematic estimator's box mass (not a statistical error); for
+    /// thermodynamic integration, the magnitude of its discretisation error.
     pub integration_err: Option<f64>,
+    /// Thermodynamic integration only: the discretisation error with its sign
+    /// ([`crate::evidence::ThermodynamicEstimate::discretisation_shift`]); a Bayes factor's error
+    /// takes the difference of two models' shifts rather than each in quadrature.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub discretisation_shift: Option<f64>,
     /// What a systematic estimator assumes.
     pub assumes: Option<String>,
     /// Why there is no number (the estimator's own error), or a caveat.
@@ -26,6 +32,7 @@ impl Evidence {
                 ln_z: Some(ln_z),
                 std_err: Some(se),
                 integration_err,
+                discretisation_shift: None,
                 assumes: None,
                 note: None,
             },
@@ -38,6 +45,7 @@ impl Evidence {
             ln_z: None,
             std_err: None,
             integration_err: None,
+            discretisation_shift: None,
             assumes: None,
             note: Some(note),
         }
@@ -50,6 +58,7 @@ impl Evidence {
                 ln_z: Some(e.ln_z),
                 std_err: None,
                 integration_err: e.std_err,
+                discretisation_shift: None,
                 assumes: Some(assumes),
                 note: None,
             },
@@ -87,7 +96,7 @@ pub struct ModelOutcome {
     pub laplace_metropolis_mve: Evidence,
     pub laplace_metropolis_mcd: Evidence,
     /// Thermodynamic integration; `std_err` combines the Monte-Carlo error and the
-    /// discretisation error (`integration_err`).
+    /// discretisation error (`integration_err`, signed in `discretisation_shift`).
     pub thermodynamic: Evidence,
     pub stepping_stone: Evidence,
     /// The tempering run: final ladder, swap rate per adjacent pair, acceptance per rung.

@@ -120,7 +120,17 @@ fn difference(name: &str, kind: EstimateKind, a: &Evidence, b: &Evidence) -> Pai
     let (ln_b, std_err, note) = match (a.ln_z, b.ln_z) {
         (Some(x), Some(y)) => {
             let err = match (a.std_err, b.std_err) {
-                (Some(p), Some(q)) => Some(p.hypot(q)),
+                (Some(p), Some(q)) => {
+                    Some(match (a.discretisation_shift, b.discretisation_shift) {
+                        // thermodynamic integration: the discretisation errors largely cancel in
+                        // the difference, so they enter as one, the difference of the shifts
+                        (Some(sa), Some(sb)) => {
+                            let rest = |se: f64, d: f64| (se * se - d * d).max(0.0);
+                            (rest(p, sa) + rest(q, sb) + (sa - sb).powi(2)).sqrt()
+                        }
+                        _ => p.hypot(q),
+                    })
+                }
                 _ => None,
             };
             (Some(x - y), err, None)
@@ -387,6 +397,7 @@ mod tests {
             ln_z: v,
             std_err: se,
             integration_err: None,
+            discretisation_shift: None,
             assumes: v.map(|_| "a Gaussian".into()),
             note: v.is_none().then(|| "does not apply here".into()),
         };
@@ -416,6 +427,30 @@ mod tests {
             jump_proposal: "in-model chains".into(),
             notes: vec![],
         }
+    }
+
+    /// Thermodynamic integration's ln B error takes the difference of the two models'
+    /// signed discretisation errors, not each in quadrature; the other rows are unchanged.
+    #[test]
+    fn the_ti_discretisation_error_enters_a_bayes_factor_once() {
+        let mut models = [outcome("X", Some(-3.0)), outcome("Y", Some(-1.0))];
+        // per model: Monte-Carlo 0.02, discretisation +0.05 and +0.04
+        for (m, d) in models.iter_mut().zip([0.05, 0.04]) {
+            m.thermodynamic.std_err = Some(0.02f64.hypot(d));
+            m.thermodynamic.integration_err = Some(d);
+            m.thermodynamic.discretisation_shift = Some(d);
+        }
+        let p = pair(&models, None, Some("no chain"), 0, 1);
+        let row = |m: &str| p.estimates.iter().find(|e| e.method == m).unwrap().std_err;
+        let ti = row("Thermodynamic integration").unwrap();
+        let want = (2.0 * 0.02f64.powi(2) + 0.01f64.powi(2)).sqrt();
+        assert!((ti - want).abs() < 1e-15, "{ti} vs {want}");
+        // opposite signs add: the per-model quadrature would understate it
+        models[1].thermodynamic.discretisation_shift = Some(-0.04);
+        let p = pair(&models, None, Some("no chain"), 0, 1);
+        let ti = p.estimates[3].std_err.unwrap();
+        assert!((ti - (2.0 * 0.02f64.powi(2) + 0.09f64.powi(2)).sqrt()).abs() < 1e-15);
+        assert_eq!(p.estimates[4].std_err, Some(0.02f64.hypot(0.02)));
     }
 
     /// A failed reversible-jump run leaves its reason on the three RJ rows; every other
