@@ -14,9 +14,11 @@ pub struct ThermodynamicEstimate {
     /// Estimated quadrature error of `ln_z`: `|I_H − I_H(every other rung)|/15`. Not a
     /// random error; add it to `std_err` (in quadrature or linearly) for a total.
     pub discretisation_err: f64,
-    /// The same estimate with its sign, `(I_H − I_H(every other rung))/15`: the error of a
-    /// difference of two integrations is estimated by the difference of these
-    /// ([`ThermodynamicEstimate::difference_err`]), where much of it cancels.
+    /// The same estimate with its sign, `(I_H − I_H(every other rung))/15`: Richardson's
+    /// correction (`ln_z + discretisation_shift` is the extrapolated value, so the shift is the
+    /// negative of `ln_z`'s estimated error). The error of a difference of two integrations is
+    /// estimated by the difference of these ([`ThermodynamicEstimate::difference_err`]), where
+    /// much of it cancels.
     pub discretisation_shift: f64,
     /// `ln Z` by the plain trapezoid on the same ladder, for comparison.
     pub ln_z_trapezoid: f64,
@@ -139,8 +141,9 @@ pub(crate) fn hermite_integral(betas: &[f64], f: &[f64], fp: &[f64]) -> (f64, f6
     (trap, trap + corr)
 }
 
-/// The Hermite integral and its signed discretisation-error estimate `(I_H − I_H(coarse))/15`,
-/// the coarse ladder being every other rung counted from β = 1, with β = 0 always kept.
+/// The Hermite integral and Richardson's correction to it, `(I_H − I_H(coarse))/15` (minus its
+/// estimated error), the coarse ladder being every other rung counted from β = 1, with β = 0
+/// always kept.
 pub(crate) fn hermite_with_error(betas: &[f64], f: &[f64], fp: &[f64]) -> (f64, f64, f64) {
     let (trap, fine) = hermite_integral(betas, f, fp);
     let n = betas.len();

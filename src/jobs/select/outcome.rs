@@ -13,9 +13,10 @@ pub struct Evidence {
     /// Quadrature error of a systematic estimator's box mass (not a statistical error); for
     /// thermodynamic integration, the magnitude of its discretisation error.
     pub integration_err: Option<f64>,
-    /// Thermodynamic integration only: the discretisation error with its sign
-    /// ([`crate::evidence::ThermodynamicEstimate::discretisation_shift`]); a Bayes factor's error
-    /// takes the difference of two models' shifts rather than each in quadrature.
+    /// Thermodynamic integration only: Richardson's signed correction, minus the estimated
+    /// discretisation error ([`crate::evidence::ThermodynamicEstimate::discretisation_shift`]); a
+    /// Bayes factor's error takes the difference of two models' shifts rather than each in
+    /// quadrature.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub discretisation_shift: Option<f64>,
     /// What a systematic estimator assumes.
