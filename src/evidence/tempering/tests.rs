@@ -456,10 +456,10 @@ fn zero_likelihood_region_enters_ti_through_the_prior_rung() {
 }
 
 /// A Gaussian likelihood cut to zero below θ = 0 on the prior box [−1, 1] (an unstable half of
-/// a model's parameter space): `Z = ½ ∫₀¹ N(θ; 0.2, 0.15²) dθ` in closed form. Over 200 seeds
-/// TI and SS agree with it at their stated rate: the mean pull is within 3/√200 of zero and
-/// the pulls' spread within [0.85, 1.17], three of its sampling sd (errors 20 % too small
-/// or too large move it out).
+/// a model's parameter space): `Z = ½ ∫₀¹ N(θ; 0.2, 0.15²) dθ` in closed form. Over 400 seeds
+/// TI and SS agree with it at their stated rate: the mean pull is within 3/√400 of zero and
+/// the pulls' spread (1.016 and 1.028) within [0.9, 1.11], three of its sampling sd: errors
+/// 20 % too small or too large move it out, and so does leaving `ln p̂`'s own error out of TI's.
 #[test]
 fn a_likelihood_cut_to_zero_keeps_ti_and_ss_calibrated() {
     struct Cut {
@@ -490,7 +490,7 @@ fn a_likelihood_cut_to_zero_keeps_ti_and_ss_calibrated() {
     let n = Normal::new(MU, SD).unwrap();
     let exact = (0.5 * SD * (2.0 * std::f64::consts::PI).sqrt() * (n.cdf(1.0) - n.cdf(0.0))).ln();
     let mut pulls = (Vec::new(), Vec::new());
-    for seed in 0..200 {
+    for seed in 0..400 {
         let opts = TemperingOptions {
             n_temps: 8,
             n_iter: 6_000,
@@ -510,7 +510,7 @@ fn a_likelihood_cut_to_zero_keeps_ti_and_ss_calibrated() {
         let sd = (p.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (k - 1.0)).sqrt();
         eprintln!("{name}: mean pull {mean:.3}, spread {sd:.3}");
         assert!(mean.abs() < 3.0 / k.sqrt(), "{name}: mean pull {mean}");
-        assert!((0.85..1.17).contains(&sd), "{name}: pull spread {sd}");
+        assert!((0.9..1.11).contains(&sd), "{name}: pull spread {sd}");
     }
 }
 
