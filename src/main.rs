@@ -71,6 +71,8 @@ enum Command {
         #[arg(long)]
         resume: bool,
         #[command(flatten)]
+        sizing: SelectFlags,
+        #[command(flatten)]
         run: RunFlags,
     },
     /// Write a self-contained HTML page of a fit, select or sweep run: tables, figures,
@@ -98,6 +100,34 @@ enum Command {
         #[arg(long, default_value_t = 0)]
         threads: usize,
     },
+}
+
+/// How long a model selection runs and how much its cross-checks get; each sets the
+/// `[select]` key of the same name.
+#[derive(clap::Args, Clone, Default)]
+struct SelectFlags {
+    /// Run the reversible jump until every pair's reference error of ln B is at most this
+    /// (`[select] target_error`).
+    #[arg(long)]
+    target_error: Option<f64>,
+    /// How much of the run the tempering cross-checks get: full, light or off
+    /// (`[select] cross_checks`).
+    #[arg(long, value_parser = ["full", "light", "off"])]
+    cross_checks: Option<String>,
+}
+
+impl SelectFlags {
+    /// The `[select]` keys the flags set.
+    fn keys(&self) -> Vec<(&'static str, toml::Value)> {
+        let mut k = Vec::new();
+        if let Some(e) = self.target_error {
+            k.push(("target_error", toml::Value::Float(e)));
+        }
+        if let Some(c) = &self.cross_checks {
+            k.push(("cross_checks", toml::Value::String(c.clone())));
+        }
+        k
+    }
 }
 
 /// Options every long-running command takes.
@@ -140,8 +170,11 @@ fn main() {
             study,
             output,
             resume,
+            sizing,
             run,
-        } => run.apply().and_then(|_| select(study, output, resume, run)),
+        } => run
+            .apply()
+            .and_then(|_| select(study, output, resume, &sizing, run)),
         Command::Demo { output, run } => run.apply().and_then(|_| demo(output, run)),
         Command::Sweep(cli) => sweep(cli),
         Command::Report { run_dir, output } => {
@@ -300,10 +333,23 @@ fn fit(path: PathBuf, output: Option<PathBuf>, resume: bool, flags: RunFlags) ->
     Ok(())
 }
 
-fn select(path: PathBuf, output: Option<PathBuf>, resume: bool, flags: RunFlags) -> Result<()> {
-    let study = Study::load(&path)?;
+fn select(
+    path: PathBuf,
+    output: Option<PathBuf>,
+    resume: bool,
+    sizing: &SelectFlags,
+    flags: RunFlags,
+) -> Result<()> {
+    let study = Study::load_with_select(&path, &sizing.keys())?;
     let out = output.unwrap_or_else(|| study.output.join("select"));
-    on_interrupt(resume_hint("select", &path, &out));
+    let mut hint = resume_hint("select", &path, &out);
+    if let Some(e) = sizing.target_error {
+        hint = hint.replace(" --resume`", &format!(" --target-error {e} --resume`"));
+    }
+    if let Some(c) = &sizing.cross_checks {
+        hint = hint.replace(" --resume`", &format!(" --cross-checks {c} --resume`"));
+    }
+    on_interrupt(hint);
     run_select(&study, &out, resume, flags.quiet)
 }
 

@@ -206,8 +206,9 @@ pub fn estimate(study: &Study) -> MemoryEstimate {
         let d = m.spec.free.len();
         d_max = d_max.max(d);
         select += stored(s.chains as f64, s.iterations as f64, d);
-        if s.pt_temperatures > 0 {
-            select += stored(s.pt_temperatures as f64, s.pt_iterations as f64, d);
+        let (rungs, sweeps, _) = s.tempering_ladder();
+        if rungs > 0 {
+            select += stored(rungs as f64, sweeps as f64, d);
         }
     }
     if !study.select_models.is_empty() {
@@ -230,7 +231,7 @@ pub fn estimate(study: &Study) -> MemoryEstimate {
             }
         }
         let width = (union.len() + unnamed).max(d_max);
-        select += stored(1.0, s.rj_iterations as f64, width);
+        select += stored(1.0, rj_longest(s) as f64, width);
     }
     let tasks = study.sweep.as_ref().map_or(0.0, |sw| {
         let points: f64 = sw
@@ -262,6 +263,15 @@ pub fn estimate(study: &Study) -> MemoryEstimate {
         select,
         sweep,
         design,
+    }
+}
+
+/// The longest reversible jump a select run may make: `rj_iterations`, or with a
+/// `target_error` its budget.
+fn rj_longest(s: &super::study::SelectOptions) -> usize {
+    match s.target_error {
+        Some(_) => s.rj_budget(),
+        None => s.rj_iterations,
     }
 }
 
@@ -383,13 +393,19 @@ pub fn check_study(study: &Study, budget: f64) -> Result<MemoryEstimate, ConfigE
             ),
             (
                 "select.pt_iterations",
-                if s.pt_temperatures > 0 {
-                    k * s.pt_temperatures as f64 * s.pt_iterations as f64
-                } else {
-                    0.0
+                match s.tempering_ladder() {
+                    (0, _, _) => 0.0,
+                    (rungs, sweeps, _) => k * rungs as f64 * sweeps as f64,
                 },
             ),
-            ("select.rj_iterations", s.rj_iterations as f64),
+            (
+                if s.target_error.is_some() {
+                    "select.rj_max_iterations"
+                } else {
+                    "select.rj_iterations"
+                },
+                rj_longest(s) as f64,
+            ),
         ];
         let (field, _) = parts
             .iter()
@@ -399,13 +415,13 @@ pub fn check_study(study: &Study, budget: f64) -> Result<MemoryEstimate, ConfigE
         return Err(bad(
             field,
             format!(
-                "{} models × (chains {} × iterations {} + rungs {} × pt_iterations {}) + rj_iterations {}, up to {d} stored numbers each, with the data: {}; lower it",
+                "{} models × (chains {} × iterations {} + rungs {} × pt_iterations {}) + reversible-jump iterations {}, up to {d} stored numbers each, with the data: {}; lower it",
                 k,
                 s.chains,
                 s.iterations,
-                s.pt_temperatures,
-                s.pt_iterations,
-                s.rj_iterations,
+                s.tempering_ladder().0,
+                s.tempering_ladder().1,
+                rj_longest(s),
                 tail(e.select, budget)
             ),
         ));

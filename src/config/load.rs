@@ -30,6 +30,39 @@ impl Study {
         Self::from_toml(&text, &file, base)
     }
 
+    /// [`Study::load`] with `[select]` keys set as the command line gives them
+    /// (`--target-error`, `--cross-checks`): validated as if the file said them, so the run's
+    /// identity and its resolved study record them.
+    pub fn load_with_select(
+        path: &Path,
+        keys: &[(&str, toml::Value)],
+    ) -> Result<Study, ConfigError> {
+        if keys.is_empty() {
+            return Self::load(path);
+        }
+        let file = path.display().to_string();
+        let text = crate::data::infile::read_to_string(path).map_err(|error| ConfigError::Io {
+            file: file.clone(),
+            error,
+        })?;
+        let base = path.parent().unwrap_or(Path::new("."));
+        let Ok(mut doc) = text.parse::<toml::Table>() else {
+            // the file's own parse error, as `load` gives it
+            return Self::from_toml(&text, &file, base);
+        };
+        let select = doc
+            .entry("select")
+            .or_insert_with(|| toml::Value::Table(toml::Table::new()));
+        let Some(select) = select.as_table_mut() else {
+            return Err(invalid(&file, "select".into(), "must be a table".into()));
+        };
+        for (k, v) in keys {
+            select.insert((*k).to_string(), v.clone());
+        }
+        let edited = toml::to_string(&doc).expect("a TOML table serialises");
+        Self::from_toml(&edited, &file, base)
+    }
+
     /// Parses and validates TOML text; `file` names it in messages and `base` resolves
     /// relative injection-file paths.
     pub fn from_toml(text: &str, file: &str, base: &Path) -> Result<Study, ConfigError> {
@@ -1153,6 +1186,19 @@ fn validate_select(
             ),
         ));
     }
+    let (light_temps, light_iter, light_burn) = s.tempering_ladder();
+    if light_temps != 0 && light_iter - light_burn < 100 {
+        return Err(bad(
+            "select.cross_checks".into(),
+            format!(
+                "`{}` leaves {} tempering sweeps after burn-in (pt_iterations = {}, pt_burn_in = {}); at least 100 are needed: lengthen pt_iterations or choose \"full\"",
+                s.cross_checks.name(),
+                light_iter - light_burn,
+                s.pt_iterations,
+                s.pt_burn_in
+            ),
+        ));
+    }
     if s.rj_chains == 0
         || s.rj_chains > 4096
         || s.rj_iterations / s.rj_chains.max(1) < s.rj_burn_in + 100
@@ -1189,6 +1235,42 @@ fn validate_select(
             "select.schwarz_n".into(),
             format!("must be > 1 (got {n})"),
         ));
+    }
+    if let Some(t) = s.target_error
+        && !finite_pos(t)
+    {
+        return Err(bad(
+            "select.target_error".into(),
+            format!("the standard error of ln B to reach must be > 0 (got {t})"),
+        ));
+    }
+    if s.target_error.is_some() && s.rj_budget() > budget::MAX_ITERATIONS {
+        return Err(bad(
+            "select.rj_max_iterations".into(),
+            format!(
+                "the budget of a run with `target_error` must be at most {:e} (got {}, 16 × rj_iterations unless set)",
+                budget::MAX_ITERATIONS as f64,
+                s.rj_budget()
+            ),
+        ));
+    }
+    if let Some(n) = s.rj_max_iterations {
+        if s.target_error.is_none() {
+            return Err(bad(
+                "select.rj_max_iterations".into(),
+                "is the budget of a run with `target_error`; set `target_error` too, or remove it"
+                    .into(),
+            ));
+        }
+        if n < s.rj_iterations {
+            return Err(bad(
+                "select.rj_max_iterations".into(),
+                format!(
+                    "must be at least `rj_iterations` ({}), the first round's length (got {n})",
+                    s.rj_iterations
+                ),
+            ));
+        }
     }
     let mut out: Vec<SelectModel> = Vec::new();
     for (k, m) in s.model.iter().enumerate() {

@@ -51,7 +51,7 @@ pub use models::{
 };
 pub use resolved::{RESOLVED_FILE, resolved_toml, write_resolved};
 pub use study::{
-    ActuatorEntry, ActuatorOptions, AnalysisOptions, DEFAULT_GLITCH_COUNT_ITERATIONS,
+    ActuatorEntry, ActuatorOptions, AnalysisOptions, CrossChecks, DEFAULT_GLITCH_COUNT_ITERATIONS,
     ExperimentEntry, FitOptions, GlitchCountMethod, InjectionEntry, JumpProposal, LikelihoodKind,
     SelectModel, SelectModelEntry, SelectOptions, SimulationOptions, Study, StudyFile,
 };

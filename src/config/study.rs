@@ -559,6 +559,51 @@ pub struct SelectOptions {
     /// `n` of the Schwarz criterion (default: the number of real data values in the
     /// likelihood, 4 × in-band bins).
     pub schwarz_n: Option<f64>,
+    /// The standard error of `ln B` to reach on every pair's reference row: the reversible
+    /// jump is run again, longer, until its error is at most this (or `rj_max_iterations` is
+    /// reached); `None` (the default): the fixed `rj_iterations`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub target_error: Option<f64>,
+    /// The budget of a run with `target_error`: the most reversible-jump iterations one
+    /// round may have (default: 16 × `rj_iterations`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub rj_max_iterations: Option<usize>,
+    /// How much of the run the cross-check rows that need their own sampler (thermodynamic
+    /// integration and stepping-stone) get.
+    #[serde(skip_serializing_if = "CrossChecks::is_full")]
+    pub cross_checks: CrossChecks,
+}
+
+/// How much of a select run goes to the tempering cross-checks (`[select] cross_checks`).
+/// The rows that come with the reference run or cost next to nothing (the reversible jump's
+/// visit ratio and Rao–Blackwell, Laplace, Schwarz) are always there.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CrossChecks {
+    /// The tempering ladder as configured (`pt_temperatures`, `pt_iterations`, `pt_burn_in`).
+    #[default]
+    Full,
+    /// The same ladder with a quarter of the sweeps and of the burn-in: errors about twice
+    /// as large, for a quarter of the cost.
+    Light,
+    /// No tempering: thermodynamic integration and stepping-stone say so on their rows.
+    Off,
+}
+
+impl CrossChecks {
+    /// The default, which the resolved study does not write.
+    pub fn is_full(&self) -> bool {
+        *self == CrossChecks::Full
+    }
+
+    /// The name as a study file writes it.
+    pub fn name(&self) -> &'static str {
+        match self {
+            CrossChecks::Full => "full",
+            CrossChecks::Light => "light",
+            CrossChecks::Off => "off",
+        }
+    }
 }
 
 impl Default for SelectOptions {
@@ -580,7 +625,34 @@ impl Default for SelectOptions {
             pt_burn_in: 8_000,
             seed: None,
             schwarz_n: None,
+            target_error: None,
+            rj_max_iterations: None,
+            cross_checks: CrossChecks::Full,
         }
+    }
+}
+
+impl SelectOptions {
+    /// The tempering ladder the run gets under `cross_checks`: rungs (0: none), sweeps and
+    /// burn-in sweeps. `light` keeps the rungs and takes a quarter of the sweeps and of the
+    /// burn-in (rounded up).
+    pub fn tempering_ladder(&self) -> (usize, usize, usize) {
+        match self.cross_checks {
+            CrossChecks::Full => (self.pt_temperatures, self.pt_iterations, self.pt_burn_in),
+            CrossChecks::Light => (
+                self.pt_temperatures,
+                self.pt_iterations.div_ceil(4),
+                self.pt_burn_in.div_ceil(4),
+            ),
+            CrossChecks::Off => (0, 0, 0),
+        }
+    }
+
+    /// The reversible-jump budget of a run with `target_error`: `rj_max_iterations`, else 16
+    /// × `rj_iterations`.
+    pub fn rj_budget(&self) -> usize {
+        self.rj_max_iterations
+            .unwrap_or_else(|| self.rj_iterations.saturating_mul(16))
     }
 }
 

@@ -297,6 +297,24 @@ pub fn parts(s: &Value) -> Parts {
         ("Schwarz n", cell(at(s, "schwarz_n"))),
         ("took (s)", cell(at(s, "seconds"))),
     ];
+    if let Some(t) = at(s, "target").filter(|v| !v.is_null()) {
+        let rounds = list(at(t, "rounds"));
+        let mut line = format!(
+            "± {}: reached ± {} with {} reversible-jump iterations ({} rounds; budget {})",
+            cell(at(t, "target")),
+            cell(at(t, "reached")),
+            cell(rounds.last().and_then(|r| at(r, "iterations"))),
+            rounds.len(),
+            cell(at(t, "budget"))
+        );
+        if let Some(n) = at(t, "note").and_then(Value::as_str) {
+            line.push_str(&format!(" — not met: {}", esc(n)));
+        }
+        p.facts.push(("target error", line));
+    }
+    if let Some(c) = at(s, "cross_checks").and_then(Value::as_str) {
+        p.facts.push(("cross-checks", esc(c)));
+    }
     p.warnings.collect(s, "summary.json");
     if let Some(n) = at(s, "rj_note").and_then(Value::as_str) {
         p.warnings.add(n, "summary.json (rj_note)");

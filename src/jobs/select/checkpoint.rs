@@ -57,6 +57,9 @@ pub(super) struct RjStage {
     /// The jump chains' draws (kept out of `rj`, whose serialisation skips them).
     #[serde(default)]
     pub draws: Option<crate::evidence::RjDraws>,
+    /// The rounds of a run with `[select] target_error`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rounds: Option<Vec<super::target::TargetRound>>,
 }
 
 /// The saved stages of one select run.
@@ -73,6 +76,9 @@ pub struct SelectCheckpoint {
     stage_path: Option<std::path::PathBuf>,
     pub(super) models: Vec<ModelStage>,
     pub(super) rj: Option<RjStage>,
+    /// The finished rounds of a reversible jump with a target error, before the last.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub(super) rj_rounds: Vec<super::target::TargetRound>,
 }
 
 impl SelectCheckpoint {
@@ -84,6 +90,7 @@ impl SelectCheckpoint {
             stage_path: None,
             models: Vec::new(),
             rj: None,
+            rj_rounds: Vec::new(),
         }
     }
 

@@ -43,6 +43,7 @@ pub fn console(s: &SelectSummary) -> String {
             y = p.y,
         ));
     }
+    out.extend(super::output::run_lines(s));
     if let Some(pp) = &s.posterior_model_probabilities {
         let parts: Vec<String> = s
             .models

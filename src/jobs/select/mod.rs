@@ -19,6 +19,7 @@ mod plan;
 mod run;
 mod stage;
 mod summary;
+mod target;
 
 pub use crate::jobs::prepare::identity;
 pub use checkpoint::{FILE as CHECKPOINT_FILE, SelectCheckpoint};
@@ -34,3 +35,4 @@ pub use output::{
 pub use pair::{EstimateKind, JumpStats, PairEstimate, PairResult};
 pub use run::{Checkpointing, run, run_checkpointed, run_observed, work_units};
 pub use summary::SelectSummary;
+pub use target::{TargetOutcome, TargetRound};

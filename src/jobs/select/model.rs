@@ -9,7 +9,7 @@
 use super::outcome::{Evidence, ModelOutcome, TemperingDiagnostics};
 use super::plan::{ModelPlan, StageSettings};
 use super::stage::StageFile;
-use crate::config::{JumpProposal, LikelihoodKind, ModelSpec};
+use crate::config::{CrossChecks, JumpProposal, LikelihoodKind, ModelSpec};
 use crate::density::LogDensity;
 use crate::evidence::tempering::{ParallelTempering, TemperingOutcome};
 use crate::evidence::{
@@ -675,11 +675,12 @@ fn tempering(
     stage: Option<&StageFile>,
 ) -> (Evidence, Evidence, Option<TemperingDiagnostics>) {
     if st.pt_temperatures == 0 {
-        let off = || {
-            Evidence::not_applicable(
-                "parallel tempering is off ([select] pt_temperatures = 0)".into(),
-            )
+        let why = if st.cross_checks == CrossChecks::Off {
+            "cross-checks are off ([select] cross_checks = \"off\"): no tempering ran"
+        } else {
+            "parallel tempering is off ([select] pt_temperatures = 0)"
         };
+        let off = || Evidence::not_applicable(why.into());
         return (off(), off(), None);
     }
     let opts = TemperingOptions {

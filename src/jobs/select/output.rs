@@ -56,6 +56,26 @@ pub fn table(s: &SelectSummary) -> Table {
     t
 }
 
+/// The lines below the table that say how the run was sized, when it was not by fixed
+/// lengths and full cross-checks: the target error with what was reached and the budget, and
+/// the cross-checks' share.
+pub fn run_lines(s: &SelectSummary) -> Vec<String> {
+    let mut out = Vec::new();
+    if let Some(t) = &s.target {
+        out.push(t.line());
+    }
+    match s.cross_checks {
+        crate::config::CrossChecks::Full => {}
+        crate::config::CrossChecks::Light => out.push(
+            "cross-checks light: thermodynamic integration and stepping-stone ran a quarter of pt_iterations".into(),
+        ),
+        crate::config::CrossChecks::Off => out.push(
+            "cross-checks off: no tempering (thermodynamic integration, stepping-stone)".into(),
+        ),
+    }
+    out
+}
+
 /// What a select directory held before `manifest.json` existed: the files a new run removes
 /// when it does not write them itself ([`crate::data::rundir::RunDir::publish`]).
 pub const LEGACY_OUTPUTS: &[&str] = &[
@@ -86,10 +106,11 @@ pub fn write_outputs(s: &SelectSummary, out: &Path) -> Result<(), SelectError> {
     let p = out.join("summary.json");
     crate::atomic::write_bytes(&p, json.as_bytes()).map_err(|e| io(&p, e))?;
     let t = table(s);
+    let below: String = run_lines(s).iter().map(|l| format!("\n{l}\n")).collect();
     let p = out.join("table.txt");
-    crate::atomic::write_bytes(&p, t.to_text().as_bytes()).map_err(|e| io(&p, e))?;
+    crate::atomic::write_bytes(&p, (t.to_text() + &below).as_bytes()).map_err(|e| io(&p, e))?;
     let p = out.join("table.md");
-    crate::atomic::write_bytes(&p, t.to_markdown().as_bytes()).map_err(|e| io(&p, e))?;
+    crate::atomic::write_bytes(&p, (t.to_markdown() + &below).as_bytes()).map_err(|e| io(&p, e))?;
     crate::report::residual_psd::write(out, &s.residual_psd)?;
     for (name, chains) in &s.model_chains {
         if let Some(c) = chains {
@@ -298,6 +319,8 @@ mod tests {
             rj: None,
             rj_note: None,
             rj_iterations_per_second: 0.0,
+            target: None,
+            cross_checks: crate::config::CrossChecks::Full,
             seconds: 0.0,
             warnings: vec![],
             residual_psd: vec![],

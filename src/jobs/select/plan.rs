@@ -4,7 +4,7 @@
 //! study.
 
 use super::error::SelectError;
-use crate::config::{JumpProposal, LikelihoodKind, ModelSpec, Study};
+use crate::config::{CrossChecks, JumpProposal, LikelihoodKind, ModelSpec, Study};
 use crate::evidence::{ProposalShape, RjOptions};
 use crate::jobs::prepare::{Prepared, default_start, likelihood_of, relbin_options, sampled_kind};
 use crate::likelihood::{Likelihood, RelBinOptions};
@@ -61,6 +61,9 @@ pub(super) struct StageSettings {
     pub burn_in: usize,
     /// Where the reversible-jump proposal comes from.
     pub jump_proposal: JumpProposal,
+    /// How much of the run the tempering cross-checks get; the ladder below is already
+    /// the one they get.
+    pub cross_checks: CrossChecks,
     /// Rungs of the tempering ladder (0: no tempering).
     pub pt_temperatures: usize,
     /// Tempering sweeps, burn-in included.
@@ -106,6 +109,16 @@ pub(super) struct SelectPlan<'a> {
     pub rj: RjOptions,
     /// Schwarz's `n`.
     pub n_sbic: f64,
+    /// The reference error to reach, and the budget (`[select] target_error`).
+    pub target: Option<RjTarget>,
+}
+
+/// A reversible jump run until the reference rows' error reaches `error`, in rounds of at most
+/// `budget` iterations.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct RjTarget {
+    pub error: f64,
+    pub budget: usize,
 }
 
 impl<'a> SelectPlan<'a> {
@@ -115,14 +128,16 @@ impl<'a> SelectPlan<'a> {
         let first = parents.of(study.select_models[0].spec.model);
         let seed = sel.seed.unwrap_or(study.seed.wrapping_add(2));
         let n_sbic = sel.schwarz_n.unwrap_or(first.n_real_data() as f64);
+        let (pt_temperatures, pt_iterations, pt_burn_in) = sel.tempering_ladder();
         let stages = StageSettings {
             chains: sel.chains,
             iterations: sel.iterations,
             burn_in: sel.burn_in,
             jump_proposal: sel.jump_proposal,
-            pt_temperatures: sel.pt_temperatures,
-            pt_iterations: sel.pt_iterations,
-            pt_burn_in: sel.pt_burn_in,
+            cross_checks: sel.cross_checks,
+            pt_temperatures,
+            pt_iterations,
+            pt_burn_in,
         };
         let models = study
             .select_models
@@ -178,6 +193,15 @@ impl<'a> SelectPlan<'a> {
             keep_draws: true,
             ..Default::default()
         };
-        SelectPlan { models, rj, n_sbic }
+        let target = sel.target_error.map(|error| RjTarget {
+            error,
+            budget: sel.rj_budget(),
+        });
+        SelectPlan {
+            models,
+            rj,
+            n_sbic,
+            target,
+        }
     }
 }

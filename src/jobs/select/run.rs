@@ -10,6 +10,7 @@ use super::pair;
 use super::plan::{Parents, SelectPlan};
 use super::stage::{FILE as STAGE_FILE, StageFile};
 use super::summary::SelectSummary;
+use super::target::{self, TargetOutcome, TargetRound};
 use crate::config::Study;
 use crate::density::LogDensity;
 use crate::evidence::{ReversibleJump, RjModel, RjOptions, RjOutcome, RjResult};
@@ -68,7 +69,8 @@ pub fn run_checkpointed(
 /// then the reversible-jump iterations.
 pub fn work_units(study: &Study) -> u64 {
     let s = &study.select;
-    let per_model = s.chains * s.iterations + s.pt_temperatures * s.pt_iterations;
+    let (rungs, sweeps, _) = s.tempering_ladder();
+    let per_model = s.chains * s.iterations + rungs * sweeps;
     (study.select_models.len() * per_model + s.rj_iterations) as u64
 }
 
@@ -161,8 +163,14 @@ fn run_models(
     Ok(runs)
 }
 
-/// The reversible-jump run and why it did not run, and its iterations per second.
-type RjStage = (Option<RjResult>, Option<String>, f64);
+/// The reversible-jump run and why it did not run, its iterations per second, and the
+/// rounds of a run with a target error.
+struct RjStage {
+    rj: Option<RjResult>,
+    note: Option<String>,
+    rate: f64,
+    rounds: Option<Vec<TargetRound>>,
+}
 
 /// The reversible jump over all models, each on its own sampled likelihood: restored from
 /// the checkpoint where it holds it, else run and saved.
@@ -204,21 +212,131 @@ fn reversible_jump(
         if let Some(r) = rj.as_mut() {
             r.draws = s.draws;
         }
-        return Ok((rj, s.note, s.rate));
+        return Ok(RjStage {
+            rj,
+            note: s.note,
+            rate: s.rate,
+            rounds: s.rounds,
+        });
     }
-    run_rj(&rj_models, &plan.rj, ckpt, progress, work, rj_base)
+    let Some(target) = plan.target else {
+        let (rj, note, rate) = run_rj(&rj_models, &plan.rj, "rj", ckpt, progress, work, rj_base);
+        let stage = RjStage {
+            rj,
+            note,
+            rate,
+            rounds: None,
+        };
+        return save_rj(ckpt, stage);
+    };
+    // rounds of growing length until the error reaches the target (`target.rs`); a resumed
+    // run continues after the rounds its checkpoint records
+    let mut rounds: Vec<TargetRound> = ckpt
+        .as_ref()
+        .map(|c| c.state.rj_rounds.clone())
+        .unwrap_or_default();
+    let mut opts = plan.rj.clone();
+    let mut base = rj_base;
+    for r in &rounds {
+        let next = r.error.and_then(|e| {
+            target::next_length(r.iterations, e, target.error, target.budget, opts.n_chains)
+        });
+        opts.n_iter = next.unwrap_or(r.iterations);
+        base += r.iterations as u64;
+    }
+    let mut progress = progress;
+    loop {
+        let name = if rounds.is_empty() {
+            "rj".to_string()
+        } else {
+            format!("rj round {} ({} iterations)", rounds.len() + 1, opts.n_iter)
+        };
+        if let Some(w) = work
+            && !rounds.is_empty()
+        {
+            w.total
+                .fetch_add(opts.n_iter as u64, std::sync::atomic::Ordering::Relaxed);
+        }
+        let (rj, note, rate) = run_rj(
+            &rj_models,
+            &opts,
+            &name,
+            ckpt,
+            progress
+                .as_mut()
+                .map(|f| &mut **f as &mut dyn FnMut(&crate::evidence::RjProgress<'_>)),
+            work,
+            base,
+        );
+        let error = rj.as_ref().and_then(target::rj_error);
+        rounds.push(TargetRound {
+            iterations: opts.n_iter,
+            error,
+        });
+        let next = error
+            .and_then(|e| {
+                target::next_length(opts.n_iter, e, target.error, target.budget, opts.n_chains)
+            })
+            .filter(|_| rounds.len() < target::MAX_ROUNDS);
+        match next {
+            Some(n) => {
+                if let Some(c) = ckpt.as_mut() {
+                    c.state.rj_rounds = rounds.clone();
+                    c.state.write(c.path)?;
+                }
+                base += opts.n_iter as u64;
+                opts.n_iter = n;
+            }
+            None => {
+                let stage = RjStage {
+                    rj,
+                    note,
+                    rate,
+                    rounds: Some(rounds),
+                };
+                return save_rj(ckpt, stage);
+            }
+        }
+    }
 }
 
-/// Runs the reversible jump on `rj_models` (work counted from `rj_base` on) and saves it to
-/// the checkpoint.
+/// Saves the finished reversible-jump stage to the checkpoint.
+fn save_rj(
+    ckpt: &mut Option<Checkpointing<'_>>,
+    mut stage: RjStage,
+) -> Result<RjStage, SelectError> {
+    if let Some(c) = ckpt.as_mut() {
+        // the draws move into the checkpoint for writing and back out (no copy)
+        let draws = stage.rj.as_mut().and_then(|r| r.draws.take());
+        c.state.rj = Some(checkpoint::RjStage {
+            rj: stage.rj.clone(),
+            note: stage.note.clone(),
+            rate: stage.rate,
+            draws,
+            rounds: stage.rounds.clone(),
+        });
+        let written = c.state.write(c.path);
+        if let (Some(r), Some(saved)) = (stage.rj.as_mut(), c.state.rj.as_mut()) {
+            r.draws = saved.draws.take();
+        }
+        written?;
+        c.stage_file().clear();
+    }
+    Ok(stage)
+}
+
+/// Runs the reversible jump on `rj_models` (work counted from `rj_base` on), its state in
+/// progress saved in the stage file under `name`: the run, why it has no result, and its
+/// iterations per second.
 fn run_rj(
     rj_models: &[RjModel<'_>],
     opts: &RjOptions,
+    name: &str,
     ckpt: &mut Option<Checkpointing<'_>>,
     mut progress: Option<&mut dyn FnMut(&crate::evidence::RjProgress<'_>)>,
     work: Option<&crate::jobs::progress::Work>,
     rj_base: u64,
-) -> Result<RjStage, SelectError> {
+) -> (Option<RjResult>, Option<String>, f64) {
     let t_rj = Instant::now();
     let mut observe = |p: &crate::evidence::RjProgress<'_>| {
         if let Some(w) = work {
@@ -236,7 +354,7 @@ fn run_rj(
         let rj = rj.progress(&mut observe);
         match &stage {
             Some(f) => {
-                let id = f.identity("all models", "rj");
+                let id = f.identity("all models", name);
                 let rj = rj.checkpoint(&f.path, id.clone(), f.every);
                 if f.holds(crate::evidence::rjmcmc::KIND, &id) {
                     rj.resume(&f.path)
@@ -247,7 +365,7 @@ fn run_rj(
             None => rj.run(),
         }
     });
-    let (mut rj, note) = match ran {
+    let (rj, note) = match ran {
         Ok(RjOutcome::Finished(r)) => (Some(*r), None),
         Ok(RjOutcome::Stopped { iterations }) => (
             None,
@@ -261,23 +379,7 @@ fn run_rj(
         ),
     };
     let rate = opts.n_iter as f64 / t_rj.elapsed().as_secs_f64();
-    if let Some(c) = ckpt.as_mut() {
-        // the draws move into the checkpoint for writing and back out (no copy)
-        let draws = rj.as_mut().and_then(|r| r.draws.take());
-        c.state.rj = Some(checkpoint::RjStage {
-            rj: rj.clone(),
-            note: note.clone(),
-            rate,
-            draws,
-        });
-        let written = c.state.write(c.path);
-        if let (Some(r), Some(stage)) = (rj.as_mut(), c.state.rj.as_mut()) {
-            r.draws = stage.draws.take();
-        }
-        written?;
-        stage.iter().for_each(StageFile::clear);
-    }
-    Ok((rj, note, rate))
+    (rj, note, rate)
 }
 
 /// The summary of a finished run: pairs, warnings (models, data, estimators), residual PSDs
@@ -288,8 +390,14 @@ fn summarise(
     plan: &SelectPlan<'_>,
     parents: &Parents<'_>,
     runs: Vec<ModelRun>,
-    (rj, rj_note, rj_rate): RjStage,
+    rj_stage: RjStage,
 ) -> Result<SelectSummary, SelectError> {
+    let RjStage {
+        rj,
+        note: rj_note,
+        rate: rj_rate,
+        rounds,
+    } = rj_stage;
     let mut model_chains = Vec::with_capacity(runs.len());
     let mut models: Vec<ModelOutcome> = Vec::with_capacity(runs.len());
     for r in runs {
@@ -343,8 +451,17 @@ fn summarise(
     let truth_snr = truth_of(study, plan.models[0].spec.model, &prep.dataset)
         .and_then(|t| t.into_iter().collect::<Option<Vec<f64>>>())
         .map(|t| first.snr(&t));
+    let target = plan
+        .target
+        .zip(rounds)
+        .map(|(t, rounds)| TargetOutcome::finish(t.error, t.budget, rounds, &pairs));
+    if let Some(n) = target.as_ref().and_then(|t| t.note.as_ref()) {
+        warnings.push(format!("[select] target_error not met: {n}"));
+    }
     Ok(SelectSummary {
         origin: prep.origin.clone(),
+        target,
+        cross_checks: study.select.cross_checks,
         rho_opt_simulated: prep.dataset.extra.get("snr_total").and_then(|v| v.as_f64()),
         rho_opt: truth_snr.unwrap_or_else(|| first.snr(&models[0].map)),
         n_bins: first.n_bins(),

@@ -36,6 +36,12 @@ pub struct SelectSummary {
     pub rj: Option<RjResult>,
     pub rj_note: Option<String>,
     pub rj_iterations_per_second: f64,
+    /// How a run with `[select] target_error` went (absent without one).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub target: Option<super::target::TargetOutcome>,
+    /// How much of the run the tempering cross-checks got (absent when `full`).
+    #[serde(skip_serializing_if = "crate::config::CrossChecks::is_full")]
+    pub cross_checks: crate::config::CrossChecks,
     pub seconds: f64,
     /// Warnings about the models, the data and the estimators.
     pub warnings: Vec<String>,
