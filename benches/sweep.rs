@@ -8,7 +8,8 @@
 //! `cargo bench --bench sweep` runs the `SWEEP_BENCH_N` × `SWEEP_BENCH_N` grid (default 20) on
 //! 2 workers and prints its wall time, then the first `SWEEP_BENCH_EFF` tasks (default 24) on 1
 //! and on 2 workers, side by side, and the parallel efficiency T₁ / (2 T₂). Each run writes into
-//! a fresh temporary directory, so nothing is reused.
+//! a fresh temporary directory, so nothing is reused. `SWEEP_BENCH_CROSS_CHECKS=light` (or
+//! `off`) sets every task's `[select] cross_checks`.
 
 use occam::jobs::exec::Threads;
 use occam::jobs::sweep::grid::parse_axis;
@@ -25,6 +26,16 @@ fn env(name: &str, default: usize) -> usize {
 
 fn plan(n_freq: usize, n_snr: usize, out: &Path) -> Result<Sweep, Box<dyn std::error::Error>> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let file = root.join("examples/design-frequency.toml");
+    let mut text = std::fs::read_to_string(&file)?;
+    // `SWEEP_BENCH_CROSS_CHECKS=light` (or `off`): every task's `[select] cross_checks`
+    if let Ok(c) = std::env::var("SWEEP_BENCH_CROSS_CHECKS") {
+        text = text.replacen(
+            "[select]\n",
+            &format!("[select]\ncross_checks = \"{c}\"\n"),
+            1,
+        );
+    }
     let args = SweepArgs {
         axes: Some(vec![
             parse_axis(&format!("experiment.scan.x1.freq=log:1e-4:1:{n_freq}"))?,
@@ -34,8 +45,10 @@ fn plan(n_freq: usize, n_snr: usize, out: &Path) -> Result<Sweep, Box<dyn std::e
         output: Some(out.to_path_buf()),
         ..Default::default()
     };
-    Ok(Sweep::load(
-        &root.join("examples/design-frequency.toml"),
+    Ok(Sweep::from_text(
+        &text,
+        &file.display().to_string(),
+        &root.join("examples"),
         args,
     )?)
 }
@@ -72,8 +85,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let s = plan(n, n, &dir.path().join("grid"))?;
     let t = timed(&s, 2)?;
     println!(
-        "{n} × {n} grid ({} tasks, full model selection each) on 2 workers: {t:.1} s ({:.2} s per task)",
+        "{n} × {n} grid ({} tasks, full model selection each, cross-checks {}) on 2 workers: {t:.1} s ({:.2} s per task)",
         s.task_count(),
+        std::env::var("SWEEP_BENCH_CROSS_CHECKS").unwrap_or_else(|_| "full".into()),
         t / s.task_count() as f64
     );
     Ok(())

@@ -74,6 +74,53 @@ impl Study {
     }
 }
 
+/// The simulated loop with what the state matrix of [`check_stable`] lacks — the OMS delay,
+/// `[simulation] thruster` and TM2's actuator (`[simulation.actuators] tm2`) — by
+/// Routh–Hurwitz on its characteristic polynomial ([`crate::ltp::hurwitz`]).
+fn simulated_loop_stable(
+    truth: &LtpParams,
+    masses: &Masses,
+    oms_delay: f64,
+    sim: &super::study::SimulationOptions,
+) -> Result<(), String> {
+    use crate::ltp::hurwitz::{Actuation, LoopPolynomial, rightmost_root};
+    use crate::model::ThrusterResponse;
+    let thruster = match sim.thruster {
+        Some(t) if t.response == ThrusterResponse::Pole => Actuation {
+            pole: Some(t.value),
+            delay: 0.0,
+        },
+        Some(t) if t.response == ThrusterResponse::Delay => Actuation {
+            pole: None,
+            delay: t.value,
+        },
+        _ => Actuation::default(),
+    };
+    let tm2 = sim.actuators.tm2;
+    let sus = Actuation {
+        pole: tm2.pole,
+        delay: tm2.delay,
+    };
+    let lp = LoopPolynomial::new(
+        &Controllers::default(),
+        masses,
+        oms_delay,
+        [Actuation::default(), sus],
+    );
+    let th = truth.to_array();
+    if lp.is_stable(&th, &thruster) {
+        return Ok(());
+    }
+    let pole = rightmost_root(&lp.char_poly(&th, &thruster)).map_or(String::new(), |z| {
+        format!(" (a pole at {:.4e} {:+.4e}i rad/s)", z.re, z.im)
+    });
+    Err(format!(
+        "the simulated closed loop is unstable{pole} with its OMS delay ({oms_delay} s), [simulation] thruster ({:?}) and TM2 actuator ({:?}); change those or the loop parameters",
+        sim.thruster.map(|t| (t.response, t.value)),
+        (tm2.pole, tm2.delay)
+    ))
+}
+
 /// The invalid `field` of `file`, and why.
 fn invalid(file: &str, field: String, msg: String) -> ConfigError {
     ConfigError::Invalid {
@@ -117,6 +164,8 @@ impl StudyFile {
         check_delay(self.oms_delay).map_err(|m| bad("oms_delay".into(), m))?;
         check_stable(&self.truth, &Controllers::default(), &self.masses)
             .map_err(|e| bad("truth".into(), e.to_string()))?;
+        simulated_loop_stable(&self.truth, &self.masses, self.oms_delay, &self.simulation)
+            .map_err(|e| bad("truth".into(), e))?;
         check_simulation(&self.simulation, file)?;
         let experiments = self.resolve_experiments(file, base, budget)?;
         validate_analysis(&self.analysis, file)?;
@@ -1579,6 +1628,42 @@ output = "out"
 name = "inv1"
 design = "tn3045_x1"
 "#;
+
+    #[test]
+    fn a_simulated_loop_unstable_through_its_thruster_actuator_or_oms_delay_is_refused() {
+        // the state matrix alone (no thruster, actuator or OMS delay) calls each of these stable
+        for (extra, stable) in [
+            (
+                "[simulation]\nthruster = { response = \"pole\", value = 0.3 }\n",
+                true,
+            ),
+            (
+                "[simulation]\nthruster = { response = \"pole\", value = 0.03 }\n",
+                false,
+            ),
+            (
+                "[simulation]\nthruster = { response = \"delay\", value = 3.0 }\n",
+                false,
+            ),
+            ("[simulation.actuators]\ntm2 = { delay = 0.2 }\n", true),
+            ("[simulation.actuators]\ntm2 = { pole = 1e-4 }\n", false),
+            ("oms_delay = 3.0\n", false),
+        ] {
+            let text = if extra.starts_with('[') {
+                format!("{OK}{extra}")
+            } else {
+                format!("{extra}{OK}")
+            };
+            match load(&text) {
+                Ok(_) => assert!(stable, "{extra}: accepted"),
+                Err(e) => {
+                    let e = e.to_string();
+                    assert!(!stable, "{extra}: {e}");
+                    assert!(e.contains("truth") && e.contains("unstable"), "{e}");
+                }
+            }
+        }
+    }
 
     #[test]
     fn minimal_study_uses_defaults() {

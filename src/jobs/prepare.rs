@@ -1031,6 +1031,124 @@ fn box_corner_fault(study: &Study, mi: usize) -> Option<String> {
 /// Most parameters whose prior box is checked at every corner (more: each parameter's two ends).
 pub const MAX_CORNER_PARAMS: usize = 12;
 
+/// Where model `mi`'s prior box reaches parameter values at which its system is unstable
+/// ([`crate::model::Model::is_stable`]), as a warning with the boundary found: each
+/// parameter alone (the others at the prior centre) from the centre to each end of its box,
+/// the first unstable value by bisection; then every corner (up to [`MAX_CORNER_PARAMS`]
+/// parameters), the count of unstable ones and, when no parameter alone reaches instability,
+/// the boundary on the line from the centre to the first. The samplers refuse those values
+/// (`ln L = −∞`, counted per model); the warning says where they are.
+pub fn stability_warning(study: &Study, mi: usize) -> Option<String> {
+    let m = &study.models.models[mi];
+    let kinds = study.models.priors[mi].kinds();
+    let centre: Vec<f64> = kinds.iter().map(crate::prior::PriorKind::centre).collect();
+    if !m.is_stable(&centre) {
+        return None; // the start's check warns about it
+    }
+    let names = m.param_names();
+    let units = m.param_units();
+    // the last stable point on the segment from the centre to `to` (unstable)
+    let boundary = |to: &[f64]| {
+        let at = |t: f64| -> Vec<f64> {
+            centre
+                .iter()
+                .zip(to)
+                .map(|(c, x)| c + t * (x - c))
+                .collect()
+        };
+        let (mut lo, mut hi) = (0.0, 1.0);
+        for _ in 0..50 {
+            let mid = 0.5 * (lo + hi);
+            if m.is_stable(&at(mid)) {
+                lo = mid
+            } else {
+                hi = mid
+            }
+        }
+        at(hi)
+    };
+    let mut alone = Vec::new();
+    for (i, k) in kinds.iter().enumerate() {
+        let (lo, hi) = k.bounds();
+        for (end, word) in [(lo, "below"), (hi, "above")] {
+            if !end.is_finite() {
+                continue;
+            }
+            let mut p = centre.clone();
+            p[i] = end;
+            if !m.is_stable(&p) {
+                let b = boundary(&p)[i];
+                let unit = units.get(i).filter(|u| !u.is_empty());
+                alone.push(format!(
+                    "`{}` {word} {}{}",
+                    names[i],
+                    crate::numfmt::fmt_sig(b, 4),
+                    unit.map_or(String::new(), |u| format!(" {u}"))
+                ));
+            }
+        }
+    }
+    let n = kinds.len();
+    let mut corners = (0usize, 0usize, None::<Vec<f64>>);
+    if n <= MAX_CORNER_PARAMS {
+        let ends: Vec<(f64, f64)> = kinds
+            .iter()
+            .zip(&centre)
+            .map(|(k, &c)| {
+                let (lo, hi) = k.bounds();
+                (
+                    if lo.is_finite() { lo } else { c },
+                    if hi.is_finite() { hi } else { c },
+                )
+            })
+            .collect();
+        for bits in 0..1usize << n {
+            let p: Vec<f64> = (0..n)
+                .map(|i| {
+                    if (bits >> i) & 1 == 0 {
+                        ends[i].0
+                    } else {
+                        ends[i].1
+                    }
+                })
+                .collect();
+            corners.1 += 1;
+            if !m.is_stable(&p) {
+                corners.0 += 1;
+                corners.2.get_or_insert(p);
+            }
+        }
+    }
+    if alone.is_empty() && corners.0 == 0 {
+        return None;
+    }
+    let mut parts = Vec::new();
+    if !alone.is_empty() {
+        parts.push(format!(
+            "{} (the others at the prior centre)",
+            alone.join(", ")
+        ));
+    }
+    if corners.0 > 0 {
+        let mut s = format!("{} of the box's {} corners", corners.0, corners.1);
+        if alone.is_empty()
+            && let Some(p) = &corners.2
+        {
+            s.push_str(&format!(
+                ", from the prior centre towards {} first at {}",
+                crate::config::fmt_point(names, p),
+                crate::config::fmt_point(names, &boundary(p))
+            ));
+        }
+        parts.push(s);
+    }
+    Some(format!(
+        "model `{}`: its prior box reaches parameter values where the closed loop is unstable: {}; the samplers refuse those values (ln L = −∞, counted in each model's `unstable_evaluations`), so the posterior ends there — narrow the prior if that instability is not physics you mean to test",
+        study.models.defs[mi].name(),
+        parts.join("; ")
+    ))
+}
+
 /// Warnings about fitting model `mi` to `dataset`: a start point (fixed and start values) the
 /// model rejects ([`crate::model::Model::check`]), and a continuous-time closed loop fitted to
 /// data from the discretised loop (`[simulation] method = "time"`), which the zero-order
@@ -1054,6 +1172,7 @@ pub fn model_warnings(study: &Study, mi: usize, dataset: &Dataset) -> Vec<String
     {
         w.push(why);
     }
+    w.extend(stability_warning(study, mi));
     w.extend(noise_warnings(study, mi, dataset));
     // a guidance-injection model on data with force injections: their response is in the
     // outputs but not in `H_io i`, so the residual is not noise
@@ -1149,5 +1268,53 @@ mod tests {
         assert_eq!(g(&study("a - 1", 1.0)), None);
         // a Gaussian side is not checked beyond its centre (b = 1 gives a delay of 0)
         assert_eq!(g(&study("a*b - 1", 1.0)), None);
+    }
+}
+
+#[cfg(test)]
+mod stability_tests {
+    use super::*;
+
+    fn thruster_study(lo: f64) -> Study {
+        let text = format!(
+            r#"seed = 1
+output = "o"
+[[model]]
+kind = "ltp"
+name = "pole"
+thruster = "pole"
+[prior]
+f_df = {{ kind = "uniform", lo = {lo}, hi = 3.0 }}
+a_df = {{ kind = "uniform", lo = 0.8, hi = 0.84 }}
+[fit]
+model = "pole"
+[[experiment]]
+name = "inv1"
+design = "tn3045_x1"
+"#
+        );
+        Study::from_toml(&text, "t.toml", std::path::Path::new(".")).unwrap()
+    }
+
+    #[test]
+    fn a_prior_box_reaching_instability_is_warned_about_with_the_boundary() {
+        let s = thruster_study(0.02);
+        let w = stability_warning(&s, s.models.index("pole").unwrap()).unwrap();
+        // the boundary at the prior centre (A_df = 0.82): ≈ 0.055 Hz, as issue 23 measured
+        let b: f64 = w
+            .split("`f_df` below ")
+            .nth(1)
+            .and_then(|r| r.split(' ').next())
+            .and_then(|x| x.parse().ok())
+            .unwrap_or_else(|| panic!("{w}"));
+        assert!((0.050..0.060).contains(&b), "{w}");
+        assert!(w.contains(" Hz (the others at the prior centre)"), "{w}");
+        assert!(w.contains("corners"), "{w}");
+        // a box that stays stable gets no warning
+        let s = thruster_study(0.08);
+        assert_eq!(stability_warning(&s, s.models.index("pole").unwrap()), None);
+        // nor does the guidance-delay study's
+        let s = Study::load(std::path::Path::new("examples/guidance-delays.toml")).unwrap();
+        assert_eq!(stability_warning(&s, s.models.index("ltp").unwrap()), None);
     }
 }

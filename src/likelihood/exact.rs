@@ -41,6 +41,8 @@ pub struct Likelihood {
     prior: Prior,
     ln_norm: f64,
     stat: StatState,
+    /// Evaluations refused at unstable parameter values ([`super::stability`]).
+    unstable: super::stability::UnstableCount,
 }
 
 /// The θ-independent state of the chosen statistic.
@@ -170,6 +172,7 @@ impl Likelihood {
             prior,
             ln_norm,
             stat: StatState::Whittle,
+            unstable: Default::default(),
         })
     }
 
@@ -391,6 +394,9 @@ impl Likelihood {
         if th.len() != self.model.param_names().len() {
             return f64::NAN;
         }
+        if !self.unstable.admit(self.model.as_ref(), th) {
+            return f64::NEG_INFINITY;
+        }
         match &self.stat {
             StatState::Whittle => -self.residual_power(th) + self.ln_norm,
             StatState::StudentT { nu, bins, ln_norm } => {
@@ -408,11 +414,20 @@ impl Likelihood {
         }
     }
 
+    /// Evaluations refused so far because the model's system was unstable there
+    /// ([`super::stability`]).
+    pub fn unstable_evaluations(&self) -> u64 {
+        self.unstable.get()
+    }
+
     /// The Whittle (Gaussian, known-PSD) `ln L`, whatever the statistic: what the Fisher
     /// matrix, the MAP search and relative binning approximate.
     pub fn ln_likelihood_whittle(&self, th: &[f64]) -> f64 {
         if th.len() != self.model.param_names().len() {
             return f64::NAN;
+        }
+        if !self.unstable.admit(self.model.as_ref(), th) {
+            return f64::NEG_INFINITY;
         }
         -self.residual_power(th) + self.ln_norm
     }

@@ -17,6 +17,7 @@ mod relbin;
 pub mod residual_psd;
 mod segments;
 mod spectra;
+pub mod stability;
 pub mod statistic;
 
 pub use exact::{Likelihood, LikelihoodError};

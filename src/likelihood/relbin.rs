@@ -210,6 +210,8 @@ pub struct RelBinLikelihood {
     n_coarse: usize,
     /// Boxed: the struct is held by value in enums next to small variants.
     validation: Box<RelBinValidation>,
+    /// Evaluations refused at unstable parameter values ([`super::stability`]).
+    unstable: super::stability::UnstableCount,
 }
 
 impl RelBinLikelihood {
@@ -364,6 +366,7 @@ impl RelBinLikelihood {
             base,
             fiducial: fid.to_vec(),
             n_coarse,
+            unstable: Default::default(),
             validation: Box::new(RelBinValidation {
                 n_points: 0,
                 worst_abs_delta_ln_l: f64::NAN,
@@ -393,7 +396,14 @@ impl RelBinLikelihood {
         self.n_coarse
     }
 
-    /// `ln L̃` at a full parameter vector. Allocation-free.
+    /// Evaluations refused so far because the model's system was unstable there
+    /// ([`super::stability`]).
+    pub fn unstable_evaluations(&self) -> u64 {
+        self.unstable.get()
+    }
+
+    /// `ln L̃` at a full parameter vector (`−∞` where the model's system is unstable).
+    /// Allocation-free.
     ///
     /// Per experiment: the model's coefficients at every edge in one call per chunk of edges
     /// (the batch the model prepared for that chunk, [`Model::prepare_batch`], else
@@ -402,6 +412,9 @@ impl RelBinLikelihood {
     pub fn ln_likelihood_full(&self, th: &[f64]) -> f64 {
         if th.len() != self.fiducial.len() {
             return f64::NAN;
+        }
+        if !self.unstable.admit(self.model.as_ref(), th) {
+            return f64::NEG_INFINITY;
         }
         // stack buffers sized for the widest experiment (zeroing them is not free); wide ones
         // take shorter chunks of edges so the buffers stay within ~150 KiB of stack

@@ -480,3 +480,50 @@ fn prepared_and_batched_paths_agree_for_every_ltp_variant() {
         }
     }
 }
+
+/// Where the loop is unstable (a thruster pole below ≈ 0.057 Hz at the Table I values) every
+/// likelihood — exact, its Whittle form and relative binning — is −∞ and counts the refusal;
+/// where it is stable it is the number it always was.
+#[test]
+fn unstable_parameter_values_get_minus_infinity_and_are_counted() {
+    use crate::density::LogDensity;
+    use crate::model::{LtpModel, LtpModelOptions, ThrusterResponse};
+    let study = small_study(9, 1e-7, "circular");
+    let m = LtpModel::new(
+        "pole",
+        LtpModelOptions {
+            thruster: ThrusterResponse::Pole,
+            ..Default::default()
+        },
+    );
+    let (names, kinds): (Vec<String>, Vec<_>) = m.default_priors().into_iter().unzip();
+    let prior = Prior::new(names, kinds).unwrap();
+    let m: std::sync::Arc<dyn crate::model::Model> = std::sync::Arc::new(m);
+    let at = |f_df: f64| {
+        let mut th = LtpParams::default().to_array().to_vec();
+        th.push(f_df);
+        th
+    };
+    let spectra = spectra_for(&study, &model_opts(), m.as_ref(), &at(0.5));
+    let lik = Likelihood::new(m.clone(), spectra, prior).unwrap();
+    let stable = at(0.5);
+    let unstable = at(0.03);
+    assert!(m.is_stable(&stable) && !m.is_stable(&unstable));
+    // stable: a number, as before (the goldens pin it: no study's number moved but where
+    // its samplers went into unstable values)
+    assert_eq!(
+        lik.ln_likelihood(&stable),
+        lik.ln_likelihood_whittle(&stable)
+    );
+    assert!(lik.ln_likelihood(&stable).is_finite());
+    assert_eq!(lik.unstable_evaluations(), 0);
+    // unstable: −∞ from every entry point, each counted; the residual power itself is finite
+    assert!(lik.residual_power(&unstable).is_finite());
+    assert_eq!(lik.ln_likelihood(&unstable), f64::NEG_INFINITY);
+    assert_eq!(lik.ln_likelihood_whittle(&unstable), f64::NEG_INFINITY);
+    assert_eq!(lik.unstable_evaluations(), 2);
+    let rb = RelBinLikelihood::new(&lik, &stable, &Default::default()).unwrap();
+    assert!(rb.ln_likelihood(&stable).is_finite());
+    assert_eq!(rb.ln_likelihood(&unstable), f64::NEG_INFINITY);
+    assert_eq!(rb.unstable_evaluations(), 1);
+}

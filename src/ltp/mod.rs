@@ -20,6 +20,7 @@ mod closed_loop;
 mod controllers;
 pub mod discrete_response;
 pub mod fpsder;
+pub mod hurwitz;
 mod noise;
 mod params;
 pub mod timedomain;

@@ -356,6 +356,11 @@ impl Model for DriftModel {
         self.first().force_response_dual(theta, bin, out)
     }
 
+    /// Stable in every stretch.
+    fn is_stable(&self, theta: &[f64]) -> bool {
+        self.in_stretch.iter().all(|m| m.is_stable(theta))
+    }
+
     /// Valid in every stretch.
     fn check(&self, theta: &[f64]) -> Result<(), String> {
         for (m, c) in self.in_stretch.iter().zip(&self.stretches) {

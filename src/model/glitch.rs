@@ -401,6 +401,10 @@ impl Model for GlitchModel {
         self.fill(theta, &pc, has.then_some(&pf[..]), shape, out);
     }
 
+    fn is_stable(&self, theta: &[f64]) -> bool {
+        self.parent.is_stable(&theta[..self.np])
+    }
+
     fn check(&self, theta: &[f64]) -> Result<(), String> {
         self.parent.check(&theta[..self.np])?;
         for j in 0..self.n_glitches() {

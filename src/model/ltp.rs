@@ -38,6 +38,7 @@ use super::bin::{Bin, BinBlock};
 use super::traits::{BlockKernel, Model, coefficients_batch_generic, residual_power_generic};
 use crate::hermitian;
 use crate::lti::delay;
+use crate::ltp::hurwitz::{Actuation, LoopPolynomial};
 use crate::ltp::{
     BinConsts, Controllers, DiscreteBinConsts, DiscreteControllers, DiscreteLoopKernel, LoopKernel,
     LtpParams, Masses, N_DISCRETE_CONSTS, N_PARAMS, PARAM_NAMES, check_stable,
@@ -138,6 +139,8 @@ pub struct LtpModel {
     names: Vec<String>,
     data: Vec<String>,
     res: Vec<String>,
+    /// The loop's characteristic polynomial (controllers, OMS delay), for the stability test.
+    poly: LoopPolynomial,
 }
 
 /// Constants per bin: `C_df, C_sus, E, E·C_df, E·C_sus` (continuous) or
@@ -153,10 +156,13 @@ impl LtpModel {
             names.push(p.to_string());
         }
         let s = |v: &[&str]| v.iter().map(|x| x.to_string()).collect::<Vec<_>>();
+        let ctrl = Controllers::default();
+        let poly = LoopPolynomial::new(&ctrl, &opts.masses, opts.oms_delay, Default::default());
         Self {
             name: name.to_string(),
             opts,
-            ctrl: Controllers::default(),
+            ctrl,
+            poly,
             names,
             data: s(&["o1", "o12", "i1", "i12"]),
             res: s(&["o1", "o12"]),
@@ -166,6 +172,22 @@ impl LtpModel {
     /// The options.
     pub fn options(&self) -> &LtpModelOptions {
         &self.opts
+    }
+
+    /// The thruster response at θ as a loop actuation (none without a thruster parameter).
+    fn thruster_actuation(&self, theta: &[f64]) -> Actuation {
+        let x = theta.get(N_PARAMS).copied().unwrap_or(f64::NAN);
+        match self.opts.thruster {
+            ThrusterResponse::None => Actuation::default(),
+            ThrusterResponse::Delay => Actuation {
+                pole: None,
+                delay: x,
+            },
+            ThrusterResponse::Pole => Actuation {
+                pole: Some(x),
+                delay: 0.0,
+            },
+        }
     }
 
     /// Whether this is the plain continuous loop (no thruster response), the one the prepared
@@ -388,11 +410,41 @@ impl Model for LtpModel {
     }
 
     fn check(&self, theta: &[f64]) -> Result<(), String> {
-        let t7: &[f64; N_PARAMS] = theta[..N_PARAMS]
-            .try_into()
-            .map_err(|_| "wrong parameter count".to_string())?;
+        let t7: &[f64; N_PARAMS] = theta
+            .get(..N_PARAMS)
+            .and_then(|t| t.try_into().ok())
+            .ok_or_else(|| "wrong parameter count".to_string())?;
         check_stable(&LtpParams::from_array(t7), &self.ctrl, &self.opts.masses)
-            .map_err(|e| e.to_string())
+            .map_err(|e| e.to_string())?;
+        // the loop with its thruster response and OMS delay, which the state matrix lacks
+        let thruster = self.thruster_actuation(theta);
+        if !self.poly.is_stable(t7, &thruster) {
+            let p = self.poly.char_poly(t7, &thruster);
+            let worst = crate::ltp::hurwitz::rightmost_root(&p);
+            return Err(format!(
+                "the closed loop is unstable for these parameters{}: {} (Routh–Hurwitz on its characteristic polynomial); check {}",
+                match self.opts.thruster.param() {
+                    Some(n) => format!(" with its thruster response (`{n}` = {})", theta[N_PARAMS]),
+                    None => " with its OMS delay".into(),
+                },
+                match worst {
+                    Some(z) => format!("a pole at {:.4e} {:+.4e}i rad/s", z.re, z.im),
+                    None => "its characteristic polynomial is degenerate".into(),
+                },
+                self.names.join(", ")
+            ));
+        }
+        Ok(())
+    }
+
+    fn is_stable(&self, theta: &[f64]) -> bool {
+        let Some(t7) = theta
+            .get(..N_PARAMS)
+            .and_then(|t| <&[f64; N_PARAMS]>::try_from(t).ok())
+        else {
+            return false;
+        };
+        self.poly.is_stable(t7, &self.thruster_actuation(theta))
     }
 
     /// The wave-1 kernel: θ-dependent loop scalars once per θ, one complex reciprocal per bin,

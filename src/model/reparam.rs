@@ -240,6 +240,10 @@ impl Model for ReparamModel {
         self.parent.check(&self.expand(theta))
     }
 
+    fn is_stable(&self, theta: &[f64]) -> bool {
+        self.map.with(theta, |p| self.parent.is_stable(p))
+    }
+
     fn data_noise_csd(&self, theta: &[f64], bin: &Bin, out: &mut [Complex64]) -> bool {
         self.parent.data_noise_csd(&self.expand(theta), bin, out)
     }

@@ -129,6 +129,16 @@ pub trait Model: Send + Sync + std::fmt::Debug {
         Ok(())
     }
 
+    /// Whether the system the model describes is stable at θ, asked at **every** likelihood
+    /// evaluation: where it is not, `ln L = −∞` (the frequency-domain likelihood of an
+    /// unstable loop describes no data) and the evaluation is counted. It must be cheap: the
+    /// LTP loop's is a Routh–Hurwitz test of its characteristic polynomial
+    /// ([`crate::ltp::hurwitz`]), a state-space model's its eigenvalues. `true` (the
+    /// default): the model declares no stability condition.
+    fn is_stable(&self, _theta: &[f64]) -> bool {
+        true
+    }
+
     /// Where a non-finite coefficient at θ and frequency `f` comes from, for a model built
     /// from parts (a user model: the first block or define that is not finite, and why);
     /// `None` (the default) when the model has no parts to name.

@@ -582,6 +582,7 @@ pub(super) fn run_model(m: &ModelPlan<'_>, stage: Option<&StageFile>) -> Result<
             .as_ref()
             .map(|g| g.rhat.iter().cloned().fold(0.0, f64::max)),
         jump_proposal: jump_source.to_string(),
+        unstable_evaluations: 0,
         notes,
     };
     Ok(ModelRun {

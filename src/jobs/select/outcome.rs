@@ -109,6 +109,10 @@ pub struct ModelOutcome {
     /// Where the reversible-jump proposal of this model comes from.
     pub jump_proposal: String,
     /// Stages that did not apply, and why.
+    /// Likelihood evaluations of this model's stages (MAP search, chains, tempering) refused
+    /// because the system was unstable there (`ln L = −∞`, [`crate::likelihood::stability`]).
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub unstable_evaluations: u64,
     pub notes: Vec<String>,
 }
 
@@ -158,6 +162,11 @@ impl TemperingDiagnostics {
             )
         })
     }
+}
+
+/// Whether a count is zero (not written then).
+fn is_zero(n: &u64) -> bool {
+    *n == 0
 }
 
 #[cfg(test)]

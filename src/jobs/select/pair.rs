@@ -425,6 +425,7 @@ mod tests {
             mcmc_acceptance: vec![],
             mcmc_max_rhat: None,
             jump_proposal: "in-model chains".into(),
+            unstable_evaluations: 0,
             notes: vec![],
         }
     }

@@ -130,9 +130,21 @@ fn run_models(
             model: m.name.clone(),
             msg,
         };
+        // the stages run one after another on the model's likelihoods: what each refused
+        let refused = |r: &ModelRun| {
+            m.exact.unstable_evaluations()
+                + match &r.sampled {
+                    Sampled::RelBin(rb) => rb.unstable_evaluations(),
+                    Sampled::Exact(_) => 0,
+                }
+        };
+        let refused_before = m.exact.unstable_evaluations();
         let mut r = match saved {
             Some(stage) => stage.restore(m),
-            None => model::run_model(m, stage.as_ref()),
+            None => model::run_model(m, stage.as_ref()).map(|mut r| {
+                r.outcome.unstable_evaluations = refused(&r) - refused_before;
+                r
+            }),
         }
         .map_err(err)?;
         add_work(work, st.chains * st.iterations);
@@ -149,7 +161,9 @@ fn run_models(
                 add_work(work, (done - counted) * st.pt_temperatures);
                 counted = done;
             };
+            let before = refused(&r);
             model::temper(m, &mut r, &mut progress, stage.as_ref()).map_err(err)?;
+            r.outcome.unstable_evaluations += refused(&r) - before;
             if let Some(c) = ckpt.as_mut() {
                 c.state.models[k] = checkpoint::ModelStage::of(&r, true);
                 c.state.write(c.path)?;
@@ -423,6 +437,12 @@ fn summarise(
     }
     for m in &models {
         warnings.extend(m.notes.iter().map(|n| format!("model `{}`: {n}", m.name)));
+        if m.unstable_evaluations > 0 {
+            warnings.push(format!(
+                "model `{}`: {} likelihood evaluations fell where the closed loop is unstable and were refused (ln L = −∞): the prior box reaches instability (see the warning on the model's prior box)",
+                m.name, m.unstable_evaluations
+            ));
+        }
         if let Some(w) = m.tempering.as_ref().and_then(|t| t.broken_ladder_warning()) {
             warnings.push(format!("model `{}`: {w}", m.name));
         }

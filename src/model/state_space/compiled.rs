@@ -305,6 +305,11 @@ impl Model for StateSpaceModel {
     /// θ has the right length and finite values, delays are ≥ 0, noise PSDs ≥ 0, and the
     /// system is stable (every eigenvalue of `A` in the left half-plane, or inside the unit
     /// circle for a discrete-time model).
+    /// Its eigenvalues, as [`Model::check`] finds them.
+    fn is_stable(&self, theta: &[f64]) -> bool {
+        self.check(theta).is_ok()
+    }
+
     fn check(&self, theta: &[f64]) -> Result<(), String> {
         let m = &self.name;
         if theta.len() != self.params.len() {
