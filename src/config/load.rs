@@ -164,9 +164,9 @@ impl StudyFile {
         check_delay(self.oms_delay).map_err(|m| bad("oms_delay".into(), m))?;
         check_stable(&self.truth, &Controllers::default(), &self.masses)
             .map_err(|e| bad("truth".into(), e.to_string()))?;
+        check_simulation(&self.simulation, file)?;
         simulated_loop_stable(&self.truth, &self.masses, self.oms_delay, &self.simulation)
             .map_err(|e| bad("truth".into(), e))?;
-        check_simulation(&self.simulation, file)?;
         let experiments = self.resolve_experiments(file, base, budget)?;
         validate_analysis(&self.analysis, file)?;
         self.check_bands(&experiments.designs, file)?;
