@@ -29,7 +29,7 @@ pub const PADE_ORDER: usize = 3;
 /// Most coefficients a loop polynomial holds (degree 9, plus 3 per delay and 1 per pole).
 const CAP: usize = 32;
 
-/// A real polynomial, ascending powers of `s`, at most [`CAP`] coefficients, on the stack.
+/// A real polynomial, ascending powers of `s`, at most 32 coefficients, on the stack.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Poly {
     c: [f64; CAP],
