@@ -21,12 +21,7 @@ use std::path::Path;
 impl Study {
     /// Reads and validates a study file.
     pub fn load(path: &Path) -> Result<Study, ConfigError> {
-        let file = path.display().to_string();
-        let text = crate::data::infile::read_to_string(path).map_err(|error| ConfigError::Io {
-            file: file.clone(),
-            error,
-        })?;
-        let base = path.parent().unwrap_or(Path::new("."));
+        let (file, text, base) = read_study(path)?;
         Self::from_toml(&text, &file, base)
     }
 
@@ -40,12 +35,7 @@ impl Study {
         if keys.is_empty() {
             return Self::load(path);
         }
-        let file = path.display().to_string();
-        let text = crate::data::infile::read_to_string(path).map_err(|error| ConfigError::Io {
-            file: file.clone(),
-            error,
-        })?;
-        let base = path.parent().unwrap_or(Path::new("."));
+        let (file, text, base) = read_study(path)?;
         let Ok(mut doc) = text.parse::<toml::Table>() else {
             // the file's own parse error, as `load` gives it
             return Self::from_toml(&text, &file, base);
@@ -119,6 +109,16 @@ fn simulated_loop_stable(
         sim.thruster.map(|t| (t.response, t.value)),
         (tm2.pole, tm2.delay)
     ))
+}
+
+/// A study file's name for messages, its text, and the directory its relative paths start from.
+fn read_study(path: &Path) -> Result<(String, String, &Path), ConfigError> {
+    let file = path.display().to_string();
+    let text = crate::data::infile::read_to_string(path).map_err(|error| ConfigError::Io {
+        file: file.clone(),
+        error,
+    })?;
+    Ok((file, text, path.parent().unwrap_or(Path::new("."))))
 }
 
 /// The invalid `field` of `file`, and why.

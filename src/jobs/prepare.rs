@@ -992,17 +992,7 @@ fn box_corner_fault(study: &Study, mi: usize) -> Option<String> {
     if m.check(&centre).is_err() {
         return None; // refused at load, or warned about as a start
     }
-    let ends: Vec<[f64; 2]> = kinds
-        .iter()
-        .zip(&centre)
-        .map(|(k, &c)| {
-            let (lo, hi) = k.bounds();
-            [
-                if lo.is_finite() { lo } else { c },
-                if hi.is_finite() { hi } else { c },
-            ]
-        })
-        .collect();
+    let ends = box_ends(kinds, &centre);
     let n = ends.len();
     let points: Box<dyn Iterator<Item = Vec<f64>>> = if n <= MAX_CORNER_PARAMS {
         Box::new(
@@ -1026,6 +1016,21 @@ fn box_corner_fault(study: &Study, mi: usize) -> Option<String> {
         }
     }
     None
+}
+
+/// Each parameter's two ends of its prior box; an unbounded (Gaussian) side at the centre.
+fn box_ends(kinds: &[crate::prior::PriorKind], centre: &[f64]) -> Vec<[f64; 2]> {
+    kinds
+        .iter()
+        .zip(centre)
+        .map(|(k, &c)| {
+            let (lo, hi) = k.bounds();
+            [
+                if lo.is_finite() { lo } else { c },
+                if hi.is_finite() { hi } else { c },
+            ]
+        })
+        .collect()
 }
 
 /// Most parameters whose prior box is checked at every corner (more: each parameter's two ends).
@@ -1091,27 +1096,9 @@ pub fn stability_warning(study: &Study, mi: usize) -> Option<String> {
     let n = kinds.len();
     let mut corners = (0usize, 0usize, None::<Vec<f64>>);
     if n <= MAX_CORNER_PARAMS {
-        let ends: Vec<(f64, f64)> = kinds
-            .iter()
-            .zip(&centre)
-            .map(|(k, &c)| {
-                let (lo, hi) = k.bounds();
-                (
-                    if lo.is_finite() { lo } else { c },
-                    if hi.is_finite() { hi } else { c },
-                )
-            })
-            .collect();
+        let ends = box_ends(kinds, &centre);
         for bits in 0..1usize << n {
-            let p: Vec<f64> = (0..n)
-                .map(|i| {
-                    if (bits >> i) & 1 == 0 {
-                        ends[i].0
-                    } else {
-                        ends[i].1
-                    }
-                })
-                .collect();
+            let p: Vec<f64> = (0..n).map(|i| ends[i][(bits >> i) & 1]).collect();
             corners.1 += 1;
             if !m.is_stable(&p) {
                 corners.0 += 1;
