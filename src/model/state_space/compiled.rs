@@ -302,14 +302,20 @@ impl Model for StateSpaceModel {
         super::noise::output_csd(&sys, &psd, &phase, z, p + m, out)
     }
 
+    /// Every eigenvalue of `A` in the left half-plane (inside the unit circle for a
+    /// discrete-time model), the stability part of [`Model::check`]; its other conditions
+    /// (delays, noise PSDs) are not stability and do not make `ln L = −∞`.
+    fn is_stable(&self, theta: &[f64]) -> bool {
+        if theta.len() != self.params.len() || theta.iter().any(|x| !x.is_finite()) {
+            return false;
+        }
+        let a: Vec<f64> = self.a.iter().map(|e| e.eval(theta)).collect();
+        super::stability::check_stable(&a, self.n(), self.time).is_ok()
+    }
+
     /// θ has the right length and finite values, delays are ≥ 0, noise PSDs ≥ 0, and the
     /// system is stable (every eigenvalue of `A` in the left half-plane, or inside the unit
     /// circle for a discrete-time model).
-    /// Its eigenvalues, as [`Model::check`] finds them.
-    fn is_stable(&self, theta: &[f64]) -> bool {
-        self.check(theta).is_ok()
-    }
-
     fn check(&self, theta: &[f64]) -> Result<(), String> {
         let m = &self.name;
         if theta.len() != self.params.len() {
