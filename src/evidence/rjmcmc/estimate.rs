@@ -58,7 +58,13 @@ pub(crate) struct Pool<'a> {
     pub batches: Vec<&'a Sums>,
     pub cycles: Vec<&'a Sums>,
     pub batch: usize,
+    /// `total` without one regeneration unit, for every unit (the jackknife's pools); empty
+    /// with fewer than [`JACKKNIFE_MIN_UNITS`] units.
+    pub leave_one_out: Vec<Sums>,
 }
+
+/// Fewest regeneration units for which the jackknife is formed.
+pub(crate) const JACKKNIFE_MIN_UNITS: usize = 3;
 
 impl<'a> Pool<'a> {
     pub fn new(chains: &'a [Chain], layout: Layout, batch: usize) -> Self {
@@ -69,16 +75,18 @@ impl<'a> Pool<'a> {
             }
         }
         let n = total.n(&layout);
+        let cycles: Vec<&Sums> = chains
+            .iter()
+            .flat_map(|c| c.cycles.iter())
+            .filter(|s| s.n(&layout) > 0.0)
+            .collect();
         Pool {
             layout,
             total,
             n,
             batches: chains.iter().flat_map(|c| c.batches.iter()).collect(),
-            cycles: chains
-                .iter()
-                .flat_map(|c| c.cycles.iter())
-                .filter(|s| s.n(&layout) > 0.0)
-                .collect(),
+            leave_one_out: leave_one_out(&cycles, &layout),
+            cycles,
             batch,
         }
     }
@@ -111,11 +119,70 @@ impl<'a> Pool<'a> {
         Some(a as f64 / (a as f64 - 1.0) * ss / (self.n * self.n))
     }
 
-    /// The larger of the two variance estimates (see the module docs, "Errors").
-    fn var(&self, u: impl Fn(&Sums) -> f64) -> f64 {
-        let bm = self.batch_var(&u);
-        self.regen_var(&u).map_or(bm, |r| r.max(bm))
+    /// The delete-one-unit jackknife variance of an estimate computed from pooled sums by
+    /// `point`: `(A−1)/A·Σ_c (θ̂₍c₎ − θ̄)²` over the regeneration units (see the module docs,
+    /// "Errors"). `None` with fewer than [`JACKKNIFE_MIN_UNITS`] units or when the estimate
+    /// without some unit is not finite (the estimate rests on that unit alone; the Markov floor
+    /// and the other two estimates still apply).
+    pub fn jackknife_var(&self, point: &impl Fn(&Sums) -> f64) -> Option<f64> {
+        let a = self.leave_one_out.len();
+        if a < JACKKNIFE_MIN_UNITS {
+            return None;
+        }
+        let mut vals = Vec::with_capacity(a);
+        for s in &self.leave_one_out {
+            let v = point(s);
+            if !v.is_finite() {
+                return None;
+            }
+            vals.push(v);
+        }
+        let mean = vals.iter().sum::<f64>() / a as f64;
+        let ss: f64 = vals.iter().map(|v| (v - mean).powi(2)).sum();
+        Some((a as f64 - 1.0) / a as f64 * ss)
     }
+
+    /// The largest of the variance estimates (see the module docs, "Errors"): batch means and
+    /// regenerative for the linearised series `u`, the jackknife for the estimate `point`.
+    fn var(&self, u: impl Fn(&Sums) -> f64, point: impl Fn(&Sums) -> f64) -> f64 {
+        let bm = self.batch_var(&u);
+        let linear = self.regen_var(&u).map_or(bm, |r| r.max(bm));
+        self.jackknife_var(&point).map_or(linear, |j| j.max(linear))
+    }
+}
+
+/// Most groups the jackknife deletes one at a time: beyond this many units, consecutive
+/// units are grouped (a grouped jackknife), which bounds its memory whatever the chain count.
+const MAX_JACKKNIFE_GROUPS: usize = 1024;
+
+/// `Σ_{c' ≠ c} group[c']` for every group `c` of consecutive units (one unit per group up to
+/// [`MAX_JACKKNIFE_GROUPS`]), from prefix sums and a running suffix; empty with fewer than
+/// [`JACKKNIFE_MIN_UNITS`] units.
+fn leave_one_out(units: &[&Sums], layout: &Layout) -> Vec<Sums> {
+    if units.len() < JACKKNIFE_MIN_UNITS {
+        return Vec::new();
+    }
+    let size = units.len().div_ceil(MAX_JACKKNIFE_GROUPS);
+    let groups: Vec<Sums> = units
+        .chunks(size)
+        .map(|chunk| {
+            let mut g = Sums::new(layout);
+            chunk.iter().for_each(|u| g.add(u));
+            g
+        })
+        .collect();
+    let mut out = Vec::with_capacity(groups.len());
+    let mut prefix = Sums::new(layout);
+    for g in &groups {
+        out.push(prefix.clone());
+        prefix.add(g);
+    }
+    let mut suffix = Sums::new(layout);
+    for (o, g) in out.iter_mut().zip(&groups).rev() {
+        o.add(&suffix);
+        suffix.add(g);
+    }
+    out
 }
 
 /// What the visit estimator's error floor needs: sojourns and visits per model.
@@ -139,10 +206,14 @@ pub(crate) fn visit_estimate(
     }
     let n = pool.n;
     let u = |s: &Sums| s.counts[lay.visits(k)] * n / nk - s.counts[lay.visits(l)] * n / nl;
-    let var = pool.var(u).max(markov_floor(k, l, soj));
+    let point = |s: &Sums| {
+        s.counts[lay.visits(k)].ln() - s.counts[lay.visits(l)].ln() + prior_p[l].ln()
+            - prior_p[k].ln()
+    };
+    let var = pool.var(u, point).max(markov_floor(k, l, soj));
     Some(LnB {
         method: Method::RjVisits,
-        ln_b: nk.ln() - nl.ln() + prior_p[l].ln() - prior_p[k].ln(),
+        ln_b: point(&pool.total),
         std_err: Some(var.sqrt()),
     })
 }
@@ -181,13 +252,25 @@ pub(crate) fn acceptance_estimate(
         (true, true) => (lay.alpha(k, l), lay.alpha(l, k)),
         _ => (lay.alpha_g(k, l), lay.alpha_g(l, k)),
     };
-    let (sa, sb) = (t.logs[ia], t.logs[ib]);
     // a direction without proposals (its model was never visited) gets its bound ᾱ = 1
-    let ln_a = if c1 == 0.0 { 0.0 } else { sa - c1.ln() };
-    let ln_b = if c2 == 0.0 { 0.0 } else { sb - c2.ln() };
-    if !(ln_a.is_finite() && ln_b.is_finite()) {
+    let point = |s: &Sums| {
+        let ln_a = if c1 == 0.0 {
+            0.0
+        } else {
+            s.logs[ia] - s.counts[lay.prop(k, l)].ln()
+        };
+        let ln_b = if c2 == 0.0 {
+            0.0
+        } else {
+            s.logs[ib] - s.counts[lay.prop(l, k)].ln()
+        };
+        ln_r_kl + ln_b - ln_a
+    };
+    let ln_b = point(t);
+    if !ln_b.is_finite() {
         return None;
     }
+    let (sa, sb) = (t.logs[ia], t.logs[ib]);
     let n = pool.n;
     let u = |s: &Sums| {
         let mut v = 0.0;
@@ -201,8 +284,8 @@ pub(crate) fn acceptance_estimate(
     };
     Some(LnB {
         method: Method::RjRaoBlackwell,
-        ln_b: ln_r_kl + ln_b - ln_a,
-        std_err: Some(pool.var(u).sqrt()),
+        ln_b,
+        std_err: Some(pool.var(u, point).sqrt()),
     })
 }
 
@@ -231,19 +314,25 @@ pub(crate) fn bridge_estimate(
         let s = t.logs[lay.is(k, l)];
         box_var = se_gk * se_gk + se_l * se_l;
         let u = |x: &Sums| n * ((x.logs[lay.is(k, l)] - s).exp() - x.counts[lay.inbox(k, l)] / n1);
-        (s - n1.ln(), pool.var(u))
+        let ln_r = |x: &Sums| x.logs[lay.is(k, l)] - x.counts[lay.inbox(k, l)].ln();
+        (ln_r(t), pool.var(u, ln_r))
     } else if n1 == 0.0 {
         let s = t.logs[lay.is(l, k)];
         box_var = se_k * se_k + se_gl * se_gl;
         let u = |x: &Sums| n * (x.counts[lay.inbox(l, k)] / n2 - (x.logs[lay.is(l, k)] - s).exp());
-        (n2.ln() - s, pool.var(u))
+        let ln_r = |x: &Sums| x.counts[lay.inbox(l, k)].ln() - x.logs[lay.is(l, k)];
+        (ln_r(t), pool.var(u, ln_r))
     } else {
         let pg = grid.pair(k, l);
+        // the bridge at grid point g: `ln r̂` from the numerator and denominator sums
+        let ln_r = |x: &Sums, g: usize| {
+            (x.logs[lay.bridge(k, l, g)] - x.counts[lay.inbox(k, l)].ln())
+                - (x.logs[lay.bridge(l, k, g)] - x.counts[lay.inbox(l, k)].ln())
+        };
         // the grid point closest to its own fixed point: the near-optimal fixed-h bridge
         let mut best: Option<(f64, usize, f64)> = None;
         for (g, &lr0) in pg.ln_r.iter().enumerate() {
-            let (sn, sd) = (t.logs[lay.bridge(k, l, g)], t.logs[lay.bridge(l, k, g)]);
-            let lr = (sn - n1.ln()) - (sd - n2.ln());
+            let lr = ln_r(t, g);
             if !lr.is_finite() {
                 continue;
             }
@@ -259,7 +348,7 @@ pub(crate) fn bridge_estimate(
                 + x.counts[lay.inbox(l, k)] / n2
                 - (x.logs[lay.bridge(l, k, g)] - sd).exp())
         };
-        (lr, pool.var(u))
+        (lr, pool.var(u, |x: &Sums| ln_r(x, g)))
     };
     if !ln_r.is_finite() {
         return None;
@@ -331,6 +420,7 @@ pub(crate) fn running_points(
             total: total.clone(),
             batches: chains.iter().flat_map(|c| c.batches[..b].iter()).collect(),
             cycles: Vec::new(),
+            leave_one_out: Vec::new(),
             batch,
         };
         let mut sojourns = vec![0u64; k];
@@ -378,4 +468,87 @@ pub(crate) fn running_points(
             .collect(),
     });
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{RngExt, SeedableRng};
+    use rand_xoshiro::Xoshiro256PlusPlus;
+
+    /// Units of a two-model chain: per unit, `n_c` iterations of which a random share in
+    /// model 0 (the estimate: the log visit ratio).
+    fn units(a: usize, seed: u64) -> (Layout, Vec<Sums>) {
+        let layout = Layout { k: 2, g: 1 };
+        let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
+        let units = (0..a)
+            .map(|_| {
+                let mut s = Sums::new(&layout);
+                let n = rng.random_range(5..50) as f64;
+                let share: f64 = rng.random_range(0.2..0.8);
+                s.counts[layout.visits(0)] = (n * share).round();
+                s.counts[layout.visits(1)] = n - (n * share).round();
+                s
+            })
+            .collect();
+        (layout, units)
+    }
+
+    fn pool<'a>(layout: Layout, u: &'a [Sums]) -> Pool<'a> {
+        let cycles: Vec<&Sums> = u.iter().collect();
+        let mut total = Sums::new(&layout);
+        u.iter().for_each(|s| total.add(s));
+        Pool {
+            layout,
+            n: total.n(&layout),
+            total,
+            batches: Vec::new(),
+            leave_one_out: leave_one_out(&cycles, &layout),
+            cycles,
+            batch: 1,
+        }
+    }
+
+    #[test]
+    fn leave_one_out_removes_exactly_one_group() {
+        let (layout, u) = units(10, 1);
+        let p = pool(layout, &u);
+        assert_eq!(p.leave_one_out.len(), 10);
+        for (c, s) in p.leave_one_out.iter().enumerate() {
+            let want = p.total.counts[0] - u[c].counts[0];
+            assert!((s.counts[0] - want).abs() < 1e-9);
+        }
+        // beyond the cap, consecutive units are grouped: 2500 units → groups of 3
+        let (layout, u) = units(2500, 2);
+        let p = pool(layout, &u);
+        assert_eq!(p.leave_one_out.len(), 834);
+        let first3: f64 = u[..3].iter().map(|s| s.counts[1]).sum();
+        assert!((p.leave_one_out[0].counts[1] - (p.total.counts[1] - first3)).abs() < 1e-9);
+        // too few units: no jackknife
+        let (layout, u) = units(2, 3);
+        assert!(
+            pool(layout, &u)
+                .jackknife_var(&|s: &Sums| s.counts[0])
+                .is_none()
+        );
+    }
+
+    /// With many units the jackknife and the linearised regenerative variance of a smooth
+    /// estimate agree (to O(1/A)); an estimate that is infinite without some unit has none.
+    #[test]
+    fn jackknife_agrees_with_the_regenerative_variance_for_many_units() {
+        let (layout, u) = units(800, 4);
+        let p = pool(layout, &u);
+        let (n0, n1, n) = (p.total.counts[0], p.total.counts[1], p.n);
+        let point = |s: &Sums| s.counts[0].ln() - s.counts[1].ln();
+        let lin = |s: &Sums| s.counts[0] * n / n0 - s.counts[1] * n / n1;
+        let jk = p.jackknife_var(&point).unwrap();
+        let rg = p.regen_var(&lin).unwrap();
+        assert!((jk / rg - 1.0).abs() < 0.02, "{jk} vs {rg}");
+        let mut lone = units(5, 5).1;
+        lone.iter_mut().for_each(|s| s.counts[1] = 0.0);
+        lone[2].counts[1] = 7.0;
+        let p = pool(layout, &lone);
+        assert!(p.jackknife_var(&point).is_none());
+    }
 }

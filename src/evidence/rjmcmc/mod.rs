@@ -82,8 +82,8 @@
 //! # Errors
 //! All three estimators are smooth functions of means of per-iteration series; their standard
 //! errors come from the delta method applied to the linearised series `u_t`, whose sums the
-//! chains stream per batch and per regeneration unit (nothing per iteration is stored). Two
-//! estimates of `Var(ū)` are formed and the larger is used:
+//! chains stream per batch and per regeneration unit (nothing per iteration is stored). Three
+//! estimates of the variance are formed and the largest is used:
 //! * **batch means** over `a = ⌊N/b⌋` batches of `b = ⌊√N⌋` iterations per chain (N =
 //!   post-burn-in iterations of a chain; Flegal & Jones 2010), batches of all chains pooled:
 //!   `Var(ū) ≈ b/(A−1)·Σ_j (ū_j − ū)² / N_tot`. Consistent when `b` is much longer than the
@@ -92,14 +92,24 @@
 //! * **regenerative**: the run cut at every entry into the start model; `Var(ū) ≈
 //!   A/(A−1)·Σ_c (U_c − ū n_c)²/N_tot²` over those cycles (sums `U_c` over `n_c` iterations).
 //!   Entries are approximate regenerations (the entry state is a fresh proposal draw), so this
-//!   sees correlations of any length within a sojourn.
+//!   sees correlations of any length within a sojourn;
+//! * **jackknife** over the same units: the estimate recomputed from the pooled sums without
+//!   unit `c`, `θ̂₍c₎`, for every `c`; `Var ≈ (A−1)/A·Σ_c (θ̂₍c₎ − θ̄)²` (Iglehart 1975 for
+//!   regenerative ratio estimators; beyond 1024 units, groups of consecutive units are deleted
+//!   instead). The first two linearise the estimate (a log of ratios of sums) about its value;
+//!   with a few dozen units that is short, because the estimate is curved over the range the
+//!   units move it and the α's and bridge terms of a poorly matched proposal are skewed. Measured on 400 linear-Gaussian problems with ≈ 36 accepted jumps
+//!   (≈ 17 units) each, the linearised errors covered 0.57–0.60 at 1σ, the jackknife's 0.70;
+//!   with hundreds of units the three agree. It needs at least 3 units and a finite estimate
+//!   without each of them (otherwise the estimate rests on one unit, and only the other two
+//!   estimates — and for the visit ratio its floor below — apply).
 //!
 //! **Visit ratio.** Its information is the number of sojourns, not of iterations: for a
 //! chain that leaves k and l with per-iteration probabilities `a_k, a_l`, `Var(ln N_k/N_l) =
 //! (1/m_k + 1/m_l)(1 − (a_k+a_l)/2)` (m: sojourns; for two models `2(2 − a − β)/n_switch`, the
 //! two-state Markov chain's asymptotic variance). Leave probabilities that vary with θ make the
 //! sojourn lengths mixtures of geometrics, with a larger coefficient of variation, so this is a
-//! floor: the visit error is `max(batch means, regenerative, floor)`, and grows as `2/√n` with
+//! floor: the visit error is `max(batch means, regenerative, jackknife, floor)`, and grows as `2/√n` with
 //! `n` accepted jumps however many iterations were run.
 //!
 //! **Rao-Blackwell and bridge** average over *proposals*, not accepted jumps: every iteration
@@ -108,7 +118,7 @@
 //! relative variance ≤ `1/Σα`, reached when α is 0 or 1; when the unvisited model's proposals
 //! are informative, e.g. α ≈ B for all of them, it is far smaller) and (ii) how many
 //! independent `θ` of each model the chain has seen, which within a sojourn is the random walk's
-//! mixing and across sojourns the number of sojourns. Both are what the two variance estimates
+//! mixing and across sojourns the number of sojourns. Both are what the variance estimates
 //! measure; neither is a count of accepted jumps, so no jump-count floor is imposed on them — a
 //! floor would wrongly inflate the informative-proposal case, where they legitimately stay
 //! precise with no accepted jump at all.
@@ -121,7 +131,9 @@
 //! # Memory
 //! Per chain: the batch sums (`⌊√N⌋` batches × `K + K²(4 + 11)` numbers), at most 1024
 //! regeneration units of the same size, the pilot's raw bridge inputs (≤ 2¹⁷ records, freed after
-//! the pilot) and the trace (`N / trace_every` points). Nothing else grows with N.
+//! the pilot) and the trace (`N / trace_every` points). After the run, the jackknife's
+//! leave-one-out sums: at most 1024 groups of consecutive units (2 × 1024 sums), whatever the
+//! number of chains. Nothing else grows with N.
 //!
 //! The Student-t box masses draw from `seed_from_u64(seed)` advanced by one `long_jump()`
 //! (2¹⁹² steps: beyond every chain's stream).

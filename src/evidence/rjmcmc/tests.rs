@@ -46,13 +46,39 @@ fn problem(snr: f64, n_absent: usize, seed: u64, half: f64) -> LinearGaussian {
     .model
 }
 
-/// Over 50 independent problems and seeds, the 1σ intervals of all three estimators cover
-/// the exact ln B at the nominal rate. Binomial(50, 0.683): sd 0.066; 3 sd band
-/// [0.49, 0.88].
+/// How many problems a coverage test runs: `RJ_COVERAGE_N` or `default`.
+fn coverage_problems(default: u64) -> u64 {
+    std::env::var("RJ_COVERAGE_N")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(default)
+}
+
+/// Asserts that the 1σ intervals (`z = (ln B − truth)/σ`) cover at 0.683 within 3 binomial
+/// sd — and, so that the test has power, that the same intervals with the errors scaled by
+/// 0.8 and 1.2 fall outside that band.
+fn assert_nominal_coverage(name: &str, z: &[f64]) {
+    let n = z.len() as f64;
+    let cover = |f: f64| z.iter().filter(|v| v.abs() < f).count() as f64 / n;
+    let sd = (0.683f64 * 0.317 / n).sqrt();
+    let band = 0.683 - 3.0 * sd..=0.683 + 3.0 * sd;
+    let (c, small, large) = (cover(1.0), cover(0.8), cover(1.2));
+    println!(
+        "{name}: coverage {c:.3} (band {band:.3?}); errors ×0.8: {small:.3}, ×1.2: {large:.3}"
+    );
+    assert!(band.contains(&c), "{name}: coverage {c} outside {band:?}");
+    assert!(
+        small < *band.start() && large > *band.end(),
+        "{name}: no power: errors ×0.8 cover {small}, ×1.2 cover {large}"
+    );
+}
+
+/// Over 600 independent problems and seeds, the 1σ intervals of all three estimators cover
+/// the exact ln B at the nominal rate, and would not with errors 20 % off.
 #[test]
 fn error_bars_cover_the_exact_bayes_factor() {
-    let n = 50;
-    let mut cover = [0usize; 3];
+    let n = coverage_problems(600);
+    let mut z = [vec![], vec![], vec![]];
     for seed in 0..n {
         let lg = problem(5.0, 1, 100 + seed, 3.0);
         let full = SubModel::new(&lg, vec![0, 1], vec![0.0; 2]).unwrap();
@@ -72,14 +98,11 @@ fn error_bars_cover_the_exact_bayes_factor() {
         let p = res.pair(0, 1).unwrap();
         for (i, e) in [p.visits, p.rao_blackwell, p.bridge].iter().enumerate() {
             let e = e.expect("both models are visited");
-            if (e.ln_b - truth).abs() < e.std_err.unwrap() {
-                cover[i] += 1;
-            }
+            z[i].push((e.ln_b - truth) / e.std_err.unwrap());
         }
     }
-    for (i, c) in cover.iter().enumerate() {
-        let f = *c as f64 / n as f64;
-        assert!((0.49..=0.88).contains(&f), "estimator {i}: coverage {f}");
+    for (name, z) in ["visits", "Rao-Blackwell", "bridge"].iter().zip(&z) {
+        assert_nominal_coverage(name, z);
     }
 }
 
@@ -262,21 +285,15 @@ fn two_models<'a>(
 }
 
 /// Jumps rarely accepted (jump proposals 14× narrower than the posterior, c = 0.07: about
-/// 36 accepted jumps per run on average, half the runs below the warning threshold). Measured
-/// over 400 problems (`RJ_RARE_N=400`), the 1σ intervals of visits / Rao-Blackwell / bridge
-/// cover 0.60 / 0.575 / 0.57 — better than plain batch means (0.34 / 0.42 / 0.43, the chain
-/// sitting in one model for whole batches) but still short of 0.683: in this regime the
-/// errors remain about 25 % small. The assertion (coverage in [0.50, 0.82] over these 100
-/// fixed seeds; measured 0.57 / 0.54 / 0.56) sits between the two measured levels: it guards
-/// the improvement over batch means, it does not
-/// claim nominal coverage.
+/// 36 accepted jumps per run on average, half the runs below the warning threshold, about 17
+/// regeneration units). Before the jackknife the 1σ intervals of visits / Rao-Blackwell /
+/// bridge covered 0.60 / 0.575 / 0.57 over 400 problems (the delta-method variance of a ratio
+/// of sums over so few units is short, and the α's and bridge terms of so narrow a proposal
+/// are skewed); with it they cover at the nominal rate.
 #[test]
 fn error_bars_cover_when_jumps_are_rare() {
-    let n = std::env::var("RJ_RARE_N")
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(100u64);
-    let mut cover = [0usize; 3];
+    let n = coverage_problems(800);
+    let mut z = [vec![], vec![], vec![]];
     let mut jumps = 0;
     let mut warned = 0;
     for seed in 0..n {
@@ -298,20 +315,16 @@ fn error_bars_cover_when_jumps_are_rare() {
         jumps += p.effective_jumps;
         warned += p.warning.is_some() as usize;
         for (i, e) in [p.visits, p.rao_blackwell, p.bridge].iter().enumerate() {
-            if let Some(e) = e
-                && (e.ln_b - truth).abs() < e.std_err.unwrap()
-            {
-                cover[i] += 1;
-            }
+            let e = e.expect("both models are visited");
+            z[i].push((e.ln_b - truth) / e.std_err.unwrap());
         }
     }
     let mean_jumps = jumps as f64 / n as f64;
-    println!("rare jumps: mean effective jumps {mean_jumps}, warned {warned}, cover {cover:?}");
+    println!("rare jumps: mean effective jumps {mean_jumps}, warned {warned}");
     assert!(mean_jumps < 40.0, "{mean_jumps}");
     assert!(warned > n as usize / 4, "{warned}");
-    for (i, c) in cover.iter().enumerate() {
-        let f = *c as f64 / n as f64;
-        assert!((0.50..=0.82).contains(&f), "estimator {i}: coverage {f}");
+    for (name, z) in ["visits", "Rao-Blackwell", "bridge"].iter().zip(&z) {
+        assert_nominal_coverage(name, z);
     }
 }
 
