@@ -19,6 +19,8 @@
 //! RJMCMC acceptance ratio is the full Carlin–Chib ratio with `L` (not `L²`) and the prior ratio
 //! the right way up; MVE keeps repeated chain samples and never rotates the data.
 
+#[cfg(test)]
+pub(crate) mod coverage_check;
 mod error;
 pub mod laplace;
 pub mod linear_gaussian;

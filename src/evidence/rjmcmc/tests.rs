@@ -2,6 +2,7 @@ use super::estimate::Sojourns;
 use super::*;
 use crate::density::LogDensity;
 use crate::evidence::EvidenceError;
+use crate::evidence::coverage_check::assert_nominal_coverage;
 use crate::evidence::linear_gaussian::{LinearGaussian, RandomPrior, RandomSpec};
 use crate::evidence::mvn::MvnOptions;
 use crate::nested::SubModel;
@@ -52,25 +53,6 @@ fn coverage_problems(default: u64) -> u64 {
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(default)
-}
-
-/// Asserts that the 1σ intervals (`z = (ln B − truth)/σ`) cover at 0.683 within 3 binomial
-/// sd — and, so that the test has power, that the same intervals with the errors scaled by
-/// 0.8 and 1.2 fall outside that band.
-fn assert_nominal_coverage(name: &str, z: &[f64]) {
-    let n = z.len() as f64;
-    let cover = |f: f64| z.iter().filter(|v| v.abs() < f).count() as f64 / n;
-    let sd = (0.683f64 * 0.317 / n).sqrt();
-    let band = 0.683 - 3.0 * sd..=0.683 + 3.0 * sd;
-    let (c, small, large) = (cover(1.0), cover(0.8), cover(1.2));
-    println!(
-        "{name}: coverage {c:.3} (band {band:.3?}); errors ×0.8: {small:.3}, ×1.2: {large:.3}"
-    );
-    assert!(band.contains(&c), "{name}: coverage {c} outside {band:?}");
-    assert!(
-        small < *band.start() && large > *band.end(),
-        "{name}: no power: errors ×0.8 cover {small}, ×1.2 cover {large}"
-    );
 }
 
 /// Over 600 independent problems and seeds, the 1σ intervals of all three estimators cover
