@@ -74,12 +74,22 @@
 //! equalised swap rates keep adjacent rungs overlapping, which is the same condition.
 
 //!
+//! # Checks of a run against itself
+//! The batch-means errors assume every rung sampled its power posterior from the first
+//! post-burn-in sweep on. Two checks see when that failed ([`TemperingResult::checks`]): the
+//! first and second halves of the post-burn-in sweeps give TI and SS of their own, and where
+//! they differ by more than 3 of their combined errors the whole run's error becomes at least
+//! `|Δ|/2` (the spread the halves show); and `E_β[ln L]`, whose derivative is `Var_β(ln L) ≥ 0`,
+//! must not fall from one rung to the next by more than 4 combined errors — a rung where it does
+//! is named.
+//!
 //! # Running
 //! [`run_tempering`] runs a ladder to its end; [`ParallelTempering`] does the same on the
 //! sampler [`Driver`](crate::sampler::Driver) with progress, a checkpoint (kind
 //! [`KIND`], the common format of [`crate::data::checkpoint`]) and a stop hook, and
 //! [`ParallelTempering::resume`] continues a saved run to the numbers of an uninterrupted one.
 
+mod checks;
 mod integrate;
 mod ladder;
 mod options;

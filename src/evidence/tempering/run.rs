@@ -1,6 +1,7 @@
 //! Running a tempering ladder: fresh or from its checkpoint, on the one sampler
 //! [`Driver`], and the estimates of its post-burn-in sweeps.
 
+use super::checks;
 use super::integrate::{
     SteppingStoneEstimate, ThermodynamicEstimate, rung_moments, stepping_stone, thermodynamic,
 };
@@ -41,6 +42,10 @@ pub struct TemperingResult {
     pub thermodynamic: Result<ThermodynamicEstimate, String>,
     /// Stepping stone, or why it does not apply.
     pub stepping_stone: Result<SteppingStoneEstimate, String>,
+    /// What the run's checks against itself found ([`checks`](super::checks)): halves of the
+    /// run that disagree (the estimate's error is then already widened) and rungs whose
+    /// `E_β[ln L]` falls with β. Empty when both pass.
+    pub checks: Vec<String>,
     /// Sweeps run.
     pub n_iter: usize,
     /// Burn-in sweeps.
@@ -268,8 +273,30 @@ fn result(ladder: Ladder, opts: &TemperingOptions) -> TemperingResult {
         .unwrap_or((n_post as f64).sqrt() as usize)
         .max(1);
     let moments = rung_moments(&series, n_t, n_post, batch);
-    let thermodynamic = thermodynamic(&betas, &moments, &series, batch);
-    let stepping_stone = stepping_stone(&betas, &series, batch);
+    let mut thermodynamic = thermodynamic(&betas, &moments, &series, batch);
+    let mut stepping_stone = stepping_stone(&betas, &series, batch);
+    let mut notes = Vec::new();
+    let (ti_halves, ss_halves) = checks::halves(&betas, &series);
+    if let (Ok(t), Some(h)) = (&mut thermodynamic, ti_halves) {
+        let (se, note) = checks::split_error(
+            "thermodynamic integration",
+            t.std_err,
+            h.map(|x| (x.ln_z, x.std_err)),
+        );
+        t.std_err = se;
+        notes.extend(note);
+    }
+    if let (Ok(t), Some(h)) = (&mut stepping_stone, ss_halves) {
+        let (se, note) =
+            checks::split_error("stepping-stone", t.std_err, h.map(|x| (x.ln_z, x.std_err)));
+        t.std_err = se;
+        notes.extend(note);
+    }
+    notes.extend(checks::falling_mean(
+        &betas,
+        &moments.mean,
+        &moments.mean_se,
+    ));
     let evals = pilot_evals + rungs.iter().map(|r| r.evals).sum::<u64>();
     TemperingResult {
         swap_acceptance: swaps_acc
@@ -291,6 +318,7 @@ fn result(ladder: Ladder, opts: &TemperingOptions) -> TemperingResult {
         var_ln_l: moments.var,
         thermodynamic,
         stepping_stone,
+        checks: notes,
         n_iter: opts.n_iter,
         burn_in: opts.burn_in,
         batch_size: batch,

@@ -175,6 +175,8 @@ fn well_constrained_uniform_prior() {
     .model;
     let (res, exact, se) = run_lg(&lg, &quick(5));
     check(&res, exact, se, 4.0);
+    // an equilibrated run passes its own checks (halves agree, E_β[ln L] rises)
+    assert!(res.checks.is_empty(), "{:?}", res.checks);
     assert_eq!(res.swap_acceptance.len(), 31);
     assert!(res.swap_acceptance.iter().all(|&a| a > 0.2 && a < 1.0));
     // the adapted ladder equalises the swap rates

@@ -737,11 +737,18 @@ fn tempering(
                 approximation_err: approx_err,
                 seconds: t0.elapsed().as_secs_f64(),
             };
+            // the run's checks against itself (its error already widened where they failed)
+            let caveat = |mut e: Evidence| {
+                if e.ln_z.is_some() && !r.checks.is_empty() {
+                    e.note = Some(r.checks.join("; "));
+                }
+                e
+            };
             let ti = Evidence {
                 discretisation_shift: shift,
                 ..Evidence::statistical(ti)
             };
-            (ti, Evidence::statistical(ss), Some(diag))
+            (caveat(ti), caveat(Evidence::statistical(ss)), Some(diag))
         }
         Ok(TemperingOutcome::Stopped { sweeps }) => {
             let why = || {

@@ -133,7 +133,17 @@ fn difference(name: &str, kind: EstimateKind, a: &Evidence, b: &Evidence) -> Pai
                 }
                 _ => None,
             };
-            (Some(x - y), err, None)
+            // a caveat on either model's number (a tempering run's failed self-check) stays
+            let caveats: Vec<&str> = [&a.note, &b.note]
+                .into_iter()
+                .flatten()
+                .map(String::as_str)
+                .collect();
+            (
+                Some(x - y),
+                err,
+                (!caveats.is_empty()).then(|| caveats.join("; ")),
+            )
         }
         _ => (None, None, a.note.clone().or_else(|| b.note.clone())),
     };
