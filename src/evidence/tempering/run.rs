@@ -42,7 +42,7 @@ pub struct TemperingResult {
     pub thermodynamic: Result<ThermodynamicEstimate, String>,
     /// Stepping stone, or why it does not apply.
     pub stepping_stone: Result<SteppingStoneEstimate, String>,
-    /// What the run's checks against itself found ([`checks`](super::checks)): halves of the
+    /// What the run's checks against itself found (see the module docs, "Checks of a run against itself"): halves of the
     /// run that disagree (the estimate's error is then already widened) and rungs whose
     /// `E_β[ln L]` falls with β. Empty when both pass.
     pub checks: Vec<String>,
