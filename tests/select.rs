@@ -51,6 +51,9 @@ fn value(p: &PairResult, m: &str) -> (f64, f64) {
 /// the independent references of the ρ_opt = 60 and nominal-amplitude regimes.
 const NAUTILUS_RHO60: (f64, f64) = (0.09571981523185968, 0.012739854459202234);
 const NAUTILUS_NOMINAL: (f64, f64) = (-14.229583978652954, 0.010770460116461862);
+/// `examples/guidance-delays.toml` (ρ_opt = 450): the bridge of a 1.6·10⁶-iteration reversible
+/// jump on sampler seed 4242 (`[select] seed`), ln B_XY.
+const REF_COMPETITIVE: (f64, f64) = (-1.2056455627159401, 0.001684428125438415);
 
 /// The statistical rows of the table.
 const STATISTICAL: [&str; 5] = [
@@ -82,13 +85,11 @@ fn competitive_regime_prefers_the_simpler_model_but_not_decisively() {
         "{:?}",
         out.rj.as_ref().unwrap().visits
     );
-    let rj = ln_b(p, "RJMCMC visits").unwrap();
-    assert!((0.05f64.ln()..0.0).contains(&rj), "RJ ln B = {rj}");
-    // every statistical row within 3 combined σ of the bridge (the reference; rows sharing
-    // its chain are correlated with it, which makes the bound looser, not tighter)
+    // every statistical row within 2.5 combined σ of a reversible jump 16× longer on another
+    // sampler seed (the reference of `tests/demo.rs`), so a bias of 3 of a row's σ fails
     let bridge = value(p, "RJMCMC bridge");
     for m in STATISTICAL {
-        within(p, m, bridge, 3.0);
+        within(p, m, REF_COMPETITIVE, 2.5);
     }
     // the Laplace–Fisher box is exact in the Gaussian limit, which this regime is close to
     // (0.009 nat from the bridge, measured); the Laplace–Metropolis rows carry the sample
@@ -227,9 +228,9 @@ fn rho_60_rj_and_tempering_estimators_agree() {
     for e in &p.estimates {
         assert!(e.ln_b.is_some() || e.note.is_some(), "{}", e.method);
     }
-    // every statistical row against nautilus on the same data, within 3 combined σ
+    // every statistical row against nautilus on the same data, within 2.5 combined σ
     // (measured: 0.2–1.0 σ)
     for m in STATISTICAL {
-        within(p, m, NAUTILUS_RHO60, 3.0);
+        within(p, m, NAUTILUS_RHO60, 2.5);
     }
 }
