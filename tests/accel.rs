@@ -162,7 +162,11 @@ fn acceleration_fit_recovers_the_truth_and_covers_it() {
     let mut inside = 0usize;
     let mut total = 0usize;
     let mut worst: f64 = 0.0;
-    let seeds = 40u64;
+    // per data set, (MAP − truth)ᵀ F (MAP − truth): χ² with 8 degrees of freedom when the
+    // Fisher errors are right, independent across data sets (the 1σ rate of the 8 correlated
+    // pulls of one data set is not)
+    let mut d2 = Vec::new();
+    let seeds = 64u64;
     for seed in 0..seeds {
         let s = study("circular", 100 + seed, "");
         let (data, _) = load_data(&s).unwrap();
@@ -175,7 +179,13 @@ fn acceleration_fit_recovers_the_truth_and_covers_it() {
             .collect();
         let free: Vec<usize> = (0..truth.len()).collect();
         let map = fisher_scoring(&lik, &truth, &free, 1e-4, 100).unwrap();
-        let sd = cramer_rao(&fisher_exact(&lik, &map.theta, &free)).unwrap();
+        let fisher = fisher_exact(&lik, &map.theta, &free);
+        let sd = cramer_rao(&fisher).unwrap();
+        let delta = nalgebra::DVector::from_iterator(
+            truth.len(),
+            map.theta.iter().zip(&truth).map(|(m, t)| m - t),
+        );
+        d2.push(delta.dot(&(&fisher * &delta)));
         for i in 0..truth.len() {
             let p = (map.theta[i] - truth[i]) / sd[i];
             if p.abs() > 3.0 {
@@ -199,11 +209,21 @@ fn acceleration_fit_recovers_the_truth_and_covers_it() {
         }
     }
     let rate = inside as f64 / total as f64;
+    let k = 8.0;
+    let mean_d2 = d2.iter().sum::<f64>() / d2.len() as f64;
+    // χ²_8 has mean 8 and variance 16: the mean of 64 has sd 0.5, a 3 sd band [6.5, 9.5];
+    // errors 20 % too small (F ×1/0.64) put it at 12.5, 20 % too large (F ×1/1.44) at 5.6
+    let band = 3.0 * (2.0 * k / d2.len() as f64).sqrt();
     eprintln!(
-        "±1σ coverage over {seeds} seeds × 8 parameters: {rate:.3} (nominal 0.683); largest |pull| {worst:.2}"
+        "±1σ coverage over {seeds} seeds × 8 parameters: {rate:.3} (nominal 0.683); largest |pull| {worst:.2}; mean (MAP − truth)ᵀF(MAP − truth) {mean_d2:.2} (χ²_8: 8 ± {band:.2})"
     );
-    // 320 pulls: the binomial σ of the rate is 0.026 if independent; the pulls of one data set
-    // are correlated, which widens it, so allow 0.1 either side
+    assert!((mean_d2 - k).abs() < band, "{mean_d2}");
+    assert!(
+        (mean_d2 / 0.64 - k).abs() > band && (mean_d2 / 1.44 - k).abs() > band,
+        "no power: errors 20 % off would give {} or {}",
+        mean_d2 / 0.64,
+        mean_d2 / 1.44
+    );
     assert!((rate - 0.683).abs() < 0.1, "{rate}");
     assert!(worst < 5.0, "{worst}");
 }
