@@ -650,3 +650,51 @@ fn a_stopped_run_resumed_from_its_checkpoint_equals_an_uninterrupted_one() {
         .to_string();
     assert!(e.contains("none.cbor"), "{e}");
 }
+
+/// A run that has not equilibrated says so: started in a far corner of the box with steps 100×
+/// too small and almost no burn-in, the cold rungs are still walking toward the posterior
+/// during the kept sweeps. Its halves disagree (the error is widened to their spread) or its
+/// `E_β[ln L]` falls along the ladder — and the same problem run properly passes both checks
+/// (`well_constrained_uniform_prior`).
+#[test]
+fn a_run_still_walking_in_fails_its_own_checks() {
+    let lg = LinearGaussian::random(&RandomSpec {
+        n_data: 40,
+        dim: 3,
+        snr: 20.0,
+        n_absent: 1,
+        sigma: 1.0,
+        prior: RandomPrior::Uniform { lo: -5.0, hi: 5.0 },
+        seed: 11,
+    })
+    .unwrap()
+    .model;
+    let cols: Vec<usize> = (0..3).collect();
+    let post = lg.gaussian_posterior(&cols).unwrap();
+    let opts = TemperingOptions {
+        n_iter: 4_000,
+        burn_in: 20,
+        ..quick(5)
+    };
+    let res = run_tempering(&lg, &[4.9, -4.9, 4.9], &(&post.cov * 1e-4), &opts).unwrap();
+    eprintln!("{:#?}", res.checks);
+    assert_eq!(res.checks.len(), 2, "{:#?}", res.checks);
+    assert!(res.checks[0].starts_with("thermodynamic integration: the two halves"));
+    assert!(res.checks[1].starts_with("stepping-stone: the two halves"));
+    // the widened errors cover the exact ln Z, which the batch-means errors alone did not
+    let exact = lg
+        .exact_ln_evidence(&cols, &MvnOptions::default())
+        .unwrap()
+        .ln_z;
+    let ti = res.thermodynamic.unwrap();
+    let ss = res.stepping_stone.unwrap();
+    eprintln!(
+        "exact {exact}; TI {} ± {}; SS {} ± {}",
+        ti.ln_z,
+        ti.total_err(),
+        ss.ln_z,
+        ss.std_err
+    );
+    assert!((ti.ln_z - exact).abs() < 3.0 * ti.total_err());
+    assert!((ss.ln_z - exact).abs() < 3.0 * ss.std_err);
+}
