@@ -33,8 +33,20 @@ fn delay_against_pole_prefers_the_pole_decisively_and_recovers_it() {
     let out = select(&s);
     let p = &out.pairs[0];
     assert_eq!((p.x.as_str(), p.y.as_str()), ("delay", "pole"));
-    // K14 found B ≈ 1e−10 on the ESA simulator's data; every estimator must be decisive here
-    assert!(reference(p) < -10.0, "ln B = {}", reference(p));
+    // K14 found B ≈ 1e−10 on the ESA simulator's data; here ln B is pinned within 2.5
+    // combined σ of a reversible jump 16× longer on another sampler seed (`[select] seed =
+    // 4242`, `rj_iterations = 320000`: −28.5559 ± 0.0057; measured 0.3 σ away)
+    let bridge = p
+        .estimates
+        .iter()
+        .find(|e| e.method == "RJMCMC bridge")
+        .unwrap();
+    let (v, se) = (bridge.ln_b.unwrap(), bridge.std_err.unwrap());
+    let z = (v - -28.555885767178523) / se.hypot(0.005736517463570549);
+    assert!(
+        z.abs() < 2.5,
+        "bridge ln B = {v} ± {se}: {z:.1} combined σ from the reference"
+    );
     // every row gives a number, except the visit ratio when X is never entered (with its
     // reason): a row that stops giving one is a failure
     for e in &p.estimates {
