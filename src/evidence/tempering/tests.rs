@@ -160,9 +160,8 @@ fn flat_likelihood_gives_ln_l_exactly() {
 
 /// Well constrained: D = 3, SNR 20, uniform priors 40 σ_post wide and more (ln Z dominated
 /// by the Occam factor).
-#[test]
-fn well_constrained_uniform_prior() {
-    let lg = LinearGaussian::random(&RandomSpec {
+fn well_constrained() -> LinearGaussian {
+    LinearGaussian::random(&RandomSpec {
         n_data: 40,
         dim: 3,
         snr: 20.0,
@@ -172,7 +171,12 @@ fn well_constrained_uniform_prior() {
         seed: 11,
     })
     .unwrap()
-    .model;
+    .model
+}
+
+#[test]
+fn well_constrained_uniform_prior() {
+    let lg = well_constrained();
     let (res, exact, se) = run_lg(&lg, &quick(5));
     check(&res, exact, se, 4.0);
     // an equilibrated run passes its own checks (halves agree, E_β[ln L] rises)
@@ -658,17 +662,7 @@ fn a_stopped_run_resumed_from_its_checkpoint_equals_an_uninterrupted_one() {
 /// (`well_constrained_uniform_prior`).
 #[test]
 fn a_run_still_walking_in_fails_its_own_checks() {
-    let lg = LinearGaussian::random(&RandomSpec {
-        n_data: 40,
-        dim: 3,
-        snr: 20.0,
-        n_absent: 1,
-        sigma: 1.0,
-        prior: RandomPrior::Uniform { lo: -5.0, hi: 5.0 },
-        seed: 11,
-    })
-    .unwrap()
-    .model;
+    let lg = well_constrained();
     let cols: Vec<usize> = (0..3).collect();
     let post = lg.gaussian_posterior(&cols).unwrap();
     let opts = TemperingOptions {
