@@ -42,9 +42,9 @@ pub struct TemperingResult {
     pub thermodynamic: Result<ThermodynamicEstimate, String>,
     /// Stepping stone, or why it does not apply.
     pub stepping_stone: Result<SteppingStoneEstimate, String>,
-    /// What the run's checks against itself found (see the module docs, "Checks of a run against itself"): halves of the
-    /// run that disagree (the estimate's error is then already widened) and rungs whose
-    /// `E_β[ln L]` falls with β. Empty when both pass.
+    /// What the run's checks against itself found (the module docs, "Checks of a run against
+    /// itself"): halves of the run that disagree (the estimate's error is then already
+    /// widened) and rungs whose `E_β[ln L]` falls with β. Empty when both pass.
     pub checks: Vec<String>,
     /// Sweeps run.
     pub n_iter: usize,
