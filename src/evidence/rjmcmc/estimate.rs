@@ -248,22 +248,24 @@ pub(crate) fn acceptance_estimate(
     // one-sided (a model never proposed from): the visited direction's α are taken with the
     // current state's Gaussian/t density, for which the bound ᾱ = 1 of the other direction
     // holds (see the module docs); with both directions present the true α are used
-    let (ia, ib) = match (c1 > 0.0, c2 > 0.0) {
+    let indices = |c1: f64, c2: f64| match (c1 > 0.0, c2 > 0.0) {
         (true, true) => (lay.alpha(k, l), lay.alpha(l, k)),
         _ => (lay.alpha_g(k, l), lay.alpha_g(l, k)),
     };
-    // a direction without proposals (its model was never visited) gets its bound ᾱ = 1
+    let (ia, ib) = indices(c1, c2);
+    // the estimate from any pooled sums, in the form those sums call for: the jackknife's
+    // pools without one unit may have lost a direction's only proposals, and the estimate
+    // without that unit is then the one-sided one (the spread this shows is the estimate's
+    // dependence on a few sojourns); a direction without proposals (its model never visited)
+    // gets its bound ᾱ = 1
     let point = |s: &Sums| {
-        let ln_a = if c1 == 0.0 {
-            0.0
-        } else {
-            s.logs[ia] - s.counts[lay.prop(k, l)].ln()
-        };
-        let ln_b = if c2 == 0.0 {
-            0.0
-        } else {
-            s.logs[ib] - s.counts[lay.prop(l, k)].ln()
-        };
+        let (d1, d2) = (s.counts[lay.prop(k, l)], s.counts[lay.prop(l, k)]);
+        if d1 == 0.0 && d2 == 0.0 {
+            return f64::NAN;
+        }
+        let (ia, ib) = indices(d1, d2);
+        let ln_a = if d1 == 0.0 { 0.0 } else { s.logs[ia] - d1.ln() };
+        let ln_b = if d2 == 0.0 { 0.0 } else { s.logs[ib] - d2.ln() };
         ln_r_kl + ln_b - ln_a
     };
     let ln_b = point(t);
@@ -307,6 +309,24 @@ pub(crate) fn bridge_estimate(
     let n = pool.n;
     // the one-sided forms use P_g of the model sitting and P of the model proposed
     let mut box_var = se_k * se_k + se_l * se_l;
+    // `ln r̂` in each form: importance sampling from k (no proposals l → k), from l (none
+    // k → l), and the bridge at grid point g
+    let from_k = |x: &Sums| x.logs[lay.is(k, l)] - x.counts[lay.inbox(k, l)].ln();
+    let from_l = |x: &Sums| x.counts[lay.inbox(l, k)].ln() - x.logs[lay.is(l, k)];
+    let bridge = |x: &Sums, g: usize| {
+        (x.logs[lay.bridge(k, l, g)] - x.counts[lay.inbox(k, l)].ln())
+            - (x.logs[lay.bridge(l, k, g)] - x.counts[lay.inbox(l, k)].ln())
+    };
+    // the estimate from any pooled sums, in the form those sums call for (the jackknife's
+    // pools without one unit may have lost a direction's only proposals: the estimate without
+    // that unit is then the one-sided one, and the spread shows how much rests on it)
+    let any_form = |x: &Sums, g: usize| match (x.counts[lay.inbox(k, l)], x.counts[lay.inbox(l, k)])
+    {
+        (m1, m2) if m1 + m2 == 0.0 => f64::NAN,
+        (_, 0.0) => from_k(x),
+        (0.0, _) => from_l(x),
+        _ => bridge(x, g),
+    };
     let (ln_r, var) = if n1 + n2 == 0.0 {
         return None;
     } else if n2 == 0.0 {
@@ -314,25 +334,18 @@ pub(crate) fn bridge_estimate(
         let s = t.logs[lay.is(k, l)];
         box_var = se_gk * se_gk + se_l * se_l;
         let u = |x: &Sums| n * ((x.logs[lay.is(k, l)] - s).exp() - x.counts[lay.inbox(k, l)] / n1);
-        let ln_r = |x: &Sums| x.logs[lay.is(k, l)] - x.counts[lay.inbox(k, l)].ln();
-        (ln_r(t), pool.var(u, ln_r))
+        (from_k(t), pool.var(u, |x: &Sums| any_form(x, 0)))
     } else if n1 == 0.0 {
         let s = t.logs[lay.is(l, k)];
         box_var = se_k * se_k + se_gl * se_gl;
         let u = |x: &Sums| n * (x.counts[lay.inbox(l, k)] / n2 - (x.logs[lay.is(l, k)] - s).exp());
-        let ln_r = |x: &Sums| x.counts[lay.inbox(l, k)].ln() - x.logs[lay.is(l, k)];
-        (ln_r(t), pool.var(u, ln_r))
+        (from_l(t), pool.var(u, |x: &Sums| any_form(x, 0)))
     } else {
         let pg = grid.pair(k, l);
-        // the bridge at grid point g: `ln r̂` from the numerator and denominator sums
-        let ln_r = |x: &Sums, g: usize| {
-            (x.logs[lay.bridge(k, l, g)] - x.counts[lay.inbox(k, l)].ln())
-                - (x.logs[lay.bridge(l, k, g)] - x.counts[lay.inbox(l, k)].ln())
-        };
         // the grid point closest to its own fixed point: the near-optimal fixed-h bridge
         let mut best: Option<(f64, usize, f64)> = None;
         for (g, &lr0) in pg.ln_r.iter().enumerate() {
-            let lr = ln_r(t, g);
+            let lr = bridge(t, g);
             if !lr.is_finite() {
                 continue;
             }
@@ -348,7 +361,7 @@ pub(crate) fn bridge_estimate(
                 + x.counts[lay.inbox(l, k)] / n2
                 - (x.logs[lay.bridge(l, k, g)] - sd).exp())
         };
-        (lr, pool.var(u, |x: &Sums| ln_r(x, g)))
+        (lr, pool.var(u, |x: &Sums| any_form(x, g)))
     };
     if !ln_r.is_finite() {
         return None;
