@@ -62,22 +62,13 @@ fn error_bars_cover_the_exact_bayes_factor() {
     let n = coverage_problems(600);
     let mut z = [vec![], vec![], vec![]];
     for seed in 0..n {
-        let lg = problem(5.0, 1, 100 + seed, 3.0);
-        let full = SubModel::new(&lg, vec![0, 1], vec![0.0; 2]).unwrap();
-        let small = SubModel::new(&lg, vec![0], vec![0.0; 2]).unwrap();
-        let models = [
-            rj_model(&lg, "full", &full, &[0, 1]),
-            rj_model(&lg, "small", &small, &[0]),
-        ];
         let opts = RjOptions {
             n_iter: 20_000,
             burn_in: 500,
             seed,
             ..RjOptions::default()
         };
-        let res = run_rjmcmc(&models, &opts, None).unwrap();
-        let truth = exact(&lg, &[0, 1], &[0]);
-        let p = res.pair(0, 1).unwrap();
+        let (p, truth) = nested_pair(&problem(5.0, 1, 100 + seed, 3.0), &opts);
         for (i, e) in [p.visits, p.rao_blackwell, p.bridge].iter().enumerate() {
             let e = e.expect("both models are visited");
             z[i].push((e.ln_b - truth) / e.std_err.unwrap());
@@ -266,6 +257,15 @@ fn two_models<'a>(
     ]
 }
 
+/// Runs the reversible jump between the full model of `lg` and the model without its second
+/// parameter; returns the pair's estimates and the exact ln B.
+fn nested_pair(lg: &LinearGaussian, opts: &RjOptions) -> (RjPair, f64) {
+    let full = SubModel::new(lg, vec![0, 1], vec![0.0; 2]).unwrap();
+    let small = SubModel::new(lg, vec![0], vec![0.0; 2]).unwrap();
+    let res = run_rjmcmc(&two_models(lg, &full, &small), opts, None).unwrap();
+    (res.pair(0, 1).unwrap().clone(), exact(lg, &[0, 1], &[0]))
+}
+
 /// Jumps rarely accepted (jump proposals 14× narrower than the posterior, c = 0.07: about
 /// 36 accepted jumps per run on average, half the runs below the warning threshold, about 17
 /// regeneration units). Before the jackknife the 1σ intervals of visits / Rao-Blackwell /
@@ -279,10 +279,6 @@ fn error_bars_cover_when_jumps_are_rare() {
     let mut jumps = 0;
     let mut warned = 0;
     for seed in 0..n {
-        let lg = problem(5.0, 1, 300 + seed, 3.0);
-        let full = SubModel::new(&lg, vec![0, 1], vec![0.0; 2]).unwrap();
-        let small = SubModel::new(&lg, vec![0], vec![0.0; 2]).unwrap();
-        let models = two_models(&lg, &full, &small);
         let opts = RjOptions {
             n_iter: 6_000,
             burn_in: 500,
@@ -291,9 +287,7 @@ fn error_bars_cover_when_jumps_are_rare() {
             defensive: 0.0,
             ..RjOptions::default()
         };
-        let res = run_rjmcmc(&models, &opts, None).unwrap();
-        let truth = exact(&lg, &[0, 1], &[0]);
-        let p = res.pair(0, 1).unwrap();
+        let (p, truth) = nested_pair(&problem(5.0, 1, 300 + seed, 3.0), &opts);
         jumps += p.effective_jumps;
         warned += p.warning.is_some() as usize;
         for (i, e) in [p.visits, p.rao_blackwell, p.bridge].iter().enumerate() {
@@ -736,19 +730,13 @@ fn a_stopped_run_resumed_from_its_checkpoint_equals_an_uninterrupted_one() {
 #[test]
 fn a_model_entered_once_does_not_make_the_error_small() {
     for seed in [11u64, 56, 81, 82, 150] {
-        let lg = problem(7.0, 0, 500 + seed, 20.0);
-        let full = SubModel::new(&lg, vec![0, 1], vec![0.0; 2]).unwrap();
-        let small = SubModel::new(&lg, vec![0], vec![0.0; 2]).unwrap();
-        let models = two_models(&lg, &full, &small);
         let opts = RjOptions {
             n_iter: 20_000,
             burn_in: 500,
             seed,
             ..RjOptions::default()
         };
-        let res = run_rjmcmc(&models, &opts, None).unwrap();
-        let truth = exact(&lg, &[0, 1], &[0]);
-        let p = res.pair(0, 1).unwrap();
+        let (p, truth) = nested_pair(&problem(7.0, 0, 500 + seed, 20.0), &opts);
         assert!(
             p.effective_jumps <= 2 && p.warning.is_some(),
             "{seed}: {p:?}"
