@@ -185,6 +185,21 @@ fn leave_one_out(units: &[&Sums], layout: &Layout) -> Vec<Sums> {
     out
 }
 
+/// `Var(ln m̄)` floor of a mean over a direction's `m` proposals of non-negative terms (α, or a
+/// bridge's terms): the shift `ln((m+1)/m) ≈ 1/(m+1)` that one more proposal with a zero term
+/// would make, for every direction with proposals. A deficit a sample of `m` has not seen (all
+/// `m` jumps accepted, while some fixed share of proposals — the defensive mixture's prior
+/// draws, a tail of `g` — would be rejected) is invisible to every variance estimate built
+/// from those `m` terms; `1/m` is the Jeffreys 84 % bound on the rate of events seen zero
+/// times in `m` trials. See the module docs, "Errors".
+pub(crate) fn unseen_floor(proposals: &[f64]) -> f64 {
+    proposals
+        .iter()
+        .filter(|&&m| m > 0.0)
+        .map(|&m| (m + 1.0).powi(-2))
+        .sum()
+}
+
 /// What the visit estimator's error floor needs: sojourns and visits per model.
 pub(crate) struct Sojourns<'a> {
     pub sojourns: &'a [u64],
@@ -287,7 +302,7 @@ pub(crate) fn acceptance_estimate(
     Some(LnB {
         method: Method::RjRaoBlackwell,
         ln_b,
-        std_err: Some(pool.var(u, point).sqrt()),
+        std_err: Some(pool.var(u, point).max(unseen_floor(&[c1, c2])).sqrt()),
     })
 }
 
@@ -366,6 +381,7 @@ pub(crate) fn bridge_estimate(
     if !ln_r.is_finite() {
         return None;
     }
+    let var = var.max(unseen_floor(&[n1, n2]));
     Some(LnB {
         method: Method::RjBridge,
         ln_b: -ln_r,
@@ -520,6 +536,16 @@ mod tests {
             cycles,
             batch: 1,
         }
+    }
+
+    #[test]
+    fn unseen_floor_is_one_zero_term_per_direction() {
+        assert_eq!(unseen_floor(&[0.0, 0.0]), 0.0);
+        assert_eq!(unseen_floor(&[3.0, 0.0]), 1.0 / 16.0);
+        assert!((unseen_floor(&[4.0, 9.0]) - (0.04 + 0.01)).abs() < 1e-15);
+        // one more zero term shifts a log-mean of m terms all equal by ln((m+1)/m) ≈ 1/(m+1)
+        let m = 200.0f64;
+        assert!((unseen_floor(&[m]).sqrt() - ((m + 1.0) / m).ln()).abs() < 1e-4);
     }
 
     #[test]
