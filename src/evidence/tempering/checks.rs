@@ -8,6 +8,43 @@ use super::integrate::{rung_moments, stepping_stone, thermodynamic};
 
 /// Halves whose estimates differ by more than this many of their combined errors widen the
 /// error of the whole run.
+/// What a tempering run's checks against itself found, each message on the estimate it
+/// concerns (the module docs, "Checks of a run against itself"). Empty when every check passes.
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+pub struct TemperingChecks {
+    /// Thermodynamic integration's halves disagree (its error is already widened).
+    pub thermodynamic: Vec<String>,
+    /// Stepping-stone's halves disagree (its error is already widened).
+    pub stepping_stone: Vec<String>,
+    /// The ladder itself (`E_β[ln L]` falling from one rung to the next): concerns both.
+    pub ladder: Vec<String>,
+}
+
+impl TemperingChecks {
+    /// Whether every check passed.
+    pub fn is_empty(&self) -> bool {
+        self.thermodynamic.is_empty() && self.stepping_stone.is_empty() && self.ladder.is_empty()
+    }
+
+    /// The messages that concern thermodynamic integration.
+    pub fn for_thermodynamic(&self) -> Vec<String> {
+        self.thermodynamic
+            .iter()
+            .chain(&self.ladder)
+            .cloned()
+            .collect()
+    }
+
+    /// The messages that concern stepping-stone.
+    pub fn for_stepping_stone(&self) -> Vec<String> {
+        self.stepping_stone
+            .iter()
+            .chain(&self.ladder)
+            .cloned()
+            .collect()
+    }
+}
+
 pub(crate) const SPLIT_Z: f64 = 3.0;
 
 /// A rung whose `E_β[ln L]` lies more than this many combined errors below the rung under it

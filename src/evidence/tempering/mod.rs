@@ -97,6 +97,7 @@ mod run;
 #[cfg(test)]
 mod tests;
 
+pub use checks::TemperingChecks;
 pub use integrate::{SteppingStoneEstimate, ThermodynamicEstimate};
 pub use options::{SNAPSHOTS, TemperingOptions};
 pub use run::{

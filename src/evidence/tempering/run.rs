@@ -1,7 +1,7 @@
 //! Running a tempering ladder: fresh or from its checkpoint, on the one sampler
 //! [`Driver`], and the estimates of its post-burn-in sweeps.
 
-use super::checks;
+use super::checks::{self, TemperingChecks};
 use super::integrate::{
     SteppingStoneEstimate, ThermodynamicEstimate, rung_moments, stepping_stone, thermodynamic,
 };
@@ -44,8 +44,8 @@ pub struct TemperingResult {
     pub stepping_stone: Result<SteppingStoneEstimate, String>,
     /// What the run's checks against itself found (the module docs, "Checks of a run against
     /// itself"): halves of the run that disagree (the estimate's error is then already
-    /// widened) and rungs whose `E_β[ln L]` falls with β. Empty when both pass.
-    pub checks: Vec<String>,
+    /// widened) and rungs whose `E_β[ln L]` falls with β, each on the estimate it concerns.
+    pub checks: TemperingChecks,
     /// Sweeps run.
     pub n_iter: usize,
     /// Burn-in sweeps.
@@ -275,7 +275,7 @@ fn result(ladder: Ladder, opts: &TemperingOptions) -> TemperingResult {
     let moments = rung_moments(&series, n_t, n_post, batch);
     let mut thermodynamic = thermodynamic(&betas, &moments, &series, batch);
     let mut stepping_stone = stepping_stone(&betas, &series, batch);
-    let mut notes = Vec::new();
+    let mut notes = TemperingChecks::default();
     let (ti_halves, ss_halves) = checks::halves(&betas, &series);
     if let (Ok(t), Some(h)) = (&mut thermodynamic, ti_halves) {
         let (se, note) = checks::split_error(
@@ -284,15 +284,15 @@ fn result(ladder: Ladder, opts: &TemperingOptions) -> TemperingResult {
             h.map(|x| (x.ln_z, x.std_err)),
         );
         t.std_err = se;
-        notes.extend(note);
+        notes.thermodynamic.extend(note);
     }
     if let (Ok(t), Some(h)) = (&mut stepping_stone, ss_halves) {
         let (se, note) =
             checks::split_error("stepping-stone", t.std_err, h.map(|x| (x.ln_z, x.std_err)));
         t.std_err = se;
-        notes.extend(note);
+        notes.stepping_stone.extend(note);
     }
-    notes.extend(checks::falling_mean(
+    notes.ladder.extend(checks::falling_mean(
         &betas,
         &moments.mean,
         &moments.mean_se,

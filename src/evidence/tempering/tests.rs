@@ -672,9 +672,25 @@ fn a_run_still_walking_in_fails_its_own_checks() {
     };
     let res = run_tempering(&lg, &[4.9, -4.9, 4.9], &(&post.cov * 1e-4), &opts).unwrap();
     eprintln!("{:#?}", res.checks);
-    assert_eq!(res.checks.len(), 2, "{:#?}", res.checks);
-    assert!(res.checks[0].starts_with("thermodynamic integration: the two halves"));
-    assert!(res.checks[1].starts_with("stepping-stone: the two halves"));
+    let c = &res.checks;
+    assert_eq!(
+        (c.thermodynamic.len(), c.stepping_stone.len()),
+        (1, 1),
+        "{c:#?}"
+    );
+    assert!(c.thermodynamic[0].starts_with("thermodynamic integration: the two halves"));
+    assert!(c.stepping_stone[0].starts_with("stepping-stone: the two halves"));
+    // each estimate gets its own message and the ladder's, never the other's
+    assert!(
+        c.for_thermodynamic()
+            .iter()
+            .all(|m| !m.starts_with("stepping"))
+    );
+    assert!(
+        c.for_stepping_stone()
+            .iter()
+            .all(|m| !m.starts_with("thermo"))
+    );
     // the widened errors cover the exact ln Z, which the batch-means errors alone did not
     let exact = lg
         .exact_ln_evidence(&cols, &MvnOptions::default())

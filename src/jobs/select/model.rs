@@ -738,9 +738,10 @@ fn tempering(
                 seconds: t0.elapsed().as_secs_f64(),
             };
             // the run's checks against itself (its error already widened where they failed)
-            let caveat = |mut e: Evidence| {
-                if e.ln_z.is_some() && !r.checks.is_empty() {
-                    e.note = Some(r.checks.join("; "));
+            // each estimate carries the messages that concern it
+            let caveat = |mut e: Evidence, checks: Vec<String>| {
+                if e.ln_z.is_some() && !checks.is_empty() {
+                    e.note = Some(checks.join("; "));
                 }
                 e
             };
@@ -748,7 +749,11 @@ fn tempering(
                 discretisation_shift: shift,
                 ..Evidence::statistical(ti)
             };
-            (caveat(ti), caveat(Evidence::statistical(ss)), Some(diag))
+            (
+                caveat(ti, r.checks.for_thermodynamic()),
+                caveat(Evidence::statistical(ss), r.checks.for_stepping_stone()),
+                Some(diag),
+            )
         }
         Ok(TemperingOutcome::Stopped { sweeps }) => {
             let why = || {
