@@ -27,15 +27,11 @@ fn env(name: &str, default: usize) -> usize {
 fn plan(n_freq: usize, n_snr: usize, out: &Path) -> Result<Sweep, Box<dyn std::error::Error>> {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let file = root.join("examples/design-frequency.toml");
-    let mut text = std::fs::read_to_string(&file)?;
+    let text = std::fs::read_to_string(&file)?;
     // `SWEEP_BENCH_CROSS_CHECKS=light` (or `off`): every task's `[select] cross_checks`
-    if let Ok(c) = std::env::var("SWEEP_BENCH_CROSS_CHECKS") {
-        text = text.replacen(
-            "[select]\n",
-            &format!("[select]\ncross_checks = \"{c}\"\n"),
-            1,
-        );
-    }
+    let select = std::env::var("SWEEP_BENCH_CROSS_CHECKS")
+        .map(|c| vec![("cross_checks", toml::Value::String(c))])
+        .unwrap_or_default();
     let args = SweepArgs {
         axes: Some(vec![
             parse_axis(&format!("experiment.scan.x1.freq=log:1e-4:1:{n_freq}"))?,
@@ -43,6 +39,7 @@ fn plan(n_freq: usize, n_snr: usize, out: &Path) -> Result<Sweep, Box<dyn std::e
         ]),
         realisations: Some(1),
         output: Some(out.to_path_buf()),
+        select,
         ..Default::default()
     };
     Ok(Sweep::from_text(

@@ -432,6 +432,8 @@ struct SweepCli {
     /// No progress bar and no per-task lines.
     #[arg(short, long)]
     quiet: bool,
+    #[command(flatten)]
+    sizing: SelectFlags,
 }
 
 fn sweep(cli: SweepCli) -> Result<()> {
@@ -446,6 +448,7 @@ fn sweep(cli: SweepCli) -> Result<()> {
         truth: cli.truth,
         output: cli.output,
         resume: cli.resume,
+        select: cli.sizing.keys(),
     };
     let planned = plan(&req, exec.as_ref())?;
     let out = planned.sweep.out.clone();

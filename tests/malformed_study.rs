@@ -667,6 +667,7 @@ fn a_sweep_point_over_the_budget_is_refused_when_planned() {
         realisations: None,
         truth: None,
         output: None,
+        select: Vec::new(),
     };
     let e = occam::jobs::sweep::Sweep::from_text(&text, "sw.toml", std::path::Path::new("."), args)
         .unwrap_err()

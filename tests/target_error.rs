@@ -260,3 +260,53 @@ fn the_command_line_flags_set_the_select_keys_and_the_run_records_them() {
     );
     assert!(!ok && err.contains("select.target_error"), "{err}");
 }
+
+/// `occam sweep` takes the same flags: every point runs with them (no tempering with
+/// `--cross-checks off`), and the sweep's resolved study records them.
+#[test]
+fn the_sweep_takes_the_select_flags() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("small.toml"), small()).unwrap();
+    let (ok, _, err) = common::occam(
+        &[
+            "sweep",
+            "small.toml",
+            "--quiet",
+            "--snr",
+            "30",
+            "--target-error",
+            "0.5",
+            "--cross-checks",
+            "off",
+        ],
+        dir.path(),
+    );
+    assert!(ok, "{err}");
+    let run = dir.path().join("out/sweep");
+    let resolved: toml::Table = std::fs::read_to_string(run.join("study.resolved.toml"))
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert_eq!(resolved["select"]["target_error"].as_float(), Some(0.5));
+    assert_eq!(resolved["select"]["cross_checks"].as_str(), Some("off"));
+    let s: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(run.join("sweep.json")).unwrap()).unwrap();
+    let rows = s["points"][0]["pairs"][0]["estimates"].as_array().unwrap();
+    let value = |m: &str| rows.iter().find(|e| e["method"] == m).unwrap()["ln_b"].clone();
+    assert!(value("Thermodynamic integration").is_null(), "{rows:?}");
+    assert!(value("Stepping-stone").is_null(), "{rows:?}");
+    assert!(value("RJMCMC bridge").is_number(), "{rows:?}");
+    // refused by the key's name, as select refuses it
+    let (ok, _, err) = common::occam(
+        &[
+            "sweep",
+            "small.toml",
+            "--quiet",
+            "--snr",
+            "30",
+            "--target-error=0",
+        ],
+        dir.path(),
+    );
+    assert!(!ok && err.contains("select.target_error"), "{err}");
+}

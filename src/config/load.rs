@@ -36,20 +36,7 @@ impl Study {
             return Self::load(path);
         }
         let (file, text, base) = read_study(path)?;
-        let Ok(mut doc) = text.parse::<toml::Table>() else {
-            // the file's own parse error, as `load` gives it
-            return Self::from_toml(&text, &file, base);
-        };
-        let select = doc
-            .entry("select")
-            .or_insert_with(|| toml::Value::Table(toml::Table::new()));
-        let Some(select) = select.as_table_mut() else {
-            return Err(invalid(&file, "select".into(), "must be a table".into()));
-        };
-        for (k, v) in keys {
-            select.insert((*k).to_string(), v.clone());
-        }
-        let edited = toml::to_string(&doc).expect("a TOML table serialises");
+        let edited = with_select_keys(&text, &file, keys)?;
         Self::from_toml(&edited, &file, base)
     }
 
@@ -109,6 +96,32 @@ fn simulated_loop_stable(
         sim.thruster.map(|t| (t.response, t.value)),
         (tm2.pole, tm2.delay)
     ))
+}
+
+/// Study-file text with `[select]` keys set (the command line's `--target-error`,
+/// `--cross-checks`), for every command that runs a model selection. Text that does not parse
+/// is returned as it is, so the loader reports the file's own parse error.
+pub fn with_select_keys(
+    text: &str,
+    file: &str,
+    keys: &[(&str, toml::Value)],
+) -> Result<String, ConfigError> {
+    if keys.is_empty() {
+        return Ok(text.to_string());
+    }
+    let Ok(mut doc) = text.parse::<toml::Table>() else {
+        return Ok(text.to_string());
+    };
+    let select = doc
+        .entry("select")
+        .or_insert_with(|| toml::Value::Table(toml::Table::new()));
+    let Some(select) = select.as_table_mut() else {
+        return Err(invalid(file, "select".into(), "must be a table".into()));
+    };
+    for (k, v) in keys {
+        select.insert((*k).to_string(), v.clone());
+    }
+    Ok(toml::to_string(&doc).expect("a TOML table serialises"))
 }
 
 /// A study file's name for messages, its text, and the directory its relative paths start from.

@@ -45,6 +45,7 @@ mod suggest;
 mod sweep;
 pub use error::ConfigError;
 pub use limits::{DELAY_PARAMS, MAX_ASD, MAX_CORNER, MAX_DELAY, MAX_TARGET_SNR, MIN_ASD};
+pub use load::with_select_keys;
 pub use models::{
     BUILTIN_LTP, DriftModelEntry, LtpModelEntry, ModelDef, ModelEntry, ModelSet, ModelSpec,
     fmt_point,

@@ -26,6 +26,8 @@ pub struct SweepRequest {
     pub output: Option<PathBuf>,
     /// Stop when the run directory holds no finished task of this sweep.
     pub resume: bool,
+    /// `[select]` keys set for every point (`--target-error`, `--cross-checks`).
+    pub select: Vec<(&'static str, toml::Value)>,
 }
 
 /// A sweep ready to run: the plan, the run directory (held on the root only) and what to tell
@@ -81,6 +83,7 @@ pub fn plan(req: &SweepRequest, exec: &dyn Executor) -> anyhow::Result<PlannedSw
         realisations: req.realisations,
         truth: req.truth.clone(),
         output: req.output.clone(),
+        select: req.select.clone(),
     };
     let sweep = Sweep::load(&req.study, args)?;
     // one run per directory; under MPI the root holds it for every rank

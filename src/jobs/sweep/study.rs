@@ -25,6 +25,9 @@ pub struct SweepArgs {
     pub truth: Option<String>,
     /// Run directory (default `<output>/sweep`).
     pub output: Option<PathBuf>,
+    /// `[select]` keys set for every point (the command line's `--target-error`,
+    /// `--cross-checks`); they are part of the study, so of every task's identity.
+    pub select: Vec<(&'static str, toml::Value)>,
 }
 
 /// A planned sweep: the base study, the grid and where its results go.
@@ -81,6 +84,8 @@ impl Sweep {
         base_dir: &Path,
         args: SweepArgs,
     ) -> anyhow::Result<Sweep> {
+        let edited = crate::config::with_select_keys(text, file, &args.select)?;
+        let text = edited.as_str();
         let study = Study::from_toml(text, file, base_dir)?;
         let resolved = crate::config::resolved_toml(&study)?;
         if study.select_models.len() < 2 {
