@@ -5,6 +5,7 @@
     bench/peer/.venv/bin/python bench/peer/nested_vs_occam.py  # from the repository root
 
 For each regime of the guidance-delay study (X: all 7 LTP parameters, Y: dt1 = dt2 = 0 fixed):
+  rho5     examples/guidance-delays-low-snr.toml (`target_snr = 5`: the models cannot be told apart)
   rho60    examples/guidance-delays.toml with `[simulation] target_snr = 60`
   nominal  examples/guidance-delays-high-snr.toml (the nominal TN3045 amplitudes)
 it writes the study to runs/nested-peers/<regime>/study.toml, exports the exact likelihood
@@ -45,6 +46,7 @@ def rho60_study(text):
 
 
 REGIMES = {
+    "rho5": ("examples/guidance-delays-low-snr.toml", lambda t: t),
     "rho60": ("examples/guidance-delays.toml", rho60_study),
     "nominal": ("examples/guidance-delays-high-snr.toml", lambda t: t),
 }
@@ -116,14 +118,14 @@ def run_occam(study):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--regime", action="append", choices=sorted(REGIMES), help="default: both")
+    ap.add_argument("--regime", action="append", choices=sorted(REGIMES), help="default: all")
     ap.add_argument("--rerun-peers", action="store_true", help="run dynesty and nautilus even if stored")
     ap.add_argument("--seed", type=int, default=12, help="seed of the peers")
     a = ap.parse_args()
     os.makedirs(RESULTS, exist_ok=True)
     sh(["cargo", "build", "--release", "--quiet", "--bin", "occam", "--example", "peer_inputs"])
     rows = []
-    for regime in a.regime or ["rho60", "nominal"]:
+    for regime in a.regime or list(REGIMES):
         src, edit = REGIMES[regime]
         d = os.path.join("runs", "nested-peers", regime)
         os.makedirs(os.path.join(ROOT, d), exist_ok=True)
