@@ -224,21 +224,10 @@ fn bad_target_settings_are_refused_naming_the_key() {
 
 #[test]
 fn the_command_line_flags_set_the_select_keys_and_the_run_records_them() {
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("small.toml"), small()).unwrap();
-    let (ok, out, err) = common::occam(
-        &[
-            "select",
-            "small.toml",
-            "--quiet",
-            "--target-error",
-            "1e-9",
-            "--cross-checks",
-            "off",
-        ],
-        dir.path(),
+    let (dir, out) = run_small(
+        &["select"],
+        &["--target-error", "1e-9", "--cross-checks", "off"],
     );
-    assert!(ok, "{err}");
     assert!(out.contains("target ± 1.0e-9"), "{out}");
     assert!(out.contains("not met: the budget (96000"), "{out}");
     assert!(out.contains("cross-checks off"), "{out}");
@@ -254,34 +243,36 @@ fn the_command_line_flags_set_the_select_keys_and_the_run_records_them() {
     let table = std::fs::read_to_string(run.join("table.md")).unwrap();
     assert!(table.contains("target ± 1.0e-9"), "{table}");
     // a value the study file could not hold is refused naming the flag's key
-    let (ok, _, err) = common::occam(
-        &["select", "small.toml", "--quiet", "--target-error=0"],
-        dir.path(),
+    refused_target(&dir, &["select"]);
+}
+
+/// Runs `occam <command> small.toml --quiet <flags>` in a fresh directory holding
+/// [`small`]; the directory and the standard output.
+fn run_small(command: &[&str], flags: &[&str]) -> (tempfile::TempDir, String) {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("small.toml"), small()).unwrap();
+    let args: Vec<&str> = [command, &["small.toml", "--quiet"], flags].concat();
+    let (ok, out, err) = common::occam(&args, dir.path());
+    assert!(ok, "{args:?}: {err}");
+    (dir, out)
+}
+
+/// `--target-error=0`, which the study file could not hold either, is refused naming the key.
+fn refused_target(dir: &tempfile::TempDir, command: &[&str]) {
+    let args: Vec<&str> = [command, &["small.toml", "--quiet", "--target-error=0"]].concat();
+    let (ok, _, err) = common::occam(&args, dir.path());
+    assert!(
+        !ok && err.contains("select.target_error"),
+        "{args:?}: {err}"
     );
-    assert!(!ok && err.contains("select.target_error"), "{err}");
 }
 
 /// `occam sweep` takes the same flags: every point runs with them (no tempering with
 /// `--cross-checks off`), and the sweep's resolved study records them.
 #[test]
 fn the_sweep_takes_the_select_flags() {
-    let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("small.toml"), small()).unwrap();
-    let (ok, _, err) = common::occam(
-        &[
-            "sweep",
-            "small.toml",
-            "--quiet",
-            "--snr",
-            "30",
-            "--target-error",
-            "0.5",
-            "--cross-checks",
-            "off",
-        ],
-        dir.path(),
-    );
-    assert!(ok, "{err}");
+    let flags = ["--target-error", "0.5", "--cross-checks", "off"];
+    let (dir, _) = run_small(&["sweep", "--snr", "30"], &flags);
     let run = dir.path().join("out/sweep");
     let resolved: toml::Table = std::fs::read_to_string(run.join("study.resolved.toml"))
         .unwrap()
@@ -297,16 +288,5 @@ fn the_sweep_takes_the_select_flags() {
     assert!(value("Stepping-stone").is_null(), "{rows:?}");
     assert!(value("RJMCMC bridge").is_number(), "{rows:?}");
     // refused by the key's name, as select refuses it
-    let (ok, _, err) = common::occam(
-        &[
-            "sweep",
-            "small.toml",
-            "--quiet",
-            "--snr",
-            "30",
-            "--target-error=0",
-        ],
-        dir.path(),
-    );
-    assert!(!ok && err.contains("select.target_error"), "{err}");
+    refused_target(&dir, &["sweep", "--snr", "30"]);
 }

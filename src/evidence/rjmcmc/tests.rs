@@ -729,23 +729,30 @@ fn a_stopped_run_resumed_from_its_checkpoint_equals_an_uninterrupted_one() {
 #[test]
 fn a_model_entered_once_does_not_make_the_error_small() {
     for seed in [11u64, 56, 81, 82, 150] {
-        let opts = RjOptions {
-            n_iter: 20_000,
-            burn_in: 500,
-            seed,
-            ..RjOptions::default()
-        };
-        let (p, truth) = nested_pair(&problem(7.0, 0, 500 + seed, 20.0), &opts);
+        let (p, z) = disfavoured_model_entered_rarely(seed);
         assert!(
             p.effective_jumps <= 2 && p.warning.is_some(),
             "{seed}: {p:?}"
         );
-        for e in [p.rao_blackwell, p.bridge] {
-            let e = e.unwrap();
-            let z = (e.ln_b - truth) / e.std_err.unwrap();
-            assert!(z.abs() < 2.0, "seed {seed}: {e:?} vs {truth}: {z:.1} σ");
-        }
+        assert!(z.iter().all(|z| z.abs() < 2.0), "seed {seed}: {z:?} σ");
     }
+}
+
+/// The family of the two tests below (ln B ≈ +9: the small model is rarely entered): the
+/// pair, and the Rao-Blackwell and bridge misses of the exact ln B in their stated σ.
+fn disfavoured_model_entered_rarely(seed: u64) -> (RjPair, [f64; 2]) {
+    let opts = RjOptions {
+        n_iter: 20_000,
+        burn_in: 500,
+        seed,
+        ..RjOptions::default()
+    };
+    let (p, truth) = nested_pair(&problem(7.0, 0, 500 + seed, 20.0), &opts);
+    let z = [p.rao_blackwell, p.bridge].map(|e| {
+        let e = e.unwrap();
+        (e.ln_b - truth) / e.std_err.unwrap()
+    });
+    (p, z)
 }
 
 /// A model entered in a few sojourns whose every jump back was accepted (3–36 proposals out
@@ -759,25 +766,15 @@ fn a_model_entered_once_does_not_make_the_error_small() {
 #[test]
 fn a_model_entered_in_a_few_sojourns_with_every_jump_back_accepted() {
     for seed in [29u64, 61, 135, 160, 487, 855] {
-        let opts = RjOptions {
-            n_iter: 20_000,
-            burn_in: 500,
-            seed,
-            ..RjOptions::default()
-        };
-        let (p, truth) = nested_pair(&problem(7.0, 0, 500 + seed, 20.0), &opts);
+        let (p, z) = disfavoured_model_entered_rarely(seed);
         assert!(
             (3..=30).contains(&p.effective_jumps) && p.proposals_l_to_k == p.accepted_l_to_k,
             "{seed}: {p:?}"
         );
-        for e in [p.rao_blackwell, p.bridge] {
-            let e = e.unwrap();
-            let se = e.std_err.unwrap();
-            let z = (e.ln_b - truth) / se;
-            assert!(
-                z.abs() < 2.0 && se < 0.25,
-                "seed {seed}: {e:?} vs {truth}: {z:.1} σ"
-            );
-        }
+        let se = [p.rao_blackwell, p.bridge].map(|e| e.unwrap().std_err.unwrap());
+        assert!(
+            z.iter().all(|z| z.abs() < 2.0) && se.iter().all(|&s| s < 0.25),
+            "seed {seed}: {z:?} σ, errors {se:?}"
+        );
     }
 }
