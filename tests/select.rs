@@ -50,6 +50,8 @@ fn value(p: &PairResult, m: &str) -> (f64, f64) {
 /// nautilus on the exact likelihood of the same data (`bench/peer/results/*.nautilus.json`):
 /// the independent references of the ρ_opt = 60 and nominal-amplitude regimes.
 const NAUTILUS_RHO60: (f64, f64) = (0.09571981523185968, 0.012739854459202234);
+/// The same at ρ_opt = 5 (`examples/guidance-delays-low-snr.toml`).
+const NAUTILUS_RHO5: (f64, f64) = (0.013161020819097757, 0.01408025160631756);
 const NAUTILUS_NOMINAL: (f64, f64) = (-14.229583978652954, 0.010770460116461862);
 /// `examples/guidance-delays.toml` (ρ_opt = 450): the bridge of a 1.6·10⁶-iteration reversible
 /// jump on sampler seed 4242 (`[select] seed`), ln B_XY.
@@ -187,6 +189,10 @@ fn low_snr_regime_every_estimator_reports_or_explains() {
     assert!(ti.0.abs() < 0.05, "TI {ti:?}");
     for m in STATISTICAL {
         within(p, m, ti, 3.0);
+    }
+    // and against nautilus on the same data (an independent reference), within 2.5 combined σ
+    for m in STATISTICAL {
+        within(p, m, NAUTILUS_RHO5, 2.5);
     }
     // the tempering estimators need no jump and no Gaussian: they agree with the RJ bridge
     assert!(p.all_agree, "{:#?}", p.estimates);
