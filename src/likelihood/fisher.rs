@@ -93,10 +93,44 @@ pub fn gradient_and_fisher(
     th: &[f64],
     free: &[usize],
 ) -> (Vec<f64>, DMatrix<f64>) {
+    let mut g = vec![0.0; free.len()];
+    let mut f = [DMatrix::<f64>::zeros(free.len(), free.len())];
+    accumulate(lik, th, free, &mut g, &mut f, |_, _| Some(0));
+    let [f] = f;
+    (g, f)
+}
+
+/// The Fisher matrix over `free` at `th` split by where its information comes from: bin `k`
+/// of experiment `e` (at frequency `f`) adds to part `group(e, f)`, or to none (a part
+/// `≥ n_parts` is none). With a `group` that places every bin, the parts sum to
+/// [`fisher_exact`]'s matrix.
+///
+pub fn fisher_parts(
+    lik: &Likelihood,
+    th: &[f64],
+    free: &[usize],
+    n_parts: usize,
+    group: impl Fn(usize, f64) -> Option<usize>,
+) -> Vec<DMatrix<f64>> {
+    let mut g = vec![0.0; free.len()];
+    let mut f = vec![DMatrix::<f64>::zeros(free.len(), free.len()); n_parts];
+    accumulate(lik, th, free, &mut g, &mut f, |e, x| {
+        group(e, x).filter(|&p| p < n_parts)
+    });
+    f
+}
+
+/// Adds the gradient of every bin to `g` and its Fisher matrix to `f[group(e, f_k)]`.
+fn accumulate(
+    lik: &Likelihood,
+    th: &[f64],
+    free: &[usize],
+    g: &mut [f64],
+    f: &mut [DMatrix<f64>],
+    group: impl Fn(usize, f64) -> Option<usize>,
+) {
     let nr = lik.model().residual_channels().len();
     let d = free.len();
-    let mut g = vec![0.0; d];
-    let mut f = DMatrix::<f64>::zeros(d, d);
     let mut dr = vec![[ZERO; MAX_RESIDUALS]; d];
     let (mut r, mut scratch) = ([ZERO; MAX_RESIDUALS], [ZERO; MAX_RESIDUALS]);
     let mut buf = vec![Dual64::from(0.0); th.len()];
@@ -132,20 +166,24 @@ pub fn gradient_and_fisher(
                 // whiten once per bin: the products are then plain dot products
                 whiten_all(e, k, nr, &mut r, &mut dr);
             }
+            let part = group(ei, e.freqs[k]);
             for i in 0..d {
                 g[i] -= 2.0 * inner(e, k, nr, &dr[i], &r);
-                for j in i..d {
-                    f[(i, j)] += 2.0 * inner(e, k, nr, &dr[i], &dr[j]);
+                if let Some(p) = part {
+                    for j in i..d {
+                        f[p][(i, j)] += 2.0 * inner(e, k, nr, &dr[i], &dr[j]);
+                    }
                 }
             }
         }
     }
-    for i in 0..d {
-        for j in 0..i {
-            f[(i, j)] = f[(j, i)];
+    for fp in f.iter_mut() {
+        for i in 0..d {
+            for j in 0..i {
+                fp[(i, j)] = fp[(j, i)];
+            }
         }
     }
-    (g, f)
 }
 
 /// The default central-difference step for parameter `name` at `value`: `ε^{1/3}` relative to

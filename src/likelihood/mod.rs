@@ -10,6 +10,7 @@
 mod exact;
 mod fisher;
 pub mod glitch_gate;
+pub mod information;
 mod map;
 mod multistart;
 mod noise_matrix;
@@ -22,7 +23,7 @@ pub mod statistic;
 
 pub use exact::{Likelihood, LikelihoodError};
 pub use fisher::{
-    cramer_rao, default_step, describe_unconstrained, fisher_exact, fisher_numeric,
+    cramer_rao, default_step, describe_unconstrained, fisher_exact, fisher_numeric, fisher_parts,
     gradient_and_fisher, gradient_hessian_numeric,
 };
 pub use glitch_gate::{

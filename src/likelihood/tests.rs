@@ -192,6 +192,49 @@ fn fisher_exact_matches_central_differences() {
     assert!(cramer_rao(&fe).is_some());
 }
 
+/// The parts of [`fisher_parts`] sum to the whole matrix; a part holds exactly the bins
+/// placed in it (the second experiment's alone is the Fisher matrix of a likelihood of that
+/// experiment only); bins placed nowhere are left out.
+#[test]
+fn fisher_parts_sum_to_the_whole_and_hold_their_own_bins() {
+    let study = small_study(5, 1e-6, "none");
+    let lik = likelihood_of(&study, &model_opts());
+    let th = study.truth.to_array();
+    let free: Vec<usize> = (0..N_PARAMS).collect();
+    let whole = fisher_exact(&lik, &th, &free);
+    let by_band = fisher_parts(&lik, &th, &free, 3, |_, f| {
+        Some(if f < 0.01 {
+            0
+        } else if f < 0.05 {
+            1
+        } else {
+            2
+        })
+    });
+    let sum = &by_band[0] + &by_band[1] + &by_band[2];
+    for i in 0..N_PARAMS {
+        for j in 0..N_PARAMS {
+            let scale = (whole[(i, i)] * whole[(j, j)]).sqrt();
+            assert!(
+                (sum[(i, j)] - whole[(i, j)]).abs() < 1e-12 * scale,
+                "F[{i}][{j}]"
+            );
+        }
+    }
+    // every band carries information on the sine at its frequency
+    assert!(by_band.iter().all(|p| p[(0, 0)] > 0.0));
+    let by_exp = fisher_parts(&lik, &th, &free, 2, |e, _| Some(e));
+    let second =
+        Likelihood::new(ltp_model(), vec![lik.spectra()[1].clone()], wide_prior()).unwrap();
+    let alone = fisher_exact(&second, &th, &free);
+    assert_eq!(by_exp[1], alone);
+    let only_second = fisher_parts(&lik, &th, &free, 1, |e, _| (e == 1).then_some(0));
+    assert_eq!(only_second[0], alone);
+    // a part number past n_parts is placed nowhere
+    let none = fisher_parts(&lik, &th, &free, 1, |_, _| Some(1));
+    assert_eq!(none[0], nalgebra::DMatrix::zeros(N_PARAMS, N_PARAMS));
+}
+
 /// The likelihood is exactly quadratic in a parameter that enters h linearly. None of the
 /// seven does, but at a noiseless truth ln L(θ0 + δ) − ln L(θ0) = −½ δᵀFδ to second order:
 /// check the Fisher curvature against ln L itself along each axis (ltp-model.md §11).
