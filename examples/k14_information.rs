@@ -20,9 +20,9 @@ use nalgebra::{DMatrix, DVector};
 use occam::config::Study;
 use occam::density::LogDensity;
 use occam::experiment::{SineSegment, Waveform};
-use occam::jobs::prepare::prepare;
+use occam::jobs::prepare::{injection_lines, prepare};
 use occam::likelihood::NoiseSource;
-use occam::likelihood::information::{Information, Line};
+use occam::likelihood::information::Information;
 use std::path::Path;
 
 /// K14 Table I's σ and the LTPDA training's expected CRB (ltp-model.md §6.2), by parameter.
@@ -101,23 +101,7 @@ fn information(study: &Study) -> Result<Information, Box<dyn std::error::Error>>
     let prep = prepare(study)?;
     let lik = &prep.likelihood;
     let names = lik.param_names().to_vec();
-    let lines: Vec<Vec<Line>> = lik
-        .spectra()
-        .iter()
-        .map(|sp| {
-            study
-                .experiments
-                .iter()
-                .find(|e| e.name == sp.name)
-                .map(|e| {
-                    [("x1", &e.x1), ("x12", &e.x12)]
-                        .iter()
-                        .flat_map(|(c, w)| w.segments().iter().map(|s| (c.to_string(), s.freq)))
-                        .collect()
-                })
-                .unwrap_or_default()
-        })
-        .collect();
+    let lines = injection_lines(study, lik);
     let th = study.truth.to_array();
     Information::of(lik, &th, &study.fit_model.free, &names, &lines)
         .ok_or_else(|| "the Fisher matrix at the truth is singular".into())

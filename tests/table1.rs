@@ -112,9 +112,27 @@ fn table_one_fit_recovers_the_truth() {
         "trace.png",
         "trace.svg",
         "corner.png",
+        "information.md",
+        "information.json",
+        "information.png",
     ] {
         assert!(dir.path().join(f).exists(), "{f}");
     }
+    // where the information comes from: its σ is the Cramér–Rao bound at the MAP, x1's
+    // experiment holds all of ω1²'s and x12's all of A_sus's, and the 53 mHz segment of x1
+    // most of A_df's
+    let info = o.information.as_ref().unwrap();
+    for (s, c) in info.sigma.iter().zip(&cr) {
+        assert!((s / c - 1.0).abs() < 1e-9, "{s} vs {c}");
+    }
+    let by_exp = &info.splits[0].parts;
+    assert!(by_exp[0].share[0] > 0.999 && by_exp[1].share[5] > 0.999);
+    let top = info.splits[1]
+        .parts
+        .iter()
+        .find(|p| p.name.starts_with("inv1 x1 5.3"))
+        .unwrap();
+    assert!(top.share[4] > 0.5, "{top:?}");
 }
 
 /// A prior box that excludes the truth (a_df = 0.82 against [0.9, 1.5]) puts the MAP on its

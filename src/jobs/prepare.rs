@@ -617,6 +617,32 @@ pub fn map_search(
     )
 }
 
+/// The injected lines of every experiment of `lik` (in its order), for
+/// [`crate::likelihood::information::Information`]: the sine segments of the study's
+/// waveforms on `x1` and `x12`, labelled by channel. An experiment of loaded data, or with
+/// other waveforms, has none (its bins are then all "elsewhere").
+pub fn injection_lines(
+    study: &Study,
+    lik: &Likelihood,
+) -> Vec<Vec<crate::likelihood::information::Line>> {
+    lik.spectra()
+        .iter()
+        .map(|sp| {
+            study
+                .experiments
+                .iter()
+                .find(|e| e.name == sp.name)
+                .map(|e| {
+                    [("x1", &e.x1), ("x12", &e.x12)]
+                        .iter()
+                        .flat_map(|(c, w)| w.segments().iter().map(|s| (c.to_string(), s.freq)))
+                        .collect()
+                })
+                .unwrap_or_default()
+        })
+        .collect()
+}
+
 /// The true parameter values of model `mi` that the dataset knows, by name (the loop's and,
 /// when the dataset records them, the actuators'; or those of the model that generated it).
 pub fn truth_of(study: &Study, mi: usize, dataset: &Dataset) -> Option<Vec<Option<f64>>> {

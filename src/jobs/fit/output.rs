@@ -67,8 +67,9 @@ pub const LEGACY_OUTPUTS: &[&str] = &[
 /// Most parameters the trace and corner plots show (the first ones of the chains).
 pub const MAX_PLOTTED: usize = 16;
 
-/// Writes `summary.json`, `table.txt`, `table.md`, `chains.npz` and the trace and corner plots
-/// (of the first `MAX_PLOTTED` parameters) into `out`; every file atomically.
+/// Writes `summary.json`, `table.txt`, `table.md`, `chains.npz`, the trace and corner plots
+/// (of the first `MAX_PLOTTED` parameters) and where the information comes from
+/// (`information.md`, `.json`, `.png`, `.svg`) into `out`; every file atomically.
 pub fn write_outputs(o: &FitOutcome, out: &Path) -> Result<(), FitError> {
     let io = |p: &Path, e: std::io::Error| FitError::Other(format!("{}: {e}", p.display()));
     std::fs::create_dir_all(out).map_err(|e| io(out, e))?;
@@ -148,6 +149,49 @@ pub fn write_outputs(o: &FitOutcome, out: &Path) -> Result<(), FitError> {
             samples: &thinned,
             truth: truth.as_deref(),
             map: map.as_deref(),
+        },
+    )?;
+    if let Some(info) = &o.information {
+        write_information(info, out)?;
+    }
+    Ok(())
+}
+
+/// Writes `information.md`, `information.json` and the plot `information.png`/`.svg`: the
+/// share of each parameter's Fisher information below each frequency.
+fn write_information(
+    info: &crate::likelihood::information::Information,
+    out: &Path,
+) -> Result<(), FitError> {
+    let io = |p: &Path, e: std::io::Error| FitError::Other(format!("{}: {e}", p.display()));
+    let md = format!(
+        "# Where the information comes from\n\nThe Fisher matrix of the free parameters at the MAP, split by experiment, by injection segment (the half-octave around each injected frequency) and by decade. A share is the part's fraction of the parameter's diagonal information; σ without is the Cramér–Rao σ with the part left out, over the σ with everything (∞: the rest cannot constrain the parameter).\n\n{}",
+        info.markdown()
+    );
+    let p = out.join("information.md");
+    crate::atomic::write_bytes(&p, md.as_bytes()).map_err(|e| io(&p, e))?;
+    let json = serde_json::to_string_pretty(info).expect("information serialises") + "\n";
+    let p = out.join("information.json");
+    crate::atomic::write_bytes(&p, json.as_bytes()).map_err(|e| io(&p, e))?;
+    let series: Vec<(String, Vec<(f64, f64)>)> = info
+        .params
+        .iter()
+        .enumerate()
+        .map(|(a, n)| {
+            let pts = info.cumulative.iter().map(|(f, s)| (*f, s[a])).collect();
+            (n.clone(), pts)
+        })
+        .collect();
+    crate::report::line_plot(
+        out,
+        "information",
+        &crate::report::LinePlot {
+            title: "Share of each parameter's Fisher information below f",
+            x_label: "f (Hz)",
+            y_label: "cumulative share",
+            series: &series,
+            log_x: true,
+            ..Default::default()
         },
     )?;
     Ok(())

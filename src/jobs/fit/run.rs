@@ -213,11 +213,19 @@ pub fn run(
     };
     let extra = non_finite_warnings(&summary);
     summary.warnings.extend(extra);
+    let information = crate::likelihood::information::Information::of(
+        exact,
+        &map.theta,
+        free,
+        &names,
+        &crate::jobs::prepare::injection_lines(study, exact),
+    );
     Ok(FitOutcome {
         summary,
         chains,
         map_full: map.theta,
         fisher,
+        information,
     })
 }
 

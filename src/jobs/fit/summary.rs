@@ -93,6 +93,9 @@ pub struct FitOutcome {
     /// Free-parameter MAP and Fisher matrix (for reuse by evidence estimators).
     pub map_full: Vec<f64>,
     pub fisher: DMatrix<f64>,
+    /// Where the information on each free parameter comes from, at the MAP
+    /// (`information.md`, `.json` and the plot); `None` when the Fisher matrix is singular.
+    pub information: Option<crate::likelihood::information::Information>,
 }
 
 /// Warnings for the numbers of `s` that are not finite, which `summary.json` writes as `null`
