@@ -103,8 +103,7 @@ pub fn gradient_and_fisher(
 /// The Fisher matrix over `free` at `th` split by where its information comes from: bin `k`
 /// of experiment `e` (at frequency `f`) adds to part `group(e, f)`, or to none (a part
 /// `≥ n_parts` is none). With a `group` that places every bin, the parts sum to
-/// [`fisher_exact`]'s matrix.
-///
+/// [`fisher_exact`]'s matrix. Used by [`super::information::Information`].
 pub fn fisher_parts(
     lik: &Likelihood,
     th: &[f64],
