@@ -438,7 +438,11 @@ fn non_runs_old_runs_busy_runs_and_other_destinations() {
     assert!(html.contains("has no manifest.json"));
     assert!(html.contains("<title>occam fit"));
     assert!(!run.join("manifest.json").exists());
-    assert_eq!(html.matches("<svg").count(), 2, "trace.svg and corner.svg");
+    assert_eq!(
+        html.matches("<svg").count(),
+        3,
+        "trace.svg, corner.svg and information.svg"
+    );
 }
 
 #[test]
