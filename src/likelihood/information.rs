@@ -56,7 +56,7 @@ pub struct Information {
 pub type Line = (String, f64);
 
 /// Upper edges of the cumulative curve, per decade.
-const CUMULATIVE_PER_DECADE: f64 = 20.0;
+const CUMULATIVE_PER_DECADE: usize = 20;
 
 impl Information {
     /// The information on `free` (names `names`, of the full vector) at `th`; `lines[e]`
@@ -70,23 +70,25 @@ impl Information {
         lines: &[Vec<Line>],
     ) -> Option<Self> {
         let sp = lik.spectra();
-        let total = fisher_parts(lik, th, free, 1, |_, _| Some(0)).remove(0);
+        let d = free.len();
+        let sum = |ps: &[DMatrix<f64>]| ps.iter().fold(DMatrix::zeros(d, d), |acc, p| acc + p);
+        // three passes over the bins: by experiment (whose sum is the whole), by segment and
+        // on a fine log grid (whose blocks of CUMULATIVE_PER_DECADE are the decades)
+        let by_exp = fisher_parts(lik, th, free, sp.len(), |e, _| Some(e));
+        let total = sum(&by_exp);
         let sigma = cramer_rao(&total)?;
-        let split = |by: &str, labels: Vec<String>, group: &dyn Fn(usize, f64) -> Option<usize>| {
-            let parts = fisher_parts(lik, th, free, labels.len(), group);
-            Split {
-                by: by.into(),
-                parts: labels
-                    .into_iter()
-                    .enumerate()
-                    .map(|(i, name)| part(name, i, &parts, &total, &sigma))
-                    .collect(),
-            }
+        let split = |by: &str, labels: Vec<String>, parts: &[DMatrix<f64>]| Split {
+            by: by.into(),
+            parts: labels
+                .into_iter()
+                .enumerate()
+                .map(|(i, name)| part(name, i, parts, &total, &sigma))
+                .collect(),
         };
         let by_experiment = split(
             "experiment",
             sp.iter().map(|e| e.name.clone()).collect(),
-            &|e, _| Some(e),
+            &by_exp,
         );
         // segments: every experiment's lines, then "elsewhere"
         let mut seg_labels: Vec<String> = Vec::new();
@@ -100,7 +102,7 @@ impl Information {
         }
         let elsewhere = seg_labels.len();
         seg_labels.push("elsewhere".into());
-        let by_segment = split("segment", seg_labels, &|e, f| {
+        let seg_parts = fisher_parts(lik, th, free, seg_labels.len(), |e, f| {
             let near = lines
                 .get(e)
                 .into_iter()
@@ -111,25 +113,22 @@ impl Information {
                 .min_by(|a, b| a.1.total_cmp(&b.1));
             Some(near.map_or(elsewhere, |(j, _)| first[e] + j))
         });
+        let by_segment = split("segment", seg_labels, &seg_parts);
         let (lo, hi) = band_of(lik);
         let d0 = lo.log10().floor() as i32;
         let d1 = (hi.log10().ceil() as i32).max(d0 + 1);
-        let decades: Vec<String> = (d0..d1).map(|d| format!("1e{d}–1e{} Hz", d + 1)).collect();
-        let n_dec = decades.len();
-        // the top edge (f = 1 Hz on a band to 1 Hz) belongs to the last decade
-        let by_decade = split("decade", decades, &|_, f| {
-            Some(((f.log10().floor() as i32 - d0).max(0) as usize).min(n_dec - 1))
-        });
-        // cumulative: fine log bins, summed
-        let n = ((d1 - d0) as f64 * CUMULATIVE_PER_DECADE) as usize;
-        let edge = |i: usize| 10f64.powf(d0 as f64 + (i + 1) as f64 / CUMULATIVE_PER_DECADE);
+        let per = CUMULATIVE_PER_DECADE;
+        let n = (d1 - d0) as usize * per;
+        // the top edge (f = 1 Hz on a band to 1 Hz) belongs to the last bin
         let fine = fisher_parts(lik, th, free, n, |_, f| {
-            let i = ((f.log10() - d0 as f64) * CUMULATIVE_PER_DECADE)
-                .floor()
-                .max(0.0);
+            let i = ((f.log10() - d0 as f64) * per as f64).floor().max(0.0);
             Some((i as usize).min(n - 1))
         });
-        let mut acc = vec![0.0; free.len()];
+        let decades: Vec<String> = (d0..d1).map(|d| format!("1e{d}–1e{} Hz", d + 1)).collect();
+        let dec_parts: Vec<DMatrix<f64>> = fine.chunks(per).map(sum).collect();
+        let by_decade = split("decade", decades, &dec_parts);
+        let edge = |i: usize| 10f64.powf(d0 as f64 + (i + 1) as f64 / per as f64);
+        let mut acc = vec![0.0; d];
         let cumulative = fine
             .iter()
             .enumerate()
@@ -137,7 +136,7 @@ impl Information {
                 for (a, v) in acc.iter_mut().enumerate() {
                     *v += p[(a, a)];
                 }
-                let s = (0..free.len()).map(|a| acc[a] / total[(a, a)]).collect();
+                let s = (0..d).map(|a| acc[a] / total[(a, a)]).collect();
                 (edge(i), s)
             })
             .collect();
@@ -264,11 +263,11 @@ mod tests {
         let (i, lik) = info();
         let th = small_study(5, 1e-6, "none").truth.to_array();
         let total = fisher_exact(&lik, &th, &(0..7).collect::<Vec<_>>());
-        assert_eq!(
-            i.sigma,
-            crate::likelihood::cramer_rao(&total).unwrap(),
-            "σ with everything is the Cramér–Rao bound"
-        );
+        // σ with everything is the Cramér–Rao bound (the whole summed by experiment)
+        let cr = crate::likelihood::cramer_rao(&total).unwrap();
+        for (s, c) in i.sigma.iter().zip(&cr) {
+            assert!((s / c - 1.0).abs() < 1e-12, "{s} vs {c}");
+        }
         for sp in &i.splits {
             for a in 0..7 {
                 let sum: f64 = sp.parts.iter().map(|p| p.share[a]).sum();
