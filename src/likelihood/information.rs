@@ -292,6 +292,21 @@ mod tests {
     }
 
     #[test]
+    fn without_known_lines_every_bin_is_elsewhere() {
+        // loaded data: no injected lines are known, the segment split is one part
+        let (_, lik) = info();
+        let th = small_study(5, 1e-6, "none").truth.to_array();
+        let names = crate::density::LogDensity::param_names(&lik).to_vec();
+        let free: Vec<usize> = (0..7).collect();
+        let i = Information::of(&lik, &th, &free, &names, &[]).unwrap();
+        let seg = &i.splits[1].parts;
+        assert_eq!(seg.len(), 1);
+        assert_eq!(seg[0].name, "elsewhere");
+        assert!(seg[0].share.iter().all(|s| (s - 1.0).abs() < 1e-12));
+        assert!(seg[0].sigma_without.iter().all(|w| w.is_infinite()));
+    }
+
+    #[test]
     fn the_cumulative_share_rises_to_one() {
         let (i, _) = info();
         let c = &i.cumulative;
