@@ -75,6 +75,18 @@ enum Command {
         #[command(flatten)]
         run: RunFlags,
     },
+    /// Write a commented starting study to edit: `closed-loop`, `user-model`, `own-data` or
+    /// `sweep` (without KIND: the list).
+    Init {
+        /// The kind of study.
+        kind: Option<String>,
+        /// The file to write (default: KIND.toml in the working directory).
+        #[arg(short, long)]
+        output: Option<PathBuf>,
+        /// Replace the file if it exists.
+        #[arg(long)]
+        force: bool,
+    },
     /// Write a self-contained HTML page of a fit, select or sweep run: tables, figures,
     /// diagnostics, warnings and the resolved study (default RUN_DIR/report.html).
     Report {
@@ -177,9 +189,23 @@ fn main() {
             .and_then(|_| select(study, output, resume, &sizing, run)),
         Command::Demo { output, run } => run.apply().and_then(|_| demo(output, run)),
         Command::Sweep(cli) => sweep(cli),
+        Command::Init {
+            kind,
+            output,
+            force,
+        } => init(kind.as_deref(), output.as_deref(), force),
         Command::Report { run_dir, output } => {
-            occam::jobs::report::run(&run_dir, output.as_deref())
-                .map(|p| println!("wrote {}", p.display()))
+            occam::jobs::report::run(&run_dir, output.as_deref()).map(|p| {
+                println!("wrote {}", p.display());
+                // a study's output directory is its simulation's run and holds the others
+                for r in occam::html::runs_inside(&run_dir) {
+                    println!(
+                        "{} is a run of its own: `occam report {}`",
+                        r.display(),
+                        r.display()
+                    );
+                }
+            })
         }
         Command::Design {
             study,
@@ -192,6 +218,9 @@ fn main() {
         }
         .apply()
         .and_then(|_| {
+            on_interrupt(
+                "`occam design` stopped before writing its outputs (a run directory is never half-written); run the same command again to start over".into(),
+            );
             let r = occam::jobs::design::run_cli(&study, output, validate)?;
             println!("{}", occam::jobs::design::table(&r));
             Ok(())
@@ -203,10 +232,31 @@ fn main() {
     }
 }
 
+fn init(kind: Option<&str>, output: Option<&Path>, force: bool) -> Result<()> {
+    let Some(kind) = kind else {
+        println!("occam init KIND writes a commented starting study; the kinds:");
+        for (k, what, _) in occam::jobs::init::KINDS {
+            println!("  {k:<12} {what}");
+        }
+        return Ok(());
+    };
+    let p = occam::jobs::init::write(kind, output, force)?;
+    println!(
+        "wrote {}: read its comments, edit it, then run the commands its first lines name",
+        p.display()
+    );
+    Ok(())
+}
+
 fn simulate(path: PathBuf, output: Option<PathBuf>, flags: RunFlags) -> Result<()> {
     let t0 = Instant::now();
     let study = Study::load(&path)?;
     let out = output.unwrap_or_else(|| study.output.clone());
+    on_interrupt(format!(
+        "{} is left as it was (a run directory is never half-written); run `occam simulate {}` again",
+        out.display(),
+        path.display()
+    ));
     let work = Arc::new(Work::default());
     let bar = Bar::start(work.clone(), "experiments", flags.quiet);
     let ctx = Context {
@@ -325,7 +375,7 @@ fn fit(path: PathBuf, output: Option<PathBuf>, resume: bool, flags: RunFlags) ->
             println!("{}", occam::jobs::glitch_count::marginal_line(r));
         }
     }
-    for w in &s.warnings {
+    for w in occam::report::group_warnings(&s.warnings) {
         eprintln!("warning: {w}");
     }
     println!("wrote {}", listing(&out, &written));
@@ -382,7 +432,7 @@ fn run_select(study: &Study, out: &std::path::Path, resume: bool, quiet: bool) -
     }
     let (s, written) = (done.outcome, done.written);
     println!("{}", occam::jobs::select::console(&s));
-    for w in &s.warnings {
+    for w in occam::report::group_warnings(&s.warnings) {
         eprintln!("warning: {w}");
     }
     println!("wrote {}", listing(out, &written));
@@ -392,6 +442,10 @@ fn run_select(study: &Study, out: &std::path::Path, resume: bool, quiet: bool) -
 
 fn demo(output: PathBuf, flags: RunFlags) -> Result<()> {
     let t0 = Instant::now();
+    on_interrupt(format!(
+        "the demo's finished studies are in {}; `occam demo` starts over when run again (about a minute on two cores)",
+        output.display()
+    ));
     for (name, study) in occam::jobs::demo::studies()? {
         println!("\n=== guidance delays, {name} regime ===");
         run_select(&study, &output.join(name), false, flags.quiet)?;
@@ -462,7 +516,7 @@ fn sweep(cli: SweepCli) -> Result<()> {
         for l in resume_lines {
             println!("{l}");
         }
-        for w in &planned.warnings {
+        for w in occam::report::group_warnings(&planned.warnings) {
             eprintln!("warning: {w}");
         }
         println!("{}", summary[0]);

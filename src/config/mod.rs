@@ -56,4 +56,5 @@ pub use study::{
     ExperimentEntry, FitOptions, GlitchCountMethod, InjectionEntry, JumpProposal, LikelihoodKind,
     SelectModel, SelectModelEntry, SelectOptions, SimulationOptions, Study, StudyFile,
 };
+pub use suggest::closest;
 pub use sweep::{MAX_POINTS, MAX_REALISATIONS, Spacing, SweepAxis, SweepOptions};

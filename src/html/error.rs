@@ -23,18 +23,27 @@ pub enum ReportError {
     RunDir(#[from] RunDirError),
 }
 
+/// The run directories directly inside `dir` (a study's output directory holds its
+/// simulation and one run per command: `fit/`, `select/`), sorted.
+pub fn runs_inside(dir: &Path) -> Vec<PathBuf> {
+    let mut runs: Vec<PathBuf> = std::fs::read_dir(dir)
+        .into_iter()
+        .flatten()
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.join(MANIFEST).is_file())
+        .collect();
+    runs.sort();
+    runs
+}
+
 impl ReportError {
     /// `dir` is not a run; the hint names the run directories directly inside it, if any.
     pub fn not_a_run(dir: &Path) -> ReportError {
-        let mut runs: Vec<String> = std::fs::read_dir(dir)
-            .into_iter()
-            .flatten()
-            .flatten()
-            .map(|e| e.path())
-            .filter(|p| p.join(MANIFEST).is_file())
+        let runs: Vec<String> = runs_inside(dir)
+            .iter()
             .map(|p| format!("`{}`", p.display()))
             .collect();
-        runs.sort();
         let hint = if runs.is_empty() {
             "give the directory a fit/select/sweep wrote".to_string()
         } else {

@@ -18,7 +18,7 @@ mod sweep;
 mod table;
 mod warnings;
 
-pub use error::ReportError;
+pub use error::{ReportError, runs_inside};
 pub use escape::{esc, inline_svg};
 pub use run::{MAX_INLINE_BYTES, RESOLVED_STUDY, Run, RunKind};
 

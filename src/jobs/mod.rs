@@ -18,6 +18,7 @@ pub mod exec;
 pub mod fit;
 pub mod glitch_count;
 pub mod glitch_model;
+pub mod init;
 mod job;
 #[cfg(feature = "mpi")]
 pub mod mpi;

@@ -35,6 +35,7 @@ mod table;
 #[cfg(test)]
 mod tests;
 mod trace;
+mod warnings;
 
 pub use crate::numfmt::{
     fmt_bayes_factor, fmt_fixed, fmt_pm, fmt_roundtrip, fmt_short, fmt_short_sig, fmt_sig,
@@ -48,3 +49,4 @@ pub use lines::{LinePlot, bayes_factor_evolution, line_plot};
 pub use running::{RunningSeries, running_bayes_factor};
 pub use table::Table;
 pub use trace::{TracePlot, draw_trace, trace_plot};
+pub use warnings::group_warnings;

@@ -130,7 +130,7 @@ pub(crate) fn pairs(
                 + pool.total.logs[layout.alpha(b, a)].exp();
             let warning = (effective_jumps < MIN_EFFECTIVE_JUMPS).then(|| {
                 format!(
-                    "only {effective_jumps} accepted jumps between `{}` and `{}` after burn-in (< {MIN_EFFECTIVE_JUMPS}): the visit ratio rests on a few sojourns and its error bar is itself uncertain by more than about 20 % (Rao-Blackwell and the bridge average over every proposal and rest on Σα = {expected_jumps:.3e} expected jumps instead); run longer, center the jump proposals on the models' posterior chains (mean, covariance) or raise `defensive`",
+                    "only {effective_jumps} accepted jumps between `{}` and `{}` after burn-in (< {MIN_EFFECTIVE_JUMPS}): the visit ratio rests on a few sojourns and its error bar is itself uncertain by more than about 20 % (Rao-Blackwell and the bridge average over every proposal and rest on Σα = {expected_jumps:.3e} expected jumps instead); run longer ([select] rj_iterations) or raise [select] defensive",
                     models[a].name, models[b].name
                 )
             });

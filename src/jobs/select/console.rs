@@ -1,14 +1,23 @@
-//! What `occam select` prints when it ends: Table II, the verdict per pair, the jumps, the
-//! posterior model probabilities and the SNR (the command line prints it; the warnings go to
-//! standard error separately).
+//! What `occam select` prints when it ends: first the answer (the models, the preferred one,
+//! the posterior model probabilities by name), then Table II with its notes, each model's
+//! parameter estimates, the verdict per pair, the jumps and the SNR (the command line prints
+//! it; the warnings go to standard error separately, merged: [`crate::report::group_warnings`]).
 
-use super::output::table;
+use super::output::{table, table_notes};
 use super::summary::SelectSummary;
 
 /// The lines printed after a select run (without its warnings).
 pub fn console(s: &SelectSummary) -> String {
-    let mut out: Vec<String> = Vec::new();
+    let mut out: Vec<String> = super::header::header(s);
+    out.push(String::new());
     out.push(table(s).to_string());
+    out.extend(table_notes(s));
+    let estimates = super::header::estimates_table(s);
+    if !estimates.rows().is_empty() {
+        out.push(String::new());
+        out.push("parameter estimates of each model:".into());
+        out.push(estimates.to_string());
+    }
     let yes_no = |b: bool| if b { "yes" } else { "no" };
     for p in &s.pairs {
         out.push(format!(
@@ -31,31 +40,22 @@ pub fn console(s: &SelectSummary) -> String {
                 format!("{:.3}", a as f64 / n as f64)
             }
         };
+        // the counts run over the whole run, burn-in included; the estimators (and the
+        // few-jumps warning) use only the jumps after burn-in, so say both
         out.push(format!(
-            "jumps {x}→{y}: {} of {} accepted ({}); {y}→{x}: {} of {} ({})",
+            "jumps {x}→{y}: {} of {} accepted ({}); {y}→{x}: {} of {} ({}); burn-in included — after burn-in {} accepted both ways",
             j.accepted_x_to_y,
             j.proposed_x_to_y,
             rate(j.accepted_x_to_y, j.proposed_x_to_y),
             j.accepted_y_to_x,
             j.proposed_y_to_x,
             rate(j.accepted_y_to_x, j.proposed_y_to_x),
+            j.effective_jumps,
             x = p.x,
             y = p.y,
         ));
     }
     out.extend(super::output::run_lines(s));
-    if let Some(pp) = &s.posterior_model_probabilities {
-        let parts: Vec<String> = s
-            .models
-            .iter()
-            .zip(pp)
-            .map(|(m, p)| format!("{} {p:.4}", m.name))
-            .collect();
-        out.push(format!(
-            "posterior model probabilities: {}",
-            parts.join(", ")
-        ));
-    }
     let rj = match &s.rj {
         Some(rj) => format!(
             "RJ visits {:?} over {} iterations in {} chains ({:.0} iterations/s)",

@@ -10,6 +10,8 @@
 mod checkpoint;
 mod console;
 mod error;
+mod estimates;
+mod header;
 mod job;
 mod model;
 mod outcome;
@@ -27,10 +29,13 @@ pub use stage::{FILE as STAGE_FILE, every_from_env as stage_every_from_env};
 
 pub use console::console;
 pub use error::SelectError;
+pub use estimates::ParamEstimate;
+pub use header::{estimates_table, header};
 pub use job::Select;
 pub use outcome::{Evidence, ModelOutcome, TemperingDiagnostics};
 pub use output::{
-    Fig2, LEGACY_OUTPUTS, chains_file, fig2, fig2_warnings, rj_chain_arrays, table, write_outputs,
+    Fig2, LEGACY_OUTPUTS, chains_file, document, fig2, fig2_warnings, rj_chain_arrays, table,
+    table_notes, write_outputs,
 };
 pub use pair::{EstimateKind, JumpStats, PairEstimate, PairResult};
 pub use run::{Checkpointing, run, run_checkpointed, run_observed, work_units};

@@ -507,6 +507,17 @@ pub(super) fn run_model(m: &ModelPlan<'_>, stage: Option<&StageFile>) -> Result<
     let centre = free_vec(&base, free);
     let chains = in_model_chains(m, &sub_s, &centre, &walk_cov, &mut notes, stage)?;
     let diag = chains.as_ref().and_then(|c| c.diagnostics().ok());
+    // the chains feed Laplace–Metropolis and the jump proposals: a convergence failure is a
+    // warning of the run (the report marks the same R-hat threshold)
+    for w in diag.iter().flat_map(|g| g.warnings()) {
+        use crate::sampler::Warning as W;
+        if matches!(
+            w,
+            W::RHat { .. } | W::RHatNotFinite { .. } | W::Stuck { .. }
+        ) {
+            notes.push(format!("in-model chains: {w}"));
+        }
+    }
     let (jump_center, jump_cov, jump_source) = jump_proposal(
         m,
         chains.as_ref(),
@@ -554,11 +565,20 @@ pub(super) fn run_model(m: &ModelPlan<'_>, stage: Option<&StageFile>) -> Result<
         name: m.name.clone(),
         model: exact.model().name().to_string(),
         params: m.param_names.clone(),
+        units: exact.model().param_units(),
         free: m.free_names.clone(),
         prior_probability: m.prior_probability,
         map: map.base.clone(),
         map_found: map.theta.is_some(),
         map_at_bound: map.at_bound,
+        estimates: super::estimates::param_estimates(
+            &m.param_names,
+            &exact.model().param_units(),
+            free,
+            &map.base,
+            diag.as_ref().map(|g| (&g.mean[..], &g.sd[..])),
+            fisher_cov.as_ref(),
+        ),
         relbin: match &sampled {
             Sampled::RelBin(rb) => Some(rb.validation().clone()),
             Sampled::Exact(_) => None,

@@ -76,6 +76,9 @@ pub struct ModelOutcome {
     pub model: String,
     /// That model's parameters (the order of `map` and `unbounded_max`).
     pub params: Vec<String>,
+    /// Their SI units, in the same order (empty strings: dimensionless or not stated).
+    #[serde(default)]
+    pub units: Vec<String>,
     pub free: Vec<String>,
     pub prior_probability: f64,
     /// MAP (full parameter vector of the model), inside the prior box; the search's start
@@ -84,6 +87,9 @@ pub struct ModelOutcome {
     pub map_found: bool,
     /// Free parameters whose MAP value is on a bound of the prior box.
     pub map_at_bound: Vec<String>,
+    /// Per free parameter: MAP, posterior mean ± sd of the in-model chains, Fisher σ.
+    #[serde(default)]
+    pub estimates: Vec<super::estimates::ParamEstimate>,
     /// How well relative binning reproduces the exact `ln L` where the samplers go (absent
     /// when the samplers ran on the exact likelihood).
     pub relbin: Option<crate::likelihood::RelBinValidation>,

@@ -7,8 +7,34 @@ use crate::report::{Table, fmt_bayes_factor, fmt_fixed};
 use std::path::Path;
 
 /// The Table II layout: one row per estimator, for each pair. `B_XY` is a power of ten
-/// (`10^868.6`) where `exp(ln B)` leaves the range of `f64` ([`fmt_bayes_factor`]).
+/// (`10^868.6`) where `exp(ln B)` leaves the range of `f64` ([`fmt_bayes_factor`]). A row's
+/// note is a marker (`[2]`) whose full text [`table_notes`] lists, each distinct text once:
+/// the notes say why a row cannot be trusted, so they are never cut.
 pub fn table(s: &SelectSummary) -> Table {
+    table_parts(s, false).0
+}
+
+/// The notes the markers of [`table`] stand for, `[1] …` in order.
+pub fn table_notes(s: &SelectSummary) -> Vec<String> {
+    table_parts(s, false)
+        .1
+        .iter()
+        .enumerate()
+        .map(|(i, n)| format!("[{}] {n}", i + 1))
+        .collect()
+}
+
+/// A row's note: why there is no number, or what a systematic row assumes.
+fn row_note(e: &super::pair::PairEstimate) -> String {
+    e.note
+        .clone()
+        .or_else(|| e.assumes.as_ref().map(|a| format!("assumes {a}")))
+        .unwrap_or_default()
+}
+
+/// The table with each note as a marker into the returned list (`full`: the whole text in
+/// the cell instead, for Markdown, which wraps it).
+fn table_parts(s: &SelectSummary, full: bool) -> (Table, Vec<String>) {
     let mut t = Table::new([
         "pair",
         "estimator",
@@ -18,6 +44,7 @@ pub fn table(s: &SelectSummary) -> Table {
         "agrees",
         "note",
     ]);
+    let mut notes: Vec<String> = Vec::new();
     for p in &s.pairs {
         for e in &p.estimates {
             let b = e.ln_b.map_or("–".into(), fmt_bayes_factor);
@@ -31,15 +58,18 @@ pub fn table(s: &SelectSummary) -> Table {
             let ag = e
                 .agrees
                 .map_or("–".into(), |a| if a { "yes" } else { "no" }.to_string());
-            let note = e
-                .note
-                .clone()
-                .or_else(|| e.assumes.as_ref().map(|a| format!("assumes {a}")))
-                .unwrap_or_default();
-            let note = if note.chars().count() > 60 {
-                format!("{}…", note.chars().take(60).collect::<String>())
-            } else {
+            let note = row_note(e);
+            let note = if full || note.is_empty() {
                 note
+            } else {
+                let k = match notes.iter().position(|n| *n == note) {
+                    Some(k) => k,
+                    None => {
+                        notes.push(note);
+                        notes.len() - 1
+                    }
+                };
+                format!("[{}]", k + 1)
             };
             t.push_row([
                 format!("{}/{}", p.x, p.y),
@@ -53,7 +83,49 @@ pub fn table(s: &SelectSummary) -> Table {
             .expect("row width matches the header");
         }
     }
-    t
+    (t, notes)
+}
+
+/// `table.txt` (`markdown` false) or `table.md`: the header (models, answer), the table with
+/// its notes, each model's parameter estimates and how the run was sized.
+pub fn document(s: &SelectSummary, markdown: bool) -> String {
+    let header = super::header::header(s);
+    let estimates = super::header::estimates_table(s);
+    let below = run_lines(s);
+    let mut out = String::new();
+    if markdown {
+        for l in &header {
+            match l.strip_prefix("  ") {
+                Some(rest) => out.push_str(&format!("    - {rest}\n")),
+                None => out.push_str(&format!("- {l}\n")),
+            }
+        }
+        out.push('\n');
+        out.push_str(&table_parts(s, true).0.to_markdown());
+        if !estimates.rows().is_empty() {
+            out.push_str("\nParameter estimates of each model:\n\n");
+            out.push_str(&estimates.to_markdown());
+        }
+    } else {
+        for l in &header {
+            out.push_str(l);
+            out.push('\n');
+        }
+        out.push('\n');
+        out.push_str(&table(s).to_text());
+        for n in table_notes(s) {
+            out.push_str(&n);
+            out.push('\n');
+        }
+        if !estimates.rows().is_empty() {
+            out.push_str("\nparameter estimates of each model:\n");
+            out.push_str(&estimates.to_text());
+        }
+    }
+    for l in below {
+        out.push_str(&format!("\n{l}\n"));
+    }
+    out
 }
 
 /// The lines below the table that say how the run was sized, when it was not by fixed
@@ -105,12 +177,10 @@ pub fn write_outputs(s: &SelectSummary, out: &Path) -> Result<(), SelectError> {
     let json = serde_json::to_string_pretty(s).expect("summary serialises") + "\n";
     let p = out.join("summary.json");
     crate::atomic::write_bytes(&p, json.as_bytes()).map_err(|e| io(&p, e))?;
-    let t = table(s);
-    let below: String = run_lines(s).iter().map(|l| format!("\n{l}\n")).collect();
     let p = out.join("table.txt");
-    crate::atomic::write_bytes(&p, (t.to_text() + &below).as_bytes()).map_err(|e| io(&p, e))?;
+    crate::atomic::write_bytes(&p, document(s, false).as_bytes()).map_err(|e| io(&p, e))?;
     let p = out.join("table.md");
-    crate::atomic::write_bytes(&p, (t.to_markdown() + &below).as_bytes()).map_err(|e| io(&p, e))?;
+    crate::atomic::write_bytes(&p, document(s, true).as_bytes()).map_err(|e| io(&p, e))?;
     crate::report::residual_psd::write(out, &s.residual_psd)?;
     for (name, chains) in &s.model_chains {
         if let Some(c) = chains {

@@ -259,6 +259,7 @@ pub(super) fn pair(
         .find(|e| e.method == reference)
         .and_then(|e| e.ln_b)
         .unwrap_or(0.0);
+    schwarz_distance(&mut est, &reference, lb);
     let count = |a: usize, b: usize| {
         (
             rj.and_then(|r| r.jumps_proposed.get(a)?.get(b).copied())
@@ -289,8 +290,53 @@ pub(super) fn pair(
             accepted_y_to_x: ayx,
             effective_jumps: rjp.as_ref().map_or(0, |p| p.effective_jumps),
             expected_jumps: rjp.as_ref().map_or(0.0, |p| p.expected_jumps),
-            warning: rjp.as_ref().and_then(|p| p.warning.clone()),
+            warning: rjp
+                .as_ref()
+                .and_then(|p| p.warning.clone())
+                .map(|w| w + &jump_advice(&[mx, my])),
         },
+    }
+}
+
+/// Beyond this many nats from the reference, the Schwarz row says so instead of promising
+/// "O(1)": the term it drops is then far from a unit's worth.
+const SCHWARZ_O1_NATS: f64 = 3.0;
+
+/// Notes on the Schwarz row how far it is from the reference when that is more than O(1):
+/// Schwarz drops `ln p(θ̂) + (d/2) ln 2π − ½ ln|F| + (d/2) ln n`, which is O(1) only for
+/// priors about as wide as √n Fisher σ (a unit-information prior); for boxes far wider or
+/// narrower it is many nats, and the row is then no more than an order-of-magnitude rule.
+fn schwarz_distance(est: &mut [PairEstimate], reference: &str, ref_ln_b: f64) {
+    if reference == "Schwarz (SBIC)" {
+        return;
+    }
+    if let Some(e) = est.iter_mut().find(|e| e.method == "Schwarz (SBIC)")
+        && let Some(v) = e.ln_b
+        && (v - ref_ln_b).abs() > SCHWARZ_O1_NATS
+    {
+        e.note = Some(format!(
+            "assumes n → ∞ with every parameter measured and a prior as wide as √n Fisher σ; here {} nats from the reference ({reference}), more than the O(1) it allows: the prior boxes of the parameters that differ are far from that width, and the term Schwarz drops for them (the prior volume against the likelihood width) is large — an order-of-magnitude rule, not judged",
+            crate::report::fmt_fixed((v - ref_ln_b).abs(), 1)
+        ));
+    }
+}
+
+/// The part of the few-jumps advice that depends on where the jump proposals came from:
+/// proposals centred on the in-model chains (the default, `jump_proposal = "chain"`) need
+/// no advice; a model whose proposal fell back to the Fisher matrix or the prior is named.
+fn jump_advice(models: &[&ModelOutcome]) -> String {
+    let off: Vec<String> = models
+        .iter()
+        .filter(|m| m.jump_proposal != "in-model chains")
+        .map(|m| format!("`{}`'s comes from the {}", m.name, m.jump_proposal))
+        .collect();
+    if off.is_empty() {
+        String::new()
+    } else {
+        format!(
+            "; the jump proposals are not centred on the in-model chains' mean and covariance, which land better: {} (see the model's notes)",
+            off.join(", ")
+        )
     }
 }
 
@@ -415,11 +461,13 @@ mod tests {
             name: name.into(),
             model: "ltp".into(),
             params: vec!["a".into()],
+            units: vec![String::new()],
             free: vec!["a".into()],
             prior_probability: 1.0,
             map: vec![0.0],
             map_found: true,
             map_at_bound: vec![],
+            estimates: vec![],
             relbin: None,
             ln_l_map: 0.0,
             unbounded_max: None,

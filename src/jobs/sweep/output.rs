@@ -209,6 +209,29 @@ fn grade(ln_b: Option<f64>, x: &str, y: &str) -> String {
     }
 }
 
+/// An estimator's median this many nats from the reference's is flagged in the table.
+const FAR_NATS: f64 = 5.0;
+
+/// Whether an estimator's median is flagged: more than [`FAR_NATS`] from the reference's
+/// (5 nats is the span of the Kass–Raftery scale from "bare" to "very strong": a difference
+/// that alone could turn a verdict).
+fn far_from_reference(median: Option<f64>, reference: Option<f64>) -> bool {
+    matches!((median, reference), (Some(m), Some(r)) if (m - r).abs() > FAR_NATS)
+}
+
+/// A median ln B towards the truth (positive: the truth favoured) by its Kass–Raftery
+/// grade: `Greater` beyond a bare mention, `Equal` a bare mention (|ln B| ≤ 1), `Less` the
+/// other model favoured beyond one.
+fn decided(towards_truth: f64) -> std::cmp::Ordering {
+    if towards_truth > 1.0 {
+        std::cmp::Ordering::Greater
+    } else if towards_truth < -1.0 {
+        std::cmp::Ordering::Less
+    } else {
+        std::cmp::Ordering::Equal
+    }
+}
+
 fn opt(v: Option<f64>, prec: usize) -> String {
     v.map_or("–".into(), |x| crate::report::fmt_fixed(x, prec))
 }
@@ -239,6 +262,7 @@ pub fn table(sweep: &Sweep, res: &SweepResult) -> String {
         head.push(format!("picks {}", sweep.models.join("/")));
         head.extend(names.iter().cloned());
         let mut t = crate::report::Table::new(head);
+        let mut flagged = false;
         for p in &res.points {
             let Some(pair) = p.pairs.get(j) else { continue };
             let mut row: Vec<String> = p.values.iter().map(|v| format!("{v:.4e}")).collect();
@@ -260,16 +284,26 @@ pub fn table(sweep: &Sweep, res: &SweepResult) -> String {
                     .join("/"),
             );
             for e in &pair.estimators[1..] {
-                row.push(opt(e.median, 3));
+                let far = far_from_reference(e.median, r.median);
+                flagged |= far;
+                row.push(opt(e.median, 3) + if far { " !" } else { "" });
             }
             if t.push_row(row).is_err() {
                 continue;
             }
         }
         s.push_str(&t.to_text());
+        if flagged {
+            let _ = writeln!(
+                s,
+                "!: the estimator's median is more than {FAR_NATS} nats from the reference's: its approximation does not hold there (each realisation's table says why)"
+            );
+        }
         if let (Some(truth), 1) = (&sweep.truth, keys.len()) {
             let sign = if *truth == first.x { 1.0 } else { -1.0 };
-            let at = |right: bool| {
+            // by the median's Kass–Raftery grade: a bare mention (|ln B| ≤ 1) decides nothing,
+            // whichever its sign
+            let at = |class: std::cmp::Ordering| {
                 let v: Vec<String> = res
                     .points
                     .iter()
@@ -277,7 +311,7 @@ pub fn table(sweep: &Sweep, res: &SweepResult) -> String {
                         p.pairs
                             .get(j)
                             .and_then(|q| q.estimators[0].median)
-                            .is_some_and(|m| m != 0.0 && (m * sign > 0.0) == right)
+                            .is_some_and(|m| decided(m * sign) == class)
                     })
                     .map(|p| format!("{}", p.values[0]))
                     .collect();
@@ -287,12 +321,14 @@ pub fn table(sweep: &Sweep, res: &SweepResult) -> String {
                     v.join(", ")
                 }
             };
+            use std::cmp::Ordering::{Equal, Greater, Less};
             let _ = writeln!(
                 s,
-                "{truth} (the truth) is favoured by the reference's median at {} = {}; misidentified at {}",
+                "{truth} (the truth) is favoured by the reference's median (beyond a bare mention) at {} = {}; undecided (|median| ≤ 1 nat, a bare mention) at {}; misidentified (the other model favoured beyond a bare mention) at {}",
                 keys[0],
-                at(true),
-                at(false)
+                at(Greater),
+                at(Equal),
+                at(Less)
             );
             if monotone_key(keys[0]) {
                 let _ = writeln!(

@@ -1,0 +1,143 @@
+//! Repeated warnings merged for a reader: a run over seven models can raise the same warning
+//! for 14 of its 21 pairs, differing only in the pair's names and a count; printed one by
+//! one they bury the answer.
+
+/// Splits `X/Y: text` or ``model `X`: text`` into the place and the text; `None` when the
+/// warning names no place.
+fn place_of(w: &str) -> (Option<&str>, &str) {
+    if let Some((head, rest)) = w.split_once(": ") {
+        let is_place = (!head.contains(' ') && !head.is_empty())
+            || (head.starts_with("model `")
+                && head.ends_with('`')
+                && head.matches('`').count() == 2);
+        if is_place {
+            return (Some(head), rest);
+        }
+    }
+    (None, w)
+}
+
+/// The text with every backticked name and every number replaced, so that warnings that
+/// differ only in which models and what counts they name compare equal.
+fn shape(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    let mut quoted = false;
+    let mut in_number = false;
+    for c in text.chars() {
+        if c == '`' {
+            if !quoted {
+                out.push_str("`…`");
+            }
+            quoted = !quoted;
+            in_number = false;
+            continue;
+        }
+        if quoted {
+            continue;
+        }
+        let numeric = c.is_ascii_digit() || (in_number && matches!(c, '.' | 'e' | '-' | '+'));
+        if numeric {
+            if !in_number {
+                out.push('#');
+            }
+            in_number = true;
+        } else {
+            in_number = false;
+            out.push(c);
+        }
+    }
+    out
+}
+
+/// The warnings, each group of the same shape (same text but for the places, names and
+/// numbers) once: a single one as it is; a repeated one as its first text, prefixed with
+/// how many times and where it occurred — `(14×, at A/B, A/C, …; the first shown) A/B: …`.
+/// Order: by first occurrence.
+///
+/// ```
+/// use occam::report::group_warnings;
+/// let w = [
+///     "X/Y: only 0 accepted jumps between `X` and `Y`".to_string(),
+///     "the noise estimate is short".to_string(),
+///     "X/Z: only 3 accepted jumps between `X` and `Z`".to_string(),
+/// ];
+/// let g = group_warnings(&w);
+/// assert_eq!(g.len(), 2);
+/// assert_eq!(g[0], "(2×, at X/Y and X/Z; the first shown) X/Y: only 0 accepted jumps between `X` and `Y`");
+/// assert_eq!(g[1], "the noise estimate is short");
+/// ```
+pub fn group_warnings(warnings: &[String]) -> Vec<String> {
+    let mut groups: Vec<(String, Vec<&str>)> = Vec::new();
+    for w in warnings {
+        let text = place_of(w).1;
+        let key = shape(text);
+        match groups.iter_mut().find(|(k, _)| *k == key) {
+            Some((_, members)) => members.push(w),
+            None => groups.push((key, vec![w])),
+        }
+    }
+    groups
+        .into_iter()
+        .map(|(_, members)| {
+            if members.len() == 1 {
+                return members[0].to_string();
+            }
+            let places: Vec<&str> = members.iter().filter_map(|m| place_of(m).0).collect();
+            let at = match places.as_slice() {
+                [] => String::new(),
+                [one] => format!(", at {one}"),
+                [rest @ .., last] => format!(", at {} and {last}", rest.join(", ")),
+            };
+            format!("({}×{at}; the first shown) {}", members.len(), members[0])
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn s(v: &[&str]) -> Vec<String> {
+        v.iter().map(|x| x.to_string()).collect()
+    }
+
+    #[test]
+    fn same_shape_merges_and_different_texts_stay_apart() {
+        let w = s(&[
+            "a/b: no Fig. 2 (bayes_factor): no reversible-jump estimator has a value",
+            "a/b: only 0 accepted jumps between `a` and `b` after burn-in (< 30): run longer",
+            "model `a`: R-hat of `w1sq` is 1.2",
+            "a/c: only 21 accepted jumps between `a` and `c` after burn-in (< 30): run longer",
+            "b/c: only 1.5e3 accepted jumps between `b` and `c` after burn-in (< 30): run longer",
+            "model `b`: R-hat of `dt1` is 1.05",
+            "a/c: no Fig. 2 (bayes_factor): no reversible-jump estimator has a value",
+        ]);
+        let g = group_warnings(&w);
+        assert_eq!(g.len(), 3, "{g:#?}");
+        assert!(g[0].starts_with("(2×, at a/b and a/c; the first shown) a/b: no Fig. 2"));
+        assert!(g[1].starts_with("(3×, at a/b, a/c and b/c; the first shown) a/b: only 0"));
+        assert!(
+            g[2].starts_with("(2×, at model `a` and model `b`; the first shown) model `a`: R-hat")
+        );
+        // a different text is never merged, even with the same place
+        let w = s(&["a/b: first thing", "a/b: second thing"]);
+        assert_eq!(group_warnings(&w), w);
+        // texts without a place merge by shape alone
+        let w = s(&["the noise has 3 averages", "the noise has 4 averages"]);
+        assert_eq!(
+            group_warnings(&w),
+            s(&["(2×; the first shown) the noise has 3 averages"])
+        );
+        assert!(group_warnings(&[]).is_empty());
+    }
+
+    #[test]
+    fn a_sentence_before_a_colon_is_not_a_place() {
+        assert_eq!(
+            place_of("the chains did not move: lower the scale"),
+            (None, "the chains did not move: lower the scale")
+        );
+        assert_eq!(place_of("X/Y: text"), (Some("X/Y"), "text"));
+        assert_eq!(place_of("model `a b`: text"), (Some("model `a b`"), "text"));
+    }
+}
