@@ -43,9 +43,28 @@ impl Study {
     /// Parses and validates TOML text; `file` names it in messages and `base` resolves
     /// relative injection-file paths.
     pub fn from_toml(text: &str, file: &str, base: &Path) -> Result<Study, ConfigError> {
-        let raw: StudyFile = toml::from_str(text).map_err(|e| ConfigError::Parse {
-            file: file.into(),
-            msg: super::suggest::did_you_mean(e.to_string().trim_end()),
+        let raw: StudyFile = toml::from_str(text).map_err(|e| {
+            let missing = super::missing::missing_keys(text, &e);
+            let msg = if missing.len() > 1 {
+                let each: Vec<String> = missing
+                    .iter()
+                    .map(|(k, line)| match line {
+                        0 => format!("`{k}` (top level)"),
+                        l => format!("`{k}` (the table at line {l})"),
+                    })
+                    .collect();
+                format!(
+                    "{} required keys are missing: {}; add each (docs/src/reference/study-file.md lists every key)",
+                    missing.len(),
+                    each.join(", ")
+                )
+            } else {
+                super::suggest::did_you_mean(e.to_string().trim_end())
+            };
+            ConfigError::Parse {
+                file: file.into(),
+                msg,
+            }
         })?;
         raw.resolve(file, base)
     }

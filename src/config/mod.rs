@@ -35,6 +35,7 @@ mod error;
 mod generator;
 mod limits;
 mod load;
+mod missing;
 mod models;
 #[cfg(test)]
 mod reference;

@@ -92,6 +92,45 @@ fn pairs(s: &Value) -> String {
     d
 }
 
+/// Each model's parameter estimates (`models[].estimates`): MAP, posterior mean ± sd of its
+/// in-model chains, Fisher σ at the MAP; nothing for a run that predates them.
+fn estimates(s: &Value) -> String {
+    let rows: Vec<Vec<String>> = list(at(s, "models"))
+        .iter()
+        .flat_map(|m| {
+            list(at(m, "estimates")).iter().map(move |e| {
+                vec![
+                    cell(at(m, "name")),
+                    cell(at(e, "name")),
+                    cell(at(e, "map")),
+                    cell(at(e, "mean")),
+                    cell(at(e, "sd")),
+                    cell(at(e, "fisher_sigma")),
+                    cell(at(e, "unit")),
+                ]
+            })
+        })
+        .collect();
+    if rows.is_empty() {
+        return String::new();
+    }
+    format!(
+        "<h3>Parameter estimates of each model</h3>\n{}",
+        table(
+            &[
+                "model",
+                "parameter",
+                "MAP",
+                "mean",
+                "sd",
+                "Fisher σ",
+                "unit"
+            ],
+            &rows
+        )
+    )
+}
+
 fn models(s: &Value) -> String {
     let mut d = String::from("<h3>Models</h3>\n");
     let rows: Vec<Vec<String>> = list(at(s, "models"))
@@ -139,6 +178,7 @@ fn models(s: &Value) -> String {
         ],
         &rows,
     ));
+    d.push_str(&estimates(s));
     let tempered: Vec<&Value> = list(at(s, "models"))
         .iter()
         .filter(|m| at(m, "tempering").is_some_and(|t| !t.is_null()))
@@ -355,6 +395,33 @@ mod tests {
                 .contains("did not run: one model &lt;only&gt;")
         );
         assert_eq!(p.warnings.0[0].text, "one model <only>");
+    }
+
+    #[test]
+    fn each_models_parameter_estimates_are_a_table() {
+        let s = json!({"models": [
+            {"name": "X", "estimates": [{"name": "dt1", "unit": "s", "map": 0.25, "mean": 0.3,
+                                          "sd": 0.2, "fisher_sigma": 0.31}]},
+            {"name": "Y", "estimates": [{"name": "a_df", "map": 0.8, "mean": null, "sd": null,
+                                          "fisher_sigma": null}]}]});
+        let d = parts(&s).diagnostics;
+        assert!(d.contains("Parameter estimates of each model"), "{d}");
+        assert!(
+            d.contains(
+                "<td>X</td><td>dt1</td><td>0.2500</td><td>0.3000</td><td>0.2000</td><td>0.3100</td><td>s</td>"
+            ),
+            "{d}"
+        );
+        assert!(
+            d.contains("<td>Y</td><td>a_df</td><td>0.8000</td><td>–</td>"),
+            "{d}"
+        );
+        // a run that predates the estimates has no such table
+        assert!(
+            !parts(&json!({"models": [{"name": "X"}]}))
+                .diagnostics
+                .contains("Parameter estimates")
+        );
     }
 
     #[test]

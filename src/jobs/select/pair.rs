@@ -546,4 +546,50 @@ mod tests {
         let pp = posterior_probabilities(&models, &[p]).unwrap();
         assert!((pp[1] / pp[0] - 2f64.exp()).abs() < 1e-12);
     }
+
+    #[test]
+    fn schwarz_says_when_it_is_more_than_o1_from_the_reference() {
+        let schwarz = |models: &mut [ModelOutcome; 2], x: f64, y: f64| {
+            models[0].schwarz_ln_z = x;
+            models[1].schwarz_ln_z = y;
+            let p = pair(models, None, Some("no RJ"), 0, 1);
+            let e = p
+                .estimates
+                .into_iter()
+                .find(|e| e.method == "Schwarz (SBIC)")
+                .unwrap();
+            (p.reference, e)
+        };
+        let mut models = [outcome("X", Some(-3.0)), outcome("Y", Some(-1.0))];
+        // the reference (stepping-stone) says −2.0; Schwarz −2.5: within O(1), no note
+        let (r, e) = schwarz(&mut models, -2.5, 0.0);
+        assert_eq!(r, "Stepping-stone");
+        assert!(e.note.is_none(), "{e:?}");
+        assert!(e.assumes.unwrap().contains("O(1)"));
+        // Schwarz −12.6: 10.6 nats from the reference, and the row says so
+        let (_, e) = schwarz(&mut models, -12.6, 0.0);
+        let n = e.note.expect("a note");
+        assert!(
+            n.contains("here 10.6 nats from the reference (Stepping-stone), more than the O(1)"),
+            "{n}"
+        );
+        // just beyond the threshold on the other side
+        let (_, e) = schwarz(&mut models, 1.01, 0.0);
+        assert!(e.note.is_some());
+        let (_, e) = schwarz(&mut models, 0.99, 0.0);
+        assert!(e.note.is_none());
+    }
+
+    #[test]
+    fn the_few_jumps_advice_names_only_proposals_that_are_not_the_chains() {
+        let mut x = outcome("X", Some(0.0));
+        let y = outcome("Y", Some(0.0));
+        assert_eq!(jump_advice(&[&x, &y]), "");
+        x.jump_proposal = "Fisher matrix at the MAP".into();
+        let a = jump_advice(&[&x, &y]);
+        assert!(
+            a.contains("`X`'s comes from the Fisher matrix at the MAP") && !a.contains("`Y`"),
+            "{a}"
+        );
+    }
 }

@@ -354,3 +354,26 @@ pub fn table(sweep: &Sweep, res: &SweepResult) -> String {
     }
     s
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::cmp::Ordering::{Equal, Greater, Less};
+
+    #[test]
+    fn a_bare_mention_is_undecided_whatever_its_sign() {
+        assert_eq!(decided(1.01), Greater);
+        assert_eq!(decided(0.4), Equal);
+        assert_eq!(decided(-0.99), Equal);
+        assert_eq!(decided(-1.5), Less);
+    }
+
+    #[test]
+    fn medians_far_from_the_reference_are_flagged() {
+        assert!(far_from_reference(Some(197_950.0), Some(-1.0)));
+        assert!(far_from_reference(Some(-7.0), Some(-1.0)));
+        assert!(!far_from_reference(Some(-5.9), Some(-1.0)));
+        assert!(!far_from_reference(None, Some(-1.0)));
+        assert!(!far_from_reference(Some(3.0), None));
+    }
+}
