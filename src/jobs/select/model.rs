@@ -554,6 +554,7 @@ pub(super) fn run_model(m: &ModelPlan<'_>, stage: Option<&StageFile>) -> Result<
         name: m.name.clone(),
         model: exact.model().name().to_string(),
         params: m.param_names.clone(),
+        units: exact.model().param_units(),
         free: m.free_names.clone(),
         prior_probability: m.prior_probability,
         map: map.base.clone(),

@@ -76,6 +76,9 @@ pub struct ModelOutcome {
     pub model: String,
     /// That model's parameters (the order of `map` and `unbounded_max`).
     pub params: Vec<String>,
+    /// The unit of each parameter, in the order of `params` (`""`: dimensionless or unknown).
+    #[serde(default)]
+    pub units: Vec<String>,
     pub free: Vec<String>,
     pub prior_probability: f64,
     /// MAP (full parameter vector of the model), inside the prior box; the search's start

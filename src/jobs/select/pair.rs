@@ -415,6 +415,7 @@ mod tests {
             name: name.into(),
             model: "ltp".into(),
             params: vec!["a".into()],
+            units: vec![String::new()],
             free: vec!["a".into()],
             prior_probability: 1.0,
             map: vec![0.0],
