@@ -5,7 +5,7 @@
 //!   PSD, on the fit stretch, with as many averages as the noise estimate, `welch_averages`
 //!   segments of the Welch window), at the bins where the injection has power (local maxima of
 //!   `S_ii` at least [`LINE_POWER`] of its largest in the band; for sinusoidal injections, the
-//!   lines' bins). The segments do not overlap: overlapping ones share noise, and for a
+//!   lines' bins), from bin [`MIN_BIN`] up. The segments do not overlap: overlapping ones share noise, and for a
 //!   sinusoid the shared part adds up with a phase that depends on the line's frequency, so no
 //!   single effective number of averages would give the error. A line's frequency is
 //!   interpolated from its bins (a parabola through the log power of the peak and its
@@ -28,6 +28,11 @@ use num_complex::Complex64;
 /// fraction of the largest in the band (−60 dB: above the Blackman–Harris sidelobes, which are
 /// at −92 dB).
 pub const LINE_POWER: f64 = 1e-6;
+
+/// Lowest bin a line may be measured at: closer to DC, the mean removed from each segment and
+/// a sinusoid's negative-frequency image fall inside the main lobe (four bins either side for
+/// the Blackman–Harris window) and bias the ratio.
+pub const MIN_BIN: usize = 5;
 
 /// The read-out channels a transfer function ends on, with the injection channels they answer.
 pub const PAIRS: [(&str, usize); 2] = [("o1", 0), ("o12", 1)];
@@ -120,8 +125,8 @@ pub fn measured_transfer(
 }
 
 /// The bins of the lines of an input PSD `p`: local maxima (above the left neighbour, not
-/// below the right one) inside `band`, DC and Nyquist excluded, of at least [`LINE_POWER`] of
-/// the largest PSD in the band.
+/// below the right one) inside `band`, from bin [`MIN_BIN`] up and below Nyquist, of at least
+/// [`LINE_POWER`] of the largest PSD in the band.
 fn line_bins(freqs: &[f64], p: &[f64], band: [f64; 2]) -> Vec<usize> {
     let inside = |k: usize| freqs[k] >= band[0] && freqs[k] <= band[1];
     let top = (1..p.len().saturating_sub(1))
@@ -131,7 +136,7 @@ fn line_bins(freqs: &[f64], p: &[f64], band: [f64; 2]) -> Vec<usize> {
     if top <= 0.0 {
         return Vec::new();
     }
-    (1..p.len().saturating_sub(1))
+    (MIN_BIN..p.len().saturating_sub(1))
         .filter(|&k| inside(k) && p[k] > p[k - 1] && p[k] >= p[k + 1] && p[k] >= LINE_POWER * top)
         .collect()
 }
