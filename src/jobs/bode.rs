@@ -13,8 +13,11 @@ const GRID_POINTS: usize = 240;
 
 /// A fitted model: its name, the likelihood it was fitted on and its MAP (full θ).
 pub struct Fitted<'a> {
+    /// The model's name on the plot.
     pub name: &'a str,
+    /// The likelihood it was fitted on (its per-experiment models give the response).
     pub likelihood: &'a Likelihood,
+    /// The MAP, the full parameter vector of the likelihood's model.
     pub map: &'a [f64],
 }
 

@@ -43,6 +43,7 @@ pub const INPUTS: [&str; 2] = ["i1", "i12"];
 /// One measured transfer function: injection `input` to read-out `output` of one experiment.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MeasuredTransfer {
+    /// The experiment measured.
     pub experiment: String,
     /// The injection channel (`i1`, `i12`).
     pub input: String,

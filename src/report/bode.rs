@@ -26,6 +26,7 @@ pub struct BodeModel {
 /// One injection → read-out pair: what was measured and what each model says.
 #[derive(Debug, Clone, PartialEq)]
 pub struct BodePair {
+    /// The measured transfer function (lines, values, coherence, errors).
     pub measured: MeasuredTransfer,
     /// Models that predict this pair (a model without the read-outs has none).
     pub models: Vec<BodeModel>,
@@ -34,9 +35,11 @@ pub struct BodePair {
 /// One experiment's Bode plot.
 #[derive(Debug, Clone, PartialEq)]
 pub struct BodeExperiment {
+    /// The experiment's name (the figure is `bode_<experiment>`).
     pub experiment: String,
     /// Frequencies (Hz) of the models' curves.
     pub grid: Vec<f64>,
+    /// Every injection → read-out pair measured.
     pub pairs: Vec<BodePair>,
 }
 

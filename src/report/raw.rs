@@ -15,6 +15,7 @@ pub struct RawChannel {
     pub name: String,
     /// Unit of the samples (`m`), for the axis title.
     pub unit: String,
+    /// The samples, at the experiment's rate from the start of the fit stretch.
     pub samples: Vec<f64>,
 }
 
@@ -23,6 +24,7 @@ pub struct RawChannel {
 pub struct RawSpectrum {
     /// Legend entry.
     pub name: String,
+    /// Frequencies (Hz).
     pub freqs: Vec<f64>,
     /// One-sided PSD (unit²/Hz).
     pub psd: Vec<f64>,
@@ -31,9 +33,11 @@ pub struct RawSpectrum {
 /// One experiment's raw data.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RawData {
+    /// The experiment's name (the figures are `timeseries_<experiment>`, `spectra_<experiment>`).
     pub experiment: String,
     /// Sample rate (Hz).
     pub fs: f64,
+    /// The channels drawn, one panel each.
     pub channels: Vec<RawChannel>,
     /// Data spectra and noise models, drawn together.
     pub spectra: Vec<RawSpectrum>,
