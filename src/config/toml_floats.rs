@@ -27,12 +27,13 @@ pub(crate) fn scientific_floats(text: &str) -> String {
                 }
                 let value_position = start == 0 || b" \t=[,{".contains(&b[start - 1]);
                 let is_key = text[j..].trim_start_matches([' ', '\t']).starts_with('=');
-                if value_position && !is_key {
-                    if let Some(sci) = scientific(&text[start..j]) {
-                        out.push_str(&text[copied..start]);
-                        out.push_str(&sci);
-                        copied = j;
-                    }
+                if let Some(sci) = (value_position && !is_key)
+                    .then(|| scientific(&text[start..j]))
+                    .flatten()
+                {
+                    out.push_str(&text[copied..start]);
+                    out.push_str(&sci);
+                    copied = j;
                 }
                 i = j;
             }

@@ -16,11 +16,11 @@ use std::path::Path;
 /// [`crate::likelihood::residual_psd`]).
 pub const READOUT_LABEL: &str = "read-outs, no model subtracted (injection response + noise)";
 
+/// `(legend name, points)` of a line plot.
+type Series = Vec<(String, Vec<(f64, f64)>)>;
+
 /// Title, vertical-axis title and `(legend name, ASD points)` of experiment `k`'s figure.
-pub(crate) fn figure(
-    curves: &[(String, Vec<ResidualPsd>)],
-    k: usize,
-) -> (String, String, Vec<(String, Vec<(f64, f64)>)>) {
+pub(crate) fn figure(curves: &[(String, Vec<ResidualPsd>)], k: usize) -> (String, String, Series) {
     let e = &curves[0].1[k];
     let asd = |f: &[f64], s: &[f64]| -> Vec<(f64, f64)> {
         f.iter().zip(s).map(|(&f, &s)| (f, s.sqrt())).collect()
