@@ -44,6 +44,7 @@ pub mod stretches;
 mod study;
 mod suggest;
 mod sweep;
+mod toml_floats;
 pub use error::ConfigError;
 pub use limits::{DELAY_PARAMS, MAX_ASD, MAX_CORNER, MAX_DELAY, MAX_TARGET_SNR, MIN_ASD};
 pub use load::with_select_keys;
@@ -51,7 +52,7 @@ pub use models::{
     BUILTIN_LTP, DriftModelEntry, LtpModelEntry, ModelDef, ModelEntry, ModelSet, ModelSpec,
     fmt_point,
 };
-pub use resolved::{RESOLVED_FILE, resolved_toml, write_resolved};
+pub use resolved::{RESOLVED_FILE, resolved_toml, with_run_dir, write_resolved};
 pub use study::{
     ActuatorEntry, ActuatorOptions, AnalysisOptions, CrossChecks, DEFAULT_GLITCH_COUNT_ITERATIONS,
     ExperimentEntry, FitOptions, GlitchCountMethod, InjectionEntry, JumpProposal, LikelihoodKind,

@@ -8,10 +8,16 @@ use super::study::Study;
 /// The file a run directory keeps its resolved study in.
 pub const RESOLVED_FILE: &str = "study.resolved.toml";
 
-/// Writes [`resolved_toml`] of `study` into `dir` as [`RESOLVED_FILE`], atomically.
-pub fn write_resolved(study: &Study, dir: &std::path::Path) -> anyhow::Result<()> {
+/// Writes [`resolved_toml`] of `study` into `dir` as [`RESOLVED_FILE`], atomically, with a
+/// header line naming `run_dir`, the directory the run is published to (`dir` is where it is
+/// staged; `-o` on the command line may put it anywhere, away from the study's `output`).
+pub fn write_resolved(
+    study: &Study,
+    dir: &std::path::Path,
+    run_dir: &std::path::Path,
+) -> anyhow::Result<()> {
     use anyhow::Context;
-    let text = resolved_toml(study)?;
+    let text = with_run_dir(&resolved_toml(study)?, run_dir);
     let p = dir.join(RESOLVED_FILE);
     crate::atomic::write_bytes(&p, text.as_bytes())
         .with_context(|| format!("cannot write {}", p.display()))
@@ -44,6 +50,7 @@ pub fn resolved_toml(study: &Study) -> Result<String, ConfigError> {
         file: study.source.clone(),
         msg: format!("cannot write the resolved study: {e}"),
     })?;
+    let body = super::toml_floats::scientific_floats(&body);
     let base = study.base_dir.display().to_string();
     let base = if base.is_empty() { ".".into() } else { base };
     Ok(format!(
@@ -54,6 +61,21 @@ pub fn resolved_toml(study: &Study) -> Result<String, ConfigError> {
         one_line(&study.source),
         one_line(&base),
     ))
+}
+
+/// `resolved` with a comment line after its header naming the run directory `run_dir`
+/// (absolute when it can be made so, as the reader may be anywhere).
+pub fn with_run_dir(resolved: &str, run_dir: &std::path::Path) -> String {
+    let shown = std::path::absolute(run_dir).unwrap_or_else(|_| run_dir.to_path_buf());
+    let line = format!(
+        "# This run was written to: {} (`output` below is the study's: without -o, `fit` writes to <output>/fit, `select` to <output>/select)\n",
+        one_line(&shown.display().to_string())
+    );
+    // after the three header comment lines, before the blank line that ends the header
+    match resolved.find("\n\n") {
+        Some(k) => format!("{}\n{line}{}", &resolved[..k], &resolved[k + 1..]),
+        None => format!("{line}{resolved}"),
+    }
 }
 
 /// `s` with line breaks replaced, so that a file name cannot end the comment it is in.
@@ -141,6 +163,84 @@ x1 = { kind = "sine", freq = 0.01, amplitude = 1e-6, duration = 300.0 }
         s.seed = u64::MAX;
         let e = resolved_toml(&s).unwrap_err().to_string();
         assert!(e.contains("`seed`") && e.contains("s.toml"), "{e}");
+    }
+
+    /// Every float of a TOML text, in document order, as bits.
+    fn float_bits(text: &str) -> Vec<u64> {
+        fn walk(v: &toml::Value, out: &mut Vec<u64>) {
+            match v {
+                toml::Value::Float(f) => out.push(f.to_bits()),
+                toml::Value::Array(a) => a.iter().for_each(|x| walk(x, out)),
+                toml::Value::Table(t) => t.values().for_each(|x| walk(x, out)),
+                _ => {}
+            }
+        }
+        let mut out = Vec::new();
+        walk(
+            &toml::Value::Table(text.parse::<toml::Table>().unwrap()),
+            &mut out,
+        );
+        out
+    }
+
+    #[test]
+    fn small_and_large_floats_are_written_in_scientific_form_and_load_bit_for_bit() {
+        let text = MINIMAL.replace("amplitude = 1e-6", "amplitude = 1e-14")
+            + "[analysis]\nband = [1.2345678901234568e-5, 0.4]\n[prior]\nw1sq = { kind = \"uniform\", lo = -1.0000000000000002e-6, hi = 5e300 }\n";
+        let study = load(&text);
+        let r = resolved_toml(&study).unwrap();
+        assert!(r.contains("amplitude = 1e-14"), "{r}");
+        assert!(r.contains("1.2345678901234568e-5"), "{r}");
+        assert!(
+            r.contains("-1.0000000000000002e-6") && r.contains("5e300"),
+            "{r}"
+        );
+        assert!(
+            !r.contains("0.0000"),
+            "a float written in long fixed form:\n{r}"
+        );
+        // numbers of a readable size stay as they were
+        assert!(r.contains("pre_pad = 100.0") && r.contains("0.4]"), "{r}");
+        let again = load(&r);
+        assert!(again == study, "{r}");
+        let body = |t: &str| t.split_once("\n\n").unwrap().1.to_string();
+        let plain = toml::to_string(&study.file).unwrap();
+        assert_eq!(float_bits(&body(&r)), float_bits(&plain));
+        assert_eq!(
+            float_bits(&body(&resolved_toml(&again).unwrap())),
+            float_bits(&plain)
+        );
+    }
+
+    #[test]
+    fn every_example_study_keeps_every_float_bit_for_bit() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples");
+        for e in std::fs::read_dir(&dir).unwrap().flatten() {
+            let p = e.path();
+            if p.extension().is_some_and(|x| x == "toml") {
+                let text = std::fs::read_to_string(&p).unwrap();
+                let study = Study::from_toml(&text, "x.toml", &dir).unwrap();
+                let r = resolved_toml(&study).unwrap();
+                let body = r.split_once("\n\n").unwrap().1;
+                let plain = toml::to_string(&study.file).unwrap();
+                assert_eq!(float_bits(body), float_bits(&plain), "{}", p.display());
+            }
+        }
+    }
+
+    #[test]
+    fn the_run_directory_is_recorded_and_the_file_still_loads() {
+        let s = load(MINIMAL);
+        let r = with_run_dir(&resolved_toml(&s).unwrap(), Path::new("/runs/this-one"));
+        assert!(
+            r.contains("# This run was written to: /runs/this-one ("),
+            "{r}"
+        );
+        assert!(load(&r) == s, "{r}");
+        let dir = tempfile::tempdir().unwrap();
+        write_resolved(&s, dir.path(), Path::new("/elsewhere/fit")).unwrap();
+        let w = std::fs::read_to_string(dir.path().join(RESOLVED_FILE)).unwrap();
+        assert!(w.contains("written to: /elsewhere/fit"), "{w}");
     }
 
     #[test]

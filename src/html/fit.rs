@@ -43,8 +43,14 @@ pub fn parts(s: &Value) -> Parts {
                         // a non-finite R-hat: the chains did not move
                         None => bad("∞ (stuck)".into()),
                     };
+                    let unit = at(r, "unit").and_then(Value::as_str).unwrap_or("");
                     vec![
                         cell(at(r, "name")),
+                        if unit.is_empty() {
+                            "–".into()
+                        } else {
+                            cell(at(r, "unit"))
+                        },
                         rhat_html,
                         cell(at(r, "ess")),
                         cell(at(r, "mean")),
@@ -56,7 +62,15 @@ pub fn parts(s: &Value) -> Parts {
         })
         .unwrap_or_default();
     d.push_str(&table(
-        &["parameter", "R-hat", "ESS", "mean", "σ", "Cramér-Rao σ"],
+        &[
+            "parameter",
+            "unit",
+            "R-hat",
+            "ESS",
+            "mean",
+            "σ",
+            "Cramér-Rao σ",
+        ],
         &rows,
     ));
     d.push_str(&format!(

@@ -235,6 +235,33 @@ fn models(s: &Value) -> String {
     d
 }
 
+/// Each model's MAP, one line per parameter with its unit.
+fn map_values(s: &Value) -> String {
+    let mut rows = Vec::new();
+    for m in list(at(s, "models")) {
+        let units = list(at(m, "units"));
+        let map = list(at(m, "map"));
+        for (k, p) in list(at(m, "params")).iter().enumerate() {
+            let unit = units.get(k).and_then(Value::as_str).unwrap_or("");
+            rows.push(vec![
+                cell(at(m, "name")),
+                cell(Some(p)),
+                if unit.is_empty() {
+                    "–".into()
+                } else {
+                    esc(unit)
+                },
+                cell(map.get(k)),
+            ]);
+        }
+    }
+    if rows.is_empty() {
+        return String::new();
+    }
+    String::from("<h3>MAP per parameter</h3>\n")
+        + &table(&["model", "parameter", "unit", "MAP"], &rows)
+}
+
 fn reversible_jump(s: &Value) -> String {
     let mut d = String::from("<h3>Reversible jump</h3>\n");
     let Some(rj) = at(s, "rj").filter(|v| !v.is_null()) else {
@@ -359,7 +386,7 @@ pub fn parts(s: &Value) -> Parts {
     if let Some(n) = at(s, "rj_note").and_then(Value::as_str) {
         p.warnings.add(n, "summary.json (rj_note)");
     }
-    p.diagnostics = pairs(s) + &models(s) + &reversible_jump(s);
+    p.diagnostics = pairs(s) + &models(s) + &map_values(s) + &reversible_jump(s);
     p
 }
 
@@ -422,6 +449,16 @@ mod tests {
                 .diagnostics
                 .contains("Parameter estimates")
         );
+    }
+
+    #[test]
+    fn each_models_map_is_listed_per_parameter_with_its_unit() {
+        let s = json!({"models": [{"name": "m", "params": ["k", "g"], "units": ["s⁻²", ""],
+                                   "map": [-1.3e-6, 0.8]}]});
+        let d = parts(&s).diagnostics;
+        assert!(d.contains("MAP per parameter"), "{d}");
+        assert!(d.contains("<td>k</td><td>s⁻²</td>"), "{d}");
+        assert!(d.contains("<td>g</td><td>–</td>"), "{d}");
     }
 
     #[test]

@@ -45,8 +45,8 @@ pub trait Job {
     const LEGACY_OUTPUTS: &'static [&'static str];
     /// Computes, checkpointing into `ctx.out` as it goes.
     fn run(&mut self, ctx: &Context) -> anyhow::Result<Self::Outcome>;
-    /// Writes the outcome into the staging directory.
-    fn write(&self, outcome: &Self::Outcome, staging: &Path) -> anyhow::Result<()>;
+    /// Writes the outcome into the staging directory, which is published as `run_dir`.
+    fn write(&self, outcome: &Self::Outcome, staging: &Path, run_dir: &Path) -> anyhow::Result<()>;
 }
 
 /// What [`execute`] returns: the job's outcome and the files it published.
@@ -64,7 +64,7 @@ pub fn execute<J: Job>(job: &mut J, ctx: &Context) -> anyhow::Result<Done<J::Out
     let outcome = job.run(ctx)?;
     // one staging directory: asking for it again starts it afresh
     let staged = run.staging()?;
-    job.write(&outcome, &staged)?;
+    job.write(&outcome, &staged, ctx.out)?;
     let written = run.publish(J::COMMAND, J::LEGACY_OUTPUTS)?;
     Ok(Done { outcome, written })
 }

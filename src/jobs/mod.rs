@@ -11,6 +11,7 @@
 //! directory only on the root rank, so it keeps its own driver ([`sweep`]); the design search
 //! writes several studies ([`design`]).
 
+pub mod bode;
 pub mod chains_npz;
 pub mod demo;
 pub mod design;
@@ -24,6 +25,7 @@ mod job;
 pub mod mpi;
 pub mod prepare;
 pub mod progress;
+pub mod raw_data;
 pub mod report;
 pub mod run_identity;
 pub mod select;

@@ -32,7 +32,7 @@ impl Job for Simulate<'_> {
             .with_context(|| format!("simulating {}", self.study.source))
     }
 
-    fn write(&self, sim: &Simulation, staging: &Path) -> anyhow::Result<()> {
+    fn write(&self, sim: &Simulation, staging: &Path, _run_dir: &Path) -> anyhow::Result<()> {
         sim.dataset.write(staging)?;
         Ok(())
     }

@@ -20,6 +20,7 @@ mod segments;
 mod spectra;
 pub mod stability;
 pub mod statistic;
+pub mod transfer;
 
 pub use exact::{Likelihood, LikelihoodError};
 pub use fisher::{
@@ -41,7 +42,7 @@ pub use relbin::{MAX_REFINEMENTS, RelBinError, RelBinLikelihood, RelBinOptions, 
 pub use segments::GapSummary;
 pub use spectra::{
     DEFAULT_GAP_TAPER, ExperimentSpectra, NoiseSource, SpectraError, SpectraOptions,
-    WelchResolution, averages_per_decade, welch_segment_len,
+    WelchResolution, averages_per_decade, welch_segment_len, welch_segment_len_for,
 };
 pub use statistic::{LogPeriodogramOptions, Statistic};
 

@@ -497,6 +497,16 @@ fn study_noise(
     Ok((idx, sd))
 }
 
+/// The Welch segment length of the noise estimate's rule for a series of `len` samples whose
+/// valid runs are `runs` ([`welch_segment_len`] without gaps, the gapped search with them).
+pub fn welch_segment_len_for(len: usize, runs: &[[usize; 2]], opts: &SpectraOptions) -> usize {
+    if runs.len() == 1 && runs[0] == [0, len] {
+        welch_segment_len(len, opts)
+    } else {
+        gapped_segment_len(runs, opts)
+    }
+}
+
 /// The Welch segment length for a noise-only series of `len` samples: `welch_averages`
 /// segments with the window's recommended overlap span the series.
 pub fn welch_segment_len(len: usize, opts: &SpectraOptions) -> usize {

@@ -52,6 +52,14 @@ pub struct BandPlot<'a> {
     pub log_x: bool,
     /// The vertical axis is ln B: shade the Kass–Raftery zones and draw the line ln B = 0.
     pub zones: bool,
+    /// The pair `(X, Y)` whose ln B = ln (Z_X / Z_Y) the vertical axis shows: a line under the
+    /// title says which sign favours which model.
+    pub sign: Option<(&'a str, &'a str)>,
+}
+
+/// The sign convention of ln B of the pair `(x, y)`, as the plots print it.
+pub fn sign_note(x: &str, y: &str) -> String {
+    format!("ln B > 0 favours X = {x}, ln B < 0 favours Y = {y}")
 }
 
 /// Writes `<dir>/<stem>.png` and `.svg`: per series the median as a line with markers and the
@@ -96,12 +104,13 @@ pub struct BandPlot<'a> {
 /// };
 /// let series = [rj, laplace];
 /// band_plot(dir.path(), "lnb_vs_snr", &BandPlot {
-///     title: "ln B_XY against SNR",
+///     title: "ln B(X/Y) against SNR",
 ///     x_label: "SNR",
-///     y_label: "ln B_XY",
+///     y_label: "ln B(X/Y)",
 ///     series: &series,
 ///     log_x: true,
 ///     zones: true,
+///     sign: Some(("ltp", "ltp_pole")),
 /// }).unwrap();
 /// assert!(dir.path().join("lnb_vs_snr.png").exists());
 /// assert!(dir.path().join("lnb_vs_snr.svg").exists());
@@ -269,6 +278,8 @@ struct BandFigure {
     zero_line: bool,
     /// Series indices per legend row.
     legend_rows: Vec<Vec<usize>>,
+    /// The sign convention line ([`sign_note`]), when the plot has a pair.
+    sign: Option<String>,
 }
 
 /// The zones of [`ZONES`] that intersect `[lo, hi]`, clipped to it.
@@ -442,6 +453,7 @@ impl BandFigure {
             series: prepared,
             zones,
             legend_rows,
+            sign: plot.sign.map(|(x, y)| sign_note(x, y)),
         })
     }
 }
@@ -495,7 +507,7 @@ fn swatch<DB: DrawingBackend>(
 
 impl Figure for BandFigure {
     fn size(&self) -> (u32, u32) {
-        let extra_rows = self.legend_rows.len() as u32 - 1;
+        let extra_rows = self.legend_rows.len() as u32 - 1 + u32::from(self.sign.is_some());
         (BAND_W, BAND_H + LEGEND_ROW * extra_rows)
     }
 
@@ -504,6 +516,16 @@ impl Figure for BandFigure {
             root.margin(8, 0, 0, 0)
         } else {
             root.titled(&self.title, font(TITLE_PX))?
+        };
+        let area = match &self.sign {
+            Some(note) => {
+                let (line, rest) = area.split_vertically(LEGEND_ROW);
+                let (w, _) = line.dim_in_pixel();
+                let st = font(NOTE_PX).pos(Pos::new(HPos::Center, VPos::Center));
+                line.draw_text(note, &st, (w as i32 / 2, LEGEND_ROW as i32 / 2))?;
+                rest
+            }
+            None => area,
         };
 
         // Legend rows above the plot, each centred.
@@ -1191,6 +1213,7 @@ mod tests {
             series,
             log_x: true,
             zones: true,
+            sign: None,
         }
     }
 

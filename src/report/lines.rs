@@ -27,9 +27,9 @@ use std::path::Path;
 /// let lnb = vec![("RJMCMC".to_string(), vec![(5.0, -1.2), (10.0, 0.4), (20.0, 6.1)])];
 /// let err = vec![vec![0.3, 0.3, 0.5]];
 /// line_plot(dir.path(), "lnb_vs_snr", &LinePlot {
-///     title: "ln B_XY against SNR",
+///     title: "ln B(X/Y) against SNR",
 ///     x_label: "SNR",
-///     y_label: "ln B_XY",
+///     y_label: "ln B(X/Y)",
 ///     series: &lnb,
 ///     y_err: Some(&err),
 ///     log_x: true,
@@ -78,7 +78,7 @@ pub fn line_plot(dir: &Path, stem: &str, plot: &LinePlot<'_>) -> Result<(), Repo
 ///
 /// let dir = tempfile::tempdir().unwrap();
 /// let run: Vec<(f64, f64)> = (1..=50).map(|i| (100.0 * i as f64, 0.3 + 1.0 / i as f64)).collect();
-/// bayes_factor_evolution(dir.path(), "bxy", &[("SNR 5".to_string(), run)], true, "B_XY").unwrap();
+/// bayes_factor_evolution(dir.path(), "bxy", &[("SNR 5".to_string(), run)], true, "B(X/Y)").unwrap();
 /// assert!(dir.path().join("bxy.png").exists());
 /// ```
 pub fn bayes_factor_evolution(
@@ -116,20 +116,71 @@ struct Prepared {
     stroke: u32,
 }
 
-struct LineFigure {
+/// Where a drawn line figure put its legend and its curves, in pixels of the whole canvas
+/// (recorded by the last draw, so that a test can check that nothing hides a curve).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub(crate) struct Geometry {
+    /// The legend box `[(left, top), (right, bottom)]`; `None` without a legend.
+    pub legend: Option<[(i32, i32); 2]>,
+    /// The plotting area inside the axes, likewise.
+    pub plot: [(i32, i32); 2],
+    /// Every vertex of every drawn curve.
+    pub curves: Vec<(i32, i32)>,
+}
+
+/// Height of one legend row.
+const LEGEND_ROW: u32 = style::LEGEND_PX + 10;
+/// Legend swatch width (line and marker).
+const SWATCH_W: i32 = 30;
+/// Space between legend entries in a row.
+const ENTRY_GAP: u32 = 18;
+
+/// Width of a legend entry (DejaVu Sans averages about 0.62 em per character).
+fn entry_width(name: &str) -> u32 {
+    SWATCH_W as u32
+        + 8
+        + (name.chars().count() as f64 * 0.62 * style::LEGEND_PX as f64).ceil() as u32
+        + ENTRY_GAP
+}
+
+/// Greedy line breaking of the legend entries into rows at most `width` pixels wide.
+fn legend_rows(names: &[&str], width: u32) -> Vec<Vec<usize>> {
+    let mut rows: Vec<Vec<usize>> = Vec::new();
+    let mut used = 0;
+    for (i, n) in names.iter().enumerate() {
+        let w = entry_width(n);
+        match rows.last_mut() {
+            Some(row) if used + w <= width => {
+                row.push(i);
+                used += w;
+            }
+            _ => {
+                rows.push(vec![i]);
+                used = w;
+            }
+        }
+    }
+    rows
+}
+
+pub(crate) struct LineFigure {
     title: String,
     x_title: String,
     y_title: String,
     x: Axis,
     y: Axis,
     series: Vec<Prepared>,
-    legend: bool,
+    /// Series indices per legend row, below the plot (empty: no legend). The legend lies
+    /// outside the axes so that it can never cover a curve.
+    legend_rows: Vec<Vec<usize>>,
     /// Horizontal reference line `(plotted y, label)`.
     reference: Option<(f64, &'static str)>,
+    /// What the last draw put where.
+    pub(crate) geometry: std::cell::RefCell<Geometry>,
 }
 
 impl LineFigure {
-    fn new(
+    pub(crate) fn new(
         dir: &Path,
         stem: &str,
         plot: &LinePlot<'_>,
@@ -264,43 +315,90 @@ impl LineFigure {
                 }
             })
             .collect();
+        let legend = series.len() > 1 || !series[0].0.is_empty();
+        let names: Vec<&str> = series.iter().map(|(n, _)| n.as_str()).collect();
         Ok(LineFigure {
             title: plot.title.to_string(),
             x_title: plot.x_label.to_string(),
             y_title: plot.y_label.to_string(),
-            legend: series.len() > 1 || !series[0].0.is_empty(),
+            legend_rows: if legend {
+                legend_rows(&names, WIDTH - 40)
+            } else {
+                Vec::new()
+            },
+            geometry: Default::default(),
             reference: reference.and_then(|(r, label)| Some((y.to_plot(r)?, label))),
             x,
             y,
             series: prepared,
         })
     }
+}
 
-    /// The legend goes in the corner with the fewest points near it.
-    fn legend_position(&self) -> SeriesLabelPosition {
-        let fx = |v: f64| (v - self.x.lo) / (self.x.hi - self.x.lo);
-        let fy = |v: f64| (v - self.y.lo) / (self.y.hi - self.y.lo);
-        let mut counts = [0usize; 4]; // UR, UL, LR, LL
-        for p in self.series.iter().flat_map(|s| s.segments.iter().flatten()) {
-            let (u, v) = (fx(p.0), fy(p.1));
-            let (right, left, top, bottom) = (u > 0.55, u < 0.45, v > 0.6, v < 0.4);
-            counts[0] += (right && top) as usize;
-            counts[1] += (left && top) as usize;
-            counts[2] += (right && bottom) as usize;
-            counts[3] += (left && bottom) as usize;
+impl LineFigure {
+    /// The figure without its legend (a panel whose legend another panel shows).
+    pub(crate) fn without_legend(mut self) -> Self {
+        self.legend_rows.clear();
+        self
+    }
+
+    /// Height of the legend strip below the plot (0 without a legend).
+    fn legend_h(&self) -> u32 {
+        if self.legend_rows.is_empty() {
+            0
+        } else {
+            LEGEND_ROW * self.legend_rows.len() as u32 + 8
         }
-        match (0..4).min_by_key(|&i| counts[i]) {
-            Some(1) => SeriesLabelPosition::UpperLeft,
-            Some(2) => SeriesLabelPosition::LowerRight,
-            Some(3) => SeriesLabelPosition::LowerLeft,
-            _ => SeriesLabelPosition::UpperRight,
+    }
+
+    /// Draws the legend rows into `area` (the strip below the plot), each row centred; returns
+    /// the box the entries occupy, in canvas pixels.
+    fn draw_legend<DB: DrawingBackend>(
+        &self,
+        area: &DrawingArea<DB, Shift>,
+    ) -> Result<[(i32, i32); 2], DrawingAreaErrorKind<DB::ErrorType>> {
+        let (w, _) = area.dim_in_pixel();
+        let (bx, by) = area.get_base_pixel();
+        let (mut left, mut right) = (i32::MAX, i32::MIN);
+        for (r, row) in self.legend_rows.iter().enumerate() {
+            let total: i32 = row
+                .iter()
+                .map(|&i| entry_width(&self.series[i].name) as i32)
+                .sum::<i32>()
+                - ENTRY_GAP as i32;
+            let mut x0 = ((w as i32 - total) / 2).max(4);
+            let yc = (LEGEND_ROW * r as u32 + LEGEND_ROW / 2 + 4) as i32;
+            left = left.min(x0);
+            for &i in row {
+                let s = &self.series[i];
+                let c = colour(i);
+                let (d, g) = dash(i).unwrap_or((1000, 1));
+                area.draw(&DashedPathElement::new(
+                    vec![(x0, yc), (x0 + SWATCH_W, yc)],
+                    d,
+                    g,
+                    c.stroke_width(s.stroke),
+                ))?;
+                if s.markers {
+                    let shape: Vec<(i32, i32)> = marker(i)
+                        .into_iter()
+                        .map(|(a, b)| (a + x0 + SWATCH_W / 2, b + yc))
+                        .collect();
+                    area.draw(&Polygon::new(shape, c.filled()))?;
+                }
+                let st = text(style::LEGEND_PX).pos(Pos::new(HPos::Left, VPos::Center));
+                area.draw_text(&s.name, &st, (x0 + SWATCH_W + 8, yc))?;
+                x0 += entry_width(&s.name) as i32;
+            }
+            right = right.max(x0 - ENTRY_GAP as i32);
         }
+        Ok([(bx + left, by), (bx + right, by + self.legend_h() as i32)])
     }
 }
 
 impl Figure for LineFigure {
     fn size(&self) -> (u32, u32) {
-        (WIDTH, HEIGHT)
+        (WIDTH, HEIGHT + self.legend_h())
     }
 
     fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult<DB> {
@@ -310,6 +408,8 @@ impl Figure for LineFigure {
             root.titled(&self.title, text(style::TITLE_PX))?
                 .margin(5, 10, 10, 25)
         };
+        let (_, h) = area.dim_in_pixel();
+        let (area, legend_area) = area.split_vertically(h.saturating_sub(self.legend_h()));
         let axes = (&self.x, &self.y);
         let mut ch = chart(
             &area,
@@ -341,6 +441,7 @@ impl Figure for LineFigure {
             let at = self.x.lo + 0.01 * (self.x.hi - self.x.lo);
             ch.draw_series([Text::new(label, (at, r), st)])?;
         }
+        let mut curves = Vec::new();
         for (i, s) in self.series.iter().enumerate() {
             let c = colour(i);
             for &(x, lo, mid, hi) in &s.bars {
@@ -354,6 +455,7 @@ impl Figure for LineFigure {
                 )])?;
             }
             for seg in &s.segments {
+                curves.extend(seg.iter().map(|p| ch.backend_coord(p)));
                 match dash(i) {
                     None => {
                         ch.draw_series(LineSeries::new(
@@ -371,8 +473,7 @@ impl Figure for LineFigure {
                     }
                 }
             }
-            // A point cut off by NaNs on both sides has no line, so it always gets a marker;
-            // the legend entry hangs on this (possibly empty) series.
+            // A point cut off by NaNs on both sides has no line, so it always gets a marker.
             let pts = s
                 .segments
                 .iter()
@@ -380,32 +481,41 @@ impl Figure for LineFigure {
                 .flatten()
                 .copied();
             let shape = marker(i);
-            let a = ch.draw_series(
+            ch.draw_series(
                 pts.map(|p| EmptyElement::at(p) + Polygon::new(shape.clone(), c.filled())),
             )?;
-            if self.legend {
-                let w = s.stroke;
-                let with_marker = s.markers;
-                // One element type for every series: a solid line is a dash longer than the
-                // swatch, and a series without markers gets an invisible one.
-                a.label(s.name.clone()).legend(move |(x, y)| {
-                    let (d, g) = dash(i).unwrap_or((1000, 1));
-                    let alpha = if with_marker { 1.0 } else { 0.0 };
-                    let shape: Vec<(i32, i32)> =
-                        marker(i).into_iter().map(|(a, b)| (a + 9, b)).collect();
-                    EmptyElement::at((x, y))
-                        + DashedPathElement::new(vec![(-4, 0), (22, 0)], d, g, c.stroke_width(w))
-                        + Polygon::new(shape, c.mix(alpha).filled())
-                });
-            }
         }
-        if self.legend {
-            ch.configure_series_labels()
-                .position(self.legend_position())
-                .label_font(text(style::LEGEND_PX))
-                .background_style(style::BACKGROUND.mix(0.85))
-                .border_style(style::FRAME)
-                .draw()?;
+        let (xr, yr) = ch.plotting_area().get_pixel_range();
+        let legend = if self.legend_rows.is_empty() {
+            None
+        } else {
+            Some(self.draw_legend(&legend_area)?)
+        };
+        *self.geometry.borrow_mut() = Geometry {
+            legend,
+            plot: [(xr.start, yr.start), (xr.end, yr.end)],
+            curves,
+        };
+        Ok(())
+    }
+}
+
+/// Line figures stacked top to bottom on one canvas (Bode gain over phase, one time series
+/// per channel), each keeping its own axes and legend.
+pub(crate) struct Stack(pub Vec<LineFigure>);
+
+impl Figure for Stack {
+    fn size(&self) -> (u32, u32) {
+        let h = self.0.iter().map(|f| f.size().1).sum();
+        (WIDTH, h)
+    }
+
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> DrawResult<DB> {
+        let mut rest = root.clone();
+        for f in &self.0 {
+            let (top, below) = rest.split_vertically(f.size().1);
+            f.draw(&top)?;
+            rest = below;
         }
         Ok(())
     }

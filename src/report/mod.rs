@@ -23,11 +23,13 @@
 mod axis;
 mod bands;
 mod bars;
+pub mod bode;
 mod contour;
 mod corner;
 mod error;
 mod lines;
 mod plots;
+pub mod raw;
 pub mod residual_psd;
 mod running;
 mod style;
@@ -41,7 +43,7 @@ pub use crate::numfmt::{
     fmt_bayes_factor, fmt_fixed, fmt_pm, fmt_roundtrip, fmt_short, fmt_short_sig, fmt_sig,
     kass_raftery, kass_raftery_named,
 };
-pub use bands::{BandPlot, BandSeries, HeatMap, band_plot, heat_map};
+pub use bands::{BandPlot, BandSeries, HeatMap, band_plot, heat_map, sign_note};
 pub use bars::model_histogram;
 pub use corner::{CornerPlot, corner_plot, draw_corner};
 pub use error::ReportError;

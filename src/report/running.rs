@@ -51,8 +51,9 @@ impl RunningSeries {
     }
 }
 
-/// Writes `<dir>/<stem>.png` and `.svg`: `ln B` of the pair against the iteration, one line and
-/// ±1σ band per series, with the Kass–Raftery zones. A series without any value stays in the
+/// Writes `<dir>/<stem>.png` and `.svg`: `ln B` of the pair `(x, y)` (ln B = ln Z_x − ln Z_y)
+/// against the iteration, one line and ±1σ band per series, with the Kass–Raftery zones and a
+/// line saying which sign favours which model. A series without any value stays in the
 /// legend as "(no values)"; its name should say why (e.g. "visit ratio (Y never visited)").
 ///
 /// Returns `Ok(false)` without writing anything when no series has a finite value (there is
@@ -67,13 +68,14 @@ impl RunningSeries {
 ///     points: (1..=20).map(|i| (1e3 * i as f64, Some((2.0 + 1.0 / i as f64, 0.5 / i as f64)))).collect(),
 /// };
 /// let visits = RunningSeries { name: "visit ratio (Y never visited)".into(), points: vec![(1e3, None)] };
-/// assert!(running_bayes_factor(dir.path(), "bayes_factor", "ln B_X/Y", &[visits, rb]).unwrap());
+/// assert!(running_bayes_factor(dir.path(), "bayes_factor", "ln B(X/Y)", ("X", "Y"), &[visits, rb]).unwrap());
 /// assert!(dir.path().join("bayes_factor.svg").exists());
 /// ```
 pub fn running_bayes_factor(
     dir: &Path,
     stem: &str,
     title: &str,
+    (x, y): (&str, &str),
     series: &[RunningSeries],
 ) -> Result<bool, ReportError> {
     if !series.iter().any(RunningSeries::has_value) {
@@ -90,6 +92,7 @@ pub fn running_bayes_factor(
             series: &bands,
             log_x: false,
             zones: true,
+            sign: Some((x, y)),
         },
     )?;
     Ok(true)
@@ -113,7 +116,7 @@ mod tests {
             series("a", vec![(1.0, None), (2.0, Some((f64::NAN, 1.0)))]),
             series("b", vec![]),
         ];
-        assert!(!running_bayes_factor(dir.path(), "bf", "t", &s).unwrap());
+        assert!(!running_bayes_factor(dir.path(), "bf", "t", ("a", "b"), &s).unwrap());
         assert!(std::fs::read_dir(dir.path()).unwrap().next().is_none());
     }
 
@@ -131,11 +134,16 @@ mod tests {
                 ],
             ),
         ];
-        assert!(running_bayes_factor(dir.path(), "bf", "t", &s).unwrap());
+        assert!(running_bayes_factor(dir.path(), "bf", "t", ("a", "b"), &s).unwrap());
         let svg = std::fs::read_to_string(dir.path().join("bf.svg")).unwrap();
         assert!(
             svg.contains("never visited"),
             "the legend names the absent curve"
+        );
+        assert!(
+            svg.contains("ln B &gt; 0 favours X = a, ln B &lt; 0 favours Y = b")
+                || svg.contains("ln B > 0 favours X = a, ln B < 0 favours Y = b"),
+            "the sign convention is on the plot"
         );
         // a band of σ NaN is drawn as a point (zero width), not refused
         let b = s[1].band();

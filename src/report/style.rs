@@ -135,8 +135,6 @@ pub(crate) const AXIS: RGBColor = RGBColor(90, 90, 90);
 pub(crate) const REFERENCE: RGBColor = RGBColor(60, 60, 60);
 /// Secondary text (zone names, notes).
 pub(crate) const MUTED: RGBColor = RGBColor(95, 95, 95);
-/// Legend frame.
-pub(crate) const FRAME: RGBColor = RGBColor(160, 160, 160);
 /// Shading of the burn-in region of a trace plot.
 pub(crate) const BURN_IN: RGBColor = RGBColor(232, 232, 232);
 

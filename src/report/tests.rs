@@ -260,7 +260,9 @@ fn line_plot_log_log_with_error_bars_and_gaps() {
     };
     line_plot(dir.path(), "ll", &plot).unwrap();
     let (w, h) = check_outputs(dir.path(), "ll", &["log-log", "frequency [Hz]", "10⁻²⁵"]);
-    assert_eq!((w, h), (680, 500));
+    // the legend rows lie below the plot, on a canvas that grows for them
+    assert_eq!(w, 680);
+    assert!(h > 500, "{h}");
 }
 
 #[test]
@@ -498,6 +500,7 @@ fn band_plot_single_point_single_realisation() {
             series: &series,
             log_x: false,
             zones: true,
+            sign: None,
         },
     )
     .unwrap();

@@ -91,9 +91,9 @@ impl Job for Fit<'_> {
         })
     }
 
-    fn write(&self, fitted: &Fitted, staging: &Path) -> anyhow::Result<()> {
+    fn write(&self, fitted: &Fitted, staging: &Path, run_dir: &Path) -> anyhow::Result<()> {
         write_outputs(&fitted.outcome, staging)?;
-        crate::config::write_resolved(self.study, staging)?;
+        crate::config::write_resolved(self.study, staging, run_dir)?;
         Ok(())
     }
 }

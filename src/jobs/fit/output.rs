@@ -25,6 +25,7 @@ pub fn fmt_rhat(rhat: f64, sd: f64) -> String {
 pub fn table(s: &FitSummary) -> Table {
     let mut t = Table::new([
         "parameter",
+        "unit",
         "truth",
         "MAP",
         "estimate ± σ",
@@ -36,6 +37,11 @@ pub fn table(s: &FitSummary) -> Table {
     for r in &s.rows {
         t.push_row([
             r.name.clone(),
+            if r.unit.is_empty() {
+                "–".into()
+            } else {
+                r.unit.clone()
+            },
             r.truth.map_or("–".into(), |v| fmt_sig(v, 4)),
             fmt_sig(r.map, 6),
             fmt_pm(r.mean, r.sd),
@@ -154,6 +160,8 @@ pub fn write_outputs(o: &FitOutcome, out: &Path) -> Result<(), FitError> {
     if let Some(info) = &o.information {
         write_information(info, out)?;
     }
+    crate::report::bode::write(out, &o.bode)?;
+    crate::report::raw::write(out, &o.raw)?;
     Ok(())
 }
 

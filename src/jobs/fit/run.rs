@@ -220,12 +220,26 @@ pub fn run(
         &names,
         &crate::jobs::prepare::injection_lines(study, exact),
     );
+    let (bode, w) = crate::jobs::bode::bode_data(
+        study,
+        &prep.dataset.experiments,
+        &[crate::jobs::bode::Fitted {
+            name: exact.model().name(),
+            likelihood: exact,
+            map: &map.theta,
+        }],
+    );
+    summary.warnings.extend(w);
+    let (raw, w) = crate::jobs::raw_data::raw_data(study, exact, &prep.dataset.experiments);
+    summary.warnings.extend(w);
     Ok(FitOutcome {
         summary,
         chains,
         map_full: map.theta,
         fisher,
         information,
+        bode,
+        raw,
     })
 }
 

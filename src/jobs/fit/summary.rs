@@ -96,6 +96,12 @@ pub struct FitOutcome {
     /// Where the information on each free parameter comes from, at the MAP
     /// (`information.md`, `.json` and the plot); `None` when the Fisher matrix is singular.
     pub information: Option<crate::likelihood::information::Information>,
+    /// The measured and fitted transfer functions per experiment with injections
+    /// (`bode.npz`, `bode_<experiment>.png/.svg`).
+    pub bode: Vec<crate::report::bode::BodeExperiment>,
+    /// Each experiment's time series and spectra (`timeseries_<experiment>`,
+    /// `spectra_<experiment>`).
+    pub raw: Vec<crate::report::raw::RawData>,
 }
 
 /// Warnings for the numbers of `s` that are not finite, which `summary.json` writes as `null`

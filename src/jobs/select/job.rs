@@ -93,9 +93,9 @@ impl Job for Select<'_, '_> {
         Ok(run_observed(study, &prep, on_rj, ctx.work, Some(ckpt))?)
     }
 
-    fn write(&self, summary: &SelectSummary, staging: &Path) -> anyhow::Result<()> {
+    fn write(&self, summary: &SelectSummary, staging: &Path, run_dir: &Path) -> anyhow::Result<()> {
         write_outputs(summary, staging)?;
-        crate::config::write_resolved(self.study, staging)?;
+        crate::config::write_resolved(self.study, staging, run_dir)?;
         Ok(())
     }
 }

@@ -182,6 +182,8 @@ pub fn write_outputs(s: &SelectSummary, out: &Path) -> Result<(), SelectError> {
     let p = out.join("table.md");
     crate::atomic::write_bytes(&p, document(s, true).as_bytes()).map_err(|e| io(&p, e))?;
     crate::report::residual_psd::write(out, &s.residual_psd)?;
+    crate::report::bode::write(out, &s.bode)?;
+    crate::report::raw::write(out, &s.raw)?;
     for (name, chains) in &s.model_chains {
         if let Some(c) = chains {
             let p = out.join(chains_file(name));
@@ -197,7 +199,8 @@ pub fn write_outputs(s: &SelectSummary, out: &Path) -> Result<(), SelectError> {
         crate::data::npz_write::write_npz_file(&p, &rj_chain_arrays(d)).map_err(|e| io(&p, e))?;
     }
     for fig in fig2(rj) {
-        crate::report::running_bayes_factor(out, &fig.stem, &fig.title, &fig.series)?;
+        let pair = (fig.pair.0.as_str(), fig.pair.1.as_str());
+        crate::report::running_bayes_factor(out, &fig.stem, &fig.title, pair, &fig.series)?;
     }
     let labels: Vec<String> = s.models.iter().map(|m| m.name.clone()).collect();
     let counts: Vec<f64> = rj.visits.iter().map(|&v| v as f64).collect();
@@ -241,6 +244,8 @@ pub struct Fig2 {
     /// `bayes_factor` with two models, `bayes_factor_<X>_<Y>` per pair with more.
     pub stem: String,
     pub title: String,
+    /// The pair `(X, Y)`: ln B = ln Z_X − ln Z_Y.
+    pub pair: (String, String),
     pub series: Vec<crate::report::RunningSeries>,
 }
 
@@ -295,7 +300,7 @@ pub fn fig2(rj: &crate::evidence::RjResult) -> Vec<Fig2> {
         if !series.iter().any(RunningSeries::has_value) {
             continue;
         }
-        let mut title = format!("ln B_{x}/{y} along the reversible-jump run");
+        let mut title = format!("ln B({x}/{y}) along the reversible-jump run");
         if !unvisited.is_empty() {
             title += &format!(" ({} never visited)", unvisited.join(", "));
         }
@@ -306,6 +311,7 @@ pub fn fig2(rj: &crate::evidence::RjResult) -> Vec<Fig2> {
                 format!("bayes_factor_{x}_{y}")
             },
             title,
+            pair: (x.clone(), y.clone()),
             series,
         });
     }
@@ -319,7 +325,7 @@ pub fn fig2_warnings(rj: &crate::evidence::RjResult) -> Vec<String> {
         .iter()
         .filter(|p| {
             let (x, y) = (&rj.model_names[p.k], &rj.model_names[p.l]);
-            let t = format!("ln B_{x}/{y} along");
+            let t = format!("ln B({x}/{y}) along");
             !drawn.iter().any(|d| d.starts_with(&t))
         })
         .map(|p| {
@@ -395,6 +401,8 @@ mod tests {
             warnings: vec![],
             residual_psd: vec![],
             model_chains: vec![],
+            bode: vec![],
+            raw: vec![],
         };
         let t = table(&s).to_text();
         let cells = |m: &str| -> Vec<String> {

@@ -466,6 +466,21 @@ fn summarise(
             Err(e) => warnings.push(format!("model `{}`: no residual PSD: {e}", m.name)),
         }
     }
+    let fitted: Vec<crate::jobs::bode::Fitted<'_>> = models
+        .iter()
+        .zip(&plan.models)
+        .filter(|(m, _)| m.map_found)
+        .map(|(m, pm)| crate::jobs::bode::Fitted {
+            name: &m.name,
+            likelihood: pm.exact,
+            map: &m.map,
+        })
+        .collect();
+    let (bode, w) = crate::jobs::bode::bode_data(study, &prep.dataset.experiments, &fitted);
+    warnings.extend(w);
+    let (raw, w) =
+        crate::jobs::raw_data::raw_data(study, plan.models[0].exact, &prep.dataset.experiments);
+    warnings.extend(w);
     // ρ_opt at the truth where the first model has every true value, else at its MAP
     let first = plan.models[0].exact;
     let truth_snr = truth_of(study, plan.models[0].spec.model, &prep.dataset)
@@ -499,5 +514,7 @@ fn summarise(
         warnings,
         residual_psd,
         model_chains,
+        bode,
+        raw,
     })
 }

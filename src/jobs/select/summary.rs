@@ -53,4 +53,11 @@ pub struct SelectSummary {
     /// `chains_<model>.npz`, not into `summary.json`.
     #[serde(skip)]
     pub model_chains: Vec<(String, Option<crate::sampler::Chains>)>,
+    /// The measured transfer functions against every model's at its MAP (`bode.npz`,
+    /// `bode_<experiment>.png/.svg`), not into `summary.json`.
+    #[serde(skip)]
+    pub bode: Vec<crate::report::bode::BodeExperiment>,
+    /// Each experiment's time series and spectra, not into `summary.json`.
+    #[serde(skip)]
+    pub raw: Vec<crate::report::raw::RawData>,
 }

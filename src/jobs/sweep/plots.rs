@@ -81,7 +81,7 @@ pub fn write_plots(sweep: &Sweep, res: &SweepResult, dir: &Path) -> anyhow::Resu
         } else {
             String::new()
         };
-        let y_label = format!("ln B_{}{}", first.x, first.y);
+        let y_label = format!("ln B({}/{})", first.x, first.y);
         if axes.len() == 1 {
             // the estimators with a number somewhere; Schwarz (never judged) left out
             let kinds = res
@@ -147,6 +147,7 @@ pub fn write_plots(sweep: &Sweep, res: &SweepResult, dir: &Path) -> anyhow::Resu
                     series: &series,
                     log_x: log_axis(&axes[0].values),
                     zones: true,
+                    sign: Some((&first.x, &first.y)),
                 },
             )?;
             files.push(dir.join(format!("{stem}.png")));
@@ -168,8 +169,9 @@ pub fn write_plots(sweep: &Sweep, res: &SweepResult, dir: &Path) -> anyhow::Resu
                 .collect();
             let stem = format!("ln_b_map{suffix}");
             let title = format!(
-                "median reference {y_label} over {} realisation(s)",
-                sweep.realisations
+                "median reference {y_label} over {} realisation(s); {}",
+                sweep.realisations,
+                crate::report::sign_note(&first.x, &first.y)
             );
             heat_map(
                 dir,

@@ -164,6 +164,11 @@ impl StateSpaceModel {
         let model = StateSpaceModel {
             name: def.name.clone(),
             params: def.parameters.clone(),
+            units: crate::model::user::param_units(
+                &format!("state-space model `{}`", def.name),
+                &def.parameters,
+                &def.unit,
+            )?,
             data: def.outputs.iter().chain(&def.inputs).cloned().collect(),
             outputs: def.outputs.clone(),
             states,

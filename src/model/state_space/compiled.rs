@@ -43,6 +43,8 @@ pub const MAX_STATES: usize = 32;
 pub struct StateSpaceModel {
     pub(super) name: String,
     pub(super) params: Vec<String>,
+    /// Unit of each parameter, in θ order (empty: dimensionless or unknown).
+    pub(super) units: Vec<String>,
     /// Outputs, then inputs.
     pub(super) data: Vec<String>,
     pub(super) outputs: Vec<String>,
@@ -206,6 +208,10 @@ impl Model for StateSpaceModel {
 
     fn param_names(&self) -> &[String] {
         &self.params
+    }
+
+    fn param_units(&self) -> Vec<String> {
+        self.units.clone()
     }
 
     fn data_channels(&self) -> &[String] {

@@ -27,6 +27,10 @@ pub struct StateSpaceDef {
     pub name: String,
     /// Parameter names, in θ order.
     pub parameters: Vec<String>,
+    /// SI unit of each parameter, by name (`unit = { k = "s⁻²", tau = "s" }`), for tables and
+    /// plot axes; a parameter left out is dimensionless or of unknown unit.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub unit: BTreeMap<String, String>,
     /// Data channels of the known inputs `u` (the injections).
     pub inputs: Vec<String>,
     /// Data channels of the read-outs `y`; they are also the residual channels.
@@ -74,6 +78,10 @@ pub struct TransferMatrixDef {
     pub name: String,
     /// Parameter names, in θ order.
     pub parameters: Vec<String>,
+    /// SI unit of each parameter, by name (`unit = { k = "s⁻²", tau = "s" }`), for tables and
+    /// plot axes; a parameter left out is dimensionless or of unknown unit.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub unit: BTreeMap<String, String>,
     /// Data channels of the known inputs.
     pub inputs: Vec<String>,
     /// Data channels of the read-outs (also the residual channels).

@@ -434,3 +434,33 @@ fn errors_name_the_entry() {
 }
 
 use crate::model::user::RealValue;
+
+#[test]
+fn state_space_and_transfer_matrix_models_carry_their_parameter_units() {
+    let d = def(&OSC.replace(
+        "parameters = [\"k\", \"gamma\"]",
+        "parameters = [\"k\", \"gamma\"]\nunit = { k = \"s⁻²\", gamma = \"s⁻¹\" }",
+    ));
+    let m = StateSpaceModel::new(&d).unwrap();
+    assert_eq!(m.param_units(), ["s⁻²", "s⁻¹"]);
+    let tm: TransferMatrixDef = toml::from_str(
+        r#"
+name = "tm"
+parameters = ["g"]
+unit = { g = "m/N" }
+inputs = ["u"]
+outputs = ["y"]
+[h.y]
+u = "g"
+"#,
+    )
+    .unwrap();
+    let u = UserModel::new(&to_user_def(&tm).unwrap()).unwrap();
+    assert_eq!(u.param_units(), ["m/N"]);
+    let bad = def(&OSC.replace("c = [[1, 0]]", "c = [[1, 0]]\nunit = { q = \"s\" }"));
+    let e = StateSpaceModel::new(&bad).unwrap_err();
+    assert!(
+        e.contains("state-space model `osc`") && e.contains("unit.q"),
+        "{e}"
+    );
+}

@@ -50,6 +50,7 @@ pub fn to_user_def(def: &TransferMatrixDef) -> Result<UserModelDef, String> {
     Ok(UserModelDef {
         name: def.name.clone(),
         parameters: def.parameters.clone(),
+        unit: def.unit.clone(),
         data: def.outputs.iter().chain(&def.inputs).cloned().collect(),
         residual: def.outputs.clone(),
         constants: def.constants.clone(),

@@ -64,6 +64,37 @@ impl UserModel {
     }
 }
 
+/// The longest unit a parameter may be given (it is printed in table cells and axis titles).
+const MAX_UNIT_CHARS: usize = 32;
+
+/// The units of `parameters` from a model's `unit` table (by parameter name; a parameter not
+/// named gets `""`). `what` names the model in errors (`user model `m``); every key must be a
+/// parameter and every unit one short line.
+pub fn param_units(
+    what: &str,
+    parameters: &[String],
+    unit: &std::collections::BTreeMap<String, String>,
+) -> Result<Vec<String>, String> {
+    for (k, u) in unit {
+        if !parameters.contains(k) {
+            return Err(format!(
+                "{what}: unit.{k}: `{k}` is not a parameter of the model; parameters = [{}]; give units by parameter name, e.g. unit = {{ {} = \"s\" }}",
+                parameters.join(", "),
+                parameters.first().map_or("k", String::as_str)
+            ));
+        }
+        if u.chars().any(char::is_control) || u.chars().count() > MAX_UNIT_CHARS {
+            return Err(format!(
+                "{what}: unit.{k}: {u:?} is not a unit: write one line of at most {MAX_UNIT_CHARS} characters, e.g. \"s⁻²\", \"m/s\" or \"Hz\""
+            ));
+        }
+    }
+    Ok(parameters
+        .iter()
+        .map(|p| unit.get(p).cloned().unwrap_or_default())
+        .collect())
+}
+
 /// An error of model `m`: `user model `m`: <entry>: <msg>`.
 fn fail(m: &str, entry: &str, msg: String) -> String {
     format!("user model `{m}`: {entry}: {msg}")
@@ -583,6 +614,11 @@ impl<'a> Scope<'a> {
         Ok(UserModel {
             name: def.name.clone(),
             params: def.parameters.clone(),
+            units: param_units(
+                &format!("user model `{}`", def.name),
+                &def.parameters,
+                &def.unit,
+            )?,
             data: def.data.clone(),
             res: def.residual.clone(),
             blocks: kept_blocks,

@@ -20,6 +20,8 @@ pub const MAX_SLOTS: usize = 256;
 pub struct UserModel {
     pub(super) name: String,
     pub(super) params: Vec<String>,
+    /// Unit of each parameter, in θ order (empty: dimensionless or unknown).
+    pub(super) units: Vec<String>,
     pub(super) data: Vec<String>,
     pub(super) res: Vec<String>,
     /// Blocks some coefficient uses; block `k` lives in slot `k`.
@@ -87,6 +89,10 @@ impl Model for UserModel {
 
     fn param_names(&self) -> &[String] {
         &self.params
+    }
+
+    fn param_units(&self) -> Vec<String> {
+        self.units.clone()
     }
 
     fn data_channels(&self) -> &[String] {

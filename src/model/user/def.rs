@@ -41,6 +41,10 @@ pub struct UserModelDef {
     pub name: String,
     /// Parameter names, in θ order.
     pub parameters: Vec<String>,
+    /// SI unit of each parameter, by name (`unit = { k = "s⁻²", tau = "s" }`), for tables and
+    /// plot axes; a parameter left out is dimensionless or of unknown unit.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub unit: BTreeMap<String, String>,
     /// Data channels (columns of `M`).
     pub data: Vec<String>,
     /// Residual channels (rows of `M`).

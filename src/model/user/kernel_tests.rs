@@ -131,6 +131,8 @@ fn closed_loop(edit: impl Fn(String) -> String) -> UserModel {
         .unwrap()
         .clone();
     t.remove("kind");
+    // the edits drop parameters; units do not enter the kernels
+    t.remove("unit");
     let def: UserModelDef = toml::Value::Table(t).try_into().unwrap();
     UserModel::new(&def).unwrap()
 }

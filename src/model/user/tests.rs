@@ -577,3 +577,16 @@ fn definition_round_trips_through_toml() {
     let back: UserModelDef = toml::from_str(&text).unwrap();
     assert_eq!(back, def);
 }
+
+#[test]
+fn the_unit_table_gives_each_parameter_its_unit_and_names_a_wrong_key() {
+    let m = from_toml(&base("unit = { y = \"s\" }", "")).unwrap();
+    assert_eq!(m.param_units(), ["", "s"]);
+    let e = err(&base("unit = { z = \"s\" }", ""));
+    assert!(
+        e.contains("user model `bad`") && e.contains("unit.z") && e.contains("parameters = [x, y]"),
+        "{e}"
+    );
+    let e = err(&base("unit = { x = \"a\\nb\" }", ""));
+    assert!(e.contains("unit.x") && e.contains("one line"), "{e}");
+}
