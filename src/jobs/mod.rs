@@ -25,6 +25,7 @@ pub mod prepare;
 pub mod progress;
 pub mod report;
 pub mod run_identity;
+pub mod sampled;
 pub mod select;
 pub mod simulate;
 pub mod sweep;
