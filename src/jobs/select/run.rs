@@ -107,12 +107,20 @@ pub fn run_observed(
 }
 
 /// [`SelectError::Interrupted`] when `work` asks the run to stop: checked after every stage,
-/// before the stage is recorded as done.
-fn interrupted(work: Option<&crate::jobs::progress::Work>) -> Result<(), SelectError> {
-    if stop_requested(work) {
-        return Err(crate::jobs::progress::Interrupted.into());
+/// before the stage is recorded as done. The checkpoint is written first (the stages done so
+/// far; the stage file holds the one in progress), so that a resumed run finds it even when
+/// no stage had finished.
+fn interrupted(
+    work: Option<&crate::jobs::progress::Work>,
+    ckpt: &Option<Checkpointing<'_>>,
+) -> Result<(), SelectError> {
+    if !stop_requested(work) {
+        return Ok(());
     }
-    Ok(())
+    if let Some(c) = ckpt {
+        c.state.write(c.path)?;
+    }
+    Err(crate::jobs::progress::Interrupted.into())
 }
 
 /// Counts `n` more likelihood evaluations into `work`.
@@ -159,7 +167,7 @@ fn run_models(
         }
         .map_err(err)?;
         // a stage stopped on request is not recorded as done: its stage file holds it
-        interrupted(work)?;
+        interrupted(work, ckpt)?;
         add_work(work, st.chains * st.iterations);
         if let Some(c) = ckpt.as_mut()
             && c.state.models.len() == k
@@ -176,7 +184,7 @@ fn run_models(
             };
             let before = refused(&r);
             model::temper(m, &mut r, &mut progress, (stage.as_ref(), &stop)).map_err(err)?;
-            interrupted(work)?;
+            interrupted(work, ckpt)?;
             r.outcome.unstable_evaluations += refused(&r) - before;
             if let Some(c) = ckpt.as_mut() {
                 c.state.models[k] = checkpoint::ModelStage::of(&r, true);
@@ -249,7 +257,7 @@ fn reversible_jump(
     }
     let Some(target) = plan.target else {
         let (rj, note, rate) = run_rj(&rj_models, &plan.rj, "rj", ckpt, progress, work, rj_base);
-        interrupted(work)?;
+        interrupted(work, ckpt)?;
         let stage = RjStage {
             rj,
             note,
@@ -297,7 +305,7 @@ fn reversible_jump(
             work,
             base,
         );
-        interrupted(work)?;
+        interrupted(work, ckpt)?;
         let error = rj.as_ref().and_then(target::rj_error);
         rounds.push(TargetRound {
             iterations: opts.n_iter,
