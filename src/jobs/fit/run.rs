@@ -374,16 +374,19 @@ struct Checkpoint<'a> {
     identity: &'a str,
 }
 
+/// What the chains report to (the progress observer) and ask whether to stop.
+type Hooks<'a> = (
+    Option<&'a (dyn Fn(&Progress) + Sync)>,
+    Option<&'a dyn Fn(usize) -> bool>,
+);
+
 fn sample<D: LogDensity>(
     parent: &D,
     model: &crate::config::ModelSpec,
     (map, walk, cov): (&[f64], &DMatrix<f64>, &DMatrix<f64>),
     settings: MhSettings,
     ck: &Checkpoint,
-    (observer, stop): (
-        Option<&(dyn Fn(&Progress) + Sync)>,
-        Option<&dyn Fn(usize) -> bool>,
-    ),
+    (observer, stop): Hooks,
 ) -> Result<Chains, FitError> {
     let (out, resume) = (ck.out, ck.resume);
     let mut base = model.base.clone();
