@@ -49,7 +49,7 @@ fn listing(dir: &Path, names: &[String]) -> String {
 /// Runs `job` on a worker thread without the GIL. Every [`POLL`] the calling thread runs
 /// Python's signal handlers and calls `progress(done, total)` (when given); a
 /// `KeyboardInterrupt` (or any exception of the callback) asks the job to stop and is raised
-/// once the job has stopped, unless it finished regardless.
+/// once the job has returned.
 fn run_watched<T: Send>(
     py: Python<'_>,
     progress: Option<&Bound<'_, PyAny>>,
@@ -96,14 +96,17 @@ fn run_watched<T: Send>(
         }
     };
     match (out, raised) {
-        (Ok(v), _) => {
+        // Ctrl-C (or the callback's exception) wins even over a job that finished meanwhile
+        // (one without a safe point to stop at, such as the design search): its files are
+        // published, and the user asked to stop
+        (_, Some(e)) => Err(e),
+        (Ok(v), None) => {
             if let Some(cb) = progress {
                 let (_, total) = work.get();
                 cb.call1((total, total))?;
             }
             Ok(v)
         }
-        (Err(_), Some(e)) => Err(e),
         (Err(e), None) => Err(occam_error(e)),
     }
 }
