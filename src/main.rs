@@ -338,42 +338,8 @@ fn fit(path: PathBuf, output: Option<PathBuf>, resume: bool, flags: RunFlags) ->
     }
     let (outcome, written) = (done.outcome.outcome, done.written);
     let s = &outcome.summary;
-    println!("{}", occam::jobs::fit::table(s));
-    println!(
-        "rho_opt at MAP = {}; MAP found in {} Fisher-scoring iterations ({:.2} s)",
-        if s.rho_opt_at_map.is_finite() {
-            format!("{:.4e}", s.rho_opt_at_map)
-        } else {
-            "– (no noiseless input channel)".into()
-        },
-        s.map_iterations,
-        s.seconds_map
-    );
-    println!(
-        "MCMC: {} chains × {} iterations, {:.0} iterations/s ({} {} likelihood{}), acceptance {:?}",
-        s.chains,
-        study.fit.iterations,
-        s.iterations_per_second,
-        s.statistic.name(),
-        match s.likelihood {
-            occam::config::LikelihoodKind::Exact => "exact".to_string(),
-            occam::config::LikelihoodKind::Relbin => "relative-binned".to_string(),
-        },
-        s.n_coarse_bins
-            .map_or(String::new(), |n| format!(", {n} coarse bins")),
-        s.acceptance
-            .iter()
-            .map(|a| (a * 100.0).round() / 100.0)
-            .collect::<Vec<_>>()
-    );
-    if let Some(g) = &s.glitch_count {
-        for line in g.describe() {
-            println!("{line}");
-        }
-        println!("loop parameters marginalised over the number of glitches:");
-        for r in &g.parameters {
-            println!("{}", occam::jobs::glitch_count::marginal_line(r));
-        }
+    for line in occam::jobs::fit::console(s, &study) {
+        println!("{line}");
     }
     for w in occam::report::group_warnings(&s.warnings) {
         eprintln!("warning: {w}");

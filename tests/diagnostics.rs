@@ -45,7 +45,7 @@ fn a_fit_of_tm1_actuators_without_tm1_forces_names_a1_and_f_o1() {
     let study = Study::from_toml(TM2_ONLY, "tm2.toml", Path::new(".")).unwrap();
     let prep = occam::jobs::prepare::prepare(&study).unwrap();
     let dir = tempfile::tempdir().unwrap();
-    let err = match occam::jobs::fit::run(&study, &prep, dir.path(), None, false) {
+    let err = match occam::jobs::fit::run(&study, &prep, dir.path(), None, None, false) {
         Ok(_) => panic!("the fit must fail"),
         Err(e) => e.to_string(),
     };
@@ -67,7 +67,7 @@ fn a_fit_of_tm1_actuators_without_tm1_forces_names_a1_and_f_o1() {
     );
     let study = Study::from_toml(&fixed, "tm2.toml", Path::new(".")).unwrap();
     let prep = occam::jobs::prepare::prepare(&study).unwrap();
-    let out = occam::jobs::fit::run(&study, &prep, dir.path(), None, false).unwrap();
+    let out = occam::jobs::fit::run(&study, &prep, dir.path(), None, None, false).unwrap();
     assert_eq!(out.summary.rows.len(), 4);
     assert!(out.summary.rows.iter().all(|r| r.cramer_rao.is_finite()));
 }

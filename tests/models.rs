@@ -175,7 +175,7 @@ fn the_thruster_studys_spurious_maximum_was_unstable_and_is_gone() {
     s.fit.burn_in = 500;
     s.fit.chains = 2;
     let dir = tempfile::tempdir().unwrap();
-    let out = occam::jobs::fit::run(&s, &prep, dir.path(), None, false).unwrap();
+    let out = occam::jobs::fit::run(&s, &prep, dir.path(), None, None, false).unwrap();
     let row = out.summary.rows.iter().find(|r| r.name == "f_df").unwrap();
     assert!((row.map - 0.3).abs() < 0.02, "fit MAP f_df {}", row.map);
     let w = out.summary.warnings.join("\n");

@@ -77,7 +77,7 @@ fn table_one_fit_recovers_the_truth() {
     s.fit.burn_in = 3000;
     let prep = prepare(&s).unwrap();
     let dir = tempfile::tempdir().unwrap();
-    let o = occam::jobs::fit::run(&s, &prep, dir.path(), None, false).unwrap();
+    let o = occam::jobs::fit::run(&s, &prep, dir.path(), None, None, false).unwrap();
     let free: Vec<usize> = (0..N_PARAMS).collect();
     let cr = cramer_rao(&fisher_exact(&prep.likelihood, &o.map_full, &free)).unwrap();
     for (r, c) in o.summary.rows.iter().zip(&cr) {
@@ -151,7 +151,7 @@ fn a_map_on_a_prior_bound_is_warned_about() {
     s.models.priors[mi] = occam::prior::Prior::new(names, kinds).unwrap();
     let prep = prepare(&s).unwrap();
     let dir = tempfile::tempdir().unwrap();
-    let o = occam::jobs::fit::run(&s, &prep, dir.path(), None, false).unwrap();
+    let o = occam::jobs::fit::run(&s, &prep, dir.path(), None, None, false).unwrap();
     assert!(
         (o.map_full[k] - 0.9).abs() < 1e-12,
         "MAP a_df = {}",

@@ -13,13 +13,41 @@ def _points(theta):
     return np.asarray(theta, dtype=np.float64)
 
 
+class MapResult:
+    """The MAP search's answer (``Likelihood.map``): ``theta`` (free parameters, in the order
+    of ``param_names``), ``ln_posterior`` (``ln L + ln π`` there, Whittle), ``sigma``
+    (Cramér–Rao σ from the Fisher matrix there; ``None`` when it is singular), ``fisher``
+    ``[P, P]``, ``converged``, ``iterations``, ``at_bound`` (per parameter: on a bound of the
+    prior box) and ``n_maxima`` (distinct maxima the multi-start search found)."""
+
+    __slots__ = ("theta", "ln_posterior", "sigma", "fisher", "converged", "iterations",
+                 "at_bound", "n_maxima", "param_names")
+
+    def __init__(self, d, param_names):
+        for k in self.__slots__[:-1]:
+            setattr(self, k, d[k])
+        self.param_names = list(param_names)
+
+    def as_dict(self):
+        """The MAP as a dict name → value."""
+        return dict(zip(self.param_names, self.theta.tolist()))
+
+    def __repr__(self):
+        return (
+            f"occam.MapResult(theta={self.as_dict()!r}, ln_posterior={self.ln_posterior!r}, "
+            f"converged={self.converged})"
+        )
+
+
 class Likelihood:
-    """The exact likelihood of one model of a study over its free parameters.
+    """The likelihood of one model of a study over its free parameters: the exact one, or
+    (``binned=True``) the relative-binned one the command line's samplers run on.
 
     Built by the same library calls as ``occam fit`` and ``occam select`` (the data loaded or
     simulated as the command line does, the same spectra, noise estimate and statistic), so
     ``ln_likelihood`` returns, bit for bit, the ``ln L`` the command line's samplers see with
-    ``[analysis] likelihood = "exact"``. ``theta`` is the vector of the model's free parameters
+    ``[analysis] likelihood = "exact"`` (and, with ``binned=True``, the one they see with
+    ``likelihood = "relbin"``). ``theta`` is the vector of the model's free parameters
     in the order of ``param_names`` (the last axis of ``chains.npz``'s ``samples``).
 
     Every density method takes one point (a 1-D array of ``len(param_names)`` values: returns a
@@ -38,16 +66,22 @@ class Likelihood:
         self._args = args
 
     @classmethod
-    def from_study(cls, path, model=None):
+    def from_study(cls, path, model=None, binned=False):
         """The likelihood of a study's model.
 
         ``model=None`` is the study's ``[fit]`` model (with its ``free``/``fixed``); a string
-        names one of the study's ``[[select.model]]`` tables. Raises ``occam.OccamError`` with
-        the command line's message for a study that cannot be read or data that cannot be
-        prepared.
+        names one of the study's ``[[select.model]]`` tables. ``binned=True`` evaluates
+        ``ln_likelihood`` and ``ln_posterior`` by relative binning, built exactly as the
+        command line's samplers build it (the MAP search, then the coarse bins validated
+        around it: ``occam fit``'s region for the ``[fit]`` model, ``occam select``'s for a
+        select model), so the values equal the ``ln L`` stored in their chains; ``binning``
+        holds its validation. It is an approximation valid near the posterior (the validated
+        region: ``[analysis] relbin_sigma`` Fisher σ); ``fisher``, ``map`` and
+        ``ln_likelihood_per_bin`` stay exact. Raises ``occam.OccamError`` with the command
+        line's message for a study that cannot be read or data that cannot be prepared.
         """
-        native = _occam._Likelihood.from_study(os.fspath(path), model)
-        return cls(native, (os.path.abspath(os.fspath(path)), model))
+        native = _occam._Likelihood.from_study(os.fspath(path), model, bool(binned))
+        return cls(native, (os.path.abspath(os.fspath(path)), model, bool(binned)))
 
     def __reduce__(self):
         # a pickled likelihood is rebuilt from its study in the receiving process (the data
@@ -66,6 +100,55 @@ class Likelihood:
     def ln_posterior(self, theta):
         """``ln L(θ) + ln π(θ)``; ``-inf`` outside the prior (``ln L`` is then not evaluated)."""
         return self._native.ln_posterior(_points(theta))
+
+    def ln_likelihood_per_bin(self, theta):
+        """The exact ``ln L`` frequency bin by frequency bin at each row of ``theta``.
+
+        ``theta`` one point (1-D) or one row per point (2-D ``(n, P)``); returns a dict
+        experiment name → array ``(bins,)`` (1-D input) or ``(n, bins)``, the experiment's
+        in-band bins at ``experiments[i]["freqs"]``. Each bin's term carries its share of the
+        normalisation, so that summed over bins and experiments they give the exact
+        ``ln_likelihood`` (the bins are the independent observations of the Whittle,
+        Student-t and Wishart likelihoods: what ``az.loo`` needs). The log-periodogram
+        statistic has no per-bin terms: ``OccamError``.
+        """
+        t = _points(theta)
+        one = t.ndim == 1
+        parts = self._native.ln_likelihood_per_bin(t[None, :] if one else t)
+        names = [e["name"] for e in self._native.experiments]
+        return {n: (p[0] if one else p) for n, p in zip(names, parts)}
+
+    def map(self, start=None):
+        """The MAP: the multi-start search of ``occam fit`` (Fisher scoring on the exact
+        Whittle ``ln L + ln π``, bounded by the prior box, from ``start`` and ``[fit]
+        map_starts`` quasi-random points of the prior). ``start``: the free parameters' values
+        to start from (``None``: the command line's start, ``[fit] start`` or the prior
+        centre). Returns a ``MapResult`` (``theta``, ``ln_posterior``, ``sigma``, …); the
+        GIL is released while it runs."""
+        s = None if start is None else _points(start)
+        return MapResult(self._native.map(s), self.param_names)
+
+    @property
+    def binning(self):
+        """``None`` for the exact likelihood; with ``binned=True`` the relative binning's
+        validation, as the command line reports it: ``n_coarse`` coarse bins for ``n_bins``
+        bins, ``worst_abs_delta_ln_l`` (the largest ``|ln L̃ − ln L|`` over ``n_points``
+        validation points, checked against ``limit``), ``worst_point`` (free parameters),
+        ``tolerance``, ``refinements``, ``coverage`` (per parameter, the fraction of its prior
+        width the validation points span), ``box_params`` and ``fiducial`` (the MAP it is
+        built around)."""
+        return self._native.binning
+
+    @property
+    def binned(self):
+        """Whether ``ln_likelihood`` is the relative-binned approximation."""
+        return self._native.binning is not None
+
+    @property
+    def experiments(self):
+        """Per experiment a dict: ``name``, ``freqs`` (its in-band bins, Hz), ``channels``
+        (data channels) and ``data_abs`` (``|DFT|`` of the data there, ``(bins, channels)``)."""
+        return self._native.experiments
 
     def fisher(self, theta):
         """The Fisher matrix ``[P, P]`` of the Gaussian (Whittle) ``ln L`` at one point.
@@ -186,5 +269,5 @@ class Likelihood:
         return (
             f"occam.Likelihood(study={self.study!r}, model={self.model!r}, "
             f"params={self.param_names!r}, n_bins={self.n_bins}, "
-            f"statistic={self.statistic!r})"
+            f"statistic={self.statistic!r}, binned={self.binned})"
         )

@@ -1,11 +1,14 @@
-"""Result objects of `occam.simulate`, `occam.fit` and `occam.select`: the run directory read
-back into numpy arrays and dicts (readable again later with ``FitResult.read(dir)`` etc.)."""
+"""Result objects of `occam.simulate`, `occam.fit`, `occam.select`, `occam.sweep` and
+`occam.design`: the run directory read back into numpy arrays and dicts (readable again later
+with ``FitResult.read(dir)`` etc.)."""
 
 import json
 import os
 from pathlib import Path
 
 import numpy as np
+
+from ._arviz import inference_data
 
 
 def _load_npz(path):
@@ -39,6 +42,20 @@ def _az_from_dict(**groups):
     if "posterior" in inspect.signature(az.from_dict).parameters:
         return az.from_dict(**groups, attrs=attrs)
     return az.from_dict(groups, attrs=attrs)
+
+
+def _study_of(result):
+    """The study a run was made from: the one given to ``occam.fit``/``select``, else the run
+    directory's ``study.resolved.toml`` (every default filled in)."""
+    if getattr(result, "study", None):
+        return result.study
+    p = result.output / "study.resolved.toml"
+    if not p.exists():
+        raise ValueError(
+            f"{result.output}: no study.resolved.toml to rebuild the likelihood from: pass "
+            "study=<the study file> to to_arviz, or log_likelihood=prior=observed_data=False"
+        )
+    return p
 
 
 class Chains:
@@ -211,13 +228,43 @@ class FitResult:
     param_names = property(lambda self: self.chains.param_names)
     accepted = property(lambda self: self.chains.accepted)
 
-    def to_arviz(self):
-        """``arviz.InferenceData`` of the chains (see ``Chains.to_arviz``); ``attrs`` hold the
-        model, the statistic and the likelihood the chains ran on."""
+    def to_arviz(self, log_likelihood=True, prior=True, observed_data=True,
+                 per_experiment=False, max_draws=2000, max_values=20_000_000,
+                 prior_draws=1000, study=None):
+        """``arviz.InferenceData`` of the chains (see ``Chains.to_arviz``; ``attrs`` hold the
+        model, the statistic and the likelihood the chains ran on) with the groups
+        ``az.loo``, ``az.compare`` and ``az.plot_*`` read:
+
+        * ``log_likelihood``: the exact ``ln L`` frequency bin by frequency bin
+          (``Likelihood.ln_likelihood_per_bin``) at thinned posterior draws, so that summed
+          over bins it is the draw's exact ``ln L`` (the chains' stored ``ln L`` when they ran
+          on the exact likelihood). One variable ``spectrum``, dims ``(chain, draw, bin)``, the
+          bins of every experiment with coordinates ``experiment`` and ``frequency``
+          (``az.loo(idata)`` needs a single variable); ``per_experiment=True``: one variable
+          per experiment, dims ``(chain, draw, <experiment>_bin)`` (then
+          ``az.loo(idata, var_name="a")``). Memory: at most ``max_draws`` draws over all
+          chains and ``max_values`` numbers (8 bytes each) in all, evenly thinned; the
+          ``draw`` coordinate holds the kept draws' indices.
+        * ``prior``: ``prior_draws`` draws from the prior (seeded: the same each call).
+        * ``observed_data``: ``spectrum`` (or one variable per experiment), the data's
+          ``|DFT|`` per bin and data channel, dims ``(bin, channel)``.
+
+        These groups rebuild the likelihood from the study: ``study`` (default: the study the
+        run was made from, else the run directory's ``study.resolved.toml``)."""
         s = self.summary
         attrs = {k: s[k] for k in ("model", "statistic", "likelihood") if k in s}
         attrs["occam_output"] = str(self.output)
-        return self.chains.to_arviz(attrs)
+        idata = self.chains.to_arviz(attrs)
+        if not (log_likelihood or prior or observed_data):
+            return idata
+        from ._likelihood import Likelihood
+
+        lik = Likelihood.from_study(study or _study_of(self), None)
+        return inference_data(
+            idata, self.chains, lik, log_likelihood=log_likelihood, prior=prior,
+            observed_data=observed_data, per_experiment=per_experiment,
+            max_draws=max_draws, max_values=max_values, prior_draws=prior_draws,
+        )
 
     def __repr__(self):
         return (
@@ -256,10 +303,29 @@ class SelectResult:
     def model_names(self):
         return [m["name"] for m in self.summary.get("models", [])]
 
-    def to_arviz(self, model=None):
+    @property
+    def model_probabilities(self):
+        """Posterior model probabilities (from the reversible jump) as a dict model name →
+        probability, in ``[[select.model]]`` order; ``{}`` when the reversible jump gave
+        none."""
+        p = self.posterior_model_probabilities
+        return dict(zip(self.model_names, p)) if p else {}
+
+    @property
+    def posterior_model_probabilities(self):
+        """The same as a list in ``model_names`` order (``summary.json``'s
+        ``posterior_model_probabilities``), or ``None``."""
+        return self.summary.get("posterior_model_probabilities")
+
+    def to_arviz(self, model=None, log_likelihood=True, prior=True, observed_data=True,
+                 per_experiment=False, max_draws=2000, max_values=20_000_000,
+                 prior_draws=1000, study=None):
         """``arviz.InferenceData``: ``model=None`` gives the reversible-jump chain
         (``RjChain.to_arviz``: ``model_index`` and ``is_<model>``); a model name gives that
-        model's in-model chains (``Chains.to_arviz``)."""
+        model's in-model chains (``Chains.to_arviz``) with the ``log_likelihood``, ``prior``
+        and ``observed_data`` groups of ``FitResult.to_arviz`` (same arguments), so that
+        ``az.compare({m: sel.to_arviz(m) for m in sel.model_names})`` compares the models by
+        leave-one-bin-out cross-validation."""
         if model is None:
             if self.rj is None:
                 raise ValueError(
@@ -272,10 +338,72 @@ class SelectResult:
                 f"{self.output}: no chains of model `{model}`; the models with chains are "
                 f"{list(self.models)}"
             )
-        return self.models[model].to_arviz({"model": model, "occam_output": str(self.output)})
+        idata = self.models[model].to_arviz({"model": model, "occam_output": str(self.output)})
+        if not (log_likelihood or prior or observed_data):
+            return idata
+        from ._likelihood import Likelihood
+
+        lik = Likelihood.from_study(study or _study_of(self), model)
+        return inference_data(
+            idata, self.models[model], lik, log_likelihood=log_likelihood, prior=prior,
+            observed_data=observed_data, per_experiment=per_experiment,
+            max_draws=max_draws, max_values=max_values, prior_draws=prior_draws,
+        )
 
     def __repr__(self):
         return (
             f"occam.SelectResult(output={str(self.output)!r}, models={self.model_names!r}, "
             f"rj={'yes' if self.rj is not None else 'no'})"
         )
+
+
+class SweepResult:
+    """What ``occam.sweep`` wrote: ``summary`` (``sweep.json``: the grid, every point's
+    estimates, bands and how often each model was picked), ``arrays`` (``sweep.npz`` by name),
+    ``output``, ``files``, ``log`` (every line ``occam sweep`` prints, its table included)."""
+
+    def __init__(self, output, summary, arrays, files):
+        self.output = Path(output)
+        self.summary = summary
+        self.arrays = arrays
+        self.files = files
+        self.log = []
+
+    @classmethod
+    def read(cls, output):
+        """Reads a sweep run directory."""
+        out = Path(os.fspath(output))
+        npz = out / "sweep.npz"
+        return cls(
+            out,
+            _read_json(out / "sweep.json"),
+            _load_npz(npz) if npz.exists() else {},
+            _files(out),
+        )
+
+    def __repr__(self):
+        return f"occam.SweepResult(output={str(self.output)!r})"
+
+
+class DesignResult:
+    """What ``occam.design`` wrote: ``report`` (``design.json``: the baseline, start and chosen
+    designs with their proxy scores, the search and any validation), ``design_study`` (the
+    runnable study of the chosen design, ``design.toml``), ``baseline_study``
+    (``baseline.toml``), ``output``, ``files``, ``log`` (the table ``occam design`` prints)."""
+
+    def __init__(self, output, report, files):
+        self.output = Path(output)
+        self.report = report
+        self.design_study = self.output / "design.toml"
+        self.baseline_study = self.output / "baseline.toml"
+        self.files = files
+        self.log = []
+
+    @classmethod
+    def read(cls, output):
+        """Reads a design run directory."""
+        out = Path(os.fspath(output))
+        return cls(out, _read_json(out / "design.json"), _files(out))
+
+    def __repr__(self):
+        return f"occam.DesignResult(output={str(self.output)!r})"

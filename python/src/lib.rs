@@ -28,5 +28,8 @@ fn _occam(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(jobs::simulate, m)?)?;
     m.add_function(wrap_pyfunction!(jobs::fit, m)?)?;
     m.add_function(wrap_pyfunction!(jobs::select, m)?)?;
+    m.add_function(wrap_pyfunction!(jobs::sweep, m)?)?;
+    m.add_function(wrap_pyfunction!(jobs::design, m)?)?;
+    m.add_function(wrap_pyfunction!(jobs::report, m)?)?;
     Ok(())
 }

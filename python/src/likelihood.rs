@@ -1,5 +1,6 @@
 //! `occam.Likelihood`: a study's likelihood of one model over its free parameters, built by the
-//! same library calls as `occam fit` and `occam select`, for samplers written in Python.
+//! same library calls as `occam fit` and `occam select`, for samplers written in Python: the
+//! exact one, or (`binned=True`) the relative-binned one the command line's samplers run on.
 
 use crate::occam_error;
 use anyhow::Context;
@@ -7,7 +8,8 @@ use numpy::{PyArray1, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods}
 use occam::config::{ModelSpec, Study};
 use occam::density::LogDensity;
 use occam::jobs::prepare::{default_start, likelihood_of, load_data_for, model_warnings, truth_of};
-use occam::likelihood::{Likelihood, fisher_exact};
+use occam::jobs::sampled::{Role, relbin_as_sampled};
+use occam::likelihood::{Likelihood, RelBinLikelihood, RelBinValidation, cramer_rao, fisher_exact};
 use occam::nested::SubModel;
 use occam::prior::PriorKind;
 use pyo3::exceptions::PyValueError;
@@ -25,12 +27,27 @@ enum ReferenceSource {
     Start,
 }
 
+/// The relative-binned likelihood of `binned=True` and how it was validated.
+struct Binned {
+    /// Over the free parameters, fixed ones at their values (as `sub`).
+    sub: SubModel<RelBinLikelihood>,
+    validation: RelBinValidation,
+    /// The fiducial point (the MAP), free parameters only.
+    fiducial: Vec<f64>,
+}
+
 /// The native likelihood; `occam.Likelihood` (python/occam/_likelihood.py) wraps it.
 #[pyclass(frozen, module = "occam._occam", name = "_Likelihood")]
 pub struct PyLikelihood {
     /// The model's exact likelihood with the fixed parameters held at their values: the very
     /// density the CLI's samplers run on when `[analysis] likelihood = "exact"`.
     sub: SubModel<Likelihood>,
+    /// With `binned=True`: what `ln_likelihood` and `ln_posterior` evaluate instead.
+    binned: Option<Binned>,
+    /// `[fit] map_starts`: the quasi-random starts of `map()`'s search, as `fit`'s.
+    map_starts: usize,
+    /// The command line's start of the MAP search (free parameters).
+    start: Vec<f64>,
     /// The `[[select.model]]` name, or the `[fit]` model's name.
     label: String,
     study: String,
@@ -42,6 +59,9 @@ pub struct PyLikelihood {
 /// What [`build`] makes, before it becomes a Python object.
 struct Built {
     sub: SubModel<Likelihood>,
+    binned: Option<Binned>,
+    map_starts: usize,
+    start: Vec<f64>,
     label: String,
     study: String,
     reference: Vec<f64>,
@@ -50,8 +70,9 @@ struct Built {
 }
 
 /// Loads the study, its data and the likelihood of `model` (`None`: the `[fit]` model),
-/// with the CLI's error messages.
-fn build(path: &Path, model: Option<&str>) -> anyhow::Result<Built> {
+/// with the CLI's error messages; with `binned`, also the relative-binned likelihood the
+/// command's samplers run on (`fit`'s for the `[fit]` model, `select`'s for a select model).
+fn build(path: &Path, model: Option<&str>, binned: bool) -> anyhow::Result<Built> {
     let study = Study::load(path)?;
     let (spec, label): (ModelSpec, String) = match model {
         None => (
@@ -104,9 +125,39 @@ fn build(path: &Path, model: Option<&str>) -> anyhow::Result<Built> {
         }
     };
     let warnings = model_warnings(&study, spec.model, &dataset);
+    let binned = if binned {
+        let role = if model.is_none() {
+            Role::Fit
+        } else {
+            Role::Select
+        };
+        let b = relbin_as_sampled(&study, &spec, &exact, role).with_context(|| {
+            format!(
+                "{}: model `{label}`: the relative-binned likelihood",
+                study.source
+            )
+        })?;
+        let base = b.map.best().result.theta.clone();
+        let fiducial = spec.free.iter().map(|&i| base[i]).collect();
+        let validation = b.relbin.validation().clone();
+        Some(Binned {
+            // the chains embed their free parameters in the MAP, as `sub` in the base
+            sub: SubModel::new(b.relbin, spec.free.clone(), spec.base.clone())?,
+            validation,
+            fiducial,
+        })
+    } else {
+        None
+    };
     let sub = SubModel::new(exact, spec.free.clone(), spec.base.clone())?;
     Ok(Built {
         sub,
+        binned,
+        map_starts: study.fit.map_starts,
+        start: {
+            let s = default_start(&study, &spec);
+            spec.free.iter().map(|&i| s[i]).collect()
+        },
         label,
         study: study.source.clone(),
         reference,
@@ -129,11 +180,18 @@ impl PyLikelihood {
     }
 
     fn eval(&self, what: Density, theta: &[f64]) -> f64 {
-        match what {
-            Density::Likelihood => self.sub.ln_likelihood(theta),
-            Density::Prior => self.sub.prior().ln_pdf(theta),
-            Density::Posterior => self.sub.ln_posterior(theta),
+        match (what, &self.binned) {
+            (Density::Likelihood, None) => self.sub.ln_likelihood(theta),
+            (Density::Likelihood, Some(b)) => b.sub.ln_likelihood(theta),
+            (Density::Prior, _) => self.sub.prior().ln_pdf(theta),
+            (Density::Posterior, None) => self.sub.ln_posterior(theta),
+            (Density::Posterior, Some(b)) => b.sub.ln_posterior(theta),
         }
+    }
+
+    /// The full parameter vector of the free values `theta` (fixed ones at their values).
+    fn full(&self, theta: &[f64]) -> Vec<f64> {
+        self.sub.embed(theta)
     }
 
     /// `theta` as (rows, one point per `dim` values), checked: 1-D of length P or 2-D (n, P),
@@ -227,13 +285,21 @@ impl PyLikelihood {
 impl PyLikelihood {
     /// Builds the likelihood of a study's model (see `occam.Likelihood.from_study`).
     #[staticmethod]
-    #[pyo3(signature = (path, model=None))]
-    fn from_study(py: Python<'_>, path: PathBuf, model: Option<String>) -> PyResult<Self> {
+    #[pyo3(signature = (path, model=None, binned=false))]
+    fn from_study(
+        py: Python<'_>,
+        path: PathBuf,
+        model: Option<String>,
+        binned: bool,
+    ) -> PyResult<Self> {
         let b = py
-            .detach(|| build(&path, model.as_deref()))
+            .detach(|| build(&path, model.as_deref(), binned))
             .map_err(occam_error)?;
         Ok(Self {
             sub: b.sub,
+            binned: b.binned,
+            map_starts: b.map_starts,
+            start: b.start,
             label: b.label,
             study: b.study,
             reference: b.reference,
@@ -296,6 +362,154 @@ impl PyLikelihood {
             .map(|(i, j)| f[(i, j)])
             .collect();
         Ok(PyArray1::from_vec(py, rows).reshape([p, p])?.into_any())
+    }
+
+    /// `None` for the exact likelihood; with `binned=True` how the relative binning was
+    /// validated against the exact `ln L` (as the command line reports it in `summary.json`).
+    #[getter]
+    fn binning<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        let Some(b) = &self.binned else {
+            return Ok(None);
+        };
+        let v = &b.validation;
+        let d = PyDict::new(py);
+        d.set_item("n_coarse", v.n_coarse)?;
+        d.set_item("n_bins", self.sub.parent().n_bins())?;
+        d.set_item("n_points", v.n_points)?;
+        d.set_item("worst_abs_delta_ln_l", v.worst_abs_delta_ln_l)?;
+        d.set_item("limit", v.limit)?;
+        d.set_item("tolerance", v.tolerance)?;
+        d.set_item("refinements", v.refinements)?;
+        let names = self.sub.parent().model().param_names();
+        let free = self.sub.free_indices();
+        let worst: Vec<f64> = free.iter().map(|&i| v.worst_point[i]).collect();
+        d.set_item("worst_point", PyArray1::from_vec(py, worst))?;
+        let coverage = PyDict::new(py);
+        for &i in free {
+            coverage.set_item(&names[i], v.coverage[i])?;
+        }
+        d.set_item("coverage", coverage)?;
+        d.set_item("box_params", v.box_params.clone())?;
+        d.set_item("fiducial", PyArray1::from_vec(py, b.fiducial.clone()))?;
+        Ok(Some(d))
+    }
+
+    /// The multi-start MAP search of `occam fit` (Fisher scoring on the exact Whittle
+    /// `ln L + ln π`, bounded by the prior box) from `start` (free parameters; `None`: the
+    /// command line's start) and `[fit] map_starts` quasi-random starts: a dict `theta`,
+    /// `ln_posterior`, `sigma` (Cramér–Rao at the MAP, `None` if the Fisher matrix is
+    /// singular), `fisher`, `converged`, `iterations`, `at_bound`, `n_maxima`.
+    #[pyo3(signature = (start=None))]
+    fn map<'py>(
+        &self,
+        py: Python<'py>,
+        start: Option<PyReadonlyArrayDyn<'py, f64>>,
+    ) -> PyResult<Bound<'py, PyDict>> {
+        let start_full = match start {
+            Some(s) => {
+                let (flat, _, one) = self.check(&s)?;
+                if !one {
+                    return Err(PyValueError::new_err(
+                        "start is one point: a 1-D array of the free parameters",
+                    ));
+                }
+                self.full(&flat)
+            }
+            None => self.full(&self.start),
+        };
+        let free = self.sub.free_indices().to_vec();
+        let exact = self.sub.parent();
+        let found = py
+            .detach(|| {
+                let search =
+                    occam::jobs::prepare::map_search(exact, &free, &start_full, self.map_starts)?;
+                let best = search.best().result.clone();
+                let f = fisher_exact(exact, &best.theta, &free);
+                Ok::<_, occam::likelihood::MapError>((best, f, search.maxima.len()))
+            })
+            .map_err(|e| {
+                crate::occam_error(anyhow::anyhow!("model `{}`: MAP search: {e}", self.label))
+            })?;
+        let (best, f, n_maxima) = found;
+        let p = free.len();
+        let d = PyDict::new(py);
+        let theta: Vec<f64> = free.iter().map(|&i| best.theta[i]).collect();
+        d.set_item("theta", PyArray1::from_vec(py, theta))?;
+        d.set_item("ln_posterior", best.ln_posterior)?;
+        d.set_item("sigma", cramer_rao(&f).map(|s| PyArray1::from_vec(py, s)))?;
+        let rows: Vec<f64> = (0..p)
+            .flat_map(|i| (0..p).map(move |j| (i, j)))
+            .map(|(i, j)| f[(i, j)])
+            .collect();
+        d.set_item("fisher", PyArray1::from_vec(py, rows).reshape([p, p])?)?;
+        d.set_item("converged", best.converged)?;
+        d.set_item("iterations", best.iterations)?;
+        d.set_item("at_bound", best.at_bound.clone())?;
+        d.set_item("n_maxima", n_maxima)?;
+        Ok(d)
+    }
+
+    /// The exact `ln L` bin by bin at each row of a 2-D `theta` (n, P): one array per
+    /// experiment, shape (n, bins of that experiment), summing over bins and experiments to
+    /// the exact `ln L` (rows in parallel, without the GIL).
+    fn ln_likelihood_per_bin<'py>(
+        &self,
+        py: Python<'py>,
+        theta: PyReadonlyArrayDyn<'py, f64>,
+    ) -> PyResult<Vec<Bound<'py, PyAny>>> {
+        let (flat, n, one) = self.check(&theta)?;
+        drop(theta);
+        if one {
+            return Err(PyValueError::new_err(
+                "ln_likelihood_per_bin takes one row per point: a 2-D theta (n, P)",
+            ));
+        }
+        let p = self.names().len();
+        let exact = self.sub.parent();
+        let rows: Vec<Vec<Vec<f64>>> = py
+            .detach(|| {
+                let at = |row: &[f64]| exact.ln_likelihood_per_bin(&self.full(row));
+                if p == 0 {
+                    (0..n).map(|_| at(&[])).collect::<Result<Vec<_>, _>>()
+                } else {
+                    flat.par_chunks(p).map(at).collect()
+                }
+            })
+            .map_err(|e| crate::occam_error(anyhow::anyhow!("model `{}`: {e}", self.label)))?;
+        exact
+            .spectra()
+            .iter()
+            .enumerate()
+            .map(|(e, sp)| {
+                let m = sp.len();
+                let v: Vec<f64> = rows.iter().flat_map(|r| r[e].iter().copied()).collect();
+                Ok(PyArray1::from_vec(py, v).reshape([n, m])?.into_any())
+            })
+            .collect()
+    }
+
+    /// Per experiment: its name, the frequencies of its in-band bins (Hz), its data channels
+    /// and the magnitudes `|DFT|` of their data there, shape (bins, channels).
+    #[getter]
+    fn experiments<'py>(&self, py: Python<'py>) -> PyResult<Vec<Bound<'py, PyDict>>> {
+        self.sub
+            .parent()
+            .spectra()
+            .iter()
+            .map(|sp| {
+                let d = PyDict::new(py);
+                d.set_item("name", &sp.name)?;
+                d.set_item("freqs", PyArray1::from_vec(py, sp.freqs.clone()))?;
+                d.set_item("channels", sp.channels.clone())?;
+                let c = sp.channels.len();
+                let mag: Vec<f64> = sp.data.iter().map(|z| z.norm()).collect();
+                d.set_item(
+                    "data_abs",
+                    PyArray1::from_vec(py, mag).reshape([sp.len(), c])?,
+                )?;
+                Ok(d)
+            })
+            .collect()
     }
 
     /// Names of the free parameters, in the order of θ.

@@ -53,3 +53,22 @@ def cli_select(occam_bin, tmp_path_factory):
     r = run_cli(occam_bin, "select", SMALL, "-o", d / "select", "-q", cwd=d)
     assert r.returncode == 0, r.stderr
     return d / "select"
+
+
+@pytest.fixture(scope="session")
+def relbin_study(tmp_path_factory):
+    """small.toml on the relative-binned likelihood (the command line's default)."""
+    d = tmp_path_factory.mktemp("relbin")
+    p = d / "relbin.toml"
+    p.write_text(SMALL.read_text().replace('likelihood = "exact"', 'likelihood = "relbin"', 1))
+    return p
+
+
+@pytest.fixture(scope="session")
+def cli_relbin(occam_bin, relbin_study):
+    """`occam fit` and `occam select` of the relative-binned study: their run directories."""
+    d = relbin_study.parent
+    for job in ("fit", "select"):
+        r = run_cli(occam_bin, job, relbin_study, "-o", d / job, "-q", cwd=d)
+        assert r.returncode == 0, r.stderr
+    return d / "fit", d / "select"

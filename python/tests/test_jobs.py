@@ -1,6 +1,7 @@
 """occam.simulate/fit/select: the command line's runs, read back as arrays and ArviZ data."""
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -124,3 +125,129 @@ def test_simulate_result(tmp_path):
     assert b.reference_source == "truth"
     np.testing.assert_array_equal(a.reference, b.reference)
     assert b.ln_likelihood(b.reference) == a.ln_likelihood(a.reference)
+
+
+def test_select_log_is_every_line_the_command_line_prints(occam_bin, py_select, tmp_path):
+    from conftest import run_cli
+
+    r = run_cli(occam_bin, "select", SMALL, "-o", tmp_path / "s", "-q", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    cli = r.stdout.replace(str(tmp_path / "s"), str(py_select.output)).splitlines()
+    log = py_select.log
+    # the same lines; warnings (stderr on the command line) as `warning: …`
+    # the timing apart: the `took` line and the reversible jump's iterations per second
+    strip = lambda ls: [  # noqa: E731
+        re.sub(r"\(\d+ iterations/s\)", "(…)", l) for l in ls if not l.startswith("took ")
+    ]
+    assert strip([l for l in log if not l.startswith("warning: ")]) == strip(cli)
+    assert [l for l in log if l.startswith("warning: ")] == r.stderr.splitlines()
+    assert any(l.startswith("nodelay/full: reference") for l in log)
+    assert any(l.startswith("posterior model probabilities: ") for l in log)
+    assert log[-2].startswith("wrote ") and log[-1].startswith("took ")
+
+
+def test_fit_log_is_every_line_the_command_line_prints(occam_bin, py_fit, tmp_path):
+    from conftest import run_cli
+
+    r = run_cli(occam_bin, "fit", SMALL, "-o", tmp_path / "f", "-q", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    r.stdout = r.stdout.replace(str(tmp_path / "f"), str(py_fit.output))
+    strip = lambda ls: [  # noqa: E731
+        l for l in ls if not (l.startswith("took ") or l.startswith("MCMC: ") or l.startswith("rho_opt at MAP"))
+    ]
+    log = [l for l in py_fit.log if not l.startswith("warning: ")]
+    assert strip(log) == strip(r.stdout.splitlines())
+    assert any(l.startswith("parameter ") for l in log)
+
+
+def test_select_model_probabilities_are_named(py_select):
+    p = py_select.model_probabilities
+    assert list(p) == ["nodelay", "full"]
+    assert list(p.values()) == py_select.summary["posterior_model_probabilities"]
+    assert py_select.posterior_model_probabilities == list(p.values())
+    assert abs(sum(p.values()) - 1) < 1e-12
+
+
+def test_fit_arviz_groups_and_loo(py_fit):
+    az = pytest.importorskip("arviz")
+    idata = py_fit.to_arviz(max_draws=500)
+    assert {"posterior", "sample_stats", "log_likelihood", "prior", "observed_data"} <= set(
+        idata.groups()
+    )
+    ll = idata.log_likelihood["spectrum"]
+    assert ll.dims == ("chain", "draw", "bin")
+    n_bins = occam.Likelihood.from_study(SMALL).n_bins
+    assert ll.shape == (2, 250, n_bins)
+    assert set(ll["experiment"].values) == {"a", "b"} and ll["frequency"].values.min() >= 1e-3
+    # summed over bins: the chains' (exact) ln L at the kept draws
+    kept = ll["draw"].values
+    np.testing.assert_array_equal(kept, np.arange(0, 3000, 12))
+    np.testing.assert_allclose(ll.sum("bin").values, py_fit.ln_likelihood[:, kept], rtol=1e-12)
+    prior = idata.prior
+    assert list(prior.data_vars) == py_fit.param_names and prior.sizes["draw"] == 1000
+    b = occam.Likelihood.from_study(SMALL).prior_bounds
+    for k, n in enumerate(py_fit.param_names):
+        assert b[k, 0] <= prior[n].values.min() and prior[n].values.max() <= b[k, 1]
+    obs = idata.observed_data["spectrum"]
+    assert obs.dims == ("bin", "channel") and obs.shape[0] == n_bins
+    loo = az.loo(idata)
+    assert np.isfinite(loo.elpd_loo) and loo.n_data_points == n_bins
+    # one variable per experiment
+    per = py_fit.to_arviz(per_experiment=True, max_draws=100)
+    assert set(per.log_likelihood.data_vars) == {"a", "b"}
+    assert per.log_likelihood["a"].dims == ("chain", "draw", "a_bin")
+    assert np.isfinite(az.loo(per, var_name="a").elpd_loo)
+    # memory cap: values (draws × bins) bounded
+    small = py_fit.to_arviz(max_values=10 * n_bins, prior=False, observed_data=False)
+    assert small.log_likelihood["spectrum"].shape[:2] == (2, 5)
+    assert "prior" not in small.groups()
+
+
+def test_select_models_compare_with_arviz(py_select):
+    az = pytest.importorskip("arviz")
+    data = {m: py_select.to_arviz(m, max_draws=400) for m in py_select.model_names}
+    table = az.compare(data)
+    assert set(table.index) == {"nodelay", "full"}
+    assert np.all(np.isfinite(table["elpd_loo"]))
+    full = data["full"]
+    assert list(full.prior.data_vars) == py_select.models["full"].param_names
+    ll = full.log_likelihood["spectrum"].sum("bin").values
+    kept = full.log_likelihood["draw"].values
+    np.testing.assert_allclose(ll, py_select.models["full"].ln_likelihood[:, kept], rtol=1e-12)
+
+
+def test_progress_callback_sees_the_work(tmp_path):
+    seen = []
+    occam.fit(SMALL, output=tmp_path / "fit", progress=lambda d, t: seen.append((d, t)))
+    assert seen and seen[-1] == (8000, 8000)
+    assert all(t == 8000 for _, t in seen) and [d for d, _ in seen] == sorted(d for d, _ in seen)
+
+
+def test_sweep_design_report(tmp_path):
+    sw = occam.sweep(
+        SMALL, output=tmp_path / "sweep", axes=["simulation.target_snr=300,1000"], progress=False
+    )
+    assert isinstance(sw, occam.SweepResult) and "sweep.json" in sw.files
+    assert len(sw.summary["points"]) == 2
+    assert any("2 task(s) computed, 0 reused" in l for l in sw.log)
+    again = occam.sweep(
+        SMALL, output=tmp_path / "sweep", axes=["simulation.target_snr=300,1000"], resume=True,
+        progress=False,
+    )
+    assert any("0 task(s) computed, 2 reused" in l for l in again.log)
+    page = occam.report(sw.output)
+    assert page == sw.output / "report.html" and page.read_text().startswith("<!DOCTYPE html>")
+    from conftest import ROOT
+
+    study = tmp_path / "d.toml"
+    study.write_text(
+        (ROOT / "examples" / "design-optimise.toml").read_text()
+        .replace("points = 10", "points = 3").replace("segments = 7", "segments = 2")
+        .replace("max_passes = 2", "max_passes = 1")
+    )
+    d = occam.design(study, output=tmp_path / "design")
+    assert isinstance(d, occam.DesignResult) and d.design_study.exists()
+    assert d.report["true_model"] == "X" and "chosen" in d.report
+    assert any(l.startswith("chosen ") for l in d.log)
+    with pytest.raises(occam.OccamError, match="no \\[design\\] table"):
+        occam.design(SMALL, output=tmp_path / "nodesign")

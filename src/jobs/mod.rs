@@ -28,6 +28,7 @@ pub mod progress;
 pub mod raw_data;
 pub mod report;
 pub mod run_identity;
+pub mod sampled;
 pub mod select;
 pub mod simulate;
 pub mod sweep;

@@ -20,6 +20,11 @@ pub struct Work {
     pub done: AtomicU64,
     /// Units the job will do in all (0 until the job knows it).
     pub total: AtomicU64,
+    /// Set by the caller to ask the job to stop at its next safe point (the end of a
+    /// sampler's block, after its checkpoint): how a Python call is interrupted, since it
+    /// cannot exit the process as the command line does on Ctrl-C. A job that stops returns
+    /// an error and leaves its checkpoint, so that a resumed run continues from there.
+    pub stop: AtomicBool,
 }
 
 impl Work {
@@ -27,6 +32,16 @@ impl Work {
     pub fn start(&self, total: u64) {
         self.done.store(0, Ordering::Relaxed);
         self.total.store(total, Ordering::Relaxed);
+    }
+
+    /// Asks the job to stop at its next safe point (see [`Work::stop`]).
+    pub fn request_stop(&self) {
+        self.stop.store(true, Ordering::Relaxed);
+    }
+
+    /// Whether the job was asked to stop.
+    pub fn stop_requested(&self) -> bool {
+        self.stop.load(Ordering::Relaxed)
     }
 
     /// `(done, total)` now.
@@ -37,6 +52,18 @@ impl Work {
         )
     }
 }
+
+/// Whether `work` asks its job to stop (never without counters).
+pub fn stop_requested(work: Option<&Work>) -> bool {
+    work.is_some_and(Work::stop_requested)
+}
+
+/// The error of a job stopped by [`Work::request_stop`]: its checkpoint is kept.
+#[derive(Debug, thiserror::Error)]
+#[error(
+    "interrupted: the run directory keeps the checkpoint of the work done; continue with resume"
+)]
+pub struct Interrupted;
 
 /// Projected time to go from `(seconds, done)` observations of a counter moving to `total`.
 ///
@@ -178,6 +205,9 @@ mod tests {
         w.done.store(5, Ordering::Relaxed);
         w.start(40);
         assert_eq!(w.get(), (0, 40));
+        assert!(!stop_requested(Some(&w)) && !stop_requested(None));
+        w.request_stop();
+        assert!(stop_requested(Some(&w)));
     }
 
     /// A fit-shaped run: 5 s before the first iteration (data, MAP search), then 10 000

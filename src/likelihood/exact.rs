@@ -414,6 +414,74 @@ impl Likelihood {
         }
     }
 
+    /// `ln L` of the statistic term by term: per experiment (in the order of
+    /// [`Likelihood::spectra`]), one value per in-band bin (at [`ExperimentSpectra::freqs`]),
+    /// each bin's share of [`Likelihood::ln_likelihood_full`] with its share of the
+    /// normalisation, so that the terms sum to `ln L` (to rounding). Pointwise terms are what
+    /// leave-one-out cross-validation (ArviZ's `loo`) needs: the bins are the independent
+    /// observations of the Whittle, Student-t and Wishart likelihoods.
+    ///
+    /// Every term is `−∞` where the model's system is unstable (as `ln L` is). The
+    /// log-periodogram has no per-DFT-bin terms (it sums over Welch bins of the residual):
+    /// an error says so, as does a `th` of the wrong length.
+    pub fn ln_likelihood_per_bin(&self, th: &[f64]) -> Result<Vec<Vec<f64>>, LikelihoodError> {
+        let np = self.model.param_names().len();
+        if th.len() != np {
+            return Err(LikelihoodError::Model(
+                self.model.name().into(),
+                format!("{} parameter values for {np} parameters", th.len()),
+            ));
+        }
+        if let StatState::LogPeriodogram(_) = self.stat {
+            return Err(LikelihoodError::Statistic(
+                Statistic::LogPeriodogram.name(),
+                "ln L is a sum over Welch bins of the residual, not over DFT bins: there are no per-bin terms; use statistic = \"whittle\" for pointwise ln L".into(),
+            ));
+        }
+        if !self.unstable.admit(self.model.as_ref(), th) {
+            return Ok(self
+                .spectra
+                .iter()
+                .map(|e| vec![f64::NEG_INFINITY; e.len()])
+                .collect());
+        }
+        let nr = self.model.residual_channels().len();
+        let ln_pi = nr as f64 * std::f64::consts::PI.ln();
+        let mut out = Vec::with_capacity(self.spectra.len());
+        for (i, e) in self.spectra.iter().enumerate() {
+            let mut terms = Vec::with_capacity(e.len());
+            self.visit_residuals(e, th, |k, r, _| {
+                // the bin's share of `ln_norm`, as `Likelihood::new` sums it
+                let norm = if nr <= 2 {
+                    let (a, b, c) = e.cinv[k];
+                    let det_inv = if nr == 2 { a * c - b.norm_sqr() } else { a };
+                    -(ln_pi - det_inv.ln())
+                } else {
+                    -(ln_pi + e.ln_det[k])
+                };
+                let q = e.quad(k, r);
+                // the statistic's parameter (ν or M) of this bin
+                let at = |per_exp: &[f64], bins: &[Option<Vec<f64>>]| {
+                    bins[i].as_ref().map_or(per_exp[i], |b| b[k])
+                };
+                terms.push(match &self.stat {
+                    StatState::StudentT { nu, bins, .. } => {
+                        let v = at(nu, bins);
+                        norm + student_t_const(nr, v) - student_t_shape(q, nr, v)
+                    }
+                    StatState::Wishart { m, bins, .. } => {
+                        let v = at(m, bins);
+                        norm + wishart_const(nr, v) - wishart_shape(q, v)
+                    }
+                    // the log-periodogram returned above
+                    _ => norm - q,
+                });
+            });
+            out.push(terms);
+        }
+        Ok(out)
+    }
+
     /// Evaluations refused so far because the model's system was unstable there
     /// ([`super::stability`]).
     pub fn unstable_evaluations(&self) -> u64 {

@@ -395,6 +395,27 @@ fn per_band_resolution_gives_per_bin_dof_to_the_marginals() {
             (got - want).abs() < 1e-9 * want.abs(),
             "{stat:?}: {got} vs {want}"
         );
+        // per-bin terms: each bin's density, summing to ln L
+        let terms = lik.ln_likelihood_per_bin(&[1.02]).unwrap();
+        assert_eq!(terms.len(), 1);
+        assert_eq!(terms[0].len(), sp.len());
+        let sum: f64 = terms[0].iter().sum();
+        assert!(
+            (sum - got).abs() <= 1e-12 * got.abs(),
+            "{stat:?}: {sum} vs {got}"
+        );
+        lik.visit_residuals(sp, &[1.02], |k, r, _| {
+            let (ci, _, _) = sp.cinv[k];
+            let q = r[0].norm_sqr() * ci;
+            let one = match stat {
+                Statistic::Wishart => wishart_ln_density(q, 1, 0.5 * dof[k], -ci.ln()),
+                _ => student_t_ln_density(q, 1, dof[k], -ci.ln()),
+            };
+            assert!(
+                (terms[0][k] - one).abs() <= 1e-12 * one.abs().max(1.0),
+                "bin {k}"
+            );
+        });
     }
     let table = crate::likelihood::averages_per_decade(&per).unwrap();
     assert_eq!(table.len(), 3, "{table:?}");
@@ -422,6 +443,12 @@ fn log_periodogram_matches_time_domain_welch() {
         };
         let lik = toy_likelihood(&e, 4, Statistic::LogPeriodogram, &lp);
         let (freqs, m_eff) = lik.log_periodogram_bins().remove(0);
+        // no per-DFT-bin terms: an error that says why and what to use
+        let err = lik.ln_likelihood_per_bin(&[1.0]).unwrap_err().to_string();
+        assert!(
+            err.contains("Welch bins") && err.contains("whittle"),
+            "{err}"
+        );
         for a in [0.7, 1.0, 1.3] {
             let r: Vec<f64> = (0..n)
                 .map(|t| e.o[0][t] - a * e.i[0][(t + n - TAU) % n])

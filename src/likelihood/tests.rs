@@ -570,3 +570,26 @@ fn unstable_parameter_values_get_minus_infinity_and_are_counted() {
     assert_eq!(rb.ln_likelihood(&unstable), f64::NEG_INFINITY);
     assert_eq!(rb.unstable_evaluations(), 1);
 }
+
+/// The per-bin terms are each bin's share of `ln L`: one vector per experiment, one term per
+/// in-band bin, summing to `ln L` (Whittle, two residual channels, two experiments).
+#[test]
+fn per_bin_terms_sum_to_ln_l() {
+    let study = small_study(13, 1e-7, "circular");
+    let lik = likelihood_of(&study, &model_opts());
+    let truth = study.truth.to_array().to_vec();
+    let mut off = truth.clone();
+    off[2] *= 1.01;
+    for th in [truth, off] {
+        let terms = lik.ln_likelihood_per_bin(&th).unwrap();
+        assert_eq!(terms.len(), lik.spectra().len());
+        for (t, e) in terms.iter().zip(lik.spectra()) {
+            assert_eq!(t.len(), e.len());
+        }
+        let sum: f64 = terms.iter().flatten().sum();
+        let want = lik.ln_likelihood_full(&th);
+        assert!((sum - want).abs() <= 1e-12 * want.abs(), "{sum} vs {want}");
+    }
+    let e = lik.ln_likelihood_per_bin(&[1.0]).unwrap_err().to_string();
+    assert!(e.contains("1 parameter values for 7 parameters"), "{e}");
+}

@@ -84,7 +84,13 @@ impl Job for Fit<'_> {
                 w.done.store(done, Ordering::Relaxed);
             }
         };
-        let outcome = run(study, &prep, out, Some(&observer), ctx.resume)?;
+        let stop = |_: usize| crate::jobs::progress::stop_requested(work);
+        let outcome = run(study, &prep, out, Some(&observer), Some(&stop), ctx.resume);
+        // the chains stopped at a block's end with their checkpoint saved
+        if outcome.is_err() && crate::jobs::progress::stop_requested(work) {
+            return Err(crate::jobs::progress::Interrupted.into());
+        }
+        let outcome = outcome?;
         Ok(Fitted {
             outcome,
             origin: prep.origin,

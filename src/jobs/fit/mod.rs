@@ -1,12 +1,14 @@
 //! `occam fit`: MAP, Fisher matrix and Metropolis–Hastings parameter estimation of one model,
 //! with the paper's Table I layout, chains on disk, plots and a JSON summary.
 
+mod console;
 mod job;
 mod output;
 mod run;
 mod summary;
 
 pub use crate::jobs::chains_npz::chains_arrays;
+pub use console::console;
 pub use job::{Fit, Fitted};
 pub use output::{LEGACY_OUTPUTS, fmt_rhat, table, write_chains_npz, write_outputs};
 pub use run::{CHECKPOINT_FILE, fix_hint, near_singular_warning, run, singular_message};

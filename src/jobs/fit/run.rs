@@ -23,12 +23,14 @@ use std::time::Instant;
 pub const CHECKPOINT_FILE: &str = "checkpoint.cbor";
 
 /// Runs the fit of `study`'s `[fit]` model on prepared data; writes a checkpoint into `out`
-/// while it runs (and resumes from it if `resume`).
+/// while it runs (and resumes from it if `resume`). `stop`, asked between blocks of the
+/// chains with the iterations done, ends the run early (checkpoint saved) with an error.
 pub fn run(
     study: &Study,
     prep: &Prepared,
     out: &Path,
     observer: Option<&(dyn Fn(&Progress) + Sync)>,
+    stop: Option<&dyn Fn(usize) -> bool>,
     resume: bool,
 ) -> Result<FitOutcome, FitError> {
     // modelled glitches: the model carries them (`Prepared::study`)
@@ -121,14 +123,14 @@ pub fn run(
     let around = (&map.theta[..], &walk, &cov);
     let (chains, n_coarse) = match kind {
         LikelihoodKind::Exact => (
-            sample(exact, model, around, settings, &ckpt, observer)?,
+            sample(exact, model, around, settings, &ckpt, (observer, stop))?,
             None,
         ),
         LikelihoodKind::Relbin => {
             let rb = relbin_of(study, exact, &map.theta)?;
             let n = rb.n_coarse();
             (
-                sample(&rb, model, around, settings, &ckpt, observer)?,
+                sample(&rb, model, around, settings, &ckpt, (observer, stop))?,
                 Some(n),
             )
         }
@@ -386,13 +388,19 @@ struct Checkpoint<'a> {
     identity: &'a str,
 }
 
+/// What the chains report to (the progress observer) and ask whether to stop.
+type Hooks<'a> = (
+    Option<&'a (dyn Fn(&Progress) + Sync)>,
+    Option<&'a dyn Fn(usize) -> bool>,
+);
+
 fn sample<D: LogDensity>(
     parent: &D,
     model: &crate::config::ModelSpec,
     (map, walk, cov): (&[f64], &DMatrix<f64>, &DMatrix<f64>),
     settings: MhSettings,
     ck: &Checkpoint,
-    observer: Option<&(dyn Fn(&Progress) + Sync)>,
+    (observer, stop): Hooks,
 ) -> Result<Chains, FitError> {
     let (out, resume) = (ck.out, ck.resume);
     let mut base = model.base.clone();
@@ -408,6 +416,9 @@ fn sample<D: LogDensity>(
         .checkpoint_identity(ck.identity);
     if let Some(o) = observer {
         mh = mh.observer(o);
+    }
+    if let Some(s) = stop {
+        mh = mh.stop_when(s);
     }
     let outcome = if resume && ckpt.exists() {
         mh.resume(&ckpt)?

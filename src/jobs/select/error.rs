@@ -11,4 +11,8 @@ pub enum SelectError {
     Report(#[from] crate::report::ReportError),
     #[error("{0}")]
     Io(String),
+    /// Stopped on request ([`crate::jobs::Work::request_stop`]); the checkpoint and the
+    /// stage file keep the work done.
+    #[error(transparent)]
+    Interrupted(#[from] crate::jobs::progress::Interrupted),
 }

@@ -252,7 +252,7 @@ fn in_model_chains(
     centre: &[f64],
     walk_cov: &DMatrix<f64>,
     notes: &mut Vec<String>,
-    stage: Option<&StageFile>,
+    (stage, stop): (Option<&StageFile>, &dyn Fn(usize) -> bool),
 ) -> Result<Option<Chains>, String> {
     let st = &m.stages;
     let starts = chain_starts(sub_s, centre, walk_cov, st.chains, m.seed)?;
@@ -279,7 +279,8 @@ fn in_model_chains(
                 let mh = mh
                     .checkpoint(&f.path)
                     .checkpoint_identity(id.clone())
-                    .save_every(f.every);
+                    .save_every(f.every)
+                    .stop_when(stop);
                 if f.holds(crate::sampler::CHECKPOINT_KIND, &id) {
                     mh.resume(&f.path)
                 } else {
@@ -480,7 +481,12 @@ fn raw_assumes(statistic: Statistic, min_margin_sigma: f64) -> String {
 /// Runs every per-model stage but tempering ([`temper`]) for a competing model on its
 /// parent's exact likelihood: MAP and Fisher matrix, the sampled likelihood, the in-model
 /// chains, the jump proposal, Laplace–Fisher, Laplace–Metropolis and Schwarz.
-pub(super) fn run_model(m: &ModelPlan<'_>, stage: Option<&StageFile>) -> Result<ModelRun, String> {
+/// `stop`, asked between blocks of the chains, ends them early (stage saved).
+pub(super) fn run_model(
+    m: &ModelPlan<'_>,
+    stage: Option<&StageFile>,
+    stop: &dyn Fn(usize) -> bool,
+) -> Result<ModelRun, String> {
     let (exact, spec) = (m.exact, &m.spec);
     let free = &spec.free;
     let d = free.len();
@@ -505,7 +511,7 @@ pub(super) fn run_model(m: &ModelPlan<'_>, stage: Option<&StageFile>) -> Result<
 
     // in-model chains from starts inside the prior
     let centre = free_vec(&base, free);
-    let chains = in_model_chains(m, &sub_s, &centre, &walk_cov, &mut notes, stage)?;
+    let chains = in_model_chains(m, &sub_s, &centre, &walk_cov, &mut notes, (stage, stop))?;
     let diag = chains.as_ref().and_then(|c| c.diagnostics().ok());
     // the chains feed Laplace–Metropolis and the jump proposals: a convergence failure is a
     // warning of the run (the report marks the same R-hat threshold)
@@ -627,7 +633,7 @@ pub(super) fn temper(
     m: &ModelPlan<'_>,
     run: &mut ModelRun,
     progress: &mut dyn FnMut(usize),
-    stage: Option<&StageFile>,
+    (stage, stop): (Option<&StageFile>, &dyn Fn(usize) -> bool),
 ) -> Result<(), String> {
     let exact = m.exact;
     let free = &run.spec.free;
@@ -645,7 +651,7 @@ pub(super) fn temper(
         (&run.tempering_start, &run.jump_cov),
         (run.seed, m.name.as_str()),
         progress,
-        stage,
+        (stage, stop),
     );
     run.outcome.thermodynamic = thermodynamic;
     run.outcome.stepping_stone = stepping_stone;
@@ -693,7 +699,7 @@ fn tempering(
     (start, cov): (&[f64], &DMatrix<f64>),
     (seed, model): (u64, &str),
     progress: &mut dyn FnMut(usize),
-    stage: Option<&StageFile>,
+    (stage, stop): (Option<&StageFile>, &dyn Fn(usize) -> bool),
 ) -> (Evidence, Evidence, Option<TemperingDiagnostics>) {
     if st.pt_temperatures == 0 {
         let why = if st.cross_checks == CrossChecks::Off {
@@ -717,7 +723,7 @@ fn tempering(
         match stage {
             Some(f) => {
                 let id = f.identity(model, "tempering");
-                let pt = pt.checkpoint(&f.path, id.clone(), f.every);
+                let pt = pt.checkpoint(&f.path, id.clone(), f.every).stop_when(stop);
                 if f.holds(crate::evidence::tempering::KIND, &id) {
                     pt.resume(&f.path)
                 } else {

@@ -15,6 +15,7 @@ use crate::config::Study;
 use crate::density::LogDensity;
 use crate::evidence::{ReversibleJump, RjModel, RjOptions, RjOutcome, RjResult};
 use crate::jobs::prepare::{Prepared, gap_notes, model_warnings, truth_of};
+use crate::jobs::progress::stop_requested;
 use crate::nested::SubModel;
 use std::time::Instant;
 
@@ -105,6 +106,23 @@ pub fn run_observed(
     Ok(out)
 }
 
+/// [`SelectError::Interrupted`] when `work` asks the run to stop: checked after every stage,
+/// before the stage is recorded as done. The checkpoint is written first (the stages done so
+/// far; the stage file holds the one in progress), so that a resumed run finds it even when
+/// no stage had finished.
+fn interrupted(
+    work: Option<&crate::jobs::progress::Work>,
+    ckpt: &Option<Checkpointing<'_>>,
+) -> Result<(), SelectError> {
+    if !stop_requested(work) {
+        return Ok(());
+    }
+    if let Some(c) = ckpt {
+        c.state.write(c.path)?;
+    }
+    Err(crate::jobs::progress::Interrupted.into())
+}
+
 /// Counts `n` more likelihood evaluations into `work`.
 fn add_work(work: Option<&crate::jobs::progress::Work>, n: usize) {
     if let Some(w) = work {
@@ -121,6 +139,7 @@ fn run_models(
     work: Option<&crate::jobs::progress::Work>,
 ) -> Result<Vec<ModelRun>, SelectError> {
     let stage = ckpt.as_ref().map(Checkpointing::stage_file);
+    let stop = |_: usize| stop_requested(work);
     let mut runs = Vec::new();
     for (k, m) in plan.models.iter().enumerate() {
         let st = &m.stages;
@@ -141,12 +160,14 @@ fn run_models(
         let refused_before = m.exact.unstable_evaluations();
         let mut r = match saved {
             Some(stage) => stage.restore(m),
-            None => model::run_model(m, stage.as_ref()).map(|mut r| {
+            None => model::run_model(m, stage.as_ref(), &stop).map(|mut r| {
                 r.outcome.unstable_evaluations = refused(&r) - refused_before;
                 r
             }),
         }
         .map_err(err)?;
+        // a stage stopped on request is not recorded as done: its stage file holds it
+        interrupted(work, ckpt)?;
         add_work(work, st.chains * st.iterations);
         if let Some(c) = ckpt.as_mut()
             && c.state.models.len() == k
@@ -162,7 +183,8 @@ fn run_models(
                 counted = done;
             };
             let before = refused(&r);
-            model::temper(m, &mut r, &mut progress, stage.as_ref()).map_err(err)?;
+            model::temper(m, &mut r, &mut progress, (stage.as_ref(), &stop)).map_err(err)?;
+            interrupted(work, ckpt)?;
             r.outcome.unstable_evaluations += refused(&r) - before;
             if let Some(c) = ckpt.as_mut() {
                 c.state.models[k] = checkpoint::ModelStage::of(&r, true);
@@ -235,6 +257,7 @@ fn reversible_jump(
     }
     let Some(target) = plan.target else {
         let (rj, note, rate) = run_rj(&rj_models, &plan.rj, "rj", ckpt, progress, work, rj_base);
+        interrupted(work, ckpt)?;
         let stage = RjStage {
             rj,
             note,
@@ -282,6 +305,7 @@ fn reversible_jump(
             work,
             base,
         );
+        interrupted(work, ckpt)?;
         let error = rj.as_ref().and_then(target::rj_error);
         rounds.push(TargetRound {
             iterations: opts.n_iter,
@@ -364,12 +388,13 @@ fn run_rj(
         }
     };
     let stage = ckpt.as_ref().map(Checkpointing::stage_file);
+    let stop = |_: usize| stop_requested(work);
     let ran = ReversibleJump::new(rj_models, opts).and_then(|rj| {
         let rj = rj.progress(&mut observe);
         match &stage {
             Some(f) => {
                 let id = f.identity("all models", name);
-                let rj = rj.checkpoint(&f.path, id.clone(), f.every);
+                let rj = rj.checkpoint(&f.path, id.clone(), f.every).stop_when(&stop);
                 if f.holds(crate::evidence::rjmcmc::KIND, &id) {
                     rj.resume(&f.path)
                 } else {

@@ -320,6 +320,11 @@ impl Sweep {
             w.start(todo.len() as u64);
         }
         let task = |t: usize| -> anyhow::Result<Vec<u8>> {
+            // asked to stop: the tasks not started yet stay to do (tasks in flight finish,
+            // their records kept, so a rerun continues after them)
+            if crate::jobs::progress::stop_requested(work) {
+                return Err(crate::jobs::progress::Interrupted.into());
+            }
             let ts = Instant::now();
             let rec = self.run_task(t);
             let bytes = rec.to_bytes();
