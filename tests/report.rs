@@ -438,11 +438,17 @@ fn non_runs_old_runs_busy_runs_and_other_destinations() {
     assert!(html.contains("has no manifest.json"));
     assert!(html.contains("<title>occam fit"));
     assert!(!run.join("manifest.json").exists());
-    assert_eq!(
-        html.matches("<svg").count(),
-        3,
-        "trace.svg, corner.svg and information.svg"
+    // every figure of the directory: trace, corner, information, and the data and Bode plots
+    let svgs: Vec<String> = std::fs::read_dir(&run)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".svg"))
+        .collect();
+    assert!(
+        svgs.iter().any(|n| n.starts_with("timeseries_")),
+        "{svgs:?}"
     );
+    assert_eq!(html.matches("<svg").count(), svgs.len(), "{svgs:?}");
 }
 
 #[test]
