@@ -141,21 +141,24 @@ mod tests {
 
     #[test]
     fn every_missing_key_is_found_with_the_line_of_its_table() {
-        // the top-level `seed`, and `name` of two [[select.model]] tables
+        // the top level's `seed`, `output` and `experiment`, and `name` of two
+        // [[select.model]] tables
         let t = "[[select.model]]\nfree = [\"w1sq\"]\n\n[[select.model]]\nfree = [\"w2sq\"]\n";
         let k = keys(t);
         assert_eq!(
             k,
             vec![
                 ("seed".to_string(), 0),
+                ("output".to_string(), 0),
+                ("experiment".to_string(), 0),
                 ("name".to_string(), 1),
                 ("name".to_string(), 4)
             ],
             "{k:?}"
         );
-        // one missing key: just it
-        let t = "seed = 1\n[[experiment]]\ndesign = \"tn3045_x1\"\n";
-        assert_eq!(keys(t), vec![("name".to_string(), 2)]);
+        // a table below the top level: its own line
+        let t = "seed = 1\noutput = \"o\"\n[[experiment]]\ndesign = \"tn3045_x1\"\n";
+        assert_eq!(keys(t), vec![("name".to_string(), 3)]);
         // an error that is not a missing key: nothing
         let t = "seed = \"one\"\n";
         assert!(keys(t).is_empty());
