@@ -2,21 +2,7 @@
 //! name first (the own-data one on CSV files made from a simulation).
 
 mod common;
-use common::occam;
-use std::fmt::Write as _;
-use std::path::Path;
-
-fn write_csv(path: &Path, header: &[&str], cols: &[&[f64]], fs: f64) {
-    let mut s = header.join(",") + "\n";
-    for k in 0..cols[0].len() {
-        write!(s, "{:.17e}", k as f64 / fs).unwrap();
-        for c in cols {
-            write!(s, ",{:.17e}", c[k]).unwrap();
-        }
-        s.push('\n');
-    }
-    std::fs::write(path, s).unwrap();
-}
+use common::{occam, write_csv};
 
 #[test]
 fn every_kind_is_written_and_loads_and_an_existing_file_is_kept() {

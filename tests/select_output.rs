@@ -28,7 +28,7 @@ fn select_leads_with_the_answer_and_cuts_no_note() {
     );
     assert!(
         lines[models + 2].contains(
-            "fixes w1sq = -1.3e-6 s⁻², w2sq = -1.9e-6 s⁻², dt1 = 0.2 s, dt2 = 0.2 s and d21 = 0"
+            "fixes w1sq = -1.300e-6 s⁻², w2sq = -1.900e-6 s⁻², dt1 = 0.2000 s, dt2 = 0.2000 s and d21 = 0"
         ),
         "{out}"
     );

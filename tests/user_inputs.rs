@@ -2,7 +2,7 @@
 //! the user's own data files through `occam fit`, and the errors on bad models and data.
 
 mod common;
-use common::occam;
+use common::{occam, write_csv};
 use occam::config::Study;
 use occam::jobs::prepare::{likelihood_of, prepare};
 use occam::likelihood::fisher_exact;
@@ -67,18 +67,6 @@ fn user_defined_closed_loop_reproduces_the_builtin_model() {
         fu[(2, 6)],
         fb[(2, 6)]
     );
-}
-
-fn write_csv(path: &Path, header: &[&str], cols: &[&[f64]], fs: f64) {
-    let mut s = header.join(",") + "\n";
-    for k in 0..cols[0].len() {
-        write!(s, "{:.17e}", k as f64 / fs).unwrap();
-        for c in cols {
-            write!(s, ",{:.17e}", c[k]).unwrap();
-        }
-        s.push('\n');
-    }
-    std::fs::write(path, s).unwrap();
 }
 
 const FIT: &str = r#"

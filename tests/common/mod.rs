@@ -76,6 +76,21 @@ fixed = { w1sq = -1.3e-6, w2sq = -1.9e-6, dt1 = 0.2, dt2 = 0.2, d21 = 0.0 }
     )
 }
 
+/// Writes a CSV file: a time column `k / fs` under `header[0]`, then one column per series.
+#[allow(dead_code)]
+pub fn write_csv(path: &Path, header: &[&str], cols: &[&[f64]], fs: f64) {
+    use std::fmt::Write as _;
+    let mut s = header.join(",") + "\n";
+    for k in 0..cols[0].len() {
+        write!(s, "{:.17e}", k as f64 / fs).unwrap();
+        for c in cols {
+            write!(s, ",{:.17e}", c[k]).unwrap();
+        }
+        s.push('\n');
+    }
+    std::fs::write(path, s).unwrap();
+}
+
 #[allow(dead_code)]
 /// The summary's numbers: its JSON with every timing field removed.
 pub fn numbers(v: serde_json::Value) -> serde_json::Value {
