@@ -51,7 +51,11 @@ pub fn write(dir: &Path, raws: &[RawData]) -> Result<(), ReportError> {
         if !r.channels.is_empty() {
             let stem = format!("timeseries_{}", r.experiment);
             let mut panels = Vec::with_capacity(r.channels.len());
-            for (k, c) in r.channels.iter().enumerate() {
+            for c in &r.channels {
+                // a channel the data lack (all NaN: every sample a gap) has nothing to draw
+                if !c.samples.iter().any(|v| v.is_finite()) {
+                    continue;
+                }
                 let pts: Vec<(f64, f64)> = c
                     .samples
                     .iter()
@@ -59,7 +63,7 @@ pub fn write(dir: &Path, raws: &[RawData]) -> Result<(), ReportError> {
                     .map(|(n, &v)| (n as f64 / r.fs, v))
                     .collect();
                 let series = vec![(String::new(), pts)];
-                let title = if k == 0 {
+                let title = if panels.is_empty() {
                     format!("time series of experiment {} (fit stretch)", r.experiment)
                 } else {
                     String::new()
@@ -78,7 +82,9 @@ pub fn write(dir: &Path, raws: &[RawData]) -> Result<(), ReportError> {
                     None,
                 )?);
             }
-            render(dir, &stem, &Stack(panels))?;
+            if !panels.is_empty() {
+                render(dir, &stem, &Stack(panels))?;
+            }
         }
         let series: Vec<(String, Vec<(f64, f64)>)> = r
             .spectra
@@ -91,6 +97,11 @@ pub fn write(dir: &Path, raws: &[RawData]) -> Result<(), ReportError> {
                     .map(|(&f, &p)| (f, p.sqrt()))
                     .collect();
                 (s.name.clone(), pts)
+            })
+            // on log axes only positive, finite points draw: a zero spectrum has none
+            .filter(|(_, pts): &(String, Vec<(f64, f64)>)| {
+                pts.iter()
+                    .any(|&(f, a)| f > 0.0 && a > 0.0 && f.is_finite() && a.is_finite())
             })
             .collect();
         if !series.is_empty() {
