@@ -24,6 +24,10 @@ pub fn raw_data(
     let mut out = Vec::new();
     let mut warnings = Vec::new();
     for e in data {
+        // data of a model's own channels, not the LTP read-outs: nothing drawn here yet
+        if e.o.iter().all(|s| s.is_empty()) {
+            continue;
+        }
         let mut channels: Vec<RawChannel> = OUTPUTS
             .iter()
             .zip(&e.o)
