@@ -194,11 +194,18 @@ fn html_rows(html: &str) -> Vec<Vec<String>> {
         .collect()
 }
 
-/// Every row of a Markdown table file is a row of the page.
+/// Every body row of every table of a Markdown file is a row of the page (a select's
+/// `table.md` has lines before its tables and more than one table).
 fn has_markdown_rows(html: &str, md: &str) {
     let rows = html_rows(html);
     let mut n = 0;
-    for line in md.lines().skip(2).filter(|l| l.starts_with('|')) {
+    let lines: Vec<&str> = md.lines().collect();
+    let rule = |l: &str| l.starts_with('|') && l.chars().all(|c| "|-: ".contains(c));
+    for (i, line) in lines.iter().enumerate() {
+        let header = lines.get(i + 1).is_some_and(|next| rule(next));
+        if !line.starts_with('|') || rule(line) || header {
+            continue;
+        }
         let cells: Vec<String> = line
             .trim()
             .trim_matches('|')
