@@ -163,7 +163,11 @@ pub fn fit(
         let done = occam::jobs::execute(&mut occam::jobs::fit::Fit { study: &study }, &ctx)?;
         let s = &done.outcome.outcome.summary;
         lines.extend(occam::jobs::fit::console(s, &study));
-        lines.extend(s.warnings.iter().map(|w| format!("warning: {w}")));
+        lines.extend(
+            occam::report::group_warnings(&s.warnings)
+                .iter()
+                .map(|w| format!("warning: {w}")),
+        );
         lines.push(&format!("wrote {}", listing(&out, &done.written)));
         lines.push(&format!("took {:.1} s", t0.elapsed().as_secs_f64()));
         Ok((out, lines.take()))
@@ -205,7 +209,11 @@ pub fn select(
                 .split('\n')
                 .map(str::to_string),
         );
-        lines.extend(s.warnings.iter().map(|w| format!("warning: {w}")));
+        lines.extend(
+            occam::report::group_warnings(&s.warnings)
+                .iter()
+                .map(|w| format!("warning: {w}")),
+        );
         lines.push(&format!("wrote {}", listing(&out, &done.written)));
         lines.push(&format!("took {:.1} s", t0.elapsed().as_secs_f64()));
         Ok((out, lines.take()))
@@ -247,7 +255,11 @@ pub fn sweep(
         let lines = Lines::default();
         let (before, size) = planned.lines.split_at(planned.lines.len() - 1);
         lines.extend(before.iter().cloned());
-        lines.extend(planned.warnings.iter().map(|w| format!("warning: {w}")));
+        lines.extend(
+            occam::report::group_warnings(&planned.warnings)
+                .iter()
+                .map(|w| format!("warning: {w}")),
+        );
         lines.extend(size.iter().cloned());
         let log = |l: &str| lines.push(l);
         let done = run_request(planned, exec.as_ref(), Some(&log), Some(work))?

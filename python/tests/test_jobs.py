@@ -142,7 +142,7 @@ def test_select_log_is_every_line_the_command_line_prints(occam_bin, py_select, 
     assert strip([l for l in log if not l.startswith("warning: ")]) == strip(cli)
     assert [l for l in log if l.startswith("warning: ")] == r.stderr.splitlines()
     assert any(l.startswith("nodelay/full: reference") for l in log)
-    assert any(l.startswith("posterior model probabilities: ") for l in log)
+    assert any(l.startswith("posterior model probabilities (prior equal): ") for l in log)
     assert log[-2].startswith("wrote ") and log[-1].startswith("took ")
 
 
