@@ -136,7 +136,7 @@ fn fit_from_csv_files_equals_fit_from_the_simulated_dataset() {
             .map(|l| {
                 let w: Vec<&str> = l.split_whitespace().collect();
                 let mut w = w.clone();
-                w.remove(1);
+                w.remove(2); // `truth` (after `parameter` and `unit`)
                 w.join(" ")
             })
             .collect()
