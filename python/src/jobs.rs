@@ -163,15 +163,18 @@ pub fn fit(
         let done = occam::jobs::execute(&mut occam::jobs::fit::Fit { study: &study }, &ctx)?;
         let s = &done.outcome.outcome.summary;
         lines.extend(occam::jobs::fit::console(s, &study));
-        lines.extend(
-            occam::report::group_warnings(&s.warnings)
-                .iter()
-                .map(|w| format!("warning: {w}")),
-        );
+        lines.extend(warning_lines(&s.warnings));
         lines.push(&format!("wrote {}", listing(&out, &done.written)));
         lines.push(&format!("took {:.1} s", t0.elapsed().as_secs_f64()));
         Ok((out, lines.take()))
     })
+}
+
+/// The warnings as the command line prints them to standard error: repeats merged.
+fn warning_lines(warnings: &[String]) -> impl Iterator<Item = String> {
+    occam::report::group_warnings(warnings)
+        .into_iter()
+        .map(|w| format!("warning: {w}"))
 }
 
 /// `occam select STUDY [-o OUTPUT] [--resume]`: (run directory, log lines: every line the
@@ -209,11 +212,7 @@ pub fn select(
                 .split('\n')
                 .map(str::to_string),
         );
-        lines.extend(
-            occam::report::group_warnings(&s.warnings)
-                .iter()
-                .map(|w| format!("warning: {w}")),
-        );
+        lines.extend(warning_lines(&s.warnings));
         lines.push(&format!("wrote {}", listing(&out, &done.written)));
         lines.push(&format!("took {:.1} s", t0.elapsed().as_secs_f64()));
         Ok((out, lines.take()))
@@ -255,11 +254,7 @@ pub fn sweep(
         let lines = Lines::default();
         let (before, size) = planned.lines.split_at(planned.lines.len() - 1);
         lines.extend(before.iter().cloned());
-        lines.extend(
-            occam::report::group_warnings(&planned.warnings)
-                .iter()
-                .map(|w| format!("warning: {w}")),
-        );
+        lines.extend(warning_lines(&planned.warnings));
         lines.extend(size.iter().cloned());
         let log = |l: &str| lines.push(l);
         let done = run_request(planned, exec.as_ref(), Some(&log), Some(work))?
