@@ -281,8 +281,16 @@ fn simulate(path: PathBuf, output: Option<PathBuf>, flags: RunFlags) -> Result<(
             rho
         );
     }
+    let def = study.simulation.snr_definition;
+    let on_scale = match def {
+        occam::experiment::SnrDefinition::Optimal => String::new(),
+        _ => format!(
+            " = {:.4} on the `snr_definition` scale",
+            def.from_optimal(sim.snr_total)
+        ),
+    };
     println!(
-        "study rho_opt = {:.4e} over {:?} Hz (amplitude factor {:.4e})",
+        "study rho_opt = {:.4e}{on_scale} over {:?} Hz (amplitude factor {:.4e})",
         sim.snr_total, study.simulation.snr_band, sim.amplitude_factor
     );
     println!("wrote {}", listing(&out, &written));

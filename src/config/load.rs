@@ -14,7 +14,7 @@ use super::study::{
     MIN_GLITCH_COUNT_ITERATIONS, SelectModel, SelectOptions, SimulationOptions, Study, StudyFile,
 };
 use crate::experiment::options::{MAX_AMPLITUDE, Method};
-use crate::experiment::{ExperimentDesign, SineSegment, Waveform};
+use crate::experiment::{ExperimentDesign, SineSegment, SnrDefinition, Waveform};
 use crate::ltp::{Controllers, LtpParams, Masses, NoiseModel, check_stable};
 use std::path::Path;
 
@@ -529,13 +529,22 @@ fn check_simulation(sim: &SimulationOptions, file: &str) -> Result<(), ConfigErr
         }
     }
     sim.actuators.validate(sim.method, file)?;
-    if let Some(t) = sim.target_snr
-        && !(finite_pos(t) && t <= MAX_TARGET_SNR)
-    {
-        return Err(bad(
-            "simulation.target_snr",
-            format!("must be an SNR in (0, {MAX_TARGET_SNR:e}] (got {t})"),
-        ));
+    if let Some(t) = sim.target_snr {
+        let d = sim.snr_definition;
+        let rho = d.to_optimal(t);
+        if !(t.is_finite() && finite_pos(rho) && rho <= MAX_TARGET_SNR) {
+            let scale = match d {
+                SnrDefinition::Optimal => String::new(),
+                _ => format!(
+                    " on the `snr_definition` scale, here {} at most",
+                    d.from_optimal(MAX_TARGET_SNR)
+                ),
+            };
+            return Err(bad(
+                "simulation.target_snr",
+                format!("must be an SNR ρ_opt in (0, {MAX_TARGET_SNR:e}]{scale} (got {t})"),
+            ));
+        }
     }
     if let Some(g) = &sim.gaps {
         g.check().map_err(|m| bad("simulation.gaps", m))?;
@@ -1766,6 +1775,40 @@ design = "tn3045_x1"
         );
         let e = err(&format!("{OK}[simulation]\ntarget_snr = inf\n"));
         assert!(e.contains("simulation.target_snr"), "{e}");
+    }
+
+    #[test]
+    fn a_target_snr_on_another_scale_reaches_the_simulator_as_rho_opt() {
+        let plan = |sim: &str| {
+            load(&format!("{OK}[simulation]\n{sim}\n"))
+                .unwrap()
+                .simulation_plan()
+                .target_snr
+                .unwrap()
+        };
+        assert_eq!(plan("target_snr = 28.0"), 28.0);
+        let stnr = plan("target_snr = 28.0\nsnr_definition = \"ltpda_stnr\"");
+        assert!((stnr - 28.0 / 2f64.sqrt()).abs() < 1e-12, "{stnr}");
+        // 0 dB and below are SNRs too: ρ_opt = 1 and 0.1
+        assert_eq!(plan("target_snr = 0.0\nsnr_definition = \"db\""), 1.0);
+        assert!((plan("target_snr = -20.0\nsnr_definition = \"db\"") - 0.1).abs() < 1e-15);
+        // the bound is on ρ_opt, and the message says it on the study's scale
+        let e = err(&format!(
+            "{OK}[simulation]\ntarget_snr = 200.0\nsnr_definition = \"db\"\n"
+        ));
+        assert!(
+            e.contains("simulation.target_snr") && e.contains("here 120 at most"),
+            "{e}"
+        );
+        let e = err(&format!(
+            "{OK}[simulation]\ntarget_snr = 0.0\nsnr_definition = \"ltpda_stnr\"\n"
+        ));
+        assert!(e.contains("simulation.target_snr"), "{e}");
+        let e = err(&format!("{OK}[simulation]\nsnr_definition = \"stnr\"\n"));
+        assert!(
+            e.contains("snr_definition") && e.contains("ltpda_stnr"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -12,6 +12,7 @@
 //! method = "frequency"         # or "time" (discretised loop)
 //! noise = "circular"           # or "realistic"
 //! target_snr = 1000.0          # optional: scale all injections to this ρ_opt
+//! snr_definition = "optimal"    # or "ltpda_stnr" (√2·ρ_opt), "db" (20·log10 ρ_opt)
 //! [simulation.actuators]       # true actuators (default: flat, both with gain a_sus)
 //! tm1 = { gain = 1.1, pole = 1.963, delay = 0.0 }   # gain default [truth].a_sus
 //! tm2 = { pole = 1.963 }       # no gain key: TM2's gain is [truth].a_sus

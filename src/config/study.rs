@@ -7,7 +7,7 @@ use super::limits::{check_delay, finite_pos};
 use super::models::{ModelSet, ModelSpec};
 use super::sweep::SweepOptions;
 use crate::experiment::options::{Actuator, Method, NoiseSynthesis, TruthThruster};
-use crate::experiment::{ExperimentDesign, SineSegment};
+use crate::experiment::{ExperimentDesign, SineSegment, SnrDefinition};
 use crate::ltp::{Controllers, LtpParams, Masses, NoiseModel};
 use crate::prior::PriorKind;
 use serde::{Deserialize, Serialize};
@@ -23,8 +23,13 @@ pub struct SimulationOptions {
     pub method: Method,
     pub noise: NoiseSynthesis,
     /// If set, every injection amplitude is scaled by one common factor so that the optimal
-    /// SNR ρ_opt = √⟨h|h⟩ of the whole study (all experiments, `snr_band`) equals this.
+    /// SNR ρ_opt = √⟨h|h⟩ of the whole study (all experiments, `snr_band`) equals this — read
+    /// on the scale `snr_definition` names.
     pub target_snr: Option<f64>,
+    /// The scale `target_snr` is written in: `"optimal"` (ρ_opt, the default), `"ltpda_stnr"`
+    /// (√2·ρ_opt) or `"db"` (20·log10 ρ_opt).
+    #[serde(skip_serializing_if = "SnrDefinition::is_default")]
+    pub snr_definition: SnrDefinition,
     /// Band (Hz) over which ρ_opt is computed: exactly two numbers `[lo, hi]` with
     /// `0 < lo < hi ≤` the Nyquist frequency of every simulated experiment. The default
     /// `[1e-4, 1.0]` is clipped to each experiment's Nyquist frequency instead.
@@ -171,6 +176,7 @@ impl Default for SimulationOptions {
             method: Method::Frequency,
             noise: NoiseSynthesis::Circular,
             target_snr: None,
+            snr_definition: SnrDefinition::Optimal,
             snr_band: [1e-4, 1.0],
             actuators: ActuatorOptions::default(),
             model: None,
@@ -807,7 +813,7 @@ impl Study {
             experiments: self.experiments.clone(),
             method: o.method,
             noise: o.noise,
-            target_snr: o.target_snr,
+            target_snr: o.target_snr.map(|t| o.snr_definition.to_optimal(t)),
             snr_band: o.snr_band,
             oversample: o.oversample,
             generator: self.generator(),

@@ -9,6 +9,7 @@ mod model_sim;
 pub mod options;
 mod run;
 mod simulate;
+mod snr_definition;
 mod streams;
 mod waveform;
 
@@ -21,4 +22,5 @@ pub use simulate::{
     SimError, SimProgress, Simulation, SimulationPlan, System, TELEMETRY_CHANNELS,
     delayed_injections, optimal_snr, stream,
 };
+pub use snr_definition::SnrDefinition;
 pub use waveform::{SineSegment, Waveform};

@@ -23,6 +23,8 @@ pub mod init;
 mod job;
 #[cfg(feature = "mpi")]
 pub mod mpi;
+#[cfg(any(test, feature = "mpi"))]
+mod mpi_wire;
 pub mod prepare;
 pub mod progress;
 pub mod raw_data;
