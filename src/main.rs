@@ -285,8 +285,9 @@ fn simulate(path: PathBuf, output: Option<PathBuf>, flags: RunFlags) -> Result<(
     let on_scale = match def {
         occam::experiment::SnrDefinition::Optimal => String::new(),
         _ => format!(
-            " = {:.4} on the `snr_definition` scale",
-            def.from_optimal(sim.snr_total)
+            " (= {:.4} as snr_definition = \"{}\")",
+            def.from_optimal(sim.snr_total),
+            def.name()
         ),
     };
     println!(

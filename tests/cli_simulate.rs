@@ -108,3 +108,42 @@ fn bad_input_gets_a_clear_error_and_no_output() {
     let (ok, _, stderr) = occam(&["simulate", "missing.toml"], dir.path());
     assert!(!ok && stderr.contains("missing.toml"), "{stderr}");
 }
+
+/// A target SNR on LTPDA's scale gives the data of the same ρ_opt on occam's, and the printout
+/// says both.
+#[test]
+fn a_target_snr_on_the_ltpda_scale_is_the_same_data_as_its_rho_opt() {
+    let dir = tempfile::tempdir().unwrap();
+    let with = |extra: &str, out: &str| {
+        std::fs::write(
+            dir.path().join(format!("{out}.toml")),
+            format!("{SMALL}[simulation]\n{extra}\n"),
+        )
+        .unwrap();
+        let (ok, stdout, stderr) =
+            occam(&["simulate", &format!("{out}.toml"), "-o", out], dir.path());
+        assert!(ok, "{stderr}");
+        stdout
+    };
+    let plain = with("target_snr = 20.0", "a");
+    let stnr = with(
+        &format!(
+            "target_snr = {}\nsnr_definition = \"ltpda_stnr\"",
+            20.0 * 2f64.sqrt()
+        ),
+        "b",
+    );
+    assert!(plain.contains("study rho_opt = 2.0000e1 over"), "{plain}");
+    assert!(
+        stnr.contains("study rho_opt = 2.0000e1 (= 28.2843 as snr_definition = \"ltpda_stnr\")"),
+        "{stnr}"
+    );
+    // the amplitude factors can differ in the last bit (√2·20/√2); the data to rounding
+    let (da, db) = (
+        Dataset::read(&dir.path().join("a")).unwrap(),
+        Dataset::read(&dir.path().join("b")).unwrap(),
+    );
+    for (x, y) in da.experiments[0].o[0].iter().zip(&db.experiments[0].o[0]) {
+        assert!((x - y).abs() <= 1e-12 * x.abs().max(1e-18), "{x} {y}");
+    }
+}

@@ -48,6 +48,15 @@ impl SnrDefinition {
         }
     }
 
+    /// The name a study file writes.
+    pub fn name(self) -> &'static str {
+        match self {
+            SnrDefinition::Optimal => "optimal",
+            SnrDefinition::LtpdaStnr => "ltpda_stnr",
+            SnrDefinition::Db => "db",
+        }
+    }
+
     /// Whether this is the default (so that a study file that does not set it writes nothing).
     pub fn is_default(&self) -> bool {
         *self == Self::default()
@@ -77,5 +86,13 @@ mod tests {
         // 0 dB is ρ_opt = 1, not 0
         assert_eq!(SnrDefinition::Db.to_optimal(0.0), 1.0);
         assert_eq!(SnrDefinition::Db.to_optimal(-20.0), 0.1);
+        for d in [SnrDefinition::LtpdaStnr, SnrDefinition::Db] {
+            let text = format!("snr_definition = \"{}\"", d.name());
+            #[derive(serde::Deserialize)]
+            struct T {
+                snr_definition: SnrDefinition,
+            }
+            assert_eq!(toml::from_str::<T>(&text).unwrap().snr_definition, d);
+        }
     }
 }
