@@ -167,3 +167,47 @@ fn a_map_on_a_prior_bound_is_warned_about() {
         o.summary.warnings
     );
 }
+
+/// `examples/tn3045-k14.toml` is the calibration of docs "What was measured": with the noise
+/// model's CSD, every Cramér–Rao bound of Table I but Δt1's within 0.8–1.25 of K14's and of the
+/// LTPDA training's (ltp-model.md §6.2), and Δt1's still about 8× K14's (no input of the
+/// calibration moves it against A_df). Today's defaults (examples/tn3045.toml) are 2–2.7× off
+/// for five of them, which this would catch if the preset drifted back.
+#[test]
+fn the_k14_preset_puts_every_bound_but_dt1_within_a_quarter_of_the_published_ones() {
+    let bounds = |file: &str| {
+        let mut s = Study::load(Path::new(file)).unwrap();
+        s.analysis.noise = occam::likelihood::NoiseSource::Model;
+        let prep = prepare(&s).unwrap();
+        let free: Vec<usize> = (0..N_PARAMS).collect();
+        cramer_rao(&fisher_exact(&prep.likelihood, &s.truth.to_array(), &free)).unwrap()
+    };
+    // (K14 Table I σ, the training's σ) in the order w1sq, w2sq, dt1, dt2, a_df, a_sus, d21
+    let published: [(f64, Option<f64>); N_PARAMS] = [
+        (2e-10, Some(1.7e-10)),
+        (2e-10, Some(1.6e-10)),
+        (5e-5, None),
+        (2e-4, None),
+        (2.5e-4, Some(2e-4)),
+        (3e-6, Some(3.0e-6)),
+        (1e-7, Some(1.1e-7)),
+    ];
+    let k14 = bounds("examples/tn3045-k14.toml");
+    let today = bounds("examples/tn3045.toml");
+    for (i, (s, (k, t))) in k14.iter().zip(published).enumerate() {
+        if i == 2 {
+            assert!((7.0..10.0).contains(&(s / k)), "dt1: σ ÷ K14 = {}", s / k);
+            continue;
+        }
+        for (what, p) in [("K14", Some(k)), ("training", t)] {
+            if let Some(p) = p {
+                let r = s / p;
+                assert!((0.8..=1.25).contains(&r), "parameter {i}: σ ÷ {what} = {r}");
+            }
+        }
+    }
+    let off = (0..N_PARAMS)
+        .filter(|&i| today[i] / published[i].0 > 2.0)
+        .count();
+    assert_eq!(off, 6, "today's bounds: {today:?}");
+}
