@@ -65,6 +65,7 @@ const CASES: &[Case] = &[
         &["simulate", "{study}"],
     ),
     case("fit-tn3045", "tn3045", &["fit", "{study}"]),
+    case("fit-tn3045-k14", "tn3045-k14", &["fit", "{study}"]),
     case(
         "fit-user-model-closed-loop",
         "user-model-closed-loop",
@@ -169,6 +170,16 @@ const CASES: &[Case] = &[
         &["sweep", "{study}"],
     ),
     full("design-optimise", "design-optimise", &["design", "{study}"]),
+    full(
+        "select-guidance-delays-k14",
+        "guidance-delays-k14",
+        &["select", "{study}"],
+    ),
+    full(
+        "select-accel-k14-strength",
+        "accel-k14-strength",
+        &["select", "{study}"],
+    ),
     full("demo", "", &["demo"]),
 ];
 
@@ -382,6 +393,7 @@ golden_tests! {
     simulate_cross_talk => "simulate-cross-talk",
     select_cross_talk => "select-cross-talk",
     fit_tn3045 => "fit-tn3045",
+    fit_tn3045_k14 => "fit-tn3045-k14",
     fit_user_model_closed_loop => "fit-user-model-closed-loop",
     fit_accel_delay_vs_pole => "fit-accel-delay-vs-pole",
     fit_accel_asymmetry => "fit-accel-asymmetry",
@@ -398,6 +410,8 @@ golden_tests! {
     sweep_design_snr => "sweep-design-snr",
     sweep_design_frequency => "sweep-design-frequency",
     sweep_accel_asymmetry => "sweep-accel-asymmetry",
+    select_guidance_delays_k14 => "select-guidance-delays-k14",
+    select_accel_k14_strength => "select-accel-k14-strength",
     design_optimise => "design-optimise",
     demo => "demo",
 }

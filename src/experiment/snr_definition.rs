@@ -5,7 +5,7 @@
 //! papers quote the same quantity on other scales; a study can name the scale its number is
 //! in, and the simulator converts it to ρ_opt before it scales the injections. K14 does not
 //! say which scale its "SNR ≈ 5 / 21 / 28" are on: none of these maps all three onto the
-//! regimes occam finds (docs/src/k14-numbers.md).
+//! regimes occam finds (the book's "What was measured", "The SNR behind K14's numbers").
 
 use serde::{Deserialize, Serialize};
 
@@ -68,7 +68,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn each_scale_inverts_and_only_the_default_is_the_identity() {
+    fn each_scale_inverts_and_a_study_file_names_it() {
         for d in [
             SnrDefinition::Optimal,
             SnrDefinition::LtpdaStnr,
