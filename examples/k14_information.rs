@@ -50,17 +50,11 @@ struct Knob {
     set: fn(&mut Study, f64),
 }
 
-fn scale_segments(w: &mut Waveform, from: usize, f: impl Fn(&mut SineSegment)) {
-    if let Waveform::SineTrain { segments, .. } = w {
-        segments.iter_mut().skip(from).for_each(f);
-    }
-}
-
-/// Scales every amplitude of the experiments whose design injects on x1 (`on_x1`) or x12.
+/// Scales every amplitude injected on x1 (`on_x1`) or on x12, in every experiment.
 fn scale_experiments(s: &mut Study, on_x1: bool, x: f64) {
     for e in &mut s.experiments {
         let w = if on_x1 { &mut e.x1 } else { &mut e.x12 };
-        scale_segments(w, 0, |g| g.amplitude *= x);
+        *w = w.scaled(x);
     }
 }
 
@@ -146,6 +140,31 @@ fn residuals(info: &Information, x: &[f64]) -> Vec<f64> {
     r
 }
 
+/// `ln σ` of the seven parameters, in the order of [`K14`].
+fn ln_sigmas(info: &Information) -> Vec<f64> {
+    K14.iter().map(|(n, _, _)| sigma_of(info, n).ln()).collect()
+}
+
+/// The central-difference Jacobian of `f` at `x` (step `h` in every coordinate).
+fn central_jacobian(
+    f: impl Fn(&[f64]) -> Result<Vec<f64>, Box<dyn std::error::Error>>,
+    x: &[f64],
+    h: f64,
+) -> Result<DMatrix<f64>, Box<dyn std::error::Error>> {
+    let mut cols = Vec::with_capacity(x.len());
+    for k in 0..x.len() {
+        let (mut up, mut dn) = (x.to_vec(), x.to_vec());
+        up[k] += h;
+        dn[k] -= h;
+        let (a, b) = (f(&up)?, f(&dn)?);
+        cols.push(DVector::from_iterator(
+            a.len(),
+            a.iter().zip(&b).map(|(a, b)| (a - b) / (2.0 * h)),
+        ));
+    }
+    Ok(DMatrix::from_columns(&cols))
+}
+
 fn with_knobs(base: &Study, x: &[f64]) -> Study {
     let mut s = base.clone();
     for (k, v) in KNOBS.iter().zip(x) {
@@ -169,20 +188,6 @@ fn calibrate(base: &Study) -> Result<(), Box<dyn std::error::Error>> {
     let misfit = |x: &[f64]| -> Result<Vec<f64>, Box<dyn std::error::Error>> {
         Ok(residuals(&information(&with_knobs(base, x))?, x))
     };
-    let jacobian = |x: &[f64]| -> Result<DMatrix<f64>, Box<dyn std::error::Error>> {
-        let r0 = misfit(x)?;
-        let mut j = DMatrix::zeros(r0.len(), nk);
-        for k in 0..nk {
-            let (mut up, mut dn) = (x.to_vec(), x.to_vec());
-            up[k] += h;
-            dn[k] -= h;
-            let (a, b) = (misfit(&up)?, misfit(&dn)?);
-            for p in 0..r0.len() {
-                j[(p, k)] = (a[p] - b[p]) / (2.0 * h);
-            }
-        }
-        Ok(j)
-    };
     // the sensitivities ∂ ln σ / ∂ ln k of all seven bounds at today's inputs
     println!("\nSensitivity ∂ ln σ / ∂ ln k at today's inputs:\n");
     println!(
@@ -190,27 +195,20 @@ fn calibrate(base: &Study) -> Result<(), Box<dyn std::error::Error>> {
         KNOBS.map(|k| k.name).join(" | "),
         " --- |".repeat(nk + 1)
     );
-    let ln_sigma = |x: &[f64], p: &str| -> Result<f64, Box<dyn std::error::Error>> {
-        Ok(sigma_of(&information(&with_knobs(base, x))?, p).ln())
-    };
-    for (n, _, _) in K14.iter() {
-        let mut row = Vec::new();
-        for k in 0..nk {
-            let (mut up, mut dn) = (x.clone(), x.clone());
-            up[k] += h;
-            dn[k] -= h;
-            row.push(format!(
-                "{:+.2}",
-                (ln_sigma(&up, n)? - ln_sigma(&dn, n)?) / (2.0 * h)
-            ));
-        }
+    let sens = central_jacobian(
+        |x| Ok(ln_sigmas(&information(&with_knobs(base, x))?)),
+        &x,
+        h,
+    )?;
+    for (p, (n, _, _)) in K14.iter().enumerate() {
+        let row: Vec<String> = (0..nk).map(|k| format!("{:+.2}", sens[(p, k)])).collect();
         println!("| {n} | {} |", row.join(" | "));
     }
     let mut r = DVector::from_vec(misfit(&x)?);
     let mut lambda = 1e-2;
     println!();
     for it in 0..40 {
-        let j = jacobian(&x)?;
+        let j = central_jacobian(&misfit, &x, h)?;
         let jt = j.transpose();
         let mut a = &jt * &j;
         for k in 0..nk {
@@ -273,7 +271,7 @@ fn calibrate(base: &Study) -> Result<(), Box<dyn std::error::Error>> {
 }
 
 /// What the x1 sequence would need for K14's σ(Δt1) = 5e−5 s, with the study's noise: (a)
-/// one factor on all its amplitudes (σ ∝ 1/amplitude in a linear model), (b) one more 1200 s
+/// one factor on all its amplitudes (today's σ(Δt1) ÷ 5e−5), (b) one more 1200 s
 /// segment at a higher frequency, of the amplitude that brings σ(Δt1) to 5e−5, found by
 /// bisection on its logarithm — each with what it does to A_df's bound.
 fn x1_needs(base: &Study) -> Result<(), Box<dyn std::error::Error>> {
@@ -284,12 +282,25 @@ fn x1_needs(base: &Study) -> Result<(), Box<dyn std::error::Error>> {
         "\nWhat x1 would need for σ(Δt1) = {target:.0e} s (today {dt1:.3e} s, A_df {adf:.3e}):\n\n\
          | change to the x1 sequence | σ(Δt1) | σ(A_df) | σ(A_df) ÷ K14 |\n| --- | --- | --- | --- |"
     );
+    // the x1 experiment alone measures Δt1 and A_df, so σ ∝ 1/amplitude nearly (not exactly:
+    // the stiffnesses they correlate with are measured by x12 too): computed, not assumed
     let k = dt1 / target;
+    let mut scaled = base.clone();
+    scale_experiments(&mut scaled, true, k);
+    let i = information(&scaled)?;
+    let a = sigma_of(&i, "a_df");
     println!(
-        "| every amplitude ×{k:.1} | {target:.1e} | {:.2e} | {:.2} |",
-        adf / k,
-        adf / k / 2.5e-4
+        "| every amplitude ×{k:.1} | {:.2e} | {a:.2e} | {:.2} |",
+        sigma_of(&i, "dt1"),
+        a / 2.5e-4
     );
+    if !base
+        .experiments
+        .iter()
+        .any(|e| matches!(e.x1, Waveform::SineTrain { .. }))
+    {
+        return Err("`needs` adds a segment to a sine train on x1, and the study has none".into());
+    }
     for f in [0.1, 0.2, 0.4, 1.0] {
         let with = |a: f64| -> Result<Information, Box<dyn std::error::Error>> {
             let mut s = base.clone();
