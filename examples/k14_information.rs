@@ -208,7 +208,7 @@ fn calibrate(base: &Study) -> Result<(), Box<dyn std::error::Error>> {
     let mut lambda = 1e-2;
     println!();
     for it in 0..40 {
-        let j = central_jacobian(&misfit, &x, h)?;
+        let j = central_jacobian(misfit, &x, h)?;
         let jt = j.transpose();
         let mut a = &jt * &j;
         for k in 0..nk {
