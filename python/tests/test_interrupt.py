@@ -14,7 +14,10 @@ from conftest import SMALL, run_cli
 # the job runs in a child Python so that the test can send it SIGINT; it says when the work
 # has started (the progress callback saw some), then waits to be interrupted
 CHILD = """
-import sys, time, occam
+import signal, sys, time, occam
+# a child started from a background job inherits SIGINT ignored, and Python then installs no
+# KeyboardInterrupt handler (both tests failed so under `bash -c … &`): restore Python's own
+signal.signal(signal.SIGINT, signal.default_int_handler)
 job, study, out = sys.argv[1], sys.argv[2], sys.argv[3]
 def progress(done, total):
     if done > 0 and not progress.said:
@@ -39,9 +42,7 @@ def interrupt(job, study, out, tmp_path):
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=tmp_path,
     )
     assert p.stdout.readline().strip() == "started", p.stderr.read()
-    # soon after: the relative-binned chains run 4 × 200 000 iterations in about 1.5 s on two
-    # cores, so a longer wait can miss the run (it did, at 0.5 s and 100 000 iterations)
-    time.sleep(0.05)
+    time.sleep(0.5)
     t0 = time.monotonic()
     p.send_signal(signal.SIGINT)
     out_text, err = p.communicate(timeout=60)
@@ -63,7 +64,7 @@ def test_ctrl_c_stops_a_fit_which_resumes_to_the_uninterrupted_numbers(occam_bin
 
     study = long_study(
         tmp_path,
-        **{"iterations = 4000\nburn_in = 1000": "iterations = 200000\nburn_in = 1000\ncheckpoint_every = 2000"},
+        **{"iterations = 4000\nburn_in = 1000": "iterations = 100000\nburn_in = 1000\ncheckpoint_every = 2000"},
     )
     out = tmp_path / "fit"
     words, err, stopped = interrupt("fit", study, out, tmp_path)
@@ -82,7 +83,7 @@ def test_ctrl_c_stops_a_fit_which_resumes_to_the_uninterrupted_numbers(occam_bin
 def test_ctrl_c_stops_a_select_which_resumes_to_the_uninterrupted_numbers(occam_bin, tmp_path):
     import occam
 
-    study = long_study(tmp_path, **{"iterations = 2000\nburn_in = 500": "iterations = 60000\nburn_in = 500"})
+    study = long_study(tmp_path, **{"iterations = 2000\nburn_in = 500": "iterations = 30000\nburn_in = 500"})
     out = tmp_path / "select"
     words, err, stopped = interrupt("select", study, out, tmp_path)
     assert words[0] == "interrupted", (words, err)
