@@ -25,6 +25,7 @@ mod job;
 pub mod mpi;
 #[cfg(any(test, feature = "mpi"))]
 mod mpi_wire;
+pub mod own_noise;
 pub mod prepare;
 pub mod progress;
 pub mod raw_data;

@@ -50,6 +50,9 @@ pub struct Prepared {
     pub glitch_candidates: Vec<crate::jobs::glitch_model::GlitchCandidate>,
     /// The candidates found but not modelled: the data did not support them.
     pub glitch_dropped: Vec<crate::jobs::glitch_model::GlitchCandidate>,
+    /// Where the residual noise of `likelihood` was evaluated when it depends on the `[fit]`
+    /// model's parameters ([`crate::jobs::own_noise`]; set by [`prepare`] only).
+    pub noise_point: Option<crate::jobs::own_noise::NoisePoint>,
 }
 
 impl Prepared {
@@ -187,8 +190,23 @@ pub fn load_data_for(study: &Study, models: &[usize]) -> Result<(Dataset, String
 
 /// Loads or simulates the data and builds the exact likelihood of the `[fit]` model; a data
 /// file needs only the channels that model reads.
+///
+/// When the residual noise depends on the `[fit]` model's free parameters (`noise = "model"`
+/// through the model's own dynamics), the noise is evaluated at the model's own MAP, iterated
+/// ([`crate::jobs::own_noise`]), not at the study's reference point.
 pub fn prepare(study: &Study) -> Result<Prepared, AnalysisError> {
-    prepare_for(study, &[study.fit_model.model])
+    let mut prep = prepare_for(study, &[study.fit_model.model])?;
+    if prep.study.is_none() {
+        let spec = &study.fit_model;
+        let start = default_start(study, spec);
+        if let Some((lik, point)) =
+            crate::jobs::own_noise::own_noise_likelihood(study, spec, &prep.dataset, &start)?
+        {
+            prep.likelihood = lik;
+            prep.noise_point = Some(point);
+        }
+    }
+    Ok(prep)
 }
 
 /// Loads or simulates the data a job on models `models` (indices into the study's models, at
@@ -211,6 +229,7 @@ pub fn prepare_for(study: &Study, models: &[usize]) -> Result<Prepared, Analysis
             study: None,
             glitch_candidates: Vec::new(),
             glitch_dropped: Vec::new(),
+            noise_point: None,
         });
     }
     // the loop fitted without glitches: where they are found and their starts made
@@ -235,6 +254,7 @@ pub fn prepare_for(study: &Study, models: &[usize]) -> Result<Prepared, Analysis
         study: Some(Box::new(modelled.study)),
         glitch_candidates: modelled.candidates,
         glitch_dropped: modelled.dropped,
+        noise_point: None,
     })
 }
 
@@ -485,11 +505,22 @@ pub fn likelihood_of(
     mi: usize,
     dataset: &Dataset,
 ) -> Result<Likelihood, AnalysisError> {
+    likelihood_at(study, mi, dataset, &reference_point(study, mi))
+}
+
+/// [`likelihood_of`] with the residual noise (and the gaps' edge correction) evaluated at
+/// `reference` instead of [`reference_point`] (a model whose noise depends on θ:
+/// [`crate::jobs::own_noise`]).
+pub fn likelihood_at(
+    study: &Study,
+    mi: usize,
+    dataset: &Dataset,
+    reference: &[f64],
+) -> Result<Likelihood, AnalysisError> {
     let opts = spectra_options(study);
     let sys = study.system();
     let csd = |f: f64| sys.noise_csd(f);
     let model = study.models.models[mi].clone();
-    let reference = reference_point(study, mi);
     let a = &study.analysis;
     if a.statistic == crate::likelihood::Statistic::LogPeriodogram
         && let Some(e) = dataset.experiments.iter().find(|e| e.has_gaps())
@@ -515,7 +546,7 @@ pub fn likelihood_of(
             })?
             .unwrap_or_else(|| model.clone());
         let mut sp =
-            ExperimentSpectra::of_experiment(e, &opts, here.as_ref(), &reference, Some(&csd))?;
+            ExperimentSpectra::of_experiment(e, &opts, here.as_ref(), reference, Some(&csd))?;
         for s in &mut sp {
             s.covariates = cov.clone();
         }

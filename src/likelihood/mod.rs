@@ -20,6 +20,7 @@ mod segments;
 mod spectra;
 pub mod stability;
 pub mod statistic;
+pub mod theta_noise;
 pub mod transfer;
 
 pub use exact::{Likelihood, LikelihoodError};

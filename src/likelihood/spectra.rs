@@ -111,11 +111,12 @@ pub enum SpectraError {
 /// The residual `r = Σ_c M_c d_c` carries the noise of the measured channels through the
 /// model's coefficients. Its CSD is `S_r = M(θ_ref) S_d M(θ_ref)ᴴ`, with `S_d` the CSD of the
 /// data channels (Welch of the noise-only stretch, or the simulator's noise model) and
-/// `θ_ref` a reference point (the start of the analysis), held fixed during sampling as in K14
-/// ("noise independent of the parameters"). Channels with no noise-only series (commanded
-/// injections) are noiseless. For the LTP closed loop `M_o = I`, so `S_r = S_o` exactly and
-/// `θ_ref` plays no role; for models whose output coefficients depend on θ (the acceleration
-/// domain) the reference point matters at the level of the parameter's relative error.
+/// `θ_ref` a reference point, held fixed during sampling as in K14 ("noise independent of the
+/// parameters"). Channels with no noise-only series (commanded injections) are noiseless. For
+/// the LTP closed loop `M_o = I`, so `S_r = S_o` exactly and `θ_ref` plays no role; where the
+/// noise moves with θ the jobs put `θ_ref` at each model's own MAP, iterated
+/// (`crate::jobs::own_noise`), and [`crate::likelihood::theta_noise`] holds the exact
+/// θ-dependent likelihood beside this one.
 #[derive(Debug, Clone)]
 pub struct ExperimentSpectra {
     pub name: String,
@@ -139,6 +140,10 @@ pub struct ExperimentSpectra {
     pub whiten: Vec<Complex64>,
     /// `ln det C_k` per bin.
     pub ln_det: Vec<f64>,
+    /// `C_k = noise_scale · S_r,k`: `(fs/2) Σw²` of the window the data were tapered with
+    /// (what a residual CSD evaluated at another θ is scaled by,
+    /// [`crate::likelihood::theta_noise`]).
+    pub noise_scale: f64,
     /// The residual-noise CSD `S_r,k` used (one-sided), `R × R` row-major per bin
     /// ([`ExperimentSpectra::csd_at`]).
     pub csd: Vec<Complex64>,
@@ -363,6 +368,7 @@ impl ExperimentSpectra {
             cinv,
             whiten,
             ln_det,
+            noise_scale: scale,
             csd,
             consts,
             active,

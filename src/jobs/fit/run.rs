@@ -57,6 +57,7 @@ pub fn run(
     let mut warnings = model_warnings(study, model.model, &prep.dataset);
     warnings.extend(gap_notes(study, &prep.dataset));
     warnings.extend(prep.glitch_notes());
+    warnings.extend(prep.noise_point.as_ref().map(|p| p.fit_note()));
     if !map.converged {
         warnings.push(format!(
             "the MAP search stopped after {} iterations without converging; the chains may start far from the mode",

@@ -32,8 +32,8 @@ use nalgebra::DMatrix;
 pub(super) enum Sampled {
     /// Relative-binned around the model's MAP.
     RelBin(Box<RelBinLikelihood>),
-    /// The exact likelihood of the parent model (index into the study's models).
-    Exact(usize),
+    /// The model's exact likelihood ([`super::plan::ModelPlan::exact`]).
+    Exact,
 }
 
 /// What the reversible-jump stage needs from one model.
@@ -109,11 +109,11 @@ pub(super) fn sampled_around(
                     notes.push(format!(
                         "relative binning not used ({e}); the samplers run on the exact likelihood"
                     ));
-                    Sampled::Exact(spec.model)
+                    Sampled::Exact
                 }
             }
         }
-        LikelihoodKind::Exact => Sampled::Exact(spec.model),
+        LikelihoodKind::Exact => Sampled::Exact,
     };
     (sampled, notes)
 }
@@ -505,7 +505,7 @@ pub(super) fn run_model(
     notes.extend(why);
     let target: &dyn LogDensity = match &sampled {
         Sampled::RelBin(rb) => rb.as_ref(),
-        Sampled::Exact(_) => exact,
+        Sampled::Exact => exact,
     };
     let sub_s = SubModel::new(target, free.clone(), base.clone()).map_err(|e| e.to_string())?;
 
@@ -560,6 +560,11 @@ pub(super) fn run_model(
     };
     let schwarz = schwarz_ln_z(ln_l_map, d, m.n_sbic).map_err(|e| e.to_string())?;
 
+    let noise_correction = m
+        .noise_point
+        .as_ref()
+        .and_then(|p| noise_correction(exact, chains.as_ref(), &base, free, p, &mut notes));
+
     let which = map.which_maximum();
     if let Some(d) = map.search.as_ref().and_then(|s| s.describe(&m.param_names)) {
         notes.push(d);
@@ -587,7 +592,7 @@ pub(super) fn run_model(
         ),
         relbin: match &sampled {
             Sampled::RelBin(rb) => Some(rb.validation().clone()),
-            Sampled::Exact(_) => None,
+            Sampled::Exact => None,
         },
         ln_l_map,
         unbounded_max: lf.unbounded_max,
@@ -609,6 +614,7 @@ pub(super) fn run_model(
             .map(|g| g.rhat.iter().cloned().fold(0.0, f64::max)),
         jump_proposal: jump_source.to_string(),
         unstable_evaluations: 0,
+        noise_correction,
         notes,
     };
     Ok(ModelRun {
@@ -622,6 +628,57 @@ pub(super) fn run_model(
         seed: m.seed,
         chains,
     })
+}
+
+/// Samples of the in-model chains the noise correction averages over at most (evenly
+/// thinned, in chain order): each costs a factorisation of the residual CSD per bin.
+const NOISE_CORRECTION_SAMPLES: usize = 2000;
+
+/// The shift from this model's fixed-noise evidence to the exact θ-dependent one, over the
+/// in-model chains' samples; the note of where the noise was evaluated (and of a correction
+/// not to be trusted) goes to `notes`.
+fn noise_correction(
+    exact: &crate::likelihood::Likelihood,
+    chains: Option<&Chains>,
+    base: &[f64],
+    free: &[usize],
+    point: &crate::jobs::own_noise::NoisePoint,
+    notes: &mut Vec<String>,
+) -> Option<crate::likelihood::theta_noise::NoiseCorrection> {
+    use crate::likelihood::theta_noise::NoiseCorrection;
+    notes.push(point.note());
+    let Some(chains) = chains else {
+        notes.push("no in-model chains: the evidences are those of the noise held at the MAP, not corrected to the exact θ-dependent likelihood".into());
+        return None;
+    };
+    let d = chains.dim();
+    let all: Vec<&[f64]> = chains
+        .chains()
+        .iter()
+        .flat_map(|c| c.samples.chunks(d))
+        .collect();
+    let step = all.len().div_ceil(NOISE_CORRECTION_SAMPLES).max(1);
+    let full: Vec<Vec<f64>> = all
+        .iter()
+        .step_by(step)
+        .map(|s| {
+            let mut th = base.to_vec();
+            for (&a, v) in free.iter().zip(*s) {
+                th[a] = *v;
+            }
+            th
+        })
+        .collect();
+    let c = NoiseCorrection::estimate(exact, full.iter().map(|v| v.as_slice()));
+    match &c {
+        None => notes.push("the exact θ-dependent likelihood is not finite at some posterior sample: the evidences are those of the noise held at the MAP, not corrected".into()),
+        Some(c) if c.unreliable() => notes.push(format!(
+            "the correction to the exact θ-dependent likelihood ({:+.3} ± {:.3} nats) rests on {:.0} effective of {} samples: not to be trusted; the noise point did not settle where the posterior is",
+            c.ln_z_shift, c.std_err, c.weight_ess, c.samples
+        )),
+        Some(_) => {}
+    }
+    c
 }
 
 /// The parallel-tempering stage of a model (thermodynamic integration and stepping-stone),
@@ -639,7 +696,7 @@ pub(super) fn temper(
     let free = &run.spec.free;
     let target: &dyn LogDensity = match &run.sampled {
         Sampled::RelBin(rb) => rb.as_ref(),
-        Sampled::Exact(_) => exact,
+        Sampled::Exact => exact,
     };
     let sub_s = SubModel::new(target, free.clone(), run.base.clone()).map_err(|e| e.to_string())?;
     let sub_exact =

@@ -119,6 +119,11 @@ pub struct ModelOutcome {
     /// because the system was unstable there (`ln L = −∞`, [`crate::likelihood::stability`]).
     #[serde(default, skip_serializing_if = "is_zero")]
     pub unstable_evaluations: u64,
+    /// With a residual noise that depends on θ: the shift from the fixed-noise evidence (noise
+    /// at this model's own MAP) to the exact θ-dependent one, added to every `ln B` row that
+    /// involves the model ([`crate::likelihood::theta_noise::NoiseCorrection`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise_correction: Option<crate::likelihood::theta_noise::NoiseCorrection>,
     pub notes: Vec<String>,
 }
 

@@ -167,6 +167,47 @@ fn difference(name: &str, kind: EstimateKind, a: &Evidence, b: &Evidence) -> Pai
     }
 }
 
+/// Adds the two models' corrections from the fixed-noise to the exact θ-dependent evidence
+/// (a residual noise that depends on θ, [`ModelOutcome::noise_correction`]) to every row with
+/// a number but Schwarz's (whose `ln L` at the MAP needs none: the noise is evaluated
+/// there), its error in quadrature on the statistical rows.
+fn correct_for_noise(est: &mut [PairEstimate], mx: &ModelOutcome, my: &ModelOutcome) {
+    let (cx, cy) = (mx.noise_correction, my.noise_correction);
+    if cx.is_none() && cy.is_none() {
+        return;
+    }
+    let shift = cx.map_or(0.0, |c| c.ln_z_shift) - cy.map_or(0.0, |c| c.ln_z_shift);
+    let err = cx
+        .map_or(0.0, |c| c.std_err)
+        .hypot(cy.map_or(0.0, |c| c.std_err));
+    let of = |m: &ModelOutcome| {
+        m.noise_correction
+            .map(|c| format!("{} {:+.3} ± {:.3}", m.name, c.ln_z_shift, c.std_err))
+    };
+    let what = [of(mx), of(my)].into_iter().flatten().collect::<Vec<_>>();
+    let why = format!(
+        "includes the correction from the noise held at each model's MAP to the exact θ-dependent likelihood ({}: ln Z shifts {})",
+        if what.len() == 2 {
+            "both models"
+        } else {
+            "one model"
+        },
+        what.join(", ")
+    );
+    for e in est.iter_mut().filter(|e| e.kind != EstimateKind::Criterion) {
+        if let Some(v) = e.ln_b.as_mut() {
+            *v += shift;
+            if let Some(s) = e.std_err.as_mut() {
+                *s = s.hypot(err);
+            }
+            e.note = Some(match e.note.take() {
+                Some(n) => format!("{n}; {why}"),
+                None => why.clone(),
+            });
+        }
+    }
+}
+
 /// Every estimator's row for models `x`, `y`, the reference and the verdict.
 pub(super) fn pair(
     models: &[ModelOutcome],
@@ -253,6 +294,7 @@ pub(super) fn pair(
         ),
         note: None,
     });
+    correct_for_noise(&mut est, mx, my);
     let (reference, all_agree, systematic_agree) = judge(&mut est);
     let lb = est
         .iter()
@@ -484,6 +526,7 @@ mod tests {
             mcmc_max_rhat: None,
             jump_proposal: "in-model chains".into(),
             unstable_evaluations: 0,
+            noise_correction: None,
             notes: vec![],
         }
     }

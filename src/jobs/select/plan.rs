@@ -6,6 +6,7 @@
 use super::error::SelectError;
 use crate::config::{CrossChecks, JumpProposal, LikelihoodKind, ModelSpec, Study};
 use crate::evidence::{ProposalShape, RjOptions};
+use crate::jobs::own_noise::{NoisePoint, own_noise_likelihood};
 use crate::jobs::prepare::{Prepared, default_start, likelihood_of, relbin_options, sampled_kind};
 use crate::likelihood::{Likelihood, RelBinOptions};
 use std::borrow::Cow;
@@ -14,6 +15,9 @@ use std::borrow::Cow;
 /// sub-model of), by ascending model index; the prepared one is reused.
 pub(super) struct Parents<'a> {
     exacts: Vec<(usize, Cow<'a, Likelihood>)>,
+    /// Per `[[select.model]]`, in order: its own exact likelihood when the residual noise
+    /// depends on its free parameters (noise at its own MAP, [`crate::jobs::own_noise`]).
+    own: Vec<Option<(Likelihood, NoisePoint)>>,
 }
 
 impl<'a> Parents<'a> {
@@ -36,7 +40,36 @@ impl<'a> Parents<'a> {
             };
             exacts.push((mi, lik));
         }
-        Ok(Parents { exacts })
+        let mut own = Vec::with_capacity(study.select_models.len());
+        for m in &study.select_models {
+            own.push(
+                own_noise_likelihood(
+                    study,
+                    &m.spec,
+                    &prep.dataset,
+                    &default_start(study, &m.spec),
+                )
+                .map_err(|e| SelectError::Model {
+                    model: m.name.clone(),
+                    msg: e.to_string(),
+                })?,
+            );
+        }
+        Ok(Parents { exacts, own })
+    }
+
+    /// The exact likelihood `[[select.model]]` number `k` (on parent `mi`) runs on: its own
+    /// when its noise depends on its parameters, else its parent's.
+    pub fn for_model(&self, k: usize, mi: usize) -> &Likelihood {
+        match &self.own[k] {
+            Some((l, _)) => l,
+            None => self.of(mi),
+        }
+    }
+
+    /// Where `[[select.model]]` number `k`'s noise was evaluated, when it depends on θ.
+    pub fn noise_point(&self, k: usize) -> Option<&NoisePoint> {
+        self.own[k].as_ref().map(|(_, p)| p)
     }
 
     /// The parent models' indices, ascending.
@@ -94,6 +127,9 @@ pub(super) struct ModelPlan<'a> {
     pub sampled_why: Option<String>,
     /// Relative-binning accuracy settings.
     pub relbin: RelBinOptions,
+    /// Where the residual noise was evaluated, when it depends on this model's parameters
+    /// (`exact` is then this model's own).
+    pub noise_point: Option<NoisePoint>,
     /// Seed of this model's samplers.
     pub seed: u64,
     /// Schwarz's `n` (real data points).
@@ -144,7 +180,7 @@ impl<'a> SelectPlan<'a> {
             .iter()
             .enumerate()
             .map(|(k, m)| {
-                let exact = parents.of(m.spec.model);
+                let exact = parents.for_model(k, m.spec.model);
                 let param_names = exact.model().param_names().to_vec();
                 let free_names = m
                     .spec
@@ -165,6 +201,7 @@ impl<'a> SelectPlan<'a> {
                     sampled_kind,
                     sampled_why,
                     relbin: relbin_options(study),
+                    noise_point: parents.noise_point(k).cloned(),
                     seed: seed.wrapping_add(k as u64),
                     n_sbic,
                     stages,

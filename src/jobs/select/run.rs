@@ -100,7 +100,7 @@ pub fn run_observed(
     let parents = Parents::new(study, prep)?;
     let plan = SelectPlan::new(study, &parents);
     let runs = run_models(&plan, &mut ckpt, work)?;
-    let rj = reversible_jump(&plan, &parents, &runs, &mut ckpt, progress, work)?;
+    let rj = reversible_jump(&plan, &runs, &mut ckpt, progress, work)?;
     let mut out = summarise(study, prep, &plan, &parents, runs, rj)?;
     out.seconds = t0.elapsed().as_secs_f64();
     Ok(out)
@@ -154,7 +154,7 @@ fn run_models(
             m.exact.unstable_evaluations()
                 + match &r.sampled {
                     Sampled::RelBin(rb) => rb.unstable_evaluations(),
-                    Sampled::Exact(_) => 0,
+                    Sampled::Exact => 0,
                 }
         };
         let refused_before = m.exact.unstable_evaluations();
@@ -212,7 +212,6 @@ struct RjStage {
 /// the checkpoint where it holds it, else run and saved.
 fn reversible_jump(
     plan: &SelectPlan<'_>,
-    parents: &Parents<'_>,
     runs: &[ModelRun],
     ckpt: &mut Option<Checkpointing<'_>>,
     progress: Option<&mut dyn FnMut(&crate::evidence::RjProgress<'_>)>,
@@ -221,9 +220,10 @@ fn reversible_jump(
     let rj_base = work.map_or(0, |w| w.done.load(std::sync::atomic::Ordering::Relaxed));
     let targets: Vec<&dyn LogDensity> = runs
         .iter()
-        .map(|r| match &r.sampled {
+        .zip(&plan.models)
+        .map(|(r, m)| match &r.sampled {
             Sampled::RelBin(rb) => rb.as_ref() as &dyn LogDensity,
-            Sampled::Exact(mi) => parents.of(*mi) as &dyn LogDensity,
+            Sampled::Exact => m.exact as &dyn LogDensity,
         })
         .collect();
     let subs: Vec<SubModel<&dyn LogDensity>> = runs
