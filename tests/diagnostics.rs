@@ -120,3 +120,56 @@ fn a_map_on_a_prior_bound_names_the_bound_and_the_prior_entry() {
         "{s}"
     );
 }
+
+/// A fit whose chains cannot have converged (four chains of 120 iterations, a proposal 30×
+/// too wide) leads with "RESULTS NOT VALID" before its table, writes `"valid": false` with the
+/// merged reasons, and the report opens with them; the same study run long enough is valid.
+#[test]
+fn a_fit_that_failed_its_checks_leads_with_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let bad = common::small().replace(
+        "chains = 2\niterations = 2000\nburn_in = 500\n[select]",
+        "chains = 4\niterations = 120\nburn_in = 20\nproposal_scale = 30.0\n[select]",
+    );
+    assert_ne!(bad, common::small(), "the [fit] lengths were replaced");
+    std::fs::write(dir.path().join("bad.toml"), &bad).unwrap();
+    let (ok, out, err) = occam(&["fit", "bad.toml"], dir.path());
+    assert!(ok, "{err}");
+    let first = out.lines().next().unwrap();
+    assert!(first.starts_with("RESULTS NOT VALID"), "{out}");
+    let s: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.path().join("out/fit/summary.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(s["valid"], false);
+    let reasons: Vec<&str> = s["invalid_reasons"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_str().unwrap())
+        .collect();
+    eprintln!("{reasons:#?}");
+    assert!(
+        reasons
+            .iter()
+            .any(|r| r.contains("effective sample size below 50")),
+        "{reasons:?}"
+    );
+    // one line per kind of failure, however many parameters it hit
+    assert!(reasons.len() <= 4, "{reasons:?}");
+    let (ok, _, err) = occam(&["report", "out/fit"], dir.path());
+    assert!(ok, "{err}");
+    let page = std::fs::read_to_string(dir.path().join("out/fit/report.html")).unwrap();
+    let banner = page.find("Results not valid").expect("the report says so");
+    assert!(banner < page.find("id=\"tables\"").unwrap());
+
+    std::fs::write(dir.path().join("good.toml"), common::small()).unwrap();
+    let (ok, out, err) = occam(&["fit", "good.toml", "--output", "good"], dir.path());
+    assert!(ok, "{err}");
+    assert!(!out.contains("RESULTS NOT VALID"), "{out}");
+    let s: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.path().join("good/summary.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(s["valid"], true, "{}", s["invalid_reasons"]);
+}

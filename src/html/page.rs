@@ -66,6 +66,28 @@ fn warnings_section(p: &Parts) -> String {
     h
 }
 
+/// The headline of a run that failed its own checks (`"valid": false` in its summary, with
+/// `invalid_reasons`): before every table; nothing for a valid run or an older summary.
+fn invalid_section(s: &serde_json::Value) -> String {
+    if s.get("valid").and_then(|v| v.as_bool()) != Some(false) {
+        return String::new();
+    }
+    let mut h = String::from(
+        "<section id=\"invalid\" class=\"warnings\"><h2>Results not valid: do not use the numbers below</h2>\n<p>This run failed its own checks:</p>\n<ul>\n",
+    );
+    for r in s
+        .get("invalid_reasons")
+        .and_then(|v| v.as_array())
+        .into_iter()
+        .flatten()
+        .filter_map(|v| v.as_str())
+    {
+        h.push_str(&format!("<li>{}</li>\n", esc(r)));
+    }
+    h.push_str("</ul></section>\n");
+    h
+}
+
 fn tables_section(run: &Run) -> String {
     let mut h = String::from("<section id=\"tables\"><h2>Results</h2>\n");
     if run.tables.is_empty() {
@@ -184,6 +206,9 @@ pub fn render(run: &Run) -> String {
     h.push_str(&facts(&f));
     h.push_str("</header>\n");
     h.push_str("<nav><a href=\"#warnings\">Warnings</a><a href=\"#tables\">Results</a><a href=\"#diagnostics\">Diagnostics</a><a href=\"#figures\">Figures</a><a href=\"#study\">Study</a><a href=\"#files\">Files</a></nav>\n");
+    if let Some((_, s)) = &run.summary {
+        h.push_str(&invalid_section(s));
+    }
     h.push_str(&warnings_section(&parts));
     h.push_str(&tables_section(run));
     h.push_str(&format!(
@@ -199,4 +224,20 @@ pub fn render(run: &Run) -> String {
         esc(&dir)
     ));
     h
+}
+
+#[cfg(test)]
+mod tests {
+    use super::invalid_section;
+    use serde_json::json;
+
+    #[test]
+    fn a_failed_run_leads_with_its_reasons_and_a_valid_or_old_one_with_nothing() {
+        let bad = json!({"valid": false, "invalid_reasons": ["chains: R-hat above 1.1 for `a` 1.64 <x>"]});
+        let h = invalid_section(&bad);
+        assert!(h.contains("Results not valid"), "{h}");
+        assert!(h.contains("R-hat above 1.1 for `a` 1.64 &lt;x&gt;"), "{h}");
+        assert!(invalid_section(&json!({"valid": true, "invalid_reasons": []})).is_empty());
+        assert!(invalid_section(&json!({"origin": "an older run"})).is_empty());
+    }
 }

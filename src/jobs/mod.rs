@@ -35,6 +35,7 @@ pub mod sampled;
 pub mod select;
 pub mod simulate;
 pub mod sweep;
+pub mod validity;
 
 pub use job::{Context, Done, Job, Log, execute};
 pub use progress::Work;

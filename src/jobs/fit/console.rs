@@ -10,11 +10,8 @@ use crate::config::{LikelihoodKind, Study};
 /// line by line (its warnings, on standard error, are `s.warnings`).
 pub fn console(s: &FitSummary, study: &Study) -> Vec<String> {
     // split, not lines: the table ends with a newline, printed as the blank line after it
-    let mut out: Vec<String> = table(s)
-        .to_string()
-        .split('\n')
-        .map(str::to_string)
-        .collect();
+    let mut out = crate::jobs::validity::invalid_lines(&s.invalid_reasons);
+    out.extend(table(s).to_string().split('\n').map(str::to_string));
     out.push(format!(
         "rho_opt at MAP = {}; MAP found in {} Fisher-scoring iterations ({:.2} s)",
         if s.rho_opt_at_map.is_finite() {

@@ -22,6 +22,8 @@ mod tests {
 
     fn summary(rows: Vec<ParamRow>) -> FitSummary {
         FitSummary {
+            valid: true,
+            invalid_reasons: Vec::new(),
             origin: "test".into(),
             model: "m".into(),
             statistic: crate::likelihood::Statistic::Whittle,

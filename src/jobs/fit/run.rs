@@ -165,7 +165,7 @@ pub fn run(
         }
     };
     let units = exact.model().param_units();
-    let rows = free
+    let rows: Vec<ParamRow> = free
         .iter()
         .enumerate()
         .map(|(k, &i)| {
@@ -185,7 +185,30 @@ pub fn run(
         })
         .collect();
     let total_iter = (f.iterations * f.chains) as f64;
+    let mut invalid_reasons = Vec::new();
+    if !map.converged {
+        invalid_reasons.push(format!(
+            "the MAP search did not converge in {} iterations; the chains started from where it stopped — give a [fit] start nearer the mode or raise [fit] map_starts",
+            map.iterations
+        ));
+    }
+    let names_free: Vec<String> = rows.iter().map(|r| r.name.clone()).collect();
+    let rhat: Vec<f64> = rows.iter().map(|r| r.rhat).collect();
+    let ess: Vec<f64> = rows.iter().map(|r| r.ess).collect();
+    invalid_reasons.extend(
+        crate::jobs::validity::ChainChecks {
+            scope: "chains",
+            names: &names_free,
+            rhat: &rhat,
+            ess: Some(&ess),
+            acceptance: &diag.acceptance,
+            remedy: "run longer ([fit] iterations, burn_in), start nearer the mode ([fit] start), or fix fewer parameters free that the data do not measure",
+        }
+        .failures(),
+    );
     let mut summary = FitSummary {
+        valid: invalid_reasons.is_empty(),
+        invalid_reasons,
         origin: prep.origin.clone(),
         model: exact.model().name().to_string(),
         statistic,

@@ -43,6 +43,11 @@ pub struct ParamRow {
 /// Everything `occam fit` reports.
 #[derive(Debug, Clone, Serialize)]
 pub struct FitSummary {
+    /// Whether the run passed its own checks ([`crate::jobs::validity`]); `false`: its
+    /// numbers are not to be used, for the reasons in `invalid_reasons`.
+    pub valid: bool,
+    /// Why the run is not valid, each with what to change (empty when it is).
+    pub invalid_reasons: Vec<String>,
     pub origin: String,
     /// The fitted model.
     pub model: String,

@@ -8,7 +8,8 @@ use super::summary::SelectSummary;
 
 /// The lines printed after a select run (without its warnings).
 pub fn console(s: &SelectSummary) -> String {
-    let mut out: Vec<String> = super::header::header(s);
+    let mut out = crate::jobs::validity::invalid_lines(&s.invalid_reasons);
+    out.extend(super::header::header(s));
     out.push(String::new());
     out.push(table(s).to_string());
     out.extend(table_notes(s));

@@ -630,9 +630,13 @@ pub(super) fn run_model(
     })
 }
 
-/// Samples of the in-model chains the noise correction averages over at most (evenly
-/// thinned, in chain order): each costs a factorisation of the residual CSD per bin.
-const NOISE_CORRECTION_SAMPLES: usize = 2000;
+/// Samples of the in-model chains the noise correction averages over (evenly thinned, in
+/// chain order; each costs a factorisation of the residual CSD per bin): first the smaller
+/// number, then the larger when the error is above [`NOISE_CORRECTION_ERROR`] nats.
+const NOISE_CORRECTION_SAMPLES: [usize; 2] = [500, 2000];
+
+/// The noise correction's error (nats) below which its first, smaller sample suffices.
+const NOISE_CORRECTION_ERROR: f64 = 0.02;
 
 /// The shift from this model's fixed-noise evidence to the exact θ-dependent one, over the
 /// in-model chains' samples; the note of where the noise was evaluated (and of a correction
@@ -657,19 +661,26 @@ fn noise_correction(
         .iter()
         .flat_map(|c| c.samples.chunks(d))
         .collect();
-    let step = all.len().div_ceil(NOISE_CORRECTION_SAMPLES).max(1);
-    let full: Vec<Vec<f64>> = all
-        .iter()
-        .step_by(step)
-        .map(|s| {
-            let mut th = base.to_vec();
-            for (&a, v) in free.iter().zip(*s) {
-                th[a] = *v;
-            }
-            th
-        })
-        .collect();
-    let c = NoiseCorrection::estimate(exact, full.iter().map(|v| v.as_slice()));
+    let at = |n: usize| {
+        let step = all.len().div_ceil(n).max(1);
+        let full: Vec<Vec<f64>> = all
+            .iter()
+            .step_by(step)
+            .map(|s| {
+                let mut th = base.to_vec();
+                for (&a, v) in free.iter().zip(*s) {
+                    th[a] = *v;
+                }
+                th
+            })
+            .collect();
+        NoiseCorrection::estimate(exact, full.iter().map(|v| v.as_slice()))
+    };
+    let [few, many] = NOISE_CORRECTION_SAMPLES;
+    let c = match at(few) {
+        Some(c) if c.std_err <= NOISE_CORRECTION_ERROR && !c.unreliable() => Some(c),
+        _ => at(many),
+    };
     match &c {
         None => notes.push("the exact θ-dependent likelihood is not finite at some posterior sample: the evidences are those of the noise held at the MAP, not corrected".into()),
         Some(c) if c.unreliable() => notes.push(format!(

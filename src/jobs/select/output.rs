@@ -357,6 +357,8 @@ mod tests {
     #[test]
     fn the_table_prints_overflowing_bayes_factors_as_powers_of_ten() {
         let s = SelectSummary {
+            valid: true,
+            invalid_reasons: Vec::new(),
             origin: "test".into(),
             rho_opt_simulated: None,
             rho_opt: f64::NAN,

@@ -196,7 +196,10 @@ impl<'a> SelectPlan<'a> {
                     exact,
                     param_names,
                     free_names,
-                    start: default_start(study, &m.spec),
+                    // a noise point is the model's MAP already: its search starts there
+                    start: parents
+                        .noise_point(k)
+                        .map_or_else(|| default_start(study, &m.spec), |p| p.theta.clone()),
                     map_starts: study.fit.map_starts,
                     sampled_kind,
                     sampled_why,

@@ -421,6 +421,49 @@ fn run_rj(
     (rj, note, rate)
 }
 
+/// The gross failures of the models' own checks ([`crate::jobs::validity`]): in-model chains
+/// that did not converge or barely moved, a MAP search that failed, an evidence correction
+/// resting on a handful of samples.
+fn invalid_reasons(models: &[ModelOutcome]) -> Vec<String> {
+    use crate::jobs::validity::{ChainChecks, RHAT_LIMIT};
+    let mut out = Vec::new();
+    for m in models {
+        let scope = format!("model `{}`: in-model chains", m.name);
+        if !m.map_found {
+            out.push(format!(
+                "model `{}`: the MAP search failed; the estimators that expand around it have no number and the chains started from the prior — give [fit] start values nearer the mode or raise [fit] map_starts",
+                m.name
+            ));
+        }
+        let remedy =
+            "run longer ([select] iterations, burn_in) or start nearer the mode ([fit] start)";
+        let worst = m.mcmc_max_rhat.unwrap_or(f64::NAN);
+        if worst.is_finite() && worst > RHAT_LIMIT {
+            out.push(format!(
+                "{scope}: R-hat up to {worst:.2}, above {RHAT_LIMIT} — the chains have not converged to one distribution; {remedy}"
+            ));
+        }
+        out.extend(
+            ChainChecks {
+                scope: &scope,
+                names: &[],
+                rhat: &[],
+                ess: None,
+                acceptance: &m.mcmc_acceptance,
+                remedy,
+            }
+            .failures(),
+        );
+        if let Some(c) = m.noise_correction.filter(|c| c.unreliable()) {
+            out.push(format!(
+                "model `{}`: the correction to the exact θ-dependent likelihood rests on {:.0} effective of {} samples — its evidences are not to be trusted; give the noise point a better start ([fit] start)",
+                m.name, c.weight_ess, c.samples
+            ));
+        }
+    }
+    out
+}
+
 /// The summary of a finished run: pairs, warnings (models, data, estimators), residual PSDs
 /// (Fig. 3) and the optimal SNR; `seconds` is left 0 for the caller.
 fn summarise(
@@ -518,7 +561,10 @@ fn summarise(
     if let Some(n) = target.as_ref().and_then(|t| t.note.as_ref()) {
         warnings.push(format!("[select] target_error not met: {n}"));
     }
+    let invalid_reasons = invalid_reasons(&models);
     Ok(SelectSummary {
+        valid: invalid_reasons.is_empty(),
+        invalid_reasons,
         origin: prep.origin.clone(),
         target,
         cross_checks: study.select.cross_checks,

@@ -8,6 +8,11 @@ use serde::Serialize;
 /// Everything `occam select` reports.
 #[derive(Debug, Clone, Serialize)]
 pub struct SelectSummary {
+    /// Whether the run passed its own checks ([`crate::jobs::validity`]); `false`: its
+    /// numbers are not to be used, for the reasons in `invalid_reasons`.
+    pub valid: bool,
+    /// Why the run is not valid, each with what to change (empty when it is).
+    pub invalid_reasons: Vec<String>,
     pub origin: String,
     /// ρ_opt of the injections under the simulation's exact noise model (when simulated).
     pub rho_opt_simulated: Option<f64>,

@@ -1,0 +1,112 @@
+#!/usr/bin/env python3
+"""Every difference between the recorded golden outputs at a git revision and those in the
+working tree (tests/golden/*.json), number by number: what a commit that re-records goldens
+shows in its message.
+
+    python3 scripts/golden_diff.py [REV]        # REV defaults to HEAD
+
+For each golden case and each output file it records:
+* JSON files (summary.json, sweep.json, …): every leaf that was added, removed or changed,
+  numbers with their old and new value and the difference (wall-clock fields — `seconds`,
+  `seconds_*`, `*_per_second`, byte counts — are left out, as tests/golden.rs leaves them out);
+* text files (tables, resolved studies): the changed lines;
+* binary files (npz, png, svg; recorded as SHA-256): whether the bytes changed.
+Exit status 0 always; the last line counts the changes.
+"""
+
+import json
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+GOLDEN = Path("tests/golden")
+WALL_CLOCK = ("seconds", "bytes")
+
+
+def wall_clock(key):
+    return key == "seconds" or key.startswith("seconds_") or key.endswith("_per_second") or key in WALL_CLOCK
+
+
+def leaves(v, path=""):
+    if v == {} or v == []:
+        yield path, v
+    elif isinstance(v, dict):
+        for k, x in v.items():
+            if wall_clock(k):
+                continue
+            yield from leaves(x, f"{path}.{k}" if path else k)
+    elif isinstance(v, list):
+        for i, x in enumerate(v):
+            yield from leaves(x, f"{path}[{i}]")
+    else:
+        yield path, v
+
+
+def show(v):
+    s = json.dumps(v, ensure_ascii=False)
+    return s if len(s) <= 160 else s[:157] + "..."
+
+
+def compare_json(old, new):
+    a, b = dict(leaves(old)), dict(leaves(new))
+    out = []
+    for k in a.keys() | b.keys():
+        if k not in b:
+            out.append(f"    removed {k} = {show(a[k])}")
+        elif k not in a:
+            out.append(f"    added   {k} = {show(b[k])}")
+        elif a[k] != b[k]:
+            x, y = a[k], b[k]
+            if isinstance(x, (int, float)) and isinstance(y, (int, float)) and not isinstance(x, bool):
+                out.append(f"    changed {k}: {x!r} -> {y!r} (diff {y - x:+.6g})")
+            else:
+                out.append(f"    changed {k}: {show(x)} -> {show(y)}")
+    return sorted(out, key=lambda l: l.split()[1])
+
+
+def compare_entry(name, old, new):
+    if old == new:
+        return []
+    if old is None or new is None:
+        return [f"  {name}: {'added' if old is None else 'removed'}"]
+    if old.startswith("sha256:") or new.startswith("sha256:"):
+        return [f"  {name}: bytes changed"]
+    # the recorded JSON has its wall-clock lines cut out (tests/golden.rs), which can leave a
+    # comma before a closing bracket
+    lenient = lambda t: json.loads(re.sub(r",(\s*[}\]])", r"\1", t))
+    try:
+        o, n = lenient(old), lenient(new)
+    except ValueError:
+        ol, nl = old.splitlines(), new.splitlines()
+        lines = [f"    - {l}" for l in ol if l not in nl] + [f"    + {l}" for l in nl if l not in ol]
+        return [f"  {name}: text changed"] + lines
+    return [f"  {name}:"] + compare_json(o, n)
+
+
+def main():
+    rev = sys.argv[1] if len(sys.argv) > 1 else "HEAD"
+    files = sorted({p.name for p in GOLDEN.glob("*.json")} | set(
+        Path(p).name
+        for p in subprocess.run(
+            ["git", "ls-tree", "--name-only", f"{rev}:{GOLDEN}"], capture_output=True, text=True
+        ).stdout.split()
+    ))
+    changes = 0
+    for f in files:
+        old = subprocess.run(["git", "show", f"{rev}:{GOLDEN}/{f}"], capture_output=True, text=True)
+        old = json.loads(old.stdout) if old.returncode == 0 else {}
+        path = GOLDEN / f
+        new = json.loads(path.read_text()) if path.exists() else {}
+        lines = []
+        for entry in sorted(old.keys() | new.keys()):
+            lines += compare_entry(entry, old.get(entry), new.get(entry))
+        if lines:
+            print(f"{f}:")
+            print("\n".join(lines))
+            changes += sum(1 for l in lines if l.startswith("    ") or l.endswith(("changed", "added", "removed")))
+    print(f"{changes} change(s) against {rev}")
+
+
+if __name__ == "__main__":
+    main()
