@@ -135,8 +135,16 @@ fn a_fit_that_failed_its_checks_leads_with_it() {
     std::fs::write(dir.path().join("bad.toml"), &bad).unwrap();
     let (ok, out, err) = occam(&["fit", "bad.toml"], dir.path());
     assert!(ok, "{err}");
-    let first = out.lines().next().unwrap();
-    assert!(first.starts_with("RESULTS NOT VALID"), "{out}");
+    // after the lines the run prints as it goes (the data, the noise reference), before the
+    // table and everything else it prints at the end
+    let headline = out.find("RESULTS NOT VALID").expect("the failure is said");
+    assert!(headline < out.find("parameter  unit").unwrap(), "{out}");
+    assert!(
+        out[..headline]
+            .lines()
+            .all(|l| l.starts_with("data:") || l.starts_with("noise reference")),
+        "{out}"
+    );
     let s: serde_json::Value = serde_json::from_str(
         &std::fs::read_to_string(dir.path().join("out/fit/summary.json")).unwrap(),
     )

@@ -65,6 +65,11 @@ const CASES: &[Case] = &[
         &["simulate", "{study}"],
     ),
     case("fit-tn3045", "tn3045", &["fit", "{study}"]),
+    case(
+        "fit-two-mass-damper",
+        "two-mass-damper",
+        &["fit", "{study}"],
+    ),
     case("fit-tn3045-k14", "tn3045-k14", &["fit", "{study}"]),
     case(
         "fit-user-model-closed-loop",
@@ -158,6 +163,11 @@ const CASES: &[Case] = &[
     },
     // in full
     full("select-cross-talk", "cross-talk", &["select", "{study}"]),
+    full(
+        "select-two-mass-damper",
+        "two-mass-damper",
+        &["select", "{study}"],
+    ),
     full("sweep-design-snr", "design-snr", &["sweep", "{study}"]),
     full(
         "sweep-design-frequency",
@@ -393,6 +403,8 @@ golden_tests! {
     simulate_cross_talk => "simulate-cross-talk",
     select_cross_talk => "select-cross-talk",
     fit_tn3045 => "fit-tn3045",
+    fit_two_mass_damper => "fit-two-mass-damper",
+    select_two_mass_damper => "select-two-mass-damper",
     fit_tn3045_k14 => "fit-tn3045-k14",
     fit_user_model_closed_loop => "fit-user-model-closed-loop",
     fit_accel_delay_vs_pole => "fit-accel-delay-vs-pole",

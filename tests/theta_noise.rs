@@ -146,9 +146,9 @@ fn exact_reference(s: &Study) -> (f64, f64) {
 }
 
 /// The headline: `ln B` (damper vs springs) from the `[fit] start` of `bc` farthest from its
-/// MAP (before the fix, each start gave its own `ln B`: 4.6, −5.5 and −20.6 nats from `bc` =
-/// 0, 0.025 and 0.045 on this study) agrees with the exact θ-dependent evidence within 3
-/// combined σ on every statistical row (that the noise point, hence every row, does not
+/// MAP (before the fix, each start gave its own `ln B`: bridge −5.55 ± 0.07, −10.42 ± 0.50
+/// and −11.29 ± 0.13 from `bc` = 0, 0.025 and 0.045 on this study) agrees with the exact
+/// θ-dependent evidence within 3 combined σ on every statistical row (that the noise point, hence every row, does not
 /// depend on the start is the test above).
 #[test]
 fn the_bayes_factor_agrees_with_the_exact_evidence() {

@@ -1,6 +1,6 @@
 //! The Whittle likelihood of a model whose residual noise depends on θ (ltp-model.md §8.4).
 //!
-//! A model that knows its own noise ([`Model::data_noise_csd`], `noise = "model"`) and passes
+//! A model that knows its own noise ([`Model::data_noise_csd`](crate::model::Model::data_noise_csd), `noise = "model"`) and passes
 //! it through its own dynamics — a state-space model's noise inputs through `(sI − A)⁻¹ G` —
 //! has a residual CSD `C_k(θ)` that moves with the parameters. The exact likelihood is then
 //!
