@@ -11,6 +11,14 @@ For each golden case and each output file it records:
   `seconds_*`, `*_per_second`, byte counts — are left out, as tests/golden.rs leaves them out);
 * text files (tables, resolved studies): the changed lines;
 * binary files (npz, png, svg; recorded as SHA-256): whether the bytes changed.
+A changed number that has an error bar in the same output is shown beside it, with the change
+in units of the old and new error bars combined in quadrature (two independent runs): `std_err` (or `err`) beside an `ln_b`, `ln_z` or `ln_z_shift`; the posterior
+`sd` beside an estimate's `map` and `mean` (and a model's `map[j]`, whose sd is that of
+`estimates[j]`).
+
+    python3 scripts/golden_diff.py --bars [REV]  # only the numbers that have an error bar,
+                                                 # and a count of the other changes per file
+
 Exit status 0 always; the last line counts the changes.
 """
 
@@ -48,9 +56,42 @@ def show(v):
     return s if len(s) <= 160 else s[:157] + "..."
 
 
-def compare_json(old, new):
+def lookup(v, path):
+    """The value at a leaf path such as `models[0].estimates[2].sd`, or None."""
+    for part in re.findall(r"[^.\[\]]+|\[\d+\]", path):
+        if part.startswith("["):
+            i = int(part[1:-1])
+            v = v[i] if isinstance(v, list) and i < len(v) else None
+        else:
+            v = v.get(part) if isinstance(v, dict) else None
+        if v is None:
+            return None
+    return v
+
+
+def error_bar(new, path):
+    """The error bar of the number at `path` in the new output, or None if it has none."""
+    head, _, key = path.rpartition(".")
+    m = re.fullmatch(r"(.*)\.map\[(\d+)\]", path)
+    if m:
+        candidates = [f"{m.group(1)}.estimates[{m.group(2)}].sd"]
+    elif key in ("ln_b", "ln_z", "ln_z_shift"):
+        candidates = [f"{head}.std_err", f"{head}.err"]
+    elif key in ("map", "mean"):
+        candidates = [f"{head}.sd"]
+    else:
+        return None
+    for c in candidates:
+        e = lookup(new, c.lstrip("."))
+        if isinstance(e, (int, float)) and not isinstance(e, bool) and e > 0:
+            return e
+    return None
+
+
+def compare_json(old, new, bars_only=False):
     a, b = dict(leaves(old)), dict(leaves(new))
     out = []
+    others = 0
     for k in a.keys() | b.keys():
         if k not in b:
             out.append(f"    removed {k} = {show(a[k])}")
@@ -59,13 +100,27 @@ def compare_json(old, new):
         elif a[k] != b[k]:
             x, y = a[k], b[k]
             if isinstance(x, (int, float)) and isinstance(y, (int, float)) and not isinstance(x, bool):
-                out.append(f"    changed {k}: {x!r} -> {y!r} (diff {y - x:+.6g})")
-            else:
+                e_old, e = error_bar(old, k), error_bar(new, k)
+                if e is not None:
+                    both = e if e_old is None else (e * e + e_old * e_old) ** 0.5
+                    out.append(
+                        f"    changed {k}: {x!r} -> {y!r} (diff {y - x:+.6g}; error bar {e:.4g}, "
+                        f"diff = {(y - x) / both:+.2f} combined σ)"
+                    )
+                    continue
+                if not bars_only:
+                    out.append(f"    changed {k}: {x!r} -> {y!r} (diff {y - x:+.6g})")
+                    continue
+            elif not bars_only:
                 out.append(f"    changed {k}: {show(x)} -> {show(y)}")
+                continue
+            others += 1
+    if bars_only and others:
+        out.append(f"    other   {others} changed leaves without an error bar")
     return sorted(out, key=lambda l: l.split()[1])
 
 
-def compare_entry(name, old, new):
+def compare_entry(name, old, new, bars_only=False):
     if old == new:
         return []
     if old is None or new is None:
@@ -81,11 +136,13 @@ def compare_entry(name, old, new):
         ol, nl = old.splitlines(), new.splitlines()
         lines = [f"    - {l}" for l in ol if l not in nl] + [f"    + {l}" for l in nl if l not in ol]
         return [f"  {name}: text changed"] + lines
-    return [f"  {name}:"] + compare_json(o, n)
+    return [f"  {name}:"] + compare_json(o, n, bars_only)
 
 
 def main():
-    rev = sys.argv[1] if len(sys.argv) > 1 else "HEAD"
+    args = [a for a in sys.argv[1:] if a != "--bars"]
+    bars_only = "--bars" in sys.argv[1:]
+    rev = args[0] if args else "HEAD"
     files = sorted({p.name for p in GOLDEN.glob("*.json")} | set(
         Path(p).name
         for p in subprocess.run(
@@ -100,7 +157,7 @@ def main():
         new = json.loads(path.read_text()) if path.exists() else {}
         lines = []
         for entry in sorted(old.keys() | new.keys()):
-            lines += compare_entry(entry, old.get(entry), new.get(entry))
+            lines += compare_entry(entry, old.get(entry), new.get(entry), bars_only)
         if lines:
             print(f"{f}:")
             print("\n".join(lines))
