@@ -337,10 +337,26 @@ fn bad_data_files_are_reported_with_file_line_and_column() {
     assert!(e.contains("a.csv"), "{e}");
     // a simulation field on a data experiment
     let e = study_error(
+        &study("amplitude_scale = 2.0\n"),
+        &[("a.csv", &good), ("n.csv", &noise)],
+    );
+    assert!(e.contains("experiment[0].amplitude_scale"), "{e}");
+    // a design beside the data says what was commanded, and must fit the file
+    let e = study_error(
         &study("design = \"tn3045_x1\"\n"),
         &[("a.csv", &good), ("n.csv", &noise)],
     );
-    assert!(e.contains("experiment[0].design"), "{e}");
+    assert!(
+        e.contains("s.toml") && e.contains("a.csv") && e.contains("fs = 10 Hz"),
+        "{e}"
+    );
+    let e = study_error(
+        &study(
+            "fs = 1.0\nx1 = { kind = \"sine\", freq = 0.01, amplitude = 1e-9, duration = 100.0 }\npre_pad = 50.0\npost_pad = 49.0\n",
+        ),
+        &[("a.csv", &good), ("n.csv", &noise)],
+    );
+    assert!(e.contains("`i1` differs") && e.contains("pre_pad"), "{e}");
 }
 
 /// A dataset directory that does not exist is an error naming it (it used to load the parent

@@ -168,6 +168,8 @@ struct Experiments {
     designs: Vec<ExperimentDesign>,
     /// The experiments read from files, by name.
     data_sources: Vec<(String, crate::data::DataSource)>,
+    /// The commanded injections of read experiments that give them, by name.
+    commanded: Vec<(String, ExperimentDesign)>,
     /// Every experiment name in file order.
     names: Vec<String>,
 }
@@ -235,6 +237,7 @@ impl StudyFile {
             simulation: self.simulation,
             experiments: experiments.designs,
             data_sources: experiments.data_sources,
+            commanded: experiments.commanded,
             experiment_names: experiments.names,
             glitch_lists: self
                 .experiment
@@ -269,6 +272,7 @@ impl StudyFile {
         }
         let mut experiments = Vec::new();
         let mut data_sources: Vec<(String, crate::data::DataSource)> = Vec::new();
+        let mut commanded = Vec::new();
         let mut experiment_names: Vec<String> = Vec::new();
         let mut data_bytes = 0.0;
         for (k, e) in self.experiment.iter().enumerate() {
@@ -277,6 +281,9 @@ impl StudyFile {
             experiment_names.push(e.name.clone());
             if let Some(path) = &e.data {
                 data_sources.push((e.name.clone(), data_source(e, path, &at, file)?));
+                if let Some(d) = commanded_design(e, sim.method, base, &at, file)? {
+                    commanded.push((e.name.clone(), d));
+                }
                 continue;
             }
             let d = simulated_design(e, sim.method, base, &at, file)?;
@@ -289,6 +296,7 @@ impl StudyFile {
         Ok(Experiments {
             designs: experiments,
             data_sources,
+            commanded,
             names: experiment_names,
         })
     }
@@ -617,17 +625,10 @@ fn data_source(
     at: &dyn Fn(&str) -> String,
     file: &str,
 ) -> Result<crate::data::DataSource, ConfigError> {
-    // read, not simulated: no injection design applies
+    // read, not simulated: the design may say what was commanded (commanded_design), nothing
+    // else of a simulation applies
     for (f, given) in [
-        ("design", e.design.is_some()),
-        ("x1", e.x1.is_some()),
-        ("x12", e.x12.is_some()),
-        ("f1", e.f1.is_some()),
-        ("f2", e.f2.is_some()),
-        ("fsc", e.fsc.is_some()),
         ("inject", !e.inject.is_empty()),
-        ("pre_pad", e.pre_pad.is_some()),
-        ("post_pad", e.post_pad.is_some()),
         ("noise_duration", e.noise_duration.is_some()),
         ("amplitude_scale", e.amplitude_scale.is_some()),
     ] {
@@ -674,6 +675,40 @@ fn data_source(
         gaps: e.gaps.clone(),
         noise_gaps: e.noise_gaps.clone(),
     })
+}
+
+/// The commanded injections of an experiment read from a file, when its table gives them
+/// (`design`, `x1`, `x12`, `f1`, `f2`, `fsc`, `pre_pad`, `post_pad`): the same design a
+/// simulated experiment would have, at the table's `fs` (else the design's), laid over the
+/// file's fit stretch from its first sample. `None` when the table gives none of them.
+fn commanded_design(
+    e: &ExperimentEntry,
+    method: Method,
+    base: &Path,
+    at: &dyn Fn(&str) -> String,
+    file: &str,
+) -> Result<Option<ExperimentDesign>, ConfigError> {
+    let given = e.design.is_some()
+        || [&e.x1, &e.x12, &e.f1, &e.f2, &e.fsc]
+            .iter()
+            .any(|w| w.is_some())
+        || e.pre_pad.is_some()
+        || e.post_pad.is_some();
+    if !given {
+        return Ok(None);
+    }
+    let design_only = ExperimentEntry {
+        data: None,
+        columns: Default::default(),
+        noise_data: None,
+        gaps: Vec::new(),
+        noise_gaps: Vec::new(),
+        glitches: Vec::new(),
+        ..e.clone()
+    };
+    let d = simulated_design(&design_only, method, base, at, file)?;
+    validate_waveforms(&d, file, &at(""), true)?;
+    Ok(Some(d))
 }
 
 /// `gaps` and `noise_gaps`: each `[t0, t1]` finite with `0 ≤ t0 < t1` (seconds from the

@@ -726,6 +726,11 @@ pub struct Study {
     pub experiments: Vec<ExperimentDesign>,
     /// Experiments read from files (`[[experiment]] data = …`), by name.
     pub data_sources: Vec<(String, crate::data::DataSource)>,
+    /// The commanded injections of experiments read from files that give their design
+    /// (`design`, `x1`, `x12`, `f1`, `f2`, `fsc`, `pre_pad`, `post_pad` beside `data`), by
+    /// name: filled in where the file's injection channels are missing (telemetry gaps).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub commanded: Vec<(String, ExperimentDesign)>,
     /// Every experiment name in the order of the study file (each repeated per stretch when
     /// the study has stretches and no experiment names one).
     pub experiment_names: Vec<String>,

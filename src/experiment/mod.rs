@@ -1,6 +1,7 @@
 //! System-identification experiments (ltp-model.md §6): injection waveforms, experiment
 //! designs with padding and a noise-only stretch, and their simulation.
 
+mod commanded;
 mod design;
 mod gaps;
 mod generator;
@@ -13,6 +14,7 @@ mod snr_definition;
 mod streams;
 mod waveform;
 
+pub use commanded::{AGREEMENT, fill_commanded};
 pub use design::{ExperimentDesign, FORCE_CHANNELS, ladder_freqs};
 pub use gaps::RandomGaps;
 pub use generator::{Channels, Generator};

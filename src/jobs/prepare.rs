@@ -151,7 +151,16 @@ pub fn load_data_for(study: &Study, models: &[usize]) -> Result<(Dataset, String
     let mut files = Vec::new();
     for name in &study.experiment_names {
         if let Some((_, src)) = study.data_sources.iter().find(|(n, _)| n == name) {
-            experiments.push(src.load_read_by(name, &study.base_dir, &channels)?);
+            let mut e = src.load_read_by(name, &study.base_dir, &channels)?;
+            if let Some((_, d)) = study.commanded.iter().find(|(n, _)| n == name) {
+                crate::experiment::fill_commanded(&mut e, d).map_err(|m| {
+                    AnalysisError::Likelihood(format!(
+                        "experiment `{name}` ({}): {m}",
+                        src.data.display()
+                    ))
+                })?;
+            }
+            experiments.push(e);
             files.push(src.data.display().to_string());
         } else {
             let s = sim.as_mut().expect("simulated experiments exist");
@@ -774,6 +783,22 @@ pub fn gap_notes(study: &Study, dataset: &Dataset) -> Vec<String> {
             continue;
         };
         out.push(s.describe());
+        if let Some((_, d)) = study.commanded.iter().find(|(n, _)| *n == e.name) {
+            let known: Vec<String> = d
+                .channel_injections()
+                .into_iter()
+                .map(|(c, _)| c)
+                .filter(|c| e.known_in_gaps.contains(c))
+                .map(|c| format!("`{c}`"))
+                .collect();
+            if !known.is_empty() {
+                out.push(format!(
+                    "experiment `{}`: the commanded {} known through its gaps from the study's design (which agrees with the file outside them)",
+                    e.name,
+                    known.join(", ")
+                ));
+            }
+        }
         let reach = (opts.gap_taper * e.fs).round() as usize;
         let n = e.n_samples();
         let active: Vec<(String, &[f64])> = inputs
@@ -795,7 +820,7 @@ pub fn gap_notes(study: &Study, dataset: &Dataset) -> Vec<String> {
             .count();
         if hot > 0 {
             out.push(format!(
-                "experiment `{}`: in {hot} of its {} gap(s) an injection is missing while it runs beside the gap (non-zero within gap_taper = {} s of it); the loop's response to what it did in the gap is unknown and the edge correction cannot include it, which biases the estimates at high SNR: supply the commanded injection through the gap (docs: \"Real data: gaps\")",
+                "experiment `{}`: in {hot} of its {} gap(s) an injection is missing while it runs beside the gap (non-zero within gap_taper = {} s of it); the loop's response to what it did in the gap is unknown and the edge correction cannot include it, which biases the estimates at high SNR: supply the commanded injection through the gap, or give the experiment's design beside its data (`design`, `x1`, `x12`, `pre_pad`, …) and occam fills it in (docs: \"Real data: gaps\")",
                 e.name,
                 e.gaps.len(),
                 opts.gap_taper

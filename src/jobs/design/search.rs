@@ -319,6 +319,7 @@ pub fn study_with(study: &Study, experiments: Vec<ExperimentDesign>, noiseless: 
     s.experiment_names = experiments.iter().map(|e| e.name.clone()).collect();
     s.experiments = experiments;
     s.data_sources.clear();
+    s.commanded.clear();
     if noiseless {
         s.simulation.noise = NoiseSynthesis::None;
         s.analysis.noise = NoiseSource::Model;
