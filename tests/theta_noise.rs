@@ -55,6 +55,25 @@ fn the_exact_likelihood_is_the_fixed_one_at_its_point_and_moves_elsewhere() {
     assert_eq!(noise_parameters(&lik, &th, &[0, 1, 2, 3]), vec![0, 1, 2, 3]);
 }
 
+/// The own-noise likelihood of `spec` on `data`, from the study's start and reference point.
+fn own_noise(
+    s: &Study,
+    spec: &occam::config::ModelSpec,
+    data: &occam::data::dataset::Dataset,
+) -> Option<(
+    occam::likelihood::Likelihood,
+    occam::jobs::own_noise::NoisePoint,
+)> {
+    own_noise_likelihood(
+        s,
+        spec,
+        &default_start(s, spec),
+        reference_point(s, spec.model),
+        &|at: &[f64]| likelihood_at(s, spec.model, data, at),
+    )
+    .unwrap()
+}
+
 /// The iterated noise point lands on the MAP whatever the first point, so the likelihood the
 /// samplers run on does not depend on `[fit] start`.
 #[test]
@@ -64,9 +83,7 @@ fn the_noise_point_converges_to_the_same_map_from_any_start() {
         let s = study(Some(bc));
         let prep = prepare_select(&s).unwrap();
         let spec = &s.select_models[0].spec;
-        let (lik, p) = own_noise_likelihood(&s, spec, &prep.dataset, &default_start(&s, spec))
-            .unwrap()
-            .expect("the noise moves with bc");
+        let (lik, p) = own_noise(&s, spec, &prep.dataset).expect("the noise moves with bc");
         eprintln!("start bc = {bc}: {p:?}");
         assert!(p.converged, "{p:?}");
         let sd = cramer_rao(&fisher_exact(&lik, &p.theta, &spec.free)).unwrap();
@@ -130,9 +147,7 @@ fn exact_reference(s: &Study) -> (f64, f64) {
     let mut z = Vec::new();
     for (k, m) in s.select_models.iter().enumerate() {
         let spec = &m.spec;
-        let (lik, p) = own_noise_likelihood(s, spec, &prep.dataset, &default_start(s, spec))
-            .unwrap()
-            .unwrap();
+        let (lik, p) = own_noise(s, spec, &prep.dataset).unwrap();
         let f = fisher_exact(&lik, &p.theta, &spec.free);
         let cov = f.try_inverse().unwrap();
         let sub =

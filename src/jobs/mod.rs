@@ -11,6 +11,7 @@
 //! directory only on the root rank, so it keeps its own driver ([`sweep`]); the design search
 //! writes several studies ([`design`]).
 
+mod analysis_error;
 pub mod bode;
 pub mod chains_npz;
 pub mod demo;
@@ -21,10 +22,12 @@ pub mod glitch_count;
 pub mod glitch_model;
 pub mod init;
 mod job;
+mod map_search;
 #[cfg(feature = "mpi")]
 pub mod mpi;
 #[cfg(any(test, feature = "mpi"))]
 mod mpi_wire;
+pub mod noise_point;
 pub mod own_noise;
 pub mod prepare;
 pub mod progress;

@@ -10,12 +10,11 @@
 //! weights over the model's posterior samples
 //! ([`crate::likelihood::theta_noise::NoiseCorrection`]).
 
-use super::prepare::{AnalysisError, MAP_MAX_ITER, likelihood_at, map_search, reference_point};
+use super::analysis_error::AnalysisError;
+use super::map_search::{MAP_MAX_ITER, map_search};
 use crate::config::{ModelSpec, Study};
-use crate::data::dataset::Dataset;
 use crate::likelihood::theta_noise::noise_parameters;
 use crate::likelihood::{Likelihood, NoiseSource, cramer_rao, fisher_exact, fisher_scoring};
-use serde::{Deserialize, Serialize};
 
 /// Iterations of the noise point at most.
 pub const MAX_NOISE_ITERATIONS: usize = 8;
@@ -24,81 +23,32 @@ pub const MAX_NOISE_ITERATIONS: usize = 8;
 /// many of its Cramér–Rao σ between two iterations.
 pub const NOISE_SHIFT_TOL: f64 = 0.01;
 
-/// How the noise point of one (sub-)model was found.
-#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
-pub struct NoisePoint {
-    /// The parameters that move the residual CSD.
-    pub params: Vec<String>,
-    /// The point the residual CSD is evaluated at (the model's full parameter vector).
-    pub theta: Vec<f64>,
-    /// Iterations (likelihoods built at a new point).
-    pub iterations: usize,
-    /// Whether the last iteration moved the MAP by less than [`NOISE_SHIFT_TOL`] σ.
-    pub converged: bool,
-    /// How far the first point (the study's reference point) was from the first MAP, in σ of
-    /// each noise parameter, by name.
-    pub first_distance_sigma: Vec<(String, f64)>,
-}
-
-impl NoisePoint {
-    /// [`NoisePoint::note`] for a fit, which corrects no evidence.
-    pub fn fit_note(&self) -> String {
-        let n = self.note();
-        match n.find(", and the evidences") {
-            Some(i) => n[..i].to_string(),
-            None => n,
-        }
-    }
-
-    /// The line that says what was done, naming the noise parameters and how far the study's
-    /// reference point was from the MAP.
-    pub fn note(&self) -> String {
-        let far: Vec<String> = self
-            .first_distance_sigma
-            .iter()
-            .map(|(n, s)| format!("`{n}` {s:.1}σ"))
-            .collect();
-        format!(
-            "the residual noise moves with {} (noise = \"model\" through the model's own dynamics): it is evaluated at this model's own MAP, iterated {} time{} ({}; the study's reference point was {} from it), and the evidences are corrected to the exact θ-dependent likelihood by importance weights",
-            self.params
-                .iter()
-                .map(|p| format!("`{p}`"))
-                .collect::<Vec<_>>()
-                .join(", "),
-            self.iterations,
-            if self.iterations == 1 { "" } else { "s" },
-            if self.converged {
-                "converged"
-            } else {
-                "NOT converged"
-            },
-            far.join(", ")
-        )
-    }
-}
+pub use super::noise_point::NoisePoint;
 
 /// With `noise = "model"` and a model whose residual CSD moves with a free parameter of
 /// `spec`: the exact (fixed-noise) likelihood with the noise at `spec`'s own MAP, iterated
 /// (module docs), starting from `start` (a full parameter vector); `None` when the noise does
 /// not depend on the free parameters (then the study's reference point is exact).
+/// `reference` is the study's reference point of the model, `build` its exact likelihood with
+/// the noise evaluated at a given point (`jobs::prepare::likelihood_at` on the job's data).
 pub fn own_noise_likelihood(
     study: &Study,
     spec: &ModelSpec,
-    dataset: &Dataset,
     start: &[f64],
+    reference: Vec<f64>,
+    build: &dyn Fn(&[f64]) -> Result<Likelihood, AnalysisError>,
 ) -> Result<Option<(Likelihood, NoisePoint)>, AnalysisError> {
     if study.analysis.noise != NoiseSource::Model {
         return Ok(None);
     }
-    let mi = spec.model;
     // the sub-model's fixed values, the study's reference point elsewhere
-    let mut point = reference_point(study, mi);
+    let mut point = reference;
     for (i, v) in point.iter_mut().enumerate() {
         if !spec.free.contains(&i) {
             *v = spec.base[i];
         }
     }
-    let mut lik = likelihood_at(study, mi, dataset, &point)?;
+    let mut lik = build(&point)?;
     let moving = noise_parameters(&lik, &point, &spec.free);
     if moving.is_empty() {
         return Ok(None);
@@ -145,7 +95,7 @@ pub fn own_noise_likelihood(
         }
         point = map.theta.clone();
         from = map.theta;
-        lik = likelihood_at(study, mi, dataset, &point)?;
+        lik = build(&point)?;
         iterations += 1;
     }
     Ok(Some((

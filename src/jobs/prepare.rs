@@ -5,28 +5,13 @@
 
 use crate::config::{ModelSpec, Study};
 use crate::data::dataset::Dataset;
-use crate::experiment::{SimError, simulate};
+use crate::experiment::simulate;
 use crate::likelihood::{
-    ExperimentSpectra, Likelihood, RelBinLikelihood, RelBinOptions, SpectraError, SpectraOptions,
+    ExperimentSpectra, Likelihood, RelBinLikelihood, RelBinOptions, SpectraOptions,
 };
 
-/// Errors while preparing an analysis.
-#[derive(Debug, thiserror::Error)]
-pub enum AnalysisError {
-    #[error(transparent)]
-    Data(#[from] crate::data::dataset::DataError),
-    #[error(transparent)]
-    Simulation(#[from] SimError),
-    #[error(transparent)]
-    Spectra(#[from] SpectraError),
-    #[error("{0}")]
-    Likelihood(String),
-    /// Relative binning could not be built or validated (match
-    /// [`crate::likelihood::RelBinError::ToleranceNotMet`] to fall back to the exact
-    /// likelihood).
-    #[error(transparent)]
-    RelBin(#[from] crate::likelihood::RelBinError),
-}
+pub use super::analysis_error::AnalysisError;
+pub use super::map_search::{MAP_MAX_ITER, map_search};
 
 /// Data and the likelihood of a job's first model, ready for samplers.
 #[derive(Debug, Clone)]
@@ -52,7 +37,7 @@ pub struct Prepared {
     pub glitch_dropped: Vec<crate::jobs::glitch_model::GlitchCandidate>,
     /// Where the residual noise of `likelihood` was evaluated when it depends on the `[fit]`
     /// model's parameters ([`crate::jobs::own_noise`]; set by [`prepare`] only).
-    pub noise_point: Option<crate::jobs::own_noise::NoisePoint>,
+    pub noise_point: Option<crate::jobs::noise_point::NoisePoint>,
 }
 
 impl Prepared {
@@ -208,8 +193,11 @@ pub fn prepare(study: &Study) -> Result<Prepared, AnalysisError> {
     if prep.study.is_none() {
         let spec = &study.fit_model;
         let start = default_start(study, spec);
+        let mi = spec.model;
+        let build = |at: &[f64]| likelihood_at(study, mi, &prep.dataset, at);
+        let reference = reference_point(study, mi);
         if let Some((lik, point)) =
-            crate::jobs::own_noise::own_noise_likelihood(study, spec, &prep.dataset, &start)?
+            crate::jobs::own_noise::own_noise_likelihood(study, spec, &start, reference, &build)?
         {
             prep.likelihood = lik;
             prep.noise_point = Some(point);
@@ -627,34 +615,6 @@ pub fn default_start(study: &Study, model: &ModelSpec) -> Vec<f64> {
         }
     }
     th
-}
-
-/// Fisher-scoring iterations of one MAP search of a fit or select model.
-pub const MAP_MAX_ITER: usize = 200;
-
-/// The multi-start MAP search over `free` on `exact` ([`crate::likelihood::multi_start_map`]):
-/// from `start` (e.g. [`default_start`]), then from `n_quasi` (`[fit] map_starts`)
-/// quasi-random points of the prior.
-pub fn map_search(
-    exact: &crate::likelihood::Likelihood,
-    free: &[usize],
-    start: &[f64],
-    n_quasi: usize,
-) -> Result<crate::likelihood::MultiStartMap, crate::likelihood::MapError> {
-    use crate::density::LogDensity;
-    use crate::likelihood::{MapStart, StartFrom, multi_start_map, quasi_random_starts};
-    let mut starts = vec![MapStart {
-        from: StartFrom::Given,
-        theta: start.to_vec(),
-    }];
-    starts.extend(quasi_random_starts(exact.prior(), start, free, n_quasi));
-    multi_start_map(
-        exact,
-        &starts,
-        free,
-        crate::model::map_tolerance(exact.model().as_ref()),
-        MAP_MAX_ITER,
-    )
 }
 
 /// The injected lines of every experiment of `lik` (in its order), for

@@ -7,7 +7,10 @@ use super::error::SelectError;
 use crate::config::{CrossChecks, JumpProposal, LikelihoodKind, ModelSpec, Study};
 use crate::evidence::{ProposalShape, RjOptions};
 use crate::jobs::own_noise::{NoisePoint, own_noise_likelihood};
-use crate::jobs::prepare::{Prepared, default_start, likelihood_of, relbin_options, sampled_kind};
+use crate::jobs::prepare::{
+    Prepared, default_start, likelihood_at, likelihood_of, reference_point, relbin_options,
+    sampled_kind,
+};
 use crate::likelihood::{Likelihood, RelBinOptions};
 use std::borrow::Cow;
 
@@ -46,8 +49,9 @@ impl<'a> Parents<'a> {
                 own_noise_likelihood(
                     study,
                     &m.spec,
-                    &prep.dataset,
                     &default_start(study, &m.spec),
+                    reference_point(study, m.spec.model),
+                    &|at: &[f64]| likelihood_at(study, m.spec.model, &prep.dataset, at),
                 )
                 .map_err(|e| SelectError::Model {
                     model: m.name.clone(),
