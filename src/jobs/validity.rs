@@ -1,6 +1,7 @@
 //! Whether a run passed its own checks: the gross failures after which its numbers are not to
 //! be used (chains that did not converge or barely moved, too few independent samples, a MAP
-//! search that did not converge, an evidence correction that rests on a handful of samples).
+//! search that did not converge, an evidence correction that rests on a handful of samples,
+//! two evidence estimators further apart than their error bars allow).
 //! A failed run says so first — the first lines of the terminal, `summary.json`'s `valid`
 //! and `invalid_reasons`, the report's headline — with what to change, before any table.
 //! Marginal cases (R-hat between 1.01 and 1.1, say) stay warnings.
@@ -11,6 +12,11 @@ pub const RHAT_LIMIT: f64 = 1.1;
 pub const ESS_LIMIT: f64 = 50.0;
 /// A chain accepting less than this fraction of its proposals fails a run.
 pub const ACCEPTANCE_LIMIT: f64 = 0.01;
+
+/// A statistical `ln B` further than this many combined standard errors from its pair's
+/// reference fails a run: two independent estimators cannot both be right with their error
+/// bars (a Gaussian 5σ happens once in 1.7 million: an error bar is wrong, not unlucky).
+pub const DISAGREEMENT_LIMIT: f64 = 5.0;
 
 /// The first line of a failed run's output.
 pub const INVALID_HEADLINE: &str =

@@ -92,6 +92,44 @@ pub struct PairResult {
     pub jumps: JumpStats,
 }
 
+impl PairResult {
+    /// The statistical rows that differ from the reference by more than
+    /// [`DISAGREEMENT_LIMIT`](crate::jobs::validity::DISAGREEMENT_LIMIT) combined standard
+    /// errors, as one line naming each: their error bars cannot all hold, so the run failed
+    /// its own check (within 2σ is agreement; between 2σ and the limit the answer line says
+    /// "DISAGREE" and the run stands). `None` when none does.
+    pub fn gross_disagreement(&self) -> Option<String> {
+        use crate::jobs::validity::DISAGREEMENT_LIMIT;
+        let r = self.estimates.iter().find(|e| e.method == self.reference)?;
+        let (rv, re) = (r.ln_b?, r.std_err.unwrap_or(0.0));
+        let off: Vec<String> = self
+            .estimates
+            .iter()
+            .filter(|e| e.kind == EstimateKind::Statistical && e.method != self.reference)
+            .filter_map(|e| {
+                let (v, s) = (e.ln_b?, e.std_err.unwrap_or(0.0).hypot(re));
+                let z = (v - rv).abs() / s;
+                (z > DISAGREEMENT_LIMIT).then(|| {
+                    format!(
+                        "{} {v:.2} ± {:.2} ({z:.1} σ)",
+                        e.method,
+                        e.std_err.unwrap_or(0.0)
+                    )
+                })
+            })
+            .collect();
+        (!off.is_empty()).then(|| {
+            format!(
+                "{}/{}: {} against the reference {} {rv:.2} ± {re:.2} — more than {DISAGREEMENT_LIMIT} combined σ apart, so an error bar is wrong; run longer ([select] pt_iterations and pt_burn_in for the tempering rows, rj_iterations for the jump rows)",
+                self.x,
+                self.y,
+                off.join(", "),
+                self.reference
+            )
+        })
+    }
+}
+
 /// The order in which rows are tried as the reference.
 const REFERENCE_ORDER: [&str; 7] = [
     "RJMCMC bridge",
@@ -588,6 +626,42 @@ mod tests {
         // posterior model probabilities from the reference: P(Y)/P(X) = e²
         let pp = posterior_probabilities(&models, &[p]).unwrap();
         assert!((pp[1] / pp[0] - 2f64.exp()).abs() < 1e-12);
+    }
+
+    /// Agreement within 2σ and a marginal 3σ disagreement leave the run valid; a row 6σ from
+    /// the reference fails it, naming the row; Laplace rows (no error bar) never do.
+    #[test]
+    fn a_gross_disagreement_is_named_and_a_marginal_one_is_not() {
+        let models = [outcome("X", Some(-3.0)), outcome("Y", Some(-1.0))];
+        let mut p = pair(&models, None, Some("no RJ"), 0, 1);
+        assert_eq!(p.gross_disagreement(), None);
+        let set = |p: &mut PairResult, m: &str, v: f64, e: Option<f64>| {
+            let row = p.estimates.iter_mut().find(|r| r.method == m).unwrap();
+            (row.ln_b, row.std_err) = (Some(v), e);
+        };
+        set(&mut p, "Stepping-stone", 2.0, Some(0.3));
+        set(
+            &mut p,
+            "Thermodynamic integration",
+            2.0 + 3.0 * 0.5,
+            Some(0.4),
+        );
+        set(&mut p, "Laplace-Fisher box", 40.0, None);
+        assert_eq!(p.reference, "Stepping-stone");
+        assert_eq!(p.gross_disagreement(), None, "3σ is marginal");
+        set(
+            &mut p,
+            "Thermodynamic integration",
+            2.0 + 6.0 * 0.5,
+            Some(0.4),
+        );
+        let why = p.gross_disagreement().expect("6σ fails");
+        assert!(
+            why.starts_with("X/Y: Thermodynamic integration 5.00 ± 0.40 (6.0 σ)")
+                && why.contains("reference Stepping-stone 2.00 ± 0.30")
+                && !why.contains("Laplace"),
+            "{why}"
+        );
     }
 
     #[test]

@@ -424,7 +424,7 @@ fn run_rj(
 /// The gross failures of the models' own checks ([`crate::jobs::validity`]): in-model chains
 /// that did not converge or barely moved, a MAP search that failed, an evidence correction
 /// resting on a handful of samples.
-fn invalid_reasons(models: &[ModelOutcome]) -> Vec<String> {
+fn invalid_reasons(models: &[ModelOutcome], pairs: &[pair::PairResult]) -> Vec<String> {
     use crate::jobs::validity::{ChainChecks, RHAT_LIMIT};
     let mut out = Vec::new();
     for m in models {
@@ -461,6 +461,11 @@ fn invalid_reasons(models: &[ModelOutcome]) -> Vec<String> {
             ));
         }
     }
+    out.extend(
+        pairs
+            .iter()
+            .filter_map(pair::PairResult::gross_disagreement),
+    );
     out
 }
 
@@ -561,7 +566,7 @@ fn summarise(
     if let Some(n) = target.as_ref().and_then(|t| t.note.as_ref()) {
         warnings.push(format!("[select] target_error not met: {n}"));
     }
-    let invalid_reasons = invalid_reasons(&models);
+    let invalid_reasons = invalid_reasons(&models, &pairs);
     Ok(SelectSummary {
         valid: invalid_reasons.is_empty(),
         invalid_reasons,
