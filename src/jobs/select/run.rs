@@ -423,7 +423,7 @@ fn run_rj(
 
 /// The gross failures of the models' own checks ([`crate::jobs::validity`]): in-model chains
 /// that did not converge or barely moved, a MAP search that failed, an evidence correction
-/// resting on a handful of samples.
+/// resting on a handful of samples; and pairs whose estimators are grossly apart.
 fn invalid_reasons(models: &[ModelOutcome], pairs: &[pair::PairResult]) -> Vec<String> {
     use crate::jobs::validity::{ChainChecks, RHAT_LIMIT};
     let mut out = Vec::new();
