@@ -13,7 +13,8 @@ use occam::jobs::own_noise::own_noise_likelihood;
 use occam::jobs::prepare::{default_start, likelihood_at, prepare_select, reference_point};
 use occam::jobs::select::run;
 use occam::likelihood::theta_noise::{
-    ThetaNoiseDensity, ln_likelihood_theta_noise, noise_parameters,
+    ThetaNoiseDensity, ln_likelihood_theta_noise, ln_likelihood_theta_noise_per_bin,
+    noise_parameters,
 };
 use occam::likelihood::{cramer_rao, fisher_exact};
 use occam::nested::SubModel;
@@ -53,6 +54,25 @@ fn the_exact_likelihood_is_the_fixed_one_at_its_point_and_moves_elsewhere() {
     let d = ln_likelihood_theta_noise(&lik, &other) - lik.ln_likelihood_whittle(&other);
     assert!(d.abs() > 1.0, "the noise at bc = 0.005 differs: {d}");
     assert_eq!(noise_parameters(&lik, &th, &[0, 1, 2, 3]), vec![0, 1, 2, 3]);
+    // bin by bin (what the Python package's ln_likelihood_per_bin gives): the same sum, and
+    // at the prepared point the fixed-noise terms
+    let per_bin: f64 = ln_likelihood_theta_noise_per_bin(&lik, &other)
+        .iter()
+        .flatten()
+        .sum();
+    let total = ln_likelihood_theta_noise(&lik, &other);
+    assert!(
+        (per_bin - total).abs() < 1e-9 * total.abs(),
+        "{per_bin} vs {total}"
+    );
+    let fixed_bins = lik.ln_likelihood_per_bin(&th).unwrap();
+    for (a, b) in ln_likelihood_theta_noise_per_bin(&lik, &th)
+        .iter()
+        .flatten()
+        .zip(fixed_bins.iter().flatten())
+    {
+        assert!((a - b).abs() < 1e-9 * b.abs().max(1.0), "{a} vs {b}");
+    }
 }
 
 /// The own-noise likelihood of `spec` on `data`, from the study's start and reference point.

@@ -50,6 +50,13 @@ class Likelihood:
     ``likelihood = "relbin"``). ``theta`` is the vector of the model's free parameters
     in the order of ``param_names`` (the last axis of ``chains.npz``'s ``samples``).
 
+    A model whose residual noise moves with its parameters (``noise = "model"`` through the
+    model's own dynamics, e.g. a state-space model's noise inputs) is the exception:
+    ``ln_likelihood``, ``ln_posterior`` and ``ln_likelihood_per_bin`` then evaluate the noise
+    at θ itself (the exact Whittle likelihood, ``ln det C(θ)`` included: an external sampler's
+    evidence needs no correction), while ``map()``, ``fisher()`` and ``binned=True`` hold it at
+    the model's own MAP, as the command line's samplers do (``warnings`` says so).
+
     Every density method takes one point (a 1-D array of ``len(param_names)`` values: returns a
     float) or many (a 2-D array, one row per point: returns a 1-D array, rows evaluated in
     parallel on all cores with the GIL released; the numbers do not depend on the thread

@@ -7,8 +7,15 @@ use anyhow::Context;
 use numpy::{PyArray1, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use occam::config::{ModelSpec, Study};
 use occam::density::LogDensity;
-use occam::jobs::prepare::{default_start, likelihood_of, load_data_for, model_warnings, truth_of};
+use occam::jobs::own_noise::own_noise_likelihood;
+use occam::jobs::prepare::{
+    default_start, likelihood_at, likelihood_of, load_data_for, model_warnings, reference_point,
+    truth_of,
+};
 use occam::jobs::sampled::{Role, relbin_as_sampled};
+use occam::likelihood::theta_noise::{
+    ln_likelihood_theta_noise, ln_likelihood_theta_noise_per_bin,
+};
 use occam::likelihood::{Likelihood, RelBinLikelihood, RelBinValidation, cramer_rao, fisher_exact};
 use occam::nested::SubModel;
 use occam::prior::PriorKind;
@@ -44,6 +51,10 @@ pub struct PyLikelihood {
     sub: SubModel<Likelihood>,
     /// With `binned=True`: what `ln_likelihood` and `ln_posterior` evaluate instead.
     binned: Option<Binned>,
+    /// The residual noise moves with the free parameters (`noise = "model"` through the
+    /// model's own dynamics): `sub` holds it at the model's own MAP (as `fit` and `select`),
+    /// and the unbinned `ln_likelihood` evaluates it at θ itself, exactly.
+    theta_noise: bool,
     /// `[fit] map_starts`: the quasi-random starts of `map()`'s search, as `fit`'s.
     map_starts: usize,
     /// The command line's start of the MAP search (free parameters).
@@ -60,6 +71,7 @@ pub struct PyLikelihood {
 struct Built {
     sub: SubModel<Likelihood>,
     binned: Option<Binned>,
+    theta_noise: bool,
     map_starts: usize,
     start: Vec<f64>,
     label: String,
@@ -108,6 +120,21 @@ fn build(path: &Path, model: Option<&str>, binned: bool) -> anyhow::Result<Built
     let exact = likelihood_of(&study, spec.model, &dataset)
         .map_err(|e| anyhow::anyhow!("model `{}`: {e}", study.models.defs[spec.model].name()))
         .with_context(context)?;
+    // a residual noise that moves with θ: held at the model's own MAP (iterated), as `fit` and
+    // `select` hold it, rather than at a reference point nobody chose
+    let own = own_noise_likelihood(
+        &study,
+        &spec,
+        &default_start(&study, &spec),
+        reference_point(&study, spec.model),
+        &|at: &[f64]| likelihood_at(&study, spec.model, &dataset, at),
+    )
+    .map_err(|e| anyhow::anyhow!("model `{label}`: {e}"))
+    .with_context(context)?;
+    let (exact, theta_noise, own_note) = match own {
+        Some((lik, point)) => (lik, true, Some(point.fit_note())),
+        None => (exact, false, None),
+    };
     let truth = truth_of(&study, spec.model, &dataset).and_then(|t| {
         spec.free
             .iter()
@@ -124,7 +151,12 @@ fn build(path: &Path, model: Option<&str>, binned: bool) -> anyhow::Result<Built
             )
         }
     };
-    let warnings = model_warnings(&study, spec.model, &dataset);
+    let mut warnings = model_warnings(&study, spec.model, &dataset);
+    if let Some(n) = own_note {
+        warnings.push(format!(
+            "{n}; ln_likelihood, ln_posterior and ln_likelihood_per_bin evaluate the noise at θ itself (exact, slower), map(), fisher() and binned=True hold it at that MAP"
+        ));
+    }
     let binned = if binned {
         let role = if model.is_none() {
             Role::Fit
@@ -153,6 +185,7 @@ fn build(path: &Path, model: Option<&str>, binned: bool) -> anyhow::Result<Built
     Ok(Built {
         sub,
         binned,
+        theta_noise,
         map_starts: study.fit.map_starts,
         start: {
             let s = default_start(&study, &spec);
@@ -181,9 +214,20 @@ impl PyLikelihood {
 
     fn eval(&self, what: Density, theta: &[f64]) -> f64 {
         match (what, &self.binned) {
+            (Density::Likelihood, None) if self.theta_noise => {
+                ln_likelihood_theta_noise(self.sub.parent(), &self.full(theta))
+            }
             (Density::Likelihood, None) => self.sub.ln_likelihood(theta),
             (Density::Likelihood, Some(b)) => b.sub.ln_likelihood(theta),
             (Density::Prior, _) => self.sub.prior().ln_pdf(theta),
+            (Density::Posterior, None) if self.theta_noise => {
+                let lp = self.sub.prior().ln_pdf(theta);
+                if lp == f64::NEG_INFINITY {
+                    lp
+                } else {
+                    lp + ln_likelihood_theta_noise(self.sub.parent(), &self.full(theta))
+                }
+            }
             (Density::Posterior, None) => self.sub.ln_posterior(theta),
             (Density::Posterior, Some(b)) => b.sub.ln_posterior(theta),
         }
@@ -298,6 +342,7 @@ impl PyLikelihood {
         Ok(Self {
             sub: b.sub,
             binned: b.binned,
+            theta_noise: b.theta_noise,
             map_starts: b.map_starts,
             start: b.start,
             label: b.label,
@@ -468,7 +513,13 @@ impl PyLikelihood {
         let exact = self.sub.parent();
         let rows: Vec<Vec<Vec<f64>>> = py
             .detach(|| {
-                let at = |row: &[f64]| exact.ln_likelihood_per_bin(&self.full(row));
+                let at = |row: &[f64]| {
+                    if self.theta_noise {
+                        Ok(ln_likelihood_theta_noise_per_bin(exact, &self.full(row)))
+                    } else {
+                        exact.ln_likelihood_per_bin(&self.full(row))
+                    }
+                };
                 if p == 0 {
                     (0..n).map(|_| at(&[])).collect::<Result<Vec<_>, _>>()
                 } else {

@@ -135,6 +135,39 @@ pub fn ln_likelihood_theta_noise(lik: &Likelihood, th: &[f64]) -> f64 {
     }
 }
 
+/// [`ln_likelihood_theta_noise`] bin by bin, one vector per experiment in the likelihood's
+/// order (as [`Likelihood::ln_likelihood_per_bin`]); `−∞` in a bin whose `C_k(θ)` is not
+/// positive definite, every bin `−∞` where the system is unstable. Their sum is
+/// [`ln_likelihood_theta_noise`] wherever that is finite.
+pub fn ln_likelihood_theta_noise_per_bin(lik: &Likelihood, th: &[f64]) -> Vec<Vec<f64>> {
+    let ninf = || {
+        lik.spectra()
+            .iter()
+            .map(|e| vec![f64::NEG_INFINITY; e.len()])
+            .collect()
+    };
+    if th.len() != lik.model().param_names().len()
+        || !lik.model().is_stable(th)
+        || th.iter().any(|v| !v.is_finite())
+    {
+        return ninf();
+    }
+    let mut flat = Vec::with_capacity(lik.n_bins());
+    visit(lik, th, |q, ld| {
+        flat.push(ld.map_or(f64::NEG_INFINITY, |(_, ld)| -q - ld));
+    });
+    let ln_pi = std::f64::consts::PI.ln();
+    let mut rest = flat.as_slice();
+    lik.spectra()
+        .iter()
+        .map(|e| {
+            let (mine, tail) = rest.split_at(e.len());
+            rest = tail;
+            mine.iter().map(|v| v - e.nr as f64 * ln_pi).collect()
+        })
+        .collect()
+}
+
 /// A [`Likelihood`] evaluated with its residual CSD at θ ([`ln_likelihood_theta_noise`]), as a
 /// density for any sampler or evidence estimator (slow: a factorisation per bin).
 #[derive(Debug, Clone, Copy)]
