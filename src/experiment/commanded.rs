@@ -9,6 +9,7 @@
 
 use super::design::ExperimentDesign;
 use crate::data::dataset::ExperimentData;
+use crate::data::gaps;
 
 /// Largest difference between the design and the file's injection, relative to the
 /// injection's largest |value|, that still counts as agreement: a design one sample off
@@ -50,14 +51,26 @@ pub fn fill_commanded(
         ));
     }
     let n = e.n_samples();
-    let [i1, i12] = design.injections();
-    let mut series: Vec<(String, Vec<f64>, bool)> = vec![
-        ("i1".into(), i1, !design.x1.is_none()),
-        ("i12".into(), i12, !design.x12.is_none()),
-    ];
-    for (c, v) in design.channel_injections() {
-        if c != "i1" && c != "i12" {
-            series.push((c, v, true));
+    // checked before anything is rendered: a design's length is the study's to choose
+    // (`pre_pad = 1e12`), the file's is not
+    if design.n_samples_f64() != n as f64 {
+        return Err(format!(
+            "the design spans {} samples (pre_pad {} s, the injections, post_pad {} s at {} Hz) but the file's fit stretch has {n}: set `pre_pad` / `post_pad` so that the design lines up with the file from its first sample",
+            design.n_samples_f64(),
+            design.pre_pad,
+            design.post_pad,
+            design.fs
+        ));
+    }
+    // the driven channels, then the guidance channels the design leaves quiet (zero)
+    let mut series: Vec<(String, Vec<f64>, bool)> = design
+        .channel_injections()
+        .into_iter()
+        .map(|(c, v)| (c, v, true))
+        .collect();
+    for c in ["i1", "i12"] {
+        if !series.iter().any(|(s, ..)| s == c) {
+            series.push((c.into(), vec![0.0; n], false));
         }
     }
     let mut filled = Vec::new();
@@ -65,27 +78,20 @@ pub fn fill_commanded(
         let Some(have) = e.channel(&c) else {
             continue;
         };
-        if want.len() != n {
-            return Err(format!(
-                "the design's `{c}` spans {} samples (pre_pad {} s, the injection, post_pad {} s at {} Hz) but the file's fit stretch has {n}: set `pre_pad` / `post_pad` so that the design lines up with the file from its first sample",
-                want.len(),
-                design.pre_pad,
-                design.post_pad,
-                design.fs
-            ));
-        }
         let known = e.known_in_gaps.contains(&c) || e.gaps.is_empty();
-        let in_gap = gap_mask(n, &e.gaps);
+        // compared outside the gaps only, where the file has the channel
+        let mut outside = want.clone();
+        if !known {
+            gaps::blank(&mut outside, &e.gaps);
+        }
         let scale = want.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
         let (worst, at) = have
             .iter()
-            .zip(&want)
+            .zip(&outside)
+            .map(|(h, w)| (h - w).abs())
             .enumerate()
-            .filter(|(k, _)| known || !in_gap[*k])
-            .map(|(k, (h, w))| ((h - w).abs(), k))
-            .fold((0.0_f64, 0), |a, b| if b.0 > a.0 { b } else { a });
-        let allowed = AGREEMENT * scale.max(f64::MIN_POSITIVE);
-        if worst > allowed {
+            .fold((0.0_f64, 0), |a, (k, d)| if d > a.0 { (d, k) } else { a });
+        if worst > AGREEMENT * scale.max(f64::MIN_POSITIVE) {
             return Err(format!(
                 "the file's `{c}` differs from the design's commanded injection by {worst:.3e} at t = {:.1} s (its amplitude is {scale:.3e}): the design is not what was commanded, or it is shifted — check `design`, `x1`/`x12`/…, `pre_pad` and the file's first sample, or remove the design",
                 at as f64 / e.fs
@@ -95,26 +101,14 @@ pub fn fill_commanded(
             continue;
         }
         let mut v = have.to_vec();
-        for (k, x) in v.iter_mut().enumerate() {
-            if in_gap[k] {
-                *x = want[k];
-            }
+        for g in &e.gaps {
+            v[g[0]..g[1]].copy_from_slice(&want[g[0]..g[1]]);
         }
         e.set_channel(&c, v);
         e.known_in_gaps.push(c.clone());
         filled.push(c);
     }
     Ok(filled)
-}
-
-fn gap_mask(n: usize, gaps: &[crate::data::gaps::Span]) -> Vec<bool> {
-    let mut m = vec![false; n];
-    for g in gaps {
-        for x in &mut m[g[0].min(n)..g[1].min(n)] {
-            *x = true;
-        }
-    }
-    m
 }
 
 #[cfg(test)]
@@ -178,6 +172,17 @@ mod tests {
         }
         let err = fill_commanded(&mut e, &d).unwrap_err();
         assert!(err.contains("spans") && err.contains("post_pad"), "{err}");
+        // a design far longer than any file is refused before it is rendered
+        let (mut e, _) = experiment(&d);
+        let huge = ExperimentDesign {
+            pre_pad: 1e12,
+            ..d.clone()
+        };
+        let err = fill_commanded(&mut e, &huge).unwrap_err();
+        assert!(
+            err.contains("spans 1000000") && err.contains("pre_pad 1000000000000 s"),
+            "{err}"
+        );
         // another rate
         let (mut e, _) = experiment(&d);
         e.fs = 2.0 * d.fs;

@@ -745,7 +745,7 @@ pub fn gap_notes(study: &Study, dataset: &Dataset) -> Vec<String> {
         out.push(s.describe());
         if let Some((_, d)) = study.commanded.iter().find(|(n, _)| *n == e.name) {
             let known: Vec<String> = d
-                .channel_injections()
+                .channel_waveforms()
                 .into_iter()
                 .map(|(c, _)| c)
                 .filter(|c| e.known_in_gaps.contains(c))
