@@ -26,8 +26,8 @@ use crate::likelihood::{
     DEFAULT_GLITCH_AMPLITUDE, DEFAULT_GLITCH_DECAY, DEFAULT_GLITCH_PAD, DEFAULT_GLITCH_RISE,
     DEFAULT_GLITCH_THRESHOLD, Likelihood, SpectraOptions, detect_glitches,
 };
-use crate::model::glitch::{GLITCH_PARAMS, shape_dft};
-use crate::model::{GLITCH_CHANNEL, GlitchModel, Model};
+use crate::model::glitch::GLITCH_PARAMS;
+use crate::model::{GLITCH_CHANNEL, GlitchModel, GlitchScan, Model, grid_index};
 use crate::prior::{Prior, PriorKind};
 use num_complex::Complex64;
 use serde::Serialize;
@@ -316,7 +316,7 @@ pub fn glitch_starts(
         for (j, c) in candidates.iter().enumerate() {
             let i = first + GLITCH_PARAMS * j;
             th[i + 2] = 0.0;
-            out[j] = best_start(lik, &th, first, i, c, rise);
+            out[j] = best_start(lik, &th, i, c, rise);
             th[i..i + GLITCH_PARAMS].copy_from_slice(&out[j].values);
         }
     }
@@ -327,7 +327,6 @@ pub fn glitch_starts(
 fn best_start(
     lik: &Likelihood,
     th: &[f64],
-    np: usize,
     i: usize,
     c: &GlitchCandidate,
     rise: f64,
@@ -353,19 +352,36 @@ fn best_start(
     let mut r0 = Vec::with_capacity(e.len() * nr);
     lik.visit_residuals(e, th, |_, r, _| r0.extend_from_slice(r));
     let m = lik.model_for(e);
-    let ncst = m.n_consts();
-    let mut h = vec![zero; e.len() * nr];
-    for k in 0..e.len() {
-        m.force_response(&th[..np], &e.bin(k, ncst), &mut h[k * nr..(k + 1) * nr]);
+    if e.n < 2 {
+        return none;
     }
-    let duration = e.n as f64 / e.fs;
+    // the record's DFT bin of each in-band bin (gap-free, rectangular: checked by prepare)
+    let Some(bins) = e
+        .freqs
+        .iter()
+        .map(|&f| grid_index(f, e.fs, e.n))
+        .collect::<Option<Vec<usize>>>()
+    else {
+        return none;
+    };
+    // the glitch's causal response: one set of transforms per decay time, one DFT per start
+    let mut scan = GlitchScan::new(m.as_ref(), th, e.n, e.fs, rise);
+    let mut y = vec![zero; (e.n / 2 + 1) * nr];
+    let mut tau_now = f64::NAN;
     let mut v = vec![zero; nr];
+    let nc = e.channels.len();
     let mut at = |t0: f64, tau: f64| -> Option<GlitchStart> {
+        if tau != tau_now {
+            scan.set_tau(tau);
+            tau_now = tau;
+        }
+        // the scan's starts are sample times; the MAP search refines between them
+        let n0 = (t0 * e.fs).round().max(0.0) as usize;
+        scan.at_sample(n0, &mut y);
         let (mut b, mut a) = (0.0, 0.0);
-        for k in 0..e.len() {
-            let s = shape_dft(t0, tau, rise, duration, e.freqs[k], e.fs);
-            for (vr, hr) in v.iter_mut().zip(&h[k * nr..(k + 1) * nr]) {
-                *vr = -hr * s;
+        for (k, &j) in bins.iter().enumerate() {
+            for (vr, yr) in v.iter_mut().zip(&y[j * nr..(j + 1) * nr]) {
+                *vr = -yr * e.data[k * nc + nc - 1];
             }
             b += e.inner(k, &v, &r0[k * nr..(k + 1) * nr]);
             a += e.inner(k, &v, &v);
@@ -376,7 +392,7 @@ fn best_start(
         let x = (-b / a).clamp(-amp, amp);
         let gain = -2.0 * b * x - a * x * x;
         gain.is_finite().then_some(GlitchStart {
-            values: [t0, tau, x],
+            values: [n0 as f64 / e.fs, tau, x],
             gain,
         })
     };

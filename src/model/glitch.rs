@@ -38,6 +38,9 @@
 use super::bin::{Bin, BinBlock, with_buffer};
 use super::covariates::Covariates;
 use super::glitch_kernel::{GlitchKernel, ParentKernel, peak};
+use super::glitch_response::{
+    Causal, add_samples, add_samples_dual, grid_index, response_grid, response_grid_dual,
+};
 use super::traits::{BlockKernel, Model};
 use num_complex::{Complex, Complex64};
 use num_dual::{Dual64, DualNum};
@@ -192,14 +195,12 @@ impl GlitchModel {
         &self.parent
     }
 
-    /// Fills `out` (`R × (C_p + 1)`) from the parent's coefficients and force response
-    /// `(pc, pf)` (`R × C_p`, `R`) at θ.
+    /// Fills `out` (`R × (C_p + 1)`) from the parent's coefficients `pc` (`R × C_p`) and the
+    /// glitches' response `y` (`R`; `None`: no glitch acts): the impulse's coefficient is `−y`.
     fn fill<T: DualNum<Primitive = f64> + Copy>(
         &self,
-        th: &[T],
         pc: &[Complex<T>],
-        pf: Option<&[Complex<T>]>,
-        shape: impl Fn(T, T, f64) -> Complex<T>,
+        y: Option<&[Complex<T>]>,
         out: &mut [Complex<T>],
     ) {
         let nr = self.parent.residual_channels().len();
@@ -207,19 +208,173 @@ impl GlitchModel {
         let c = cp + 1;
         for r in 0..nr {
             out[r * c..r * c + cp].copy_from_slice(&pc[r * cp..(r + 1) * cp]);
-            out[r * c + cp] = Complex::new(T::zero(), T::zero());
+            out[r * c + cp] = match y {
+                Some(y) => -y[r],
+                None => Complex::new(T::zero(), T::zero()),
+            };
         }
-        let (Some((active, duration)), Some(pf)) = (&self.here, pf) else {
+    }
+
+    /// The circular product `Σ_g H a_g S_g` at a frequency off the record's DFT grid (where the
+    /// causal response of [`super::glitch_response`] has no bin), from the force response `pf`.
+    fn circular<T: DualNum<Primitive = f64> + Copy>(
+        &self,
+        th: &[T],
+        pf: &[Complex<T>],
+        bin: &Bin,
+        out: &mut [Complex<T>],
+    ) {
+        out.fill(Complex::new(T::zero(), T::zero()));
+        let Some((active, duration)) = &self.here else {
             return;
         };
         for &g in active {
             let i = self.glitch_index(g);
-            let s = shape(th[i], th[i + 1], *duration);
-            let a = th[i + 2];
-            for r in 0..nr {
-                out[r * c + cp] -= pf[r] * a * s;
+            let s = shape_dft(th[i], th[i + 1], self.rise, *duration, bin.f, bin.fs);
+            for (o, h) in out.iter_mut().zip(pf) {
+                *o += *h * th[i + 2] * s;
             }
         }
+    }
+
+    /// The record's sample count and DFT bin of `bin`, if it is on the grid of this
+    /// experiment's record and a glitch acts here.
+    fn record_bin(&self, bin: &Bin) -> Option<(usize, usize)> {
+        let (active, duration) = self.here.as_ref()?;
+        if active.is_empty() {
+            return None;
+        }
+        let n = (duration * bin.fs).round() as usize;
+        (n >= 2)
+            .then(|| grid_index(bin.f, bin.fs, n).map(|k| (n, k)))
+            .flatten()
+    }
+
+    /// The parent's force response on the padded grid at `p` (`m` points at `fs`), kept per
+    /// thread for the last parent θ.
+    fn with_response_grid<R>(
+        &self,
+        p: &[f64],
+        m: usize,
+        fs: f64,
+        f: impl FnOnce(&[Complex64]) -> R,
+    ) -> R {
+        HGRID.with_borrow_mut(|memo| {
+            let key = [self.memo_id, m as u64, fs.to_bits()];
+            if memo.0 != key || memo.1.as_slice() != p {
+                response_grid(self.parent.as_ref(), p, m, fs, &mut memo.2);
+                memo.0 = key;
+                memo.1 = p.to_vec();
+            }
+            f(&memo.2)
+        })
+    }
+
+    /// The causal response `Y_r,k` of this experiment's glitches at θ on bin `k` of a record
+    /// of `n` samples at `fs` ([`super::glitch_response`]), into `out` (`R`). The whole record's
+    /// response is computed once per θ and thread.
+    fn causal_response(&self, th: &[f64], n: usize, fs: f64, k: usize, out: &mut [Complex64]) {
+        let nr = out.len();
+        EXACT.with_borrow_mut(|memo| {
+            let key = [self.memo_id, n as u64, fs.to_bits()];
+            if memo.key != key || memo.theta.as_slice() != th {
+                let (active, _) = self.here.as_ref().expect("record_bin checked");
+                with_causal(n, fs, |c| {
+                    let mut g = vec![0.0; n];
+                    for &j in active {
+                        let i = self.glitch_index(j);
+                        add_samples(th[i], th[i + 1], th[i + 2], self.rise, fs, &mut g);
+                    }
+                    let mut gs = Vec::new();
+                    c.spectrum(&g, &mut gs);
+                    memo.y.resize((n / 2 + 1) * nr, Complex64::new(0.0, 0.0));
+                    self.with_response_grid(&th[..self.np], c.m(), fs, |h| {
+                        c.apply(&[(h, &gs)], nr, &mut memo.y)
+                    });
+                });
+                memo.key = key;
+                memo.theta = th.to_vec();
+            }
+            out.copy_from_slice(&memo.y[k * nr..(k + 1) * nr]);
+        })
+    }
+
+    /// [`Self::causal_response`] in dual numbers.
+    fn causal_response_dual(
+        &self,
+        th: &[Dual64],
+        n: usize,
+        fs: f64,
+        k: usize,
+        out: &mut [Complex<Dual64>],
+    ) {
+        let nr = out.len();
+        EXACT_DUAL.with_borrow_mut(|memo| {
+            let key = [self.memo_id, n as u64, fs.to_bits()];
+            let same = memo.key == key
+                && memo.theta.len() == th.len()
+                && memo
+                    .theta
+                    .iter()
+                    .zip(th)
+                    .all(|(a, b)| a.re == b.re && a.eps == b.eps);
+            if !same {
+                let (active, _) = self.here.as_ref().expect("record_bin checked");
+                with_causal(n, fs, |c| {
+                    let (mut g, mut dg) = (vec![0.0; n], vec![0.0; n]);
+                    for &j in active {
+                        let i = self.glitch_index(j);
+                        add_samples_dual(
+                            th[i],
+                            th[i + 1],
+                            th[i + 2],
+                            self.rise,
+                            fs,
+                            &mut g,
+                            &mut dg,
+                        );
+                    }
+                    let (mut gs, mut dgs) = (Vec::new(), Vec::new());
+                    c.spectrum(&g, &mut gs);
+                    let seeded = dg.iter().any(|x| *x != 0.0);
+                    if seeded {
+                        c.spectrum(&dg, &mut dgs);
+                    }
+                    let zero = Complex64::new(0.0, 0.0);
+                    let (mut y, mut dy) =
+                        (vec![zero; (n / 2 + 1) * nr], vec![zero; (n / 2 + 1) * nr]);
+                    let p = &th[..self.np];
+                    if p.iter().all(|x| x.eps == 0.0) {
+                        let pr: Vec<f64> = p.iter().map(|x| x.re).collect();
+                        self.with_response_grid(&pr, c.m(), fs, |h| {
+                            c.apply(&[(h, &gs)], nr, &mut y);
+                            if seeded {
+                                c.apply(&[(h, &dgs)], nr, &mut dy);
+                            }
+                        });
+                    } else {
+                        let (mut h, mut dh) = (Vec::new(), Vec::new());
+                        response_grid_dual(self.parent.as_ref(), p, c.m(), fs, &mut h, &mut dh);
+                        c.apply(&[(&h, &gs)], nr, &mut y);
+                        if seeded {
+                            c.apply(&[(&dh, &gs), (&h, &dgs)], nr, &mut dy);
+                        } else {
+                            c.apply(&[(&dh, &gs)], nr, &mut dy);
+                        }
+                    }
+                    memo.y = y
+                        .iter()
+                        .zip(&dy)
+                        .map(|(v, d)| {
+                            Complex::new(Dual64::new(v.re, d.re), Dual64::new(v.im, d.im))
+                        })
+                        .collect();
+                });
+                memo.key = key;
+                memo.theta = th.to_vec();
+            }
+            out.copy_from_slice(&memo.y[k * nr..(k + 1) * nr]);
+        })
     }
 }
 
@@ -254,22 +409,13 @@ pub fn shape_dft<T: DualNum<Primitive = f64> + Copy>(
     (u(tau) - u(T::from(rise))) / peak(tau, rise)
 }
 
-thread_local! {
-    /// The real templates of the last bin evaluated on this thread, keyed by
-    /// `(f, fs, t0, τ, τ_r, duration)`.
-    static SHAPES: std::cell::RefCell<Vec<([f64; 6], Complex64)>> =
-        const { std::cell::RefCell::new(Vec::new()) };
-}
-
-/// The parent's real coefficients and force response at one bin and θ.
+/// The parent's real coefficients at one bin and θ.
 #[derive(Default)]
 struct ParentMemo {
     /// The model's `memo_id`, the bin's constants (address), `f`, `fs` (bits).
     key: [u64; 4],
     theta: Vec<f64>,
     pc: Vec<Complex64>,
-    pf: Vec<Complex64>,
-    has: bool,
 }
 
 thread_local! {
@@ -282,28 +428,48 @@ thread_local! {
     });
 }
 
+/// The causal response of one specialised model over its whole record at one θ.
+struct ExactMemo<T> {
+    /// The model's `memo_id`, the record's samples, `fs` (bits).
+    key: [u64; 3],
+    theta: Vec<T>,
+    y: Vec<Complex<T>>,
+}
+
+thread_local! {
+    /// The last θ's causal response on this thread: the generic path asks for it bin by bin.
+    static EXACT: std::cell::RefCell<ExactMemo<f64>> = const { std::cell::RefCell::new(ExactMemo {
+        key: [u64::MAX; 3],
+        theta: Vec::new(),
+        y: Vec::new(),
+    }) };
+    /// As [`EXACT`] in dual numbers (one seeded direction of a Fisher pass).
+    static EXACT_DUAL: std::cell::RefCell<ExactMemo<Dual64>> = const { std::cell::RefCell::new(ExactMemo {
+        key: [u64::MAX; 3],
+        theta: Vec::new(),
+        y: Vec::new(),
+    }) };
+    /// The parent's force response on the padded grid: `(key, parent θ, H)`.
+    static HGRID: std::cell::RefCell<([u64; 3], Vec<f64>, Vec<Complex64>)> =
+        const { std::cell::RefCell::new(([u64::MAX; 3], Vec::new(), Vec::new())) };
+    /// The transforms of the last record length on this thread.
+    static CAUSAL: std::cell::RefCell<Option<Causal>> = const { std::cell::RefCell::new(None) };
+}
+
+/// Runs `f` with this thread's transforms of a record of `n` samples.
+fn with_causal<R>(n: usize, fs: f64, f: impl FnOnce(&mut Causal) -> R) -> R {
+    CAUSAL.with_borrow_mut(|c| {
+        if c.as_ref().is_none_or(|c| c.n() != n || c.fs() != fs) {
+            *c = Some(Causal::new(n, fs));
+        }
+        f(c.as_mut().expect("just made"))
+    })
+}
+
 /// A new [`GlitchModel`] instance's `memo_id`.
 fn next_memo_id() -> u64 {
     static NEXT: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
     NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
-}
-
-/// [`shape_dft`] in `f64`, remembered for the bin: a Fisher matrix evaluates every bin once
-/// per free parameter, and all but one glitch's template are the same in each pass (they
-/// would otherwise cost most of its time).
-fn real_shape_memo(t0: f64, tau: f64, rise: f64, duration: f64, f: f64, fs: f64) -> Complex64 {
-    let key = [f, fs, t0, tau, rise, duration];
-    SHAPES.with_borrow_mut(|memo| {
-        if memo.first().is_some_and(|(k, _)| k[0] != f || k[1] != fs) {
-            memo.clear();
-        }
-        if let Some((_, s)) = memo.iter().find(|(k, _)| *k == key) {
-            return *s;
-        }
-        let s = shape_dft(t0, tau, rise, duration, f, fs);
-        memo.push((key, s));
-        s
-    })
 }
 
 impl Model for GlitchModel {
@@ -339,12 +505,24 @@ impl Model for GlitchModel {
         let nr = self.parent.residual_channels().len();
         let cp = self.data.len() - 1;
         let p = &theta[..self.np];
-        with_buffer(nr * cp + nr, |buf| {
-            let (pc, pf) = buf.split_at_mut(nr * cp);
+        with_buffer(nr * cp + 2 * nr, |buf| {
+            let (pc, rest) = buf.split_at_mut(nr * cp);
+            let (pf, y) = rest.split_at_mut(nr);
             self.parent.coefficients(p, bin, pc);
-            let has = self.here.is_some() && self.parent.force_response(p, bin, pf);
-            let shape = |t0, tau, d| shape_dft(t0, tau, self.rise, d, bin.f, bin.fs);
-            self.fill(theta, pc, has.then_some(&*pf), shape, out);
+            let acts = match self.record_bin(bin) {
+                Some((n, k)) => {
+                    self.causal_response(theta, n, bin.fs, k, y);
+                    true
+                }
+                None => {
+                    let has = self.here.is_some() && self.parent.force_response(p, bin, pf);
+                    if has {
+                        self.circular(theta, pf, bin, y);
+                    }
+                    has
+                }
+            };
+            self.fill(pc, acts.then_some(&*y), out);
         })
     }
 
@@ -354,11 +532,14 @@ impl Model for GlitchModel {
         let z = Complex::new(Dual64::from(0.0), Dual64::from(0.0));
         let mut pc = vec![z; nr * cp];
         let mut pf = vec![z; nr];
+        let mut y = vec![z; nr];
         let p = &theta[..self.np];
         // a Fisher matrix seeds one parameter at a time: for a glitch's parameter the parent's
-        // coefficients and force response are real (their dual evaluation would cost most of
-        // the time), and a glitch whose t0 and τ carry no derivative has a real template
-        let has = if p.iter().all(|x| x.eps == 0.0) {
+        // coefficients are real (their dual evaluation would cost most of the time)
+        let loop_seeded = !p.iter().all(|x| x.eps == 0.0);
+        if loop_seeded {
+            self.parent.coefficients_dual(p, bin, &mut pc);
+        } else {
             let lift = |v: &Complex64| Complex::new(Dual64::from(v.re), Dual64::from(v.im));
             PARENT.with_borrow_mut(|memo| {
                 let key = [
@@ -374,31 +555,27 @@ impl Model for GlitchModel {
                     memo.key = key;
                     memo.theta = p.iter().map(|x| x.re).collect();
                     memo.pc.resize(nr * cp, Complex64::new(0.0, 0.0));
-                    memo.pf.resize(nr, Complex64::new(0.0, 0.0));
                     self.parent.coefficients(&memo.theta, bin, &mut memo.pc);
-                    memo.has = self.parent.force_response(&memo.theta, bin, &mut memo.pf);
                 }
                 for (o, v) in pc.iter_mut().zip(&memo.pc) {
                     *o = lift(v);
                 }
-                for (o, v) in pf.iter_mut().zip(&memo.pf) {
-                    *o = lift(v);
+            });
+        }
+        let acts = match self.record_bin(bin) {
+            Some((n, k)) => {
+                self.causal_response_dual(theta, n, bin.fs, k, &mut y);
+                true
+            }
+            None => {
+                let has = self.here.is_some() && self.parent.force_response_dual(p, bin, &mut pf);
+                if has {
+                    self.circular(theta, &pf, bin, &mut y);
                 }
-                self.here.is_some() && memo.has
-            })
-        } else {
-            self.parent.coefficients_dual(p, bin, &mut pc);
-            self.here.is_some() && self.parent.force_response_dual(p, bin, &mut pf)
-        };
-        let shape = |t0: Dual64, tau: Dual64, d| {
-            if t0.eps == 0.0 && tau.eps == 0.0 {
-                let s = real_shape_memo(t0.re, tau.re, self.rise, d, bin.f, bin.fs);
-                Complex::new(Dual64::from(s.re), Dual64::from(s.im))
-            } else {
-                shape_dft(t0, tau, self.rise, d, bin.f, bin.fs)
+                has
             }
         };
-        self.fill(theta, &pc, has.then_some(&pf[..]), shape, out);
+        self.fill(&pc, acts.then_some(&y[..]), out);
     }
 
     fn is_stable(&self, theta: &[f64]) -> bool {
@@ -638,9 +815,9 @@ pub(super) mod tests {
         th
     }
 
-    /// On its experiment the impulse's coefficient is minus the force response times the
-    /// glitches' `Δg`; elsewhere, and unspecialised, it is zero; the parent's coefficients
-    /// are kept.
+    /// On its experiment the impulse's coefficient is minus the glitches' causal response
+    /// (against a slow oracle: a direct convolution); elsewhere, and unspecialised, it is zero;
+    /// the parent's coefficients are kept.
     #[test]
     fn coefficients_add_the_glitches_of_the_experiment_only() {
         let m = model();
@@ -675,16 +852,95 @@ pub(super) mod tests {
             fs,
             consts: &cst,
         };
-        let mut h = [Complex64::new(0.0, 0.0); 2];
-        assert!(m.force_response(&th, &bin, &mut h));
+        // the oracle: the loop's impulse response by a long inverse transform (2^18 samples,
+        // where it has died), convolved sample by sample with the simulator's glitches, and
+        // transformed at this bin of the 3000-sample record. A sampled `H` that is not band-
+        // limited has a small acausal part at negative lags (the end of the long grid), which
+        // the model's and the simulator's products include: so does the sum.
+        let (n, l) = (3000usize, 1usize << 18);
+        let mut hs = [
+            vec![Complex64::new(0.0, 0.0); l / 2 + 1],
+            vec![Complex64::new(0.0, 0.0); l / 2 + 1],
+        ];
+        for j in 1..=l / 2 {
+            let fj = j as f64 * fs / l as f64;
+            let mut c = vec![Complex64::new(0.0, 0.0); m.n_consts()];
+            m.bin_consts(fj, fs, &mut c);
+            let mut h = [Complex64::new(0.0, 0.0); 2];
+            let b = Bin {
+                f: fj,
+                fs,
+                consts: &c,
+            };
+            assert!(m.force_response(&th, &b, &mut h));
+            hs[0][j] = h[0];
+            hs[1][j] = h[1];
+        }
+        let mut fft = RealFft::new(l).unwrap();
+        let g: Vec<f64> = (0..n)
+            .map(|t| {
+                [0usize, 2]
+                    .iter()
+                    .map(|&j| {
+                        let i = 7 + 3 * j;
+                        Glitch {
+                            t0: th[i],
+                            decay: th[i + 1],
+                            amplitude: th[i + 2],
+                            rise: 2.0,
+                            tm: 2,
+                        }
+                        .at(t as f64 / fs)
+                    })
+                    .sum()
+            })
+            .collect();
+        let k = (f * n as f64 / fs).round();
         for r in 0..2 {
+            let mut h = vec![0.0; l];
+            fft.inverse(&hs[r], &mut h).unwrap();
+            let mut want = Complex64::new(0.0, 0.0);
+            for t in 0..n {
+                let y: f64 = (0..n).map(|s| h[(t + l - s) % l] * g[s]).sum();
+                want -= Complex64::from_polar(y, -2.0 * PI * k * t as f64 / n as f64);
+            }
             assert_eq!(&a[r * 5..r * 5 + 4], &parent[r * 4..r * 4 + 4]);
             assert_eq!(plain[r * 5 + 4], Complex64::new(0.0, 0.0));
             assert_eq!(c[r * 5 + 4], Complex64::new(0.0, 0.0));
+            assert!(
+                (a[r * 5 + 4] - want).norm() < 1e-8 * want.norm(),
+                "{r}: {} {want}",
+                a[r * 5 + 4]
+            );
+        }
+        // off the record's grid, the circular product of the force response and the template
+        let f_off = 0.01 + 0.3 / 3000.0;
+        let mut cst = vec![Complex64::new(0.0, 0.0); m.n_consts()];
+        m.bin_consts(f_off, fs, &mut cst);
+        let bin = Bin {
+            f: f_off,
+            fs,
+            consts: &cst,
+        };
+        let mut h = [Complex64::new(0.0, 0.0); 2];
+        assert!(m.force_response(&th, &bin, &mut h));
+        let a = {
+            let cov = Covariates {
+                experiment: Some("a".into()),
+                ..Default::default()
+            };
+            coefficients_at(
+                m.specialise(&cov).unwrap().unwrap().as_ref(),
+                &th,
+                f_off,
+                fs,
+            )
+        };
+        for r in 0..2 {
             let mut want = Complex64::new(0.0, 0.0);
             for g in [0usize, 2] {
                 let i = 7 + 3 * g;
-                let s = shape_dft(th[i], th[i + 1], 2.0, 3000.0, f, fs);
+                let s = shape_dft(th[i], th[i + 1], 2.0, 3000.0, f_off, fs);
                 want -= h[r] * th[i + 2] * s;
             }
             assert!((a[r * 5 + 4] - want).norm() < 1e-12 * want.norm());

@@ -1,37 +1,30 @@
 //! The prepared kernel of [`super::GlitchModel`] on one experiment: its exact `Σ_k r_kᴴ C_k⁻¹
-//! r_k` without re-evaluating the loop when only glitch parameters change, and without a
-//! `sin_cos` or `exp` per bin and glitch.
+//! r_k` without re-evaluating the loop's residual when only glitch parameters change.
 //!
 //! # Algebra
-//! With the parent's residual `ρ_k(θ_p)`, its force response `H_k(θ_p)` and the glitches' force
-//! `G_k = d_δ,k Σ_g a_g S_g,k` (`d_δ` the impulse channel's DFT, `S_g` the template of
-//! [`super::glitch::shape_dft`]), the residual is `r_k = ρ_k − H_k G_k`, so
+//! With the parent's residual `ρ_k(θ_p)` and the glitches' causal response `y_k`
+//! ([`super::glitch_response`], times the impulse channel's DFT `d_δ,k`), the residual is
+//! `r_k = ρ_k − y_k`, so
 //!
 //! ```text
-//! Σ_k r_kᴴ C_k⁻¹ r_k = P(θ_p) + Σ_k [v_k |G_k|² − 2 Re(G_k* u_k)],
-//! P = Σ_k ρ_kᴴ C_k⁻¹ ρ_k,   u_k = H_kᴴ C_k⁻¹ ρ_k,   v_k = H_kᴴ C_k⁻¹ H_k.
+//! Σ_k r_kᴴ C_k⁻¹ r_k = P(θ_p) + Σ_k [y_kᴴ C_k⁻¹ y_k − 2 Re(y_kᴴ w_k)],
+//! P = Σ_k ρ_kᴴ C_k⁻¹ ρ_k,   w_k = C_k⁻¹ ρ_k.
 //! ```
 //!
-//! `P`, `u`, `v` depend on the loop's parameters only: they are computed in one pass over the
-//! bins and kept (per thread) until those change, which a move of a glitch's parameters alone
-//! (a reversible jump's birth or death, a glitch's block update) does not. A template depends
-//! on its glitch's `t0` and `τ` only and is kept likewise; an amplitude enters linearly.
-//!
-//! # Templates without transcendental functions per bin
-//! On the DFT grid `f_k = f_0 + k δf`, the template's phasor `e^{−iω_k n0/fs}` is a geometric
-//! sequence in `k`: one `sin_cos` every [`BLOCK`] bins and a complex product between them (at
-//! most `BLOCK` roundings, nothing accumulates along the band). `e^{−iω_k/fs}` and the rise
-//! term's denominator `1/(1 − e^{−1/(fs τ_r)} e^{−iω_k/fs})` do not depend on θ and are tabled;
-//! per bin and glitch one complex division remains. Tested against the generic path
+//! `P`, `w` and the loop's force response on the padded grid depend on the loop's parameters
+//! only: they are computed once and kept (per thread, for the last two loop points: a rejected
+//! Metropolis step returns to the current one) until those change, which a move of a glitch's
+//! parameters alone (a reversible jump's birth or death, a glitch's block update) does not.
+//! `y` is the module's five transforms. Tested against the generic path
 //! ([`super::residual_power_generic`]) to rounding.
 
 use super::bin::{Bin, BinBlock, MAX_CHANNELS, residual};
+use super::glitch_response::{Causal, add_samples, grid_index, response_grid};
 use super::traits::{BlockKernel, Model};
 use crate::hermitian::quad;
 use num_complex::Complex64;
 use num_dual::DualNum;
 use std::cell::RefCell;
-use std::f64::consts::PI;
 use std::sync::Arc;
 
 /// The peak of `e^{−u/τ} − e^{−u/τ_r}`, at `u* = ln(τ/τ_r) τ τ_r / (τ − τ_r)`.
@@ -39,9 +32,6 @@ pub(super) fn peak<T: DualNum<Primitive = f64> + Copy>(tau: T, rise: f64) -> T {
     let u = (tau / rise).ln() * tau * rise / (tau - rise);
     (-u / tau).exp() - (-u / rise).exp()
 }
-
-/// Bins between exact phasors of a template.
-const BLOCK: usize = 256;
 
 /// The prepared kernel (module docs). Owns copies of everything θ-independent.
 #[derive(Debug)]
@@ -54,8 +44,10 @@ pub(super) struct GlitchKernel {
     /// `θ` index of each active glitch's `t0` (then `τ`, `a`).
     glitches: Vec<usize>,
     rise: f64,
-    /// Record length `N/fs` (s).
-    duration: f64,
+    /// Samples of the record.
+    samples: usize,
+    /// The record's DFT bin of the block's first bin.
+    first: usize,
     f0: f64,
     df: f64,
     fs: f64,
@@ -67,29 +59,29 @@ pub(super) struct GlitchKernel {
     cinv: Vec<(f64, Complex64, f64)>,
     consts: Vec<Complex64>,
     n_consts: usize,
-    /// `e^{−iω_k/fs}` per bin.
-    step: Vec<Complex64>,
-    /// `1/(1 − e^{−1/(fs τ_r)} e^{−iω_k/fs})` per bin.
-    rise_den: Vec<Complex64>,
 }
 
-/// `P`, `u`, `v` at the parent's parameters `theta_p`.
+/// `P`, `w` and the force response on the padded grid at the parent's parameters `theta_p`.
 #[derive(Default)]
 struct LoopState {
     theta_p: Vec<f64>,
     power: f64,
-    u: Vec<Complex64>,
-    v: Vec<f64>,
+    w: Vec<[Complex64; 2]>,
+    h: Vec<Complex64>,
 }
 
-/// What one thread keeps of one kernel between evaluations: two loop states (a Metropolis
-/// step evaluates a proposal and, if it is rejected, returns to the current point; the next
-/// block's move must not recompute the loop), the most recent first.
+/// What one thread keeps of one kernel between evaluations.
 struct Cache {
     id: u64,
     loops: [LoopState; 2],
-    /// `(t0, τ)` and the template of each active glitch.
-    templates: Vec<([f64; 2], Vec<Complex64>)>,
+    causal: Causal,
+    /// The parameters `y` was computed at (the parent's, then each glitch's three), and `y` on
+    /// the record's bins `0 … N/2`.
+    y_at: Vec<f64>,
+    y: Vec<Complex64>,
+    /// Scratch: the glitches' samples and their spectrum.
+    g: Vec<f64>,
+    gs: Vec<Complex64>,
 }
 
 thread_local! {
@@ -108,7 +100,8 @@ fn next_id() -> u64 {
 impl GlitchKernel {
     /// The kernel of `parent` with the glitches at `glitches` (indices of their `t0`) on a
     /// record of `duration` s, over `b` (whose last data channel is the impulse). `None` for
-    /// more than two residual channels (the packed inverse covers up to two).
+    /// more than two residual channels (the packed inverse covers up to two) or bins off the
+    /// record's DFT grid.
     pub(super) fn new(
         parent: Arc<dyn Model>,
         np: usize,
@@ -126,21 +119,18 @@ impl GlitchKernel {
         if nc != cp + 1 {
             return None;
         }
+        let samples = (duration * b.fs).round() as usize;
+        let first = grid_index(b.f0, b.fs, samples)?;
+        let last = grid_index(b.f0 + (b.n - 1) as f64 * b.df, b.fs, samples)?;
+        if samples < 2 || last != first + b.n - 1 {
+            return None;
+        }
         let mut data = Vec::with_capacity(b.n * cp);
         let mut impulse = Vec::with_capacity(b.n);
         for k in 0..b.n {
             data.extend_from_slice(&b.data[k * nc..k * nc + cp]);
             impulse.push(b.data[k * nc + cp]);
         }
-        let decay_r = (-1.0 / (b.fs * rise)).exp();
-        let (step, rise_den): (Vec<_>, Vec<_>) = (0..b.n)
-            .map(|k| {
-                let w = 2.0 * PI * (b.f0 + k as f64 * b.df) / b.fs;
-                let (s, c) = w.sin_cos();
-                let e = Complex64::new(c, -s);
-                (e, (Complex64::new(1.0, 0.0) - e * decay_r).inv())
-            })
-            .unzip();
         Some(Self {
             id: next_id(),
             n_consts: parent.n_consts(),
@@ -148,7 +138,8 @@ impl GlitchKernel {
             np,
             glitches,
             rise,
-            duration,
+            samples,
+            first,
             f0: b.f0,
             df: b.df,
             fs: b.fs,
@@ -157,21 +148,17 @@ impl GlitchKernel {
             impulse,
             cinv: b.cinv.to_vec(),
             consts: b.consts.to_vec(),
-            step,
-            rise_den,
         })
     }
 
-    /// `P`, `u`, `v` at the parent's parameters `p` (module docs).
-    fn loop_pass(&self, p: &[f64], c: &mut LoopState) {
+    /// `P`, `w` and the force response grid at the parent's parameters `p` (module docs).
+    fn loop_pass(&self, p: &[f64], m: usize, c: &mut LoopState) {
         let cp = self.parent.data_channels().len();
         let nr = self.parent.residual_channels().len();
         let zero = Complex64::new(0.0, 0.0);
         let mut coef = [zero; MAX_CHANNELS * 2];
         let coef = &mut coef[..nr * cp];
-        let mut h = [zero; 2];
-        c.u.resize(self.n, zero);
-        c.v.resize(self.n, 0.0);
+        c.w.resize(self.n, [zero; 2]);
         let mut power = 0.0;
         for k in 0..self.n {
             let bin = Bin {
@@ -180,52 +167,29 @@ impl GlitchKernel {
                 consts: &self.consts[k * self.n_consts..(k + 1) * self.n_consts],
             };
             self.parent.coefficients(p, &bin, coef);
-            h[1] = zero;
-            self.parent.force_response(p, &bin, &mut h[..nr]);
             let rho = residual(coef, nr, &self.data[k * cp..(k + 1) * cp]);
             let (a, b, cc) = self.cinv[k];
             let w = [rho[0] * a + b * rho[1], b.conj() * rho[0] + rho[1] * cc];
             power += (rho[0].conj() * w[0] + rho[1].conj() * w[1]).re;
-            c.u[k] = h[0].conj() * w[0] + h[1].conj() * w[1];
-            c.v[k] = quad(&self.cinv[k], h);
+            c.w[k] = w;
         }
+        response_grid(self.parent.as_ref(), p, m, self.fs, &mut c.h);
         c.power = power;
         c.theta_p.clear();
         c.theta_p.extend_from_slice(p);
     }
 
-    /// The template of a glitch at `(t0, τ)` into `out` (as [`super::glitch::shape_dft`]).
-    fn template(&self, t0: f64, tau: f64, out: &mut Vec<Complex64>) {
-        let zero = Complex64::new(0.0, 0.0);
-        out.clear();
-        out.resize(self.n, zero);
-        let n0 = (t0 * self.fs).ceil().max(0.0);
-        if n0 >= (self.duration * self.fs).round() {
-            return;
-        }
-        let start = n0 / self.fs - t0;
-        let end = self.duration - t0;
-        let (head, tail) = ((-start / tau).exp(), (-end / tau).exp());
-        let (head_r, tail_r) = ((-start / self.rise).exp(), (-end / self.rise).exp());
-        let decay = (-1.0 / (self.fs * tau)).exp();
-        let c = peak(tau, self.rise);
-        let one = Complex64::new(1.0, 0.0);
-        // the phasor advances by e^{−i 2π δf n0/fs} per bin
-        let (s, co) = (2.0 * PI * self.df * n0 / self.fs).sin_cos();
-        let adv = Complex64::new(co, -s);
-        for (q, chunk) in out.chunks_mut(BLOCK).enumerate() {
-            let k0 = q * BLOCK;
-            let (s, co) = (2.0 * PI * (self.f0 + k0 as f64 * self.df) / self.fs * n0).sin_cos();
-            let mut ph = Complex64::new(co, -s);
-            for (l, o) in chunk.iter_mut().enumerate() {
-                let k = k0 + l;
-                let e = self.step[k];
-                let u = (ph * head - tail) / (one - e * decay);
-                let ur = (ph * head_r - tail_r) * self.rise_den[k];
-                *o = (u - ur) / c;
-                ph *= adv;
-            }
-        }
+    /// Whether `y_at` holds the parameters `th` of the parent and the glitches.
+    fn same_point(&self, y_at: &[f64], th: &[f64]) -> bool {
+        let np = self.np;
+        y_at.len() == np + 3 * self.glitches.len()
+            && y_at[..np]
+                .iter()
+                .zip(&th[..np])
+                .all(|(a, b)| a.to_bits() == b.to_bits())
+            && self.glitches.iter().enumerate().all(|(j, &i)| {
+                (0..3).all(|q| y_at[np + 3 * j + q].to_bits() == th[i + q].to_bits())
+            })
     }
 }
 
@@ -246,6 +210,7 @@ impl BlockKernel for ParentKernel {
 impl BlockKernel for GlitchKernel {
     fn residual_power(&self, th: &[f64]) -> f64 {
         let p = &th[..self.np];
+        let nr = self.parent.residual_channels().len();
         CACHES.with_borrow_mut(|caches| {
             let at = match caches.iter().position(|c| c.id == self.id) {
                 Some(i) => i,
@@ -256,42 +221,50 @@ impl BlockKernel for GlitchKernel {
                     caches.push(Cache {
                         id: self.id,
                         loops: Default::default(),
-                        templates: vec![([f64::NAN; 2], Vec::new()); self.glitches.len()],
+                        causal: Causal::new(self.samples, self.fs),
+                        y_at: Vec::new(),
+                        y: Vec::new(),
+                        g: vec![0.0; self.samples],
+                        gs: Vec::new(),
                     });
                     caches.len() - 1
                 }
             };
             let c = &mut caches[at];
-            let hit = |l: &LoopState| l.theta_p.as_slice() == p && l.u.len() == self.n;
+            let m = c.causal.m();
+            let hit = |l: &LoopState| l.theta_p.as_slice() == p && l.w.len() == self.n;
             if !hit(&c.loops[0]) {
                 c.loops.swap(0, 1);
                 if !hit(&c.loops[0]) {
-                    self.loop_pass(p, &mut c.loops[0]);
+                    self.loop_pass(p, m, &mut c.loops[0]);
+                }
+            }
+            if !self.same_point(&c.y_at, th) {
+                c.g.fill(0.0);
+                for &i in &self.glitches {
+                    add_samples(th[i], th[i + 1], th[i + 2], self.rise, self.fs, &mut c.g);
+                }
+                c.causal.spectrum(&c.g, &mut c.gs);
+                c.y.resize((self.samples / 2 + 1) * nr, Complex64::new(0.0, 0.0));
+                c.causal.apply(&[(&c.loops[0].h, &c.gs)], nr, &mut c.y);
+                c.y_at.clear();
+                c.y_at.extend_from_slice(p);
+                for &i in &self.glitches {
+                    c.y_at.extend_from_slice(&th[i..i + 3]);
                 }
             }
             let lp = &c.loops[0];
-            let mut templates = std::mem::take(&mut c.templates);
-            for (&i, (key, t)) in self.glitches.iter().zip(templates.iter_mut()) {
-                let want = [th[i], th[i + 1]];
-                // bitwise, so that a NaN key never matches
-                if key[0].to_bits() != want[0].to_bits()
-                    || key[1].to_bits() != want[1].to_bits()
-                    || t.len() != self.n
-                {
-                    self.template(want[0], want[1], t);
-                    *key = want;
-                }
-            }
             let mut s = lp.power;
+            let zero = Complex64::new(0.0, 0.0);
             for k in 0..self.n {
-                let mut g = Complex64::new(0.0, 0.0);
-                for (&i, (_, t)) in self.glitches.iter().zip(&templates) {
-                    g += t[k] * th[i + 2];
+                let at = (self.first + k) * nr;
+                let mut y = [zero; 2];
+                for (v, x) in y.iter_mut().zip(&c.y[at..at + nr]) {
+                    *v = x * self.impulse[k];
                 }
-                g *= self.impulse[k];
-                s += lp.v[k] * g.norm_sqr() - 2.0 * (g.conj() * lp.u[k]).re;
+                let w = lp.w[k];
+                s += quad(&self.cinv[k], y) - 2.0 * (y[0].conj() * w[0] + y[1].conj() * w[1]).re;
             }
-            c.templates = templates;
             s
         })
     }

@@ -28,6 +28,7 @@ mod covariates;
 pub mod drift;
 pub mod glitch;
 mod glitch_kernel;
+mod glitch_response;
 pub mod ltp;
 mod ltp_kernel;
 pub mod reparam;
@@ -45,6 +46,7 @@ pub use checks::{check_finite, check_identifiable, coefficients_at, validate_sha
 pub use covariates::Covariates;
 pub use drift::{DriftModel, DriftRule};
 pub use glitch::{GLITCH_CHANNEL, GlitchModel, map_tolerance};
+pub use glitch_response::{GlitchScan, grid_index};
 pub use ltp::{LoopResponse, LtpModel, LtpModelOptions, ThrusterResponse};
 pub use reparam::{Reparam, ReparamModel};
 pub use tied::TiedModel;
