@@ -383,7 +383,7 @@ fn a_modelled_glitch_explains_noiseless_data_wherever_it_starts() {
             );
             assert!(none > 1e3, "the glitches are loud: {none}");
             // in ln L units: far below one, wherever the glitch starts
-        assert!(with < want, "{with} vs {none}");
+            assert!(with < want, "{with} vs {none}");
             // the same force on the other test mass (Δg of the other sign) does not explain it
             let mut swapped = theta.clone();
             for j in 0..names.len() {

@@ -364,28 +364,40 @@ fn best_start(
     else {
         return none;
     };
-    // the glitch's causal response: one set of transforms per decay time, one DFT per start
+    // the glitch's causal response against the residual: every start of one decay time by a
+    // few transforms (GlitchScan::gains)
+    if nr > 2 || e.cinv.len() != e.len() {
+        // the packed inverse covers up to two residual channels (the LTP loop's)
+        return none;
+    }
     let mut scan = GlitchScan::new(m.as_ref(), th, e.n, e.fs, rise);
-    let mut y = vec![zero; (e.n / 2 + 1) * nr];
-    let mut tau_now = f64::NAN;
-    let mut v = vec![zero; nr];
     let nc = e.channels.len();
+    let mut w = Vec::with_capacity(e.len() * nr);
+    for k in 0..e.len() {
+        let r = &r0[k * nr..(k + 1) * nr];
+        let (a, b, c) = e.cinv[k];
+        let rr = [r[0], if nr > 1 { r[1] } else { zero }];
+        let wk = if nr > 1 {
+            [rr[0] * a + b * rr[1], b.conj() * rr[0] + rr[1] * c]
+        } else {
+            [rr[0] * a, zero]
+        };
+        w.extend_from_slice(&wk[..nr]);
+    }
+    let imp: Vec<Complex64> = (0..e.len()).map(|k| e.data[k * nc + nc - 1]).collect();
+    scan.set_target(&bins, &w, &e.cinv, &imp);
+    let mut per_tau: Vec<(f64, Vec<f64>, Vec<f64>)> = Vec::new();
     let mut at = |t0: f64, tau: f64| -> Option<GlitchStart> {
-        if tau != tau_now {
+        if per_tau.last().is_none_or(|x| x.0 != tau) {
             scan.set_tau(tau);
-            tau_now = tau;
+            let (b, a) = scan.gains()?;
+            per_tau.clear();
+            per_tau.push((tau, b, a));
         }
+        let (_, bs, as_) = per_tau.last()?;
         // the scan's starts are sample times; the MAP search refines between them
-        let n0 = (t0 * e.fs).round().max(0.0) as usize;
-        scan.at_sample(n0, &mut y);
-        let (mut b, mut a) = (0.0, 0.0);
-        for (k, &j) in bins.iter().enumerate() {
-            for (vr, yr) in v.iter_mut().zip(&y[j * nr..(j + 1) * nr]) {
-                *vr = -yr * e.data[k * nc + nc - 1];
-            }
-            b += e.inner(k, &v, &r0[k * nr..(k + 1) * nr]);
-            a += e.inner(k, &v, &v);
-        }
+        let n0 = ((t0 * e.fs).round().max(0.0) as usize).min(e.n - 1);
+        let (b, a) = (bs[n0], as_[n0]);
         if !(a > 0.0) {
             return None;
         }
@@ -406,6 +418,8 @@ fn best_start(
         .flat_map(|t| grid(d_lo.ln(), ln_step, TAU_GRID).map(move |l| (t, l)))
         .collect();
     for _round in 0..3 {
+        // decay-major: the scan's transforms are per decay time, a start costs one DFT
+        points.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.total_cmp(&b.0)));
         for &(t0, l) in &points {
             if let Some(s) = at(t0.clamp(t_lo, t_hi), l.clamp(d_lo.ln(), d_hi.ln()).exp())
                 && s.gain > best.gain

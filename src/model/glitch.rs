@@ -16,30 +16,23 @@
 //! # How a force no channel records enters the residual
 //! The model reads one more data channel, [`GLITCH_CHANNEL`]: the unit impulse at the
 //! experiment's first sample, whose DFT is 1 in every bin under the rectangular window. Its
-//! coefficient carries the glitches' response,
-//!
-//! ```text
-//! M_r,δ(f; θ) = −Σ_g H_r(f; θ) a_g S(f; t0_g, τ_g)
-//! ```
-//!
-//! with `H` the parent's [`Model::force_response`] and `S` the DFT of the sampled shape over
-//! the record of `N` samples (`T = N/fs`, `n0 = ⌈t0 fs⌉`, `ω = 2πf`), the geometric sum
-//!
-//! ```text
-//! S = [u(τ) − u(τ_r)]/c,  u(τ') = [e^{−(n0/fs − t0)/τ'} e^{−iωn0/fs} − e^{−(T − t0)/τ'}] / (1 − e^{−1/(fs τ')} e^{−iω/fs})
-//! ```
-//!
-//! exact on the DFT grid ([`shape_dft`], tested against an FFT of the samples). As for the
-//! injections' response `H_io i`, the loop's response is applied in the frequency domain (a
-//! circular convolution): the part of a glitch's response that would outlast the record wraps to
-//! its start. The data of such a model must be gap-free and analysed with the rectangular
-//! window (the impulse would otherwise be windowed away); `jobs::prepare` checks both.
+//! coefficient carries the glitches' response, `M_r,δ = −Y_r`: the DFT over the record of the
+//! read-outs' causal response to the glitches' sampled force `Σ_g a_g s(t − t0_g)` through the
+//! parent's [`Model::force_response`] `H`, cut at the record's end
+//! ([`super::glitch_response`]). The circular product `H(f_k) a S(f_k)` with the closed-form
+//! template [`shape_dft`] (the DFT of the sampled shape, a geometric sum) is what the model did
+//! before: it wraps the loop's response after the record's end round to its start, which for a
+//! glitch in the last third of a stretch left most of it unexplained. Off the record's DFT grid
+//! (a transfer-function plot, not a likelihood) the coefficient is still that product. The data
+//! of such a model must be gap-free and analysed with the rectangular window (the impulse would
+//! otherwise be windowed away); `jobs::prepare` checks both.
 
 use super::bin::{Bin, BinBlock, with_buffer};
 use super::covariates::Covariates;
 use super::glitch_kernel::{GlitchKernel, ParentKernel, peak};
 use super::glitch_response::{
-    Causal, add_samples, add_samples_dual, grid_index, response_grid, response_grid_dual,
+    Causal, GridConsts, add_samples, add_samples_dual, grid_index, response_grid,
+    response_grid_dual,
 };
 use super::traits::{BlockKernel, Model};
 use num_complex::{Complex, Complex64};
@@ -90,6 +83,9 @@ pub struct GlitchModel {
     /// This instance's key in the Fisher passes' memo of parent coefficients (unique per
     /// construction and specialisation, never reused, unlike an address).
     memo_id: u64,
+    /// The parent's constants on the padded grid of the causal response, made on first use
+    /// (fresh for every specialisation: its parent is another).
+    grid: Arc<std::sync::Mutex<Option<Arc<GridConsts>>>>,
 }
 
 impl GlitchModel {
@@ -172,6 +168,7 @@ impl GlitchModel {
             rise,
             here: None,
             memo_id: next_memo_id(),
+            grid: Default::default(),
         })
     }
 
@@ -250,6 +247,19 @@ impl GlitchModel {
             .flatten()
     }
 
+    /// The parent's constants on the padded grid `(m, fs)`.
+    fn grid_consts(&self, m: usize, fs: f64) -> Arc<GridConsts> {
+        let mut g = self.grid.lock().unwrap_or_else(|e| e.into_inner());
+        match g.as_ref() {
+            Some(c) if c.is_for(m, fs) => c.clone(),
+            _ => {
+                let c = Arc::new(GridConsts::new(self.parent.as_ref(), m, fs));
+                *g = Some(c.clone());
+                c
+            }
+        }
+    }
+
     /// The parent's force response on the padded grid at `p` (`m` points at `fs`), kept per
     /// thread for the last parent θ.
     fn with_response_grid<R>(
@@ -262,7 +272,12 @@ impl GlitchModel {
         HGRID.with_borrow_mut(|memo| {
             let key = [self.memo_id, m as u64, fs.to_bits()];
             if memo.0 != key || memo.1.as_slice() != p {
-                response_grid(self.parent.as_ref(), p, m, fs, &mut memo.2);
+                response_grid(
+                    self.parent.as_ref(),
+                    p,
+                    &self.grid_consts(m, fs),
+                    &mut memo.2,
+                );
                 memo.0 = key;
                 memo.1 = p.to_vec();
             }
@@ -275,6 +290,21 @@ impl GlitchModel {
     /// response is computed once per θ and thread.
     fn causal_response(&self, th: &[f64], n: usize, fs: f64, k: usize, out: &mut [Complex64]) {
         let nr = out.len();
+        self.with_causal_values(th, n, fs, nr, |y| {
+            out.copy_from_slice(&y[k * nr..(k + 1) * nr])
+        })
+    }
+
+    /// Runs `f` with the causal response at θ on every bin of the record (`(N/2 + 1) × nr`),
+    /// computed once per θ and thread.
+    fn with_causal_values<R>(
+        &self,
+        th: &[f64],
+        n: usize,
+        fs: f64,
+        nr: usize,
+        f: impl FnOnce(&[Complex64]) -> R,
+    ) -> R {
         EXACT.with_borrow_mut(|memo| {
             let key = [self.memo_id, n as u64, fs.to_bits()];
             if memo.key != key || memo.theta.as_slice() != th {
@@ -295,7 +325,7 @@ impl GlitchModel {
                 memo.key = key;
                 memo.theta = th.to_vec();
             }
-            out.copy_from_slice(&memo.y[k * nr..(k + 1) * nr]);
+            f(&memo.y)
         })
     }
 
@@ -320,7 +350,7 @@ impl GlitchModel {
                     .all(|(a, b)| a.re == b.re && a.eps == b.eps);
             if !same {
                 let (active, _) = self.here.as_ref().expect("record_bin checked");
-                with_causal(n, fs, |c| {
+                let dy = with_causal(n, fs, |c| {
                     let (mut g, mut dg) = (vec![0.0; n], vec![0.0; n]);
                     for &j in active {
                         let i = self.glitch_index(j);
@@ -335,41 +365,44 @@ impl GlitchModel {
                         );
                     }
                     let (mut gs, mut dgs) = (Vec::new(), Vec::new());
-                    c.spectrum(&g, &mut gs);
+                    let p = &th[..self.np];
+                    let loop_seeded = p.iter().any(|x| x.eps != 0.0);
+                    if loop_seeded {
+                        c.spectrum(&g, &mut gs);
+                    }
                     let seeded = dg.iter().any(|x| *x != 0.0);
                     if seeded {
                         c.spectrum(&dg, &mut dgs);
                     }
                     let zero = Complex64::new(0.0, 0.0);
-                    let (mut y, mut dy) =
-                        (vec![zero; (n / 2 + 1) * nr], vec![zero; (n / 2 + 1) * nr]);
-                    let p = &th[..self.np];
-                    if p.iter().all(|x| x.eps == 0.0) {
-                        let pr: Vec<f64> = p.iter().map(|x| x.re).collect();
-                        self.with_response_grid(&pr, c.m(), fs, |h| {
-                            c.apply(&[(h, &gs)], nr, &mut y);
-                            if seeded {
-                                c.apply(&[(h, &dgs)], nr, &mut dy);
-                            }
-                        });
+                    let mut dy = vec![zero; (n / 2 + 1) * nr];
+                    if !loop_seeded {
+                        if seeded {
+                            let pr: Vec<f64> = p.iter().map(|x| x.re).collect();
+                            self.with_response_grid(&pr, c.m(), fs, |h| {
+                                c.apply(&[(h, &dgs)], nr, &mut dy)
+                            });
+                        }
                     } else {
                         let (mut h, mut dh) = (Vec::new(), Vec::new());
-                        response_grid_dual(self.parent.as_ref(), p, c.m(), fs, &mut h, &mut dh);
-                        c.apply(&[(&h, &gs)], nr, &mut y);
+                        let g = self.grid_consts(c.m(), fs);
+                        response_grid_dual(self.parent.as_ref(), p, &g, &mut h, &mut dh);
                         if seeded {
                             c.apply(&[(&dh, &gs), (&h, &dgs)], nr, &mut dy);
                         } else {
                             c.apply(&[(&dh, &gs)], nr, &mut dy);
                         }
                     }
-                    memo.y = y
-                        .iter()
-                        .zip(&dy)
-                        .map(|(v, d)| {
-                            Complex::new(Dual64::new(v.re, d.re), Dual64::new(v.im, d.im))
-                        })
-                        .collect();
+                    dy
                 });
+                // the values are the real path's, shared by every seeded direction
+                let re: Vec<f64> = th.iter().map(|x| x.re).collect();
+                let y = self.with_causal_values(&re, n, fs, nr, <[Complex64]>::to_vec);
+                memo.y = y
+                    .iter()
+                    .zip(&dy)
+                    .map(|(v, d)| Complex::new(Dual64::new(v.re, d.re), Dual64::new(v.im, d.im)))
+                    .collect();
                 memo.key = key;
                 memo.theta = th.to_vec();
             }
@@ -637,6 +670,7 @@ impl Model for GlitchModel {
             parent,
             here: Some((active, duration)),
             memo_id: next_memo_id(),
+            grid: Default::default(),
             ..self.clone()
         })))
     }
@@ -845,13 +879,6 @@ pub(super) mod tests {
         assert_eq!(read, want, "experiment a reads the loop, g1 and g3");
         let a = on(Some("a"));
         let c = on(Some("c"));
-        let mut cst = vec![Complex64::new(0.0, 0.0); m.n_consts()];
-        m.bin_consts(f, fs, &mut cst);
-        let bin = Bin {
-            f,
-            fs,
-            consts: &cst,
-        };
         // the oracle: the loop's impulse response by a long inverse transform (2^18 samples,
         // where it has died), convolved sample by sample with the simulator's glitches, and
         // transformed at this bin of the 3000-sample record. A sampled `H` that is not band-

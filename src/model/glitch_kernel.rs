@@ -19,9 +19,10 @@
 //! ([`super::residual_power_generic`]) to rounding.
 
 use super::bin::{Bin, BinBlock, MAX_CHANNELS, residual};
-use super::glitch_response::{Causal, add_samples, grid_index, response_grid};
+use super::glitch_response::{
+    Causal, GridConsts, Quadratic, add_samples, grid_index, record_padding, response_grid,
+};
 use super::traits::{BlockKernel, Model};
-use crate::hermitian::quad;
 use num_complex::Complex64;
 use num_dual::DualNum;
 use std::cell::RefCell;
@@ -59,14 +60,18 @@ pub(super) struct GlitchKernel {
     cinv: Vec<(f64, Complex64, f64)>,
     consts: Vec<Complex64>,
     n_consts: usize,
+    /// The parent's constants on the padded grid.
+    grid: GridConsts,
 }
 
-/// `P`, `w` and the force response on the padded grid at the parent's parameters `theta_p`.
+/// `P`, `w`, the data side `q` of [`Quadratic`] and the force response on the padded grid at
+/// the parent's parameters `theta_p`.
 #[derive(Default)]
 struct LoopState {
     theta_p: Vec<f64>,
     power: f64,
     w: Vec<[Complex64; 2]>,
+    q: Vec<Vec<Complex64>>,
     h: Vec<Complex64>,
 }
 
@@ -75,10 +80,11 @@ struct Cache {
     id: u64,
     loops: [LoopState; 2],
     causal: Causal,
-    /// The parameters `y` was computed at (the parent's, then each glitch's three), and `y` on
-    /// the record's bins `0 … N/2`.
+    quad: Quadratic,
+    /// The parameters `y` was computed at (the parent's, then each glitch's three), and the
+    /// padded spectra of the cut response.
     y_at: Vec<f64>,
-    y: Vec<Complex64>,
+    y: Vec<Vec<Complex64>>,
     /// Scratch: the glitches' samples and their spectrum.
     g: Vec<f64>,
     gs: Vec<Complex64>,
@@ -131,8 +137,10 @@ impl GlitchKernel {
             data.extend_from_slice(&b.data[k * nc..k * nc + cp]);
             impulse.push(b.data[k * nc + cp]);
         }
+        let grid = GridConsts::new(parent.as_ref(), record_padding(samples, b.fs), b.fs);
         Some(Self {
             id: next_id(),
+            grid,
             n_consts: parent.n_consts(),
             parent,
             np,
@@ -152,7 +160,7 @@ impl GlitchKernel {
     }
 
     /// `P`, `w` and the force response grid at the parent's parameters `p` (module docs).
-    fn loop_pass(&self, p: &[f64], m: usize, c: &mut LoopState) {
+    fn loop_pass(&self, p: &[f64], quad: &mut Quadratic, c: &mut LoopState) {
         let cp = self.parent.data_channels().len();
         let nr = self.parent.residual_channels().len();
         let zero = Complex64::new(0.0, 0.0);
@@ -173,7 +181,8 @@ impl GlitchKernel {
             power += (rho[0].conj() * w[0] + rho[1].conj() * w[1]).re;
             c.w[k] = w;
         }
-        response_grid(self.parent.as_ref(), p, m, self.fs, &mut c.h);
+        response_grid(self.parent.as_ref(), p, &self.grid, &mut c.h);
+        quad.data_side(&c.w, &mut c.q);
         c.power = power;
         c.theta_p.clear();
         c.theta_p.extend_from_slice(p);
@@ -210,7 +219,6 @@ impl BlockKernel for ParentKernel {
 impl BlockKernel for GlitchKernel {
     fn residual_power(&self, th: &[f64]) -> f64 {
         let p = &th[..self.np];
-        let nr = self.parent.residual_channels().len();
         CACHES.with_borrow_mut(|caches| {
             let at = match caches.iter().position(|c| c.id == self.id) {
                 Some(i) => i,
@@ -218,10 +226,20 @@ impl BlockKernel for GlitchKernel {
                     if caches.len() >= MAX_CACHES {
                         caches.remove(0);
                     }
+                    let nr = self.parent.residual_channels().len();
+                    let bins: Vec<usize> = (self.first..self.first + self.n).collect();
                     caches.push(Cache {
                         id: self.id,
                         loops: Default::default(),
                         causal: Causal::new(self.samples, self.fs),
+                        quad: Quadratic::new(
+                            self.samples,
+                            self.fs,
+                            nr,
+                            &bins,
+                            &self.cinv,
+                            &self.impulse,
+                        ),
                         y_at: Vec::new(),
                         y: Vec::new(),
                         g: vec![0.0; self.samples],
@@ -231,12 +249,11 @@ impl BlockKernel for GlitchKernel {
                 }
             };
             let c = &mut caches[at];
-            let m = c.causal.m();
             let hit = |l: &LoopState| l.theta_p.as_slice() == p && l.w.len() == self.n;
             if !hit(&c.loops[0]) {
                 c.loops.swap(0, 1);
                 if !hit(&c.loops[0]) {
-                    self.loop_pass(p, m, &mut c.loops[0]);
+                    self.loop_pass(p, &mut c.quad, &mut c.loops[0]);
                 }
             }
             if !self.same_point(&c.y_at, th) {
@@ -245,8 +262,7 @@ impl BlockKernel for GlitchKernel {
                     add_samples(th[i], th[i + 1], th[i + 2], self.rise, self.fs, &mut c.g);
                 }
                 c.causal.spectrum(&c.g, &mut c.gs);
-                c.y.resize((self.samples / 2 + 1) * nr, Complex64::new(0.0, 0.0));
-                c.causal.apply(&[(&c.loops[0].h, &c.gs)], nr, &mut c.y);
+                c.quad.response(&c.loops[0].h, &c.gs, &mut c.y);
                 c.y_at.clear();
                 c.y_at.extend_from_slice(p);
                 for &i in &self.glitches {
@@ -254,17 +270,8 @@ impl BlockKernel for GlitchKernel {
                 }
             }
             let lp = &c.loops[0];
-            let mut s = lp.power;
-            let zero = Complex64::new(0.0, 0.0);
-            for k in 0..self.n {
-                let at = (self.first + k) * nr;
-                let mut y = [zero; 2];
-                for (v, x) in y.iter_mut().zip(&c.y[at..at + nr]) {
-                    *v = x * self.impulse[k];
-                }
-                let w = lp.w[k];
-                s += quad(&self.cinv[k], y) - 2.0 * (y[0].conj() * w[0] + y[1].conj() * w[1]).re;
-            }
+            let (b, a) = c.quad.terms(&c.y, &lp.q);
+            let s = lp.power - 2.0 * b + a;
             s
         })
     }

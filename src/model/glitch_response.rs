@@ -142,28 +142,58 @@ pub(super) fn add_samples_dual(
     }
 }
 
-/// `H_r(j fs/m)` for `j = 0 … m/2`, `nr` channels (`out[j·nr + r]`), `H(0) = 0` (module docs).
+/// A model's θ-independent constants ([`Model::bin_consts`]) on the padded grid `j fs/m`,
+/// `j = 0 … m/2`: made once per model and grid (for the LTP loop they cost more than its
+/// force response).
+#[derive(Debug, Clone)]
+pub(super) struct GridConsts {
+    m: usize,
+    fs: f64,
+    per: usize,
+    data: Vec<Complex64>,
+}
+
+impl GridConsts {
+    pub(super) fn new(model: &dyn Model, m: usize, fs: f64) -> Self {
+        let per = model.n_consts();
+        let mut data = vec![Complex64::new(0.0, 0.0); (m / 2 + 1) * per];
+        for j in 1..=m / 2 {
+            model.bin_consts(
+                j as f64 * fs / m as f64,
+                fs,
+                &mut data[j * per..(j + 1) * per],
+            );
+        }
+        Self { m, fs, per, data }
+    }
+
+    /// Whether these are the constants of grid `(m, fs)`.
+    pub(super) fn is_for(&self, m: usize, fs: f64) -> bool {
+        self.m == m && self.fs == fs
+    }
+
+    fn bin(&self, j: usize) -> Bin<'_> {
+        Bin {
+            f: j as f64 * self.fs / self.m as f64,
+            fs: self.fs,
+            consts: &self.data[j * self.per..(j + 1) * self.per],
+        }
+    }
+}
+
+/// `H_r(j fs/m)` for `j = 0 … m/2` on the grid of `g`, `nr` channels (`out[j·nr + r]`),
+/// `H(0) = 0` (module docs).
 pub(super) fn response_grid(
     parent: &dyn Model,
     p: &[f64],
-    m: usize,
-    fs: f64,
+    g: &GridConsts,
     out: &mut Vec<Complex64>,
 ) {
     let nr = parent.residual_channels().len();
-    let zero = Complex64::new(0.0, 0.0);
     out.clear();
-    out.resize((m / 2 + 1) * nr, zero);
-    let mut consts = vec![zero; parent.n_consts()];
-    for j in 1..=m / 2 {
-        let f = j as f64 * fs / m as f64;
-        parent.bin_consts(f, fs, &mut consts);
-        let bin = Bin {
-            f,
-            fs,
-            consts: &consts,
-        };
-        parent.force_response(p, &bin, &mut out[j * nr..(j + 1) * nr]);
+    out.resize((g.m / 2 + 1) * nr, Complex64::new(0.0, 0.0));
+    for j in 1..=g.m / 2 {
+        parent.force_response(p, &g.bin(j), &mut out[j * nr..(j + 1) * nr]);
     }
 }
 
@@ -171,28 +201,19 @@ pub(super) fn response_grid(
 pub(super) fn response_grid_dual(
     parent: &dyn Model,
     p: &[Dual64],
-    m: usize,
-    fs: f64,
+    g: &GridConsts,
     re: &mut Vec<Complex64>,
     eps: &mut Vec<Complex64>,
 ) {
     let nr = parent.residual_channels().len();
     let zero = Complex64::new(0.0, 0.0);
     re.clear();
-    re.resize((m / 2 + 1) * nr, zero);
+    re.resize((g.m / 2 + 1) * nr, zero);
     eps.clear();
-    eps.resize((m / 2 + 1) * nr, zero);
-    let mut consts = vec![zero; parent.n_consts()];
+    eps.resize((g.m / 2 + 1) * nr, zero);
     let mut h = vec![Complex::new(Dual64::from(0.0), Dual64::from(0.0)); nr];
-    for j in 1..=m / 2 {
-        let f = j as f64 * fs / m as f64;
-        parent.bin_consts(f, fs, &mut consts);
-        let bin = Bin {
-            f,
-            fs,
-            consts: &consts,
-        };
-        parent.force_response_dual(p, &bin, &mut h);
+    for j in 1..=g.m / 2 {
+        parent.force_response_dual(p, &g.bin(j), &mut h);
         for (r, v) in h.iter().enumerate() {
             re[j * nr + r] = Complex64::new(v.re.re, v.im.re);
             eps[j * nr + r] = Complex64::new(v.re.eps, v.im.eps);
@@ -285,6 +306,194 @@ impl Causal {
     }
 }
 
+/// `Re Σ_k X_k e^{2πikt/N}` for `t = 0 … N−1` from the one-sided `X` (`N/2 + 1` bins; the
+/// inverse transform counts the DC and Nyquist bins once and the others twice).
+fn real_sum(fft_n: &mut RealFft, x: &mut [Complex64]) -> Vec<f64> {
+    let n = fft_n.len();
+    x[0] *= 2.0;
+    if n % 2 == 0 {
+        x[n / 2] *= 2.0;
+    }
+    let mut t = vec![0.0; n];
+    if fft_n.inverse(x, &mut t).is_err() {
+        t.fill(f64::NAN);
+    }
+    for v in &mut t {
+        *v *= n as f64 / 2.0;
+    }
+    t
+}
+
+/// `Σ_t a(t) b(t)` of two real series of length `m` from their one-sided spectra (Parseval).
+fn parseval(m: usize, a: &[Complex64], b: &[Complex64]) -> f64 {
+    let mut s = 0.0;
+    for (j, (x, y)) in a.iter().zip(b).enumerate() {
+        let w = if j == 0 || (m % 2 == 0 && j == m / 2) {
+            1.0
+        } else {
+            2.0
+        };
+        s += w * (x.conj() * y).re;
+    }
+    s / m as f64
+}
+
+/// The glitches' part of `Σ_k r_kᴴ C_k⁻¹ r_k` over a record's in-band bins, `r_k = ρ_k − d_k
+/// Y_k` (`d` the impulse channel's DFT), without a transform of the record's own length per
+/// evaluation (an odd or prime-factored `N` makes that a Bluestein transform, four times a
+/// padded one): with the response `y_r(t)` cut to the record,
+///
+/// ```text
+/// Re Σ_k d_k* Y_kᴴ w_k = Σ_r Σ_{t<N} y_r(t) q_r(t),   q_r(t) = Re Σ_k d_k* w_r,k e^{2πikt/N}
+/// Σ_k |d_k|² Y_kᴴ C_k⁻¹ Y_k = Σ_rs Σ_{t,t'<N} y_r(t) κ_rs(t − t') y_s(t'),
+///                             κ_rs(δ) = Re Σ_k |d_k|² (C_k⁻¹)_rs e^{2πikδ/N}
+/// ```
+///
+/// (`w = C⁻¹ρ`), both by Parseval on the padded grid `M ≥ 2N`, where `κ` at lags `−N < δ < N`
+/// does not alias. `κ` depends on the noise only (made once); `q` on the loop's residual.
+#[derive(Debug, Clone)]
+pub(super) struct Quadratic {
+    n: usize,
+    m: usize,
+    nr: usize,
+    fft_n: RealFft,
+    fft_m: RealFft,
+    bins: Vec<usize>,
+    imp: Vec<Complex64>,
+    /// `DFT_M` of `κ_rs` at lags `δ mod M`, per pair `r·nr + s`.
+    kappa: Vec<Vec<Complex64>>,
+    pad: Vec<f64>,
+}
+
+impl Quadratic {
+    /// For a record of `n` samples at `fs` whose in-band bin `j` is record bin `bins[j]`, with
+    /// `C_j⁻¹` packed as `(a, b, c)` and the impulse's DFT `imp[j]`; `nr ≤ 2` channels.
+    pub(super) fn new(
+        n: usize,
+        fs: f64,
+        nr: usize,
+        bins: &[usize],
+        cinv: &[(f64, Complex64, f64)],
+        imp: &[Complex64],
+    ) -> Self {
+        let m = record_padding(n, fs);
+        let zero = Complex64::new(0.0, 0.0);
+        let mut fft_n = RealFft::new(n.max(1)).expect("n ≥ 1");
+        let mut fft_m = RealFft::new(m).expect("m ≥ 2");
+        let nk = n / 2 + 1;
+        let mut sums = Vec::with_capacity(nr * nr);
+        for r in 0..nr {
+            for c in 0..nr {
+                let mut x = vec![zero; nk];
+                for (j, &k) in bins.iter().enumerate() {
+                    let (a, b, cc) = cinv[j];
+                    let e = match (r, c) {
+                        (0, 0) => Complex64::new(a, 0.0),
+                        (1, 1) => Complex64::new(cc, 0.0),
+                        (0, 1) => b,
+                        _ => b.conj(),
+                    };
+                    x[k] = e * imp[j].norm_sqr();
+                }
+                sums.push(real_sum(&mut fft_n, &mut x));
+            }
+        }
+        let mut kappa = Vec::with_capacity(nr * nr);
+        let mut pad = vec![0.0; m];
+        for r in 0..nr {
+            for c in 0..nr {
+                // κ_rs(δ) at δ ≥ 0, κ_rs(−δ) = κ_sr(δ) at index M − δ
+                pad.fill(0.0);
+                pad[..n].copy_from_slice(&sums[r * nr + c]);
+                for d in 1..n {
+                    pad[m - d] = sums[c * nr + r][d];
+                }
+                let mut o = vec![zero; m / 2 + 1];
+                if fft_m.forward(&pad, &mut o).is_err() {
+                    o.fill(Complex64::new(f64::NAN, f64::NAN));
+                }
+                kappa.push(o);
+            }
+        }
+        Self {
+            n,
+            m,
+            nr,
+            fft_n,
+            fft_m,
+            bins: bins.to_vec(),
+            imp: imp.to_vec(),
+            kappa,
+            pad,
+        }
+    }
+
+    /// `DFT_M` of `q_r` (type docs) per channel into `out`, from `w[j] = C_j⁻¹ρ_j`.
+    pub(super) fn data_side(&mut self, w: &[[Complex64; 2]], out: &mut Vec<Vec<Complex64>>) {
+        let zero = Complex64::new(0.0, 0.0);
+        out.resize(self.nr, Vec::new());
+        for (r, o) in out.iter_mut().enumerate() {
+            let mut x = vec![zero; self.n / 2 + 1];
+            for (j, &k) in self.bins.iter().enumerate() {
+                x[k] = self.imp[j].conj() * w[j][r];
+            }
+            let q = real_sum(&mut self.fft_n, &mut x);
+            self.pad[..self.n].copy_from_slice(&q);
+            self.pad[self.n..].fill(0.0);
+            o.resize(self.m / 2 + 1, zero);
+            if self.fft_m.forward(&self.pad, o).is_err() {
+                o.fill(Complex64::new(f64::NAN, f64::NAN));
+            }
+        }
+    }
+
+    /// `DFT_M` of the cut response `y_r` per channel into `out`, from `H` on the padded grid
+    /// (as [`response_grid`] lays it out) and the force's `DFT_M` `g`.
+    pub(super) fn response(
+        &mut self,
+        h: &[Complex64],
+        g: &[Complex64],
+        out: &mut Vec<Vec<Complex64>>,
+    ) {
+        let zero = Complex64::new(0.0, 0.0);
+        let nr = self.nr;
+        out.resize(nr, Vec::new());
+        let mut q = vec![zero; self.m / 2 + 1];
+        for (r, o) in out.iter_mut().enumerate() {
+            for (j, v) in q.iter_mut().enumerate() {
+                *v = h[j * nr + r] * g[j];
+            }
+            o.resize(self.m / 2 + 1, zero);
+            let ok = self.fft_m.inverse(&q, &mut self.pad).is_ok() && {
+                self.pad[self.n..].fill(0.0);
+                self.fft_m.forward(&self.pad, o).is_ok()
+            };
+            if !ok {
+                o.fill(Complex64::new(f64::NAN, f64::NAN));
+            }
+        }
+    }
+
+    /// `(Re Σ_k d_k* Y_kᴴ w_k, Σ_k |d_k|² Y_kᴴ C_k⁻¹ Y_k)` from [`Quadratic::response`]'s `y`
+    /// and [`Quadratic::data_side`]'s `q`.
+    pub(super) fn terms(&self, y: &[Vec<Complex64>], q: &[Vec<Complex64>]) -> (f64, f64) {
+        let nr = self.nr;
+        let mut b = 0.0;
+        for r in 0..nr {
+            b += parseval(self.m, &y[r], &q[r]);
+        }
+        let mut a = 0.0;
+        let mut conv = vec![Complex64::new(0.0, 0.0); self.m / 2 + 1];
+        for r in 0..nr {
+            for (j, v) in conv.iter_mut().enumerate() {
+                *v = (0..nr).map(|c| self.kappa[r * nr + c][j] * y[c][j]).sum();
+            }
+            a += parseval(self.m, &y[r], &conv);
+        }
+        (b, a)
+    }
+}
+
 /// The causal response of a unit glitch at every start on the record's sample times, for a
 /// scan over starts (`jobs::glitch_model`'s grid): the response of a glitch at sample `n0` is
 /// that of a glitch at sample 0 delayed by `n0` samples and cut at the record's end (causal and
@@ -301,6 +510,21 @@ pub struct GlitchScan {
     z: Vec<f64>,
     buf: Vec<f64>,
     spec: Vec<Complex64>,
+    /// What [`GlitchScan::gains`] correlates against ([`GlitchScan::set_target`]).
+    target: Option<Target>,
+}
+
+/// The data side of [`GlitchScan::gains`], on the correlation grid of `P ≥ 2N` samples.
+#[derive(Debug, Clone)]
+struct Target {
+    fft: RealFft,
+    /// `DFT_P` of `q_r(t) = Re Σ_k d_k* w_r,k e^{2πikt/N}` per channel.
+    q: Vec<Vec<Complex64>>,
+    /// `DFT_P` of `κ_rs(d)` for lags `1 … N−1` (zero at 0), `κ_rs(d) = Re Σ_k |d_k|² (C_k⁻¹)_rs
+    /// e^{2πikd/N}`, per pair `r·nr + s`.
+    kappa: Vec<Vec<Complex64>>,
+    /// `κ_rs(0)` per pair.
+    kappa0: Vec<f64>,
 }
 
 impl GlitchScan {
@@ -309,7 +533,12 @@ impl GlitchScan {
     pub fn new(model: &dyn Model, theta: &[f64], n: usize, fs: f64, rise: f64) -> Self {
         let causal = Causal::new(n, fs);
         let mut h = Vec::new();
-        response_grid(model, theta, causal.m(), fs, &mut h);
+        response_grid(
+            model,
+            theta,
+            &GridConsts::new(model, causal.m(), fs),
+            &mut h,
+        );
         let nr = model.residual_channels().len();
         Self {
             causal,
@@ -320,7 +549,133 @@ impl GlitchScan {
             z: vec![0.0; nr * n],
             buf: vec![0.0; n],
             spec: Vec::new(),
+            target: None,
         }
+    }
+
+    fn real_sum(&mut self, x: &mut [Complex64]) -> Vec<f64> {
+        real_sum(&mut self.causal.fft_n, x)
+    }
+
+    /// The data [`GlitchScan::gains`] scans against: for each in-band bin `j`, its record bin
+    /// `bins[j]`, `w_j = C_j⁻¹ r0_j` (`nr` values from `w[j·nr]`), `C_j⁻¹` packed as
+    /// `(a, b, c)` = `[[a, b], [b*, c]]` (`c`, `b` unused for one channel) and the impulse
+    /// channel's DFT `d_j`.
+    pub fn set_target(
+        &mut self,
+        bins: &[usize],
+        w: &[Complex64],
+        cinv: &[(f64, Complex64, f64)],
+        imp: &[Complex64],
+    ) {
+        let n = self.causal.n();
+        let nr = self.nr;
+        let nk = n / 2 + 1;
+        let zero = Complex64::new(0.0, 0.0);
+        let p = padded_len(2 * n);
+        let mut fft = RealFft::new(p).expect("p ≥ 2");
+        let mut pad = vec![0.0; p];
+        let mut to_p = |t: &[f64], fft: &mut RealFft| {
+            pad[..t.len()].copy_from_slice(t);
+            pad[t.len()..].fill(0.0);
+            let mut o = vec![zero; p / 2 + 1];
+            if fft.forward(&pad, &mut o).is_err() {
+                o.fill(Complex64::new(f64::NAN, f64::NAN));
+            }
+            o
+        };
+        let mut q = Vec::with_capacity(nr);
+        for r in 0..nr {
+            let mut x = vec![zero; nk];
+            for (j, &k) in bins.iter().enumerate() {
+                x[k] = imp[j].conj() * w[j * nr + r];
+            }
+            let t = self.real_sum(&mut x);
+            q.push(to_p(&t, &mut fft));
+        }
+        let (mut kappa, mut kappa0) = (Vec::new(), Vec::new());
+        for r in 0..nr {
+            for c in 0..nr {
+                let mut x = vec![zero; nk];
+                for (j, &k) in bins.iter().enumerate() {
+                    let (a, b, cc) = cinv[j];
+                    let m = match (r, c) {
+                        (0, 0) => Complex64::new(a, 0.0),
+                        (1, 1) => Complex64::new(cc, 0.0),
+                        (0, 1) => b,
+                        _ => b.conj(),
+                    };
+                    x[k] = m * imp[j].norm_sqr();
+                }
+                let mut t = self.real_sum(&mut x);
+                kappa0.push(t[0]);
+                t[0] = 0.0;
+                kappa.push(to_p(&t, &mut fft));
+            }
+        }
+        self.target = Some(Target {
+            fft,
+            q,
+            kappa,
+            kappa0,
+        });
+    }
+
+    /// For a unit glitch with the decay of the last [`GlitchScan::set_tau`] starting at each
+    /// sample `n0 = 0 … N−1`, against the last [`GlitchScan::set_target`]: `B(n0) = Re Σ_j
+    /// v_jᴴ w_j` and `A(n0) = Σ_j v_jᴴ C_j⁻¹ v_j` with `v_j = −Y(n0)_j d_j`, the terms of a
+    /// glitch's gain (`ln L` changes by `−2aB − a²A` at amplitude `a`). Both are correlations of
+    /// the delayed, cut response with the data and with itself, so all starts cost a few
+    /// transforms of `P ≥ 2N` instead of one DFT each (`A` by a recursion over the cut). `None`
+    /// without a target.
+    pub fn gains(&mut self) -> Option<(Vec<f64>, Vec<f64>)> {
+        let n = self.causal.n();
+        let nr = self.nr;
+        let t = self.target.as_mut()?;
+        let p = t.fft.len();
+        let zero = Complex64::new(0.0, 0.0);
+        let mut pad = vec![0.0; p];
+        let mut zs = Vec::with_capacity(nr);
+        for r in 0..nr {
+            pad[..n].copy_from_slice(&self.z[r * n..(r + 1) * n]);
+            pad[n..].fill(0.0);
+            let mut o = vec![zero; p / 2 + 1];
+            if t.fft.forward(&pad, &mut o).is_err() {
+                return None;
+            }
+            zs.push(o);
+        }
+        let mut spec = vec![zero; p / 2 + 1];
+        // B(n0) = −Σ_r Σ_u z_r(u) q_r(u + n0): a cross-correlation
+        for (i, v) in spec.iter_mut().enumerate() {
+            *v = (0..nr).map(|r| zs[r][i].conj() * t.q[r][i]).sum();
+        }
+        t.fft.inverse(&spec, &mut pad).ok()?;
+        let b: Vec<f64> = pad[..n].iter().map(|c| -c).collect();
+        // g_r(L) = Σ_s Σ_{u<L} κ_rs(L − u) z_s(u): causal convolutions
+        let mut g = vec![0.0; nr * n];
+        for r in 0..nr {
+            for (i, v) in spec.iter_mut().enumerate() {
+                *v = (0..nr).map(|c| t.kappa[r * nr + c][i] * zs[c][i]).sum();
+            }
+            t.fft.inverse(&spec, &mut pad).ok()?;
+            g[r * n..(r + 1) * n].copy_from_slice(&pad[..n]);
+        }
+        // F(L) = Σ_rs Σ_{u,u'<L} z_r(u) z_s(u') κ_rs(u − u'), A(n0) = F(N − n0)
+        let mut f = vec![0.0; n + 1];
+        for l in 0..n {
+            let mut d = 0.0;
+            for r in 0..nr {
+                let zr = self.z[r * n + l];
+                for c in 0..nr {
+                    d += zr * self.z[c * n + l] * t.kappa0[r * nr + c];
+                }
+                d += 2.0 * zr * g[r * n + l];
+            }
+            f[l + 1] = f[l] + d;
+        }
+        let a = (0..n).map(|n0| f[n - n0]).collect();
+        Some((b, a))
     }
 
     /// The record's length in samples.
@@ -510,7 +865,7 @@ mod tests {
         let mut want = got.clone();
         let mut c = Causal::new(n, fs);
         let mut h = Vec::new();
-        response_grid(&m, &th, c.m(), fs, &mut h);
+        response_grid(&m, &th, &GridConsts::new(&m, c.m(), fs), &mut h);
         let mut scale = 0.0;
         for n0 in [0, 1, 1234, 2990, 3000] {
             scan.at_sample(n0, &mut got);
@@ -524,6 +879,57 @@ mod tests {
             scale = want.iter().map(|v| v.norm()).fold(scale, f64::max);
             for (a, b) in got.iter().zip(&want) {
                 assert!((a - b).norm() < 1e-8 * scale, "{n0}: {a} {b}");
+            }
+        }
+    }
+
+    /// The correlations give every start's `B` and `A` as the DFT of each start would.
+    #[test]
+    fn gains_are_the_per_start_sums() {
+        use crate::hermitian::quad;
+        use crate::ltp::LtpParams;
+        use crate::model::LtpModel;
+        use rand::{RngExt, SeedableRng};
+        let m = LtpModel::new("ltp", Default::default());
+        let th = LtpParams::default().to_array().to_vec();
+        let (n, fs, rise) = (1001, 1.0, 2.0);
+        let mut scan = GlitchScan::new(&m, &th, n, fs, rise);
+        let mut rng = rand::rngs::StdRng::seed_from_u64(5);
+        let mut z = || Complex64::new(rng.random::<f64>() - 0.5, rng.random::<f64>() - 0.5);
+        let bins: Vec<usize> = (3..480).collect();
+        let w: Vec<Complex64> = (0..2 * bins.len()).map(|_| z() * 1e-3).collect();
+        let imp: Vec<Complex64> = (0..bins.len()).map(|_| z() + 1.0).collect();
+        let cinv: Vec<(f64, Complex64, f64)> = (0..bins.len())
+            .map(|_| {
+                let b = z() * 0.5;
+                (1.0 + z().re.abs(), b, 1.0 + z().re.abs())
+            })
+            .collect();
+        scan.set_target(&bins, &w, &cinv, &imp);
+        for tau in [30.0, 400.0] {
+            scan.set_tau(tau);
+            let (b, a) = scan.gains().unwrap();
+            let mut y = vec![Complex64::new(0.0, 0.0); (n / 2 + 1) * 2];
+            for n0 in [0, 1, 17, 500, 999, 1000] {
+                scan.at_sample(n0, &mut y);
+                let (mut bb, mut aa) = (0.0, 0.0);
+                for (j, &k) in bins.iter().enumerate() {
+                    let v = [-y[2 * k] * imp[j], -y[2 * k + 1] * imp[j]];
+                    bb += (v[0].conj() * w[2 * j] + v[1].conj() * w[2 * j + 1]).re;
+                    aa += quad(&cinv[j], v);
+                }
+                let sa = a.iter().fold(1e-300, |x: f64, y| x.max(y.abs()));
+                let sb = b.iter().fold(1e-300, |x: f64, y| x.max(y.abs()));
+                assert!(
+                    (b[n0] - bb).abs() < 1e-9 * sb,
+                    "{tau} {n0}: B {} {bb}",
+                    b[n0]
+                );
+                assert!(
+                    (a[n0] - aa).abs() < 1e-9 * sa,
+                    "{tau} {n0}: A {} {aa}",
+                    a[n0]
+                );
             }
         }
     }
