@@ -46,6 +46,17 @@ pub const GLITCH_CHANNEL: &str = "glitch_impulse";
 /// Parameters per glitch (`t0`, `tau`, `a`).
 pub const GLITCH_PARAMS: usize = 3;
 
+/// Whether `name` is a glitch's parameter (`g<j>_t0`, `g<j>_tau`, `g<j>_a`).
+pub fn is_glitch_param(name: &str) -> bool {
+    let Some(rest) = name.strip_prefix('g') else {
+        return false;
+    };
+    let Some((j, p)) = rest.split_once('_') else {
+        return false;
+    };
+    !j.is_empty() && j.bytes().all(|b| b.is_ascii_digit()) && matches!(p, "t0" | "tau" | "a")
+}
+
 /// The convergence tolerance (in Cramér–Rao σ, as for
 /// [`crate::likelihood::fisher_scoring`]) of a MAP search on `model`: 1e−2 when it carries
 /// glitches, else the usual 1e−3. A glitch's start enters the sampled template through the
@@ -351,22 +362,25 @@ impl GlitchModel {
             if !same {
                 let (active, _) = self.here.as_ref().expect("record_bin checked");
                 let dy = with_causal(n, fs, |c| {
-                    let (mut g, mut dg) = (vec![0.0; n], vec![0.0; n]);
-                    for &j in active {
-                        let i = self.glitch_index(j);
-                        add_samples_dual(
-                            th[i],
-                            th[i + 1],
-                            th[i + 2],
-                            self.rise,
-                            fs,
-                            &mut g,
-                            &mut dg,
-                        );
-                    }
-                    let (mut gs, mut dgs) = (Vec::new(), Vec::new());
                     let p = &th[..self.np];
                     let loop_seeded = p.iter().any(|x| x.eps != 0.0);
+                    // values only where the loop is seeded (its derivative is H'·G); dual
+                    // samples only for a seeded glitch (the others' derivatives are zero)
+                    let (mut g, mut dg) = (vec![0.0; n], vec![0.0; n]);
+                    let mut scratch = vec![0.0; n];
+                    for &j in active {
+                        let i = self.glitch_index(j);
+                        if th[i..i + 3].iter().any(|x| x.eps != 0.0) {
+                            scratch.fill(0.0);
+                            let (t0, tau, a) = (th[i], th[i + 1], th[i + 2]);
+                            add_samples_dual(t0, tau, a, self.rise, fs, &mut scratch, &mut dg);
+                        }
+                        if loop_seeded {
+                            let (t0, tau, a) = (th[i].re, th[i + 1].re, th[i + 2].re);
+                            add_samples(t0, tau, a, self.rise, fs, &mut g);
+                        }
+                    }
+                    let (mut gs, mut dgs) = (Vec::new(), Vec::new());
                     if loop_seeded {
                         c.spectrum(&g, &mut gs);
                     }
@@ -737,6 +751,17 @@ pub(super) mod tests {
     use crate::experiment::Glitch;
     use crate::model::{LtpModel, coefficients_at};
     use crate::signal::RealFft;
+
+    #[test]
+    fn glitch_parameters_are_named_as_the_model_names_them() {
+        let m = model();
+        let names = m.param_names();
+        assert!(names[..7].iter().all(|n| !is_glitch_param(n)));
+        assert!(names[7..].iter().all(|n| is_glitch_param(n)));
+        for n in ["g_t0", "gx_tau", "g1_b", "g1", "w1sq", "g12_a2"] {
+            assert!(!is_glitch_param(n), "{n}");
+        }
+    }
 
     /// The closed form equals the FFT of the sampled shape, for starts on and off the sample
     /// grid and a glitch cut by the record's end.
