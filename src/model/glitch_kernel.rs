@@ -271,8 +271,7 @@ impl BlockKernel for GlitchKernel {
             }
             let lp = &c.loops[0];
             let (b, a) = c.quad.terms(&c.y, &lp.q);
-            let s = lp.power - 2.0 * b + a;
-            s
+            lp.power - 2.0 * b + a
         })
     }
 }

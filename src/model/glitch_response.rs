@@ -311,7 +311,7 @@ impl Causal {
 fn real_sum(fft_n: &mut RealFft, x: &mut [Complex64]) -> Vec<f64> {
     let n = fft_n.len();
     x[0] *= 2.0;
-    if n % 2 == 0 {
+    if n.is_multiple_of(2) {
         x[n / 2] *= 2.0;
     }
     let mut t = vec![0.0; n];
@@ -328,7 +328,7 @@ fn real_sum(fft_n: &mut RealFft, x: &mut [Complex64]) -> Vec<f64> {
 fn parseval(m: usize, a: &[Complex64], b: &[Complex64]) -> f64 {
     let mut s = 0.0;
     for (j, (x, y)) in a.iter().zip(b).enumerate() {
-        let w = if j == 0 || (m % 2 == 0 && j == m / 2) {
+        let w = if j == 0 || (m.is_multiple_of(2) && j == m / 2) {
             1.0
         } else {
             2.0
@@ -752,7 +752,7 @@ mod tests {
             assert!(m >= 2 * n);
             let mut r = m;
             for p in [2, 3, 5] {
-                while r % p == 0 {
+                while r.is_multiple_of(p) {
                     r /= p;
                 }
             }
@@ -760,7 +760,7 @@ mod tests {
             assert!(((2 * n)..m).all(|x| {
                 let mut r = x;
                 for p in [2, 3, 5] {
-                    while r % p == 0 {
+                    while r.is_multiple_of(p) {
                         r /= p;
                     }
                 }
