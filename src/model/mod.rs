@@ -28,7 +28,7 @@ mod covariates;
 pub mod drift;
 pub mod glitch;
 mod glitch_kernel;
-mod glitch_response;
+pub mod glitch_response;
 pub mod ltp;
 mod ltp_kernel;
 pub mod reparam;
