@@ -557,6 +557,7 @@ fn the_gate_s_tail_removes_the_loop_s_response() {
 /// terminal says it, and a 19-parameter fit writes its plots (the first 16 parameters; the
 /// truth was not cut to them before).
 #[test]
+#[ignore = "slow since the glitch model is causal: its MAP search runs the dual path (two transforms of the record per seeded direction), > 13 min on two cores; run with --ignored"]
 fn the_reversible_jump_keeps_the_injected_glitches() {
     let dir = tempfile::tempdir().unwrap();
     let extra = GLITCHES.replace(
@@ -623,6 +624,7 @@ fn the_reversible_jump_keeps_the_injected_glitches() {
 /// every one of them off (the prior volume of a glitch's three parameters outweighs a gain of
 /// 5–17 in `ln L`) and finds no glitch with probability > 0.95.
 #[test]
+#[ignore = "slow since the glitch model is causal: its MAP search runs the dual path (two transforms of the record per seeded direction), > 13 min on two cores; run with --ignored"]
 fn the_reversible_jump_switches_off_false_alarms() {
     use occam::jobs::glitch_count::glitch_count;
     use occam::likelihood::{fisher_exact, fisher_scoring};
