@@ -29,9 +29,9 @@
 
 use super::bin::{Bin, BinBlock, with_buffer};
 use super::covariates::Covariates;
-use super::glitch_kernel::{GlitchKernel, ParentKernel, peak};
+use super::glitch_kernel::{GlitchKernel, ParentKernel};
 use super::glitch_response::{
-    Causal, GridConsts, add_samples, add_samples_dual, grid_index, response_grid,
+    Causal, GridConsts, add_samples, add_samples_dual, grid_index, peak, response_grid,
     response_grid_dual,
 };
 use super::traits::{BlockKernel, Model};

@@ -24,15 +24,8 @@ use super::glitch_response::{
 };
 use super::traits::{BlockKernel, Model};
 use num_complex::Complex64;
-use num_dual::DualNum;
 use std::cell::RefCell;
 use std::sync::Arc;
-
-/// The peak of `e^{−u/τ} − e^{−u/τ_r}`, at `u* = ln(τ/τ_r) τ τ_r / (τ − τ_r)`.
-pub(super) fn peak<T: DualNum<Primitive = f64> + Copy>(tau: T, rise: f64) -> T {
-    let u = (tau / rise).ln() * tau * rise / (tau - rise);
-    (-u / tau).exp() - (-u / rise).exp()
-}
 
 /// The prepared kernel (module docs). Owns copies of everything θ-independent.
 #[derive(Debug)]

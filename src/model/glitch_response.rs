@@ -39,6 +39,12 @@ use crate::signal::RealFft;
 use num_complex::{Complex, Complex64};
 use num_dual::{Dual64, DualNum};
 
+/// The peak of `e^{−u/τ} − e^{−u/τ_r}`, at `u* = ln(τ/τ_r) τ τ_r / (τ − τ_r)`.
+pub(super) fn peak<T: DualNum<Primitive = f64> + Copy>(tau: T, rise: f64) -> T {
+    let u = (tau / rise).ln() * tau * rise / (tau - rise);
+    (-u / tau).exp() - (-u / rise).exp()
+}
+
 /// Below this a glitch's exponentials are dropped: their samples are below rounding of its peak.
 const NEGLIGIBLE: f64 = 1e-18;
 
@@ -97,7 +103,7 @@ pub(super) fn add_samples(t0: f64, tau: f64, a: f64, rise: f64, fs: f64, out: &m
         return;
     }
     let start = n0 / fs - t0;
-    let c = a / super::glitch_kernel::peak(tau, rise);
+    let c = a / peak(tau, rise);
     let (mut e, mut er) = ((-start / tau).exp(), (-start / rise).exp());
     let (q, qr) = ((-1.0 / (fs * tau)).exp(), (-1.0 / (fs * rise)).exp());
     for o in &mut out[n0 as usize..] {
@@ -124,7 +130,7 @@ pub(super) fn add_samples_dual(
     if !(n0 < re.len() as f64) {
         return;
     }
-    let c = a / super::glitch_kernel::peak(tau, rise);
+    let c = a / peak(tau, rise);
     for (m, (r, d)) in re
         .iter_mut()
         .zip(eps.iter_mut())
