@@ -330,6 +330,36 @@ fn real_sum(fft_n: &mut RealFft, x: &mut [Complex64]) -> Vec<f64> {
     t
 }
 
+/// `κ_rs(δ) = Re Σ_j |d_j|² (C_j⁻¹)_rs e^{2πik_jδ/N}` for `δ = 0 … N−1`, per pair `r·nr + s`,
+/// from the packed inverse `(a, b, c)` = `[[a, b], [b*, c]]` and the impulse's DFT `d`.
+fn kappa_sums(
+    fft_n: &mut RealFft,
+    nr: usize,
+    bins: &[usize],
+    cinv: &[(f64, Complex64, f64)],
+    imp: &[Complex64],
+) -> Vec<Vec<f64>> {
+    let nk = fft_n.len() / 2 + 1;
+    let mut sums = Vec::with_capacity(nr * nr);
+    for r in 0..nr {
+        for c in 0..nr {
+            let mut x = vec![Complex64::new(0.0, 0.0); nk];
+            for (j, &k) in bins.iter().enumerate() {
+                let (a, b, cc) = cinv[j];
+                let e = match (r, c) {
+                    (0, 0) => Complex64::new(a, 0.0),
+                    (1, 1) => Complex64::new(cc, 0.0),
+                    (0, 1) => b,
+                    _ => b.conj(),
+                };
+                x[k] = e * imp[j].norm_sqr();
+            }
+            sums.push(real_sum(fft_n, &mut x));
+        }
+    }
+    sums
+}
+
 /// `Σ_t a(t) b(t)` of two real series of length `m` from their one-sided spectra (Parseval).
 fn parseval(m: usize, a: &[Complex64], b: &[Complex64]) -> f64 {
     let mut s = 0.0;
@@ -386,24 +416,7 @@ impl Quadratic {
         let zero = Complex64::new(0.0, 0.0);
         let mut fft_n = RealFft::new(n.max(1)).expect("n ≥ 1");
         let mut fft_m = RealFft::new(m).expect("m ≥ 2");
-        let nk = n / 2 + 1;
-        let mut sums = Vec::with_capacity(nr * nr);
-        for r in 0..nr {
-            for c in 0..nr {
-                let mut x = vec![zero; nk];
-                for (j, &k) in bins.iter().enumerate() {
-                    let (a, b, cc) = cinv[j];
-                    let e = match (r, c) {
-                        (0, 0) => Complex64::new(a, 0.0),
-                        (1, 1) => Complex64::new(cc, 0.0),
-                        (0, 1) => b,
-                        _ => b.conj(),
-                    };
-                    x[k] = e * imp[j].norm_sqr();
-                }
-                sums.push(real_sum(&mut fft_n, &mut x));
-            }
-        }
+        let sums = kappa_sums(&mut fft_n, nr, bins, cinv, imp);
         let mut kappa = Vec::with_capacity(nr * nr);
         let mut pad = vec![0.0; m];
         for r in 0..nr {
@@ -600,24 +613,10 @@ impl GlitchScan {
             q.push(to_p(&t, &mut fft));
         }
         let (mut kappa, mut kappa0) = (Vec::new(), Vec::new());
-        for r in 0..nr {
-            for c in 0..nr {
-                let mut x = vec![zero; nk];
-                for (j, &k) in bins.iter().enumerate() {
-                    let (a, b, cc) = cinv[j];
-                    let m = match (r, c) {
-                        (0, 0) => Complex64::new(a, 0.0),
-                        (1, 1) => Complex64::new(cc, 0.0),
-                        (0, 1) => b,
-                        _ => b.conj(),
-                    };
-                    x[k] = m * imp[j].norm_sqr();
-                }
-                let mut t = self.real_sum(&mut x);
-                kappa0.push(t[0]);
-                t[0] = 0.0;
-                kappa.push(to_p(&t, &mut fft));
-            }
+        for mut t in kappa_sums(&mut self.causal.fft_n, nr, bins, cinv, imp) {
+            kappa0.push(t[0]);
+            t[0] = 0.0;
+            kappa.push(to_p(&t, &mut fft));
         }
         self.target = Some(Target {
             fft,
