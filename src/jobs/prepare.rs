@@ -572,6 +572,19 @@ pub fn sampled_kind(
         );
         return (crate::config::LikelihoodKind::Exact, Some(why));
     }
+    if kind == crate::config::LikelihoodKind::Relbin
+        && exact
+            .model()
+            .data_channels()
+            .iter()
+            .any(|c| c == crate::model::GLITCH_CHANNEL)
+    {
+        // each coarse edge's coefficient needs the glitches' causal response over the whole
+        // record, which is the exact kernel's cost already: binning would only add its
+        // set-up (minutes on examples/glitches.toml) and its error
+        let why = "modelled glitches: the samplers run on the exact ln L (its glitch kernel), which costs what a relative-binned one would: the glitches' response is computed over the whole record either way".to_string();
+        return (crate::config::LikelihoodKind::Exact, Some(why));
+    }
     (kind, None)
 }
 

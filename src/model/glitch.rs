@@ -354,73 +354,83 @@ impl GlitchModel {
             let key = [self.memo_id, n as u64, fs.to_bits()];
             let same = memo.key == key
                 && memo.theta.len() == th.len()
-                && memo
-                    .theta
-                    .iter()
-                    .zip(th)
-                    .all(|(a, b)| a.re == b.re && a.eps == b.eps);
-            if !same {
-                let (active, _) = self.here.as_ref().expect("record_bin checked");
-                let dy = with_causal(n, fs, |c| {
-                    let p = &th[..self.np];
-                    let loop_seeded = p.iter().any(|x| x.eps != 0.0);
-                    // values only where the loop is seeded (its derivative is H'·G); dual
-                    // samples only for a seeded glitch (the others' derivatives are zero)
-                    let (mut g, mut dg) = (vec![0.0; n], vec![0.0; n]);
-                    let mut scratch = vec![0.0; n];
-                    for &j in active {
-                        let i = self.glitch_index(j);
-                        if th[i..i + 3].iter().any(|x| x.eps != 0.0) {
-                            scratch.fill(0.0);
-                            let (t0, tau, a) = (th[i], th[i + 1], th[i + 2]);
-                            add_samples_dual(t0, tau, a, self.rise, fs, &mut scratch, &mut dg);
-                        }
-                        if loop_seeded {
-                            let (t0, tau, a) = (th[i].re, th[i + 1].re, th[i + 2].re);
-                            add_samples(t0, tau, a, self.rise, fs, &mut g);
-                        }
-                    }
-                    let (mut gs, mut dgs) = (Vec::new(), Vec::new());
-                    if loop_seeded {
-                        c.spectrum(&g, &mut gs);
-                    }
-                    let seeded = dg.iter().any(|x| *x != 0.0);
-                    if seeded {
-                        c.spectrum(&dg, &mut dgs);
-                    }
-                    let zero = Complex64::new(0.0, 0.0);
-                    let mut dy = vec![zero; (n / 2 + 1) * nr];
-                    if !loop_seeded {
-                        if seeded {
-                            let pr: Vec<f64> = p.iter().map(|x| x.re).collect();
-                            self.with_response_grid(&pr, c.m(), fs, |h| {
-                                c.apply(&[(h, &dgs)], nr, &mut dy)
-                            });
-                        }
-                    } else {
-                        let (mut h, mut dh) = (Vec::new(), Vec::new());
-                        let g = self.grid_consts(c.m(), fs);
-                        response_grid_dual(self.parent.as_ref(), p, &g, &mut h, &mut dh);
-                        if seeded {
-                            c.apply(&[(&dh, &gs), (&h, &dgs)], nr, &mut dy);
-                        } else {
-                            c.apply(&[(&dh, &gs)], nr, &mut dy);
-                        }
-                    }
-                    dy
-                });
-                // the values are the real path's, shared by every seeded direction
-                let re: Vec<f64> = th.iter().map(|x| x.re).collect();
-                let y = self.with_causal_values(&re, n, fs, nr, <[Complex64]>::to_vec);
-                memo.y = y
-                    .iter()
-                    .zip(&dy)
-                    .map(|(v, d)| Complex::new(Dual64::new(v.re, d.re), Dual64::new(v.im, d.im)))
-                    .collect();
+                && memo.theta.iter().zip(th).all(|(a, b)| *a == b.re);
+            if !same || memo.dirs.len() >= MAX_DIRECTIONS {
                 memo.key = key;
-                memo.theta = th.to_vec();
+                memo.theta = th.iter().map(|x| x.re).collect();
+                memo.dirs.clear();
             }
-            out.copy_from_slice(&memo.y[k * nr..(k + 1) * nr]);
+            let at = memo
+                .dirs
+                .iter()
+                .position(|(eps, _)| eps.iter().zip(th).all(|(e, x)| *e == x.eps));
+            let at = match at {
+                Some(i) => i,
+                None => {
+                    let (active, _) = self.here.as_ref().expect("record_bin checked");
+                    let dy = with_causal(n, fs, |c| {
+                        let p = &th[..self.np];
+                        let loop_seeded = p.iter().any(|x| x.eps != 0.0);
+                        // values only where the loop is seeded (its derivative is H'·G); dual
+                        // samples only for a seeded glitch (the others' derivatives are zero)
+                        let (mut g, mut dg) = (vec![0.0; n], vec![0.0; n]);
+                        let mut scratch = vec![0.0; n];
+                        for &j in active {
+                            let i = self.glitch_index(j);
+                            if th[i..i + 3].iter().any(|x| x.eps != 0.0) {
+                                scratch.fill(0.0);
+                                let (t0, tau, a) = (th[i], th[i + 1], th[i + 2]);
+                                add_samples_dual(t0, tau, a, self.rise, fs, &mut scratch, &mut dg);
+                            }
+                            if loop_seeded {
+                                let (t0, tau, a) = (th[i].re, th[i + 1].re, th[i + 2].re);
+                                add_samples(t0, tau, a, self.rise, fs, &mut g);
+                            }
+                        }
+                        let (mut gs, mut dgs) = (Vec::new(), Vec::new());
+                        if loop_seeded {
+                            c.spectrum(&g, &mut gs);
+                        }
+                        let seeded = dg.iter().any(|x| *x != 0.0);
+                        if seeded {
+                            c.spectrum(&dg, &mut dgs);
+                        }
+                        let zero = Complex64::new(0.0, 0.0);
+                        let mut dy = vec![zero; (n / 2 + 1) * nr];
+                        if !loop_seeded {
+                            if seeded {
+                                let pr: Vec<f64> = p.iter().map(|x| x.re).collect();
+                                self.with_response_grid(&pr, c.m(), fs, |h| {
+                                    c.apply(&[(h, &dgs)], nr, &mut dy)
+                                });
+                            }
+                        } else {
+                            let (mut h, mut dh) = (Vec::new(), Vec::new());
+                            let g = self.grid_consts(c.m(), fs);
+                            response_grid_dual(self.parent.as_ref(), p, &g, &mut h, &mut dh);
+                            if seeded {
+                                c.apply(&[(&dh, &gs), (&h, &dgs)], nr, &mut dy);
+                            } else {
+                                c.apply(&[(&dh, &gs)], nr, &mut dy);
+                            }
+                        }
+                        dy
+                    });
+                    // the values are the real path's, shared by every seeded direction
+                    let re: Vec<f64> = th.iter().map(|x| x.re).collect();
+                    let y = self.with_causal_values(&re, n, fs, nr, <[Complex64]>::to_vec);
+                    let y = y
+                        .iter()
+                        .zip(&dy)
+                        .map(|(v, d)| {
+                            Complex::new(Dual64::new(v.re, d.re), Dual64::new(v.im, d.im))
+                        })
+                        .collect();
+                    memo.dirs.push((th.iter().map(|x| x.eps).collect(), y));
+                    memo.dirs.len() - 1
+                }
+            };
+            out.copy_from_slice(&memo.dirs[at].1[k * nr..(k + 1) * nr]);
         })
     }
 }
@@ -483,6 +493,23 @@ struct ExactMemo<T> {
     y: Vec<Complex<T>>,
 }
 
+/// The causal response in dual numbers of one specialised model over its whole record at one
+/// real θ, for every seeded direction asked for there. A Fisher pass asks bin by bin for every
+/// direction in turn ([`crate::likelihood::gradient_and_fisher`]): with one entry, each bin
+/// recomputed the whole record's response once per direction (the MAP search of
+/// `examples/glitches.toml` then ran for minutes per Fisher step).
+struct DualMemo {
+    /// As [`ExactMemo::key`].
+    key: [u64; 3],
+    /// The real part of θ.
+    theta: Vec<f64>,
+    /// Each direction's `ε` parts of θ and the response.
+    dirs: Vec<(Vec<f64>, Vec<Complex<Dual64>>)>,
+}
+
+/// Directions kept per θ in a [`DualMemo`] (a Fisher pass seeds one per free parameter).
+const MAX_DIRECTIONS: usize = 256;
+
 thread_local! {
     /// The last θ's causal response on this thread: the generic path asks for it bin by bin.
     static EXACT: std::cell::RefCell<ExactMemo<f64>> = const { std::cell::RefCell::new(ExactMemo {
@@ -490,11 +517,11 @@ thread_local! {
         theta: Vec::new(),
         y: Vec::new(),
     }) };
-    /// As [`EXACT`] in dual numbers (one seeded direction of a Fisher pass).
-    static EXACT_DUAL: std::cell::RefCell<ExactMemo<Dual64>> = const { std::cell::RefCell::new(ExactMemo {
+    /// As [`EXACT`] in dual numbers, one entry per seeded direction.
+    static EXACT_DUAL: std::cell::RefCell<DualMemo> = const { std::cell::RefCell::new(DualMemo {
         key: [u64::MAX; 3],
         theta: Vec::new(),
-        y: Vec::new(),
+        dirs: Vec::new(),
     }) };
     /// The parent's force response on the padded grid: `(key, parent θ, H)`.
     static HGRID: std::cell::RefCell<([u64; 3], Vec<f64>, Vec<Complex64>)> =
@@ -1042,6 +1069,66 @@ pub(super) mod tests {
                     "param {a} comp {k}: {ex} vs {}",
                     fd[k]
                 );
+            }
+        }
+    }
+
+    /// A Fisher pass asks for every direction at one bin before the next bin: each answer is
+    /// that direction's, as when it is asked alone.
+    #[test]
+    fn interleaved_directions_get_their_own_derivatives() {
+        let m = model();
+        let cov = Covariates {
+            experiment: Some("a".into()),
+            ..Default::default()
+        };
+        let s = m.specialise(&cov).unwrap().unwrap();
+        let th = theta(&m);
+        let fs = 1.0;
+        let dirs = [0usize, 7, 8, 9, 3];
+        let ask = |a: usize, f: f64| {
+            let mut cst = vec![Complex64::new(0.0, 0.0); m.n_consts()];
+            m.bin_consts(f, fs, &mut cst);
+            let bin = Bin {
+                f,
+                fs,
+                consts: &cst,
+            };
+            let mut d: Vec<Dual64> = th.iter().map(|&v| Dual64::from(v)).collect();
+            d[a] = d[a].derivative();
+            let mut out = vec![Complex::new(Dual64::from(0.0), Dual64::from(0.0)); 10];
+            s.coefficients_dual(&d, &bin, &mut out);
+            out.iter()
+                .map(|c| Complex64::new(c.re.eps, c.im.eps))
+                .collect::<Vec<_>>()
+        };
+        let bins = [0.004, 0.005, 0.02];
+        let mut interleaved = Vec::new();
+        for &f in &bins {
+            for &a in &dirs {
+                interleaved.push(ask(a, f));
+            }
+        }
+        let mut i = 0;
+        for &f in &bins {
+            for &a in &dirs {
+                // another model's response in between empties this thread's memo
+                let other = model().specialise(&cov).unwrap().unwrap();
+                let mut d: Vec<Dual64> = th.iter().map(|&v| Dual64::from(v)).collect();
+                d[a] = d[a].derivative();
+                let mut cst = vec![Complex64::new(0.0, 0.0); m.n_consts()];
+                m.bin_consts(f, fs, &mut cst);
+                let bin = Bin {
+                    f,
+                    fs,
+                    consts: &cst,
+                };
+                let mut out = vec![Complex::new(Dual64::from(0.0), Dual64::from(0.0)); 10];
+                other.coefficients_dual(&d, &bin, &mut out);
+                let alone = ask(a, f);
+                assert!(alone.iter().any(|z| z.norm() > 0.0), "direction {a}");
+                assert_eq!(interleaved[i], alone, "direction {a} at {f} Hz");
+                i += 1;
             }
         }
     }
