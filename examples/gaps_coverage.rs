@@ -14,7 +14,9 @@
 
 use occam::config::Study;
 use occam::jobs::prepare::{default_start, prepare, reference_point};
-use occam::likelihood::{cramer_rao, fisher_exact, fisher_scoring};
+use occam::likelihood::{
+    cramer_rao, fisher_exact, fisher_scoring, sandwich_errors, score_covariance,
+};
 use rayon::prelude::*;
 use std::path::Path;
 use std::time::Instant;
@@ -22,8 +24,11 @@ use std::time::Instant;
 /// Nominal 1σ coverage of a calibrated Gaussian error bar.
 const COVER: f64 = 0.683;
 
-/// (MAP − truth, σ_Fisher) per free parameter, or why the realisation is left out.
-fn realisation(base: &Study, seed: u64, truth: &[f64]) -> Result<Vec<(f64, f64)>, String> {
+/// One parameter of one realisation: MAP − truth, σ_Fisher, σ_sandwich.
+type Outcome = Vec<(f64, f64, f64)>;
+
+/// [`Outcome`] per free parameter, or why the realisation is left out.
+fn realisation(base: &Study, seed: u64, truth: &[f64]) -> Result<Outcome, String> {
     let mut study = base.clone();
     study.seed = seed;
     let prep = prepare(&study).map_err(|e| format!("seed {seed}: prepare: {e}"))?;
@@ -40,16 +45,19 @@ fn realisation(base: &Study, seed: u64, truth: &[f64]) -> Result<Vec<(f64, f64)>
     }
     let f = fisher_exact(lik, &map.theta, &spec.free);
     let sd = cramer_rao(&f).ok_or_else(|| format!("seed {seed}: singular Fisher matrix"))?;
+    let j = score_covariance(lik, &map.theta, &spec.free);
+    let sw =
+        sandwich_errors(&f, &j).ok_or_else(|| format!("seed {seed}: singular Fisher matrix"))?;
     Ok(spec
         .free
         .iter()
-        .zip(&sd)
-        .map(|(&i, &s)| (map.theta[i] - truth[i], s))
+        .zip(sd.iter().zip(&sw))
+        .map(|(&i, (&s, &w))| (map.theta[i] - truth[i], s, w))
         .collect())
 }
 
-fn report(label: &str, study: &Study, outcomes: &[Result<Vec<(f64, f64)>, String>]) {
-    let good: Vec<&Vec<(f64, f64)>> = outcomes.iter().filter_map(|o| o.as_ref().ok()).collect();
+fn report(label: &str, study: &Study, outcomes: &[Result<Outcome, String>]) {
+    let good: Vec<&Outcome> = outcomes.iter().filter_map(|o| o.as_ref().ok()).collect();
     for o in outcomes {
         if let Err(why) = o {
             println!("{label}: excluded: {why}");
@@ -62,8 +70,15 @@ fn report(label: &str, study: &Study, outcomes: &[Result<Vec<(f64, f64)>, String
         good.len()
     );
     println!(
-        "{:>8} {:>10} {:>9} {:>14} {:>9}",
-        "param", "mean σ", "coverage", "bias ± se", "pull sd"
+        "{:>8} {:>10} {:>9} {:>14} {:>9} {:>13} {:>12} {:>12}",
+        "param",
+        "mean σ",
+        "coverage",
+        "bias ± se",
+        "pull sd",
+        "sandwich ÷ σ",
+        "sw coverage",
+        "sw pull sd"
     );
     let spec = &study.fit_model;
     let names = study.models.models[spec.model].param_names();
@@ -74,14 +89,27 @@ fn report(label: &str, study: &Study, outcomes: &[Result<Vec<(f64, f64)>, String
         let sd = (pulls.iter().map(|z| (z - bias).powi(2)).sum::<f64>() / (m - 1.0)).sqrt();
         let mean_sigma = good.iter().map(|v| v[j].1).sum::<f64>() / m;
         let flag = if (cov - COVER).abs() > band { "!" } else { "" };
+        let sw: Vec<f64> = good.iter().map(|v| v[j].0 / v[j].2).collect();
+        let sw_cov = sw.iter().filter(|z| z.abs() < 1.0).count() as f64 / m;
+        let sw_bias = sw.iter().sum::<f64>() / m;
+        let sw_sd = (sw.iter().map(|z| (z - sw_bias).powi(2)).sum::<f64>() / (m - 1.0)).sqrt();
+        let ratio = good.iter().map(|v| v[j].2 / v[j].1).sum::<f64>() / m;
+        let sw_flag = if (sw_cov - COVER).abs() > band {
+            "!"
+        } else {
+            ""
+        };
         println!(
-            "{:>8} {:>10.3e} {:>8.3}{flag:1} {:>7.3} ± {:<5.3} {:>8.3}",
+            "{:>8} {:>10.3e} {:>8.3}{flag:1} {:>7.3} ± {:<5.3} {:>8.3} {:>13.3} {:>11.3}{sw_flag:1} {:>11.3}",
             names[i],
             mean_sigma,
             cov,
             bias,
             1.0 / m.sqrt(),
-            sd
+            sd,
+            ratio,
+            sw_cov,
+            sw_sd
         );
     }
 }

@@ -128,7 +128,13 @@ fn simulate_then_fit_with_ten_percent_gaps() {
         let z = (map - truth) / cr;
         eprintln!("{}: {z:.2}σ", r["name"]);
         assert!(z.abs() < 4.0, "{r}");
+        // the runs' tapers correlate their bins and the noise is a Welch estimate of
+        // ν = 29: the sandwich error is at least the Welch factor √(29/25) above the Fisher one
+        let sw = r["sandwich"].as_f64().expect("a sandwich error with gaps");
+        assert!(sw > 1.07 * cr && sw < 1.5 * cr, "{r}");
     }
+    let warnings = summary["warnings"].to_string();
+    assert!(warnings.contains("quote the sandwich errors"), "{warnings}");
 }
 
 /// Telemetry gaps drop every channel, the injections' read-back included. Table I's data

@@ -26,7 +26,7 @@ pub mod transfer;
 pub use exact::{Likelihood, LikelihoodError};
 pub use fisher::{
     cramer_rao, default_step, describe_unconstrained, fisher_exact, fisher_numeric, fisher_parts,
-    gradient_and_fisher, gradient_hessian_numeric,
+    gradient_and_fisher, gradient_hessian_numeric, sandwich_errors, score_covariance,
 };
 pub use glitch_gate::{
     DEFAULT_GLITCH_AMPLITUDE, DEFAULT_GLITCH_DECAY, DEFAULT_GLITCH_PAD, DEFAULT_GLITCH_RISE,
@@ -42,8 +42,9 @@ pub use multistart::{
 pub use relbin::{MAX_REFINEMENTS, RelBinError, RelBinLikelihood, RelBinOptions, RelBinValidation};
 pub use segments::GapSummary;
 pub use spectra::{
-    DEFAULT_GAP_TAPER, ExperimentSpectra, NoiseSource, SpectraError, SpectraOptions,
-    WelchResolution, averages_per_decade, welch_segment_len, welch_segment_len_for,
+    DEFAULT_GAP_TAPER, ExperimentSpectra, MAX_WINDOW_LAGS, NoiseSource, SpectraError,
+    SpectraOptions, WelchResolution, averages_per_decade, welch_segment_len, welch_segment_len_for,
+    window_lags,
 };
 pub use statistic::{LogPeriodogramOptions, Statistic};
 

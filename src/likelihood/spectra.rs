@@ -165,6 +165,36 @@ pub struct ExperimentSpectra {
     /// stretches reads ([`crate::model::Model::specialise`]); empty unless the caller sets
     /// them (the study's `[[stretch]]` of the experiment).
     pub covariates: crate::model::Covariates,
+    /// How the window correlates neighbouring bins: `R_m = Σ_t w_t² e^{−2πimt/N} / Σ_t w_t²`
+    /// for lags `m = 1, 2, …` (`R_0 = 1`, `R_−m = R_m*`) as far as `|R_m| ≥ 1e−4` (at most
+    /// [`MAX_WINDOW_LAGS`]); empty for the rectangular window, whose bins are uncorrelated.
+    /// Noise whose PSD is smooth over a few bins has `E[r_k r_lᴴ] ≈ R_{k−l} C_k^{½} C_l^{½}`:
+    /// what [`crate::likelihood::score_covariance`] needs for the error bars of tapered runs.
+    pub window_lags: Vec<Complex64>,
+}
+
+/// Most lags kept in [`ExperimentSpectra::window_lags`].
+pub const MAX_WINDOW_LAGS: usize = 32;
+
+/// [`ExperimentSpectra::window_lags`] of the window `w` (its DFT's convention).
+pub fn window_lags(w: &[f64]) -> Result<Vec<Complex64>, crate::signal::SignalError> {
+    let n = w.len();
+    let w2: Vec<f64> = w.iter().map(|x| x * x).collect();
+    let total: f64 = w2.iter().sum();
+    if n < 4 || total <= 0.0 {
+        return Ok(Vec::new());
+    }
+    let mut fft = RealFft::new(n)?;
+    let mut spec = vec![Complex64::new(0.0, 0.0); fft.spectrum_len()];
+    fft.forward(&w2, &mut spec)?;
+    let lags = MAX_WINDOW_LAGS.min(spec.len() - 1);
+    let mut out: Vec<Complex64> = spec[1..=lags].iter().map(|r| r / total).collect();
+    let keep = out
+        .iter()
+        .rposition(|r| r.norm() >= 1e-4)
+        .map_or(0, |i| i + 1);
+    out.truncate(keep);
+    Ok(out)
 }
 
 impl ExperimentSpectra {
@@ -376,6 +406,7 @@ impl ExperimentSpectra {
             noise_dof,
             noise_dof_per_bin,
             covariates: Default::default(),
+            window_lags: window_lags(&w).map_err(sig)?,
         })
     }
 

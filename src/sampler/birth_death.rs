@@ -705,6 +705,16 @@ mod tests {
                 switches += (j[0].accepted + j[1].accepted) as f64;
                 assert!(e > 0.0, "seed {seed}: component {c} never switched");
                 z.push(((p - inc[c]) / e).abs());
+                if std::env::var("PROBE").is_ok() {
+                    eprintln!(
+                        "PROBE {} {} {} {} {}",
+                        (p - inc[c]) / e,
+                        p,
+                        e,
+                        j[0].accepted,
+                        j[1].accepted
+                    );
+                }
             }
         }
         let n = z.len() as f64;

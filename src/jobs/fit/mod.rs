@@ -60,6 +60,7 @@ mod tests {
             mean: 1.0,
             sd,
             cramer_rao: 0.1,
+            sandwich: None,
             rhat,
             ess,
             pull: Some(0.0 / sd),

@@ -164,6 +164,13 @@ pub fn run(
             None
         }
     };
+    let sandwich = sandwich_of(exact, &map.theta, free, &fisher);
+    if let Some(w) = sandwich
+        .as_ref()
+        .and_then(|s| sandwich_warning(s, &cr, &diag.sd, &names, free))
+    {
+        warnings.push(w);
+    }
     let units = exact.model().param_units();
     let rows: Vec<ParamRow> = free
         .iter()
@@ -178,6 +185,7 @@ pub fn run(
                 mean: diag.mean[k],
                 sd: diag.sd[k],
                 cramer_rao: cr[k],
+                sandwich: sandwich.as_ref().map(|s| s[k]),
                 rhat: diag.rhat[k],
                 ess: diag.ess[k],
                 pull: tr.map(|t| (diag.mean[k] - t) / diag.sd[k]),
@@ -459,4 +467,43 @@ fn sample<D: LogDensity>(
             "stopped after {iterations} iterations; run again with --resume"
         ))),
     }
+}
+
+/// The sandwich errors at the MAP ([`ParamRow::sandwich`]) when some experiment's window
+/// correlates its bins; `None` otherwise, or when `fisher` is singular.
+fn sandwich_of(
+    exact: &Likelihood,
+    theta: &[f64],
+    free: &[usize],
+    fisher: &nalgebra::DMatrix<f64>,
+) -> Option<Vec<f64>> {
+    if exact.spectra().iter().all(|e| e.window_lags.is_empty()) {
+        return None;
+    }
+    let j = crate::likelihood::score_covariance(exact, theta, free);
+    crate::likelihood::sandwich_errors(fisher, &j)
+}
+
+/// One line when the sandwich errors exceed the Fisher errors or the chains' sd by more than
+/// 5 % somewhere: which parameter, by how much, and what to quote.
+fn sandwich_warning(
+    sandwich: &[f64],
+    cr: &[f64],
+    sd: &[f64],
+    names: &[String],
+    free: &[usize],
+) -> Option<String> {
+    let (k, ratio) = sandwich
+        .iter()
+        .zip(cr.iter().zip(sd))
+        .map(|(s, (c, d))| s / c.max(*d))
+        .enumerate()
+        .max_by(|a, b| a.1.total_cmp(&b.1))?;
+    (ratio > 1.05).then(|| {
+        format!(
+            "the window (the tapers of the runs between gaps) correlates neighbouring bins, which the Whittle ln L treats as independent: the Fisher errors and the chains' sd are short by up to {:.0} % (`{}`); quote the sandwich errors (`sandwich` in summary.json), which cover",
+            100.0 * (ratio - 1.0),
+            names[free[k]]
+        )
+    })
 }

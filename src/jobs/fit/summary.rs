@@ -34,6 +34,13 @@ pub struct ParamRow {
     pub mean: f64,
     pub sd: f64,
     pub cramer_rao: f64,
+    /// Where the window correlates neighbouring bins (the tapers of the runs between gaps,
+    /// or a non-rectangular `window`): the sandwich error `√(F⁻¹JF⁻¹)_ii` at the MAP
+    /// ([`crate::likelihood::score_covariance`], with the Welch estimate's degrees of freedom),
+    /// which covers where the Fisher error and the chains' sd (the Whittle posterior's, which
+    /// treats the bins as independent) are short. Absent otherwise.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sandwich: Option<f64>,
     pub rhat: f64,
     pub ess: f64,
     /// (mean − truth)/sd when the truth is known.
