@@ -46,7 +46,10 @@ fn main() {
     );
     let t = Instant::now();
     std::hint::black_box(occam::likelihood::gradient_and_fisher(lik, &start, free));
-    println!("gradient and Fisher matrix: {:.2} s", t.elapsed().as_secs_f64());
+    println!(
+        "gradient and Fisher matrix: {:.2} s",
+        t.elapsed().as_secs_f64()
+    );
     let t = Instant::now();
     let map = occam::jobs::prepare::map_search(lik, free, &start, s.fit.map_starts);
     println!(

@@ -336,7 +336,7 @@ pub fn score_covariance(lik: &Likelihood, th: &[f64], free: &[usize]) -> DMatrix
         let m = lik.model_of(ei).as_ref();
         let nk = e.len();
         let welch = |k: usize| -> f64 {
-            if lik.statistic() != super::Statistic::Whittle {
+            if lik.statistic() != super::statistic::Statistic::Whittle {
                 return 1.0;
             }
             let nu = match (&e.noise_dof_per_bin, e.noise_dof) {

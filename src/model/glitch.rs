@@ -1026,16 +1026,39 @@ pub(super) mod tests {
         }
     }
 
+    /// `m` specialised to its experiment `a`.
+    fn on_a(m: &GlitchModel) -> Arc<dyn Model> {
+        let cov = Covariates {
+            experiment: Some("a".into()),
+            ..Default::default()
+        };
+        m.specialise(&cov).unwrap().unwrap()
+    }
+
+    /// The `ε` parts of `s`'s dual coefficients at `th` seeded in parameter `a`, bin `f`.
+    fn derivative(s: &dyn Model, th: &[f64], a: usize, f: f64, fs: f64) -> Vec<Complex64> {
+        let mut cst = vec![Complex64::new(0.0, 0.0); s.n_consts()];
+        s.bin_consts(f, fs, &mut cst);
+        let bin = Bin {
+            f,
+            fs,
+            consts: &cst,
+        };
+        let mut d: Vec<Dual64> = th.iter().map(|&v| Dual64::from(v)).collect();
+        d[a] = d[a].derivative();
+        let mut out = vec![Complex::new(Dual64::from(0.0), Dual64::from(0.0)); 10];
+        s.coefficients_dual(&d, &bin, &mut out);
+        out.iter()
+            .map(|c| Complex64::new(c.re.eps, c.im.eps))
+            .collect()
+    }
+
     /// Every parameter's dual derivative of the specialised coefficients equals a central
     /// difference.
     #[test]
     fn dual_coefficients_have_exact_derivatives() {
         let m = model();
-        let cov = Covariates {
-            experiment: Some("a".into()),
-            ..Default::default()
-        };
-        let s = m.specialise(&cov).unwrap().unwrap();
+        let s = on_a(&m);
         let th = theta(&m);
         let (f, fs) = (0.004, 1.0);
         let mut cst = vec![Complex64::new(0.0, 0.0); m.n_consts()];
@@ -1078,54 +1101,23 @@ pub(super) mod tests {
     #[test]
     fn interleaved_directions_get_their_own_derivatives() {
         let m = model();
-        let cov = Covariates {
-            experiment: Some("a".into()),
-            ..Default::default()
-        };
-        let s = m.specialise(&cov).unwrap().unwrap();
+        let s = on_a(&m);
         let th = theta(&m);
         let fs = 1.0;
         let dirs = [0usize, 7, 8, 9, 3];
-        let ask = |a: usize, f: f64| {
-            let mut cst = vec![Complex64::new(0.0, 0.0); m.n_consts()];
-            m.bin_consts(f, fs, &mut cst);
-            let bin = Bin {
-                f,
-                fs,
-                consts: &cst,
-            };
-            let mut d: Vec<Dual64> = th.iter().map(|&v| Dual64::from(v)).collect();
-            d[a] = d[a].derivative();
-            let mut out = vec![Complex::new(Dual64::from(0.0), Dual64::from(0.0)); 10];
-            s.coefficients_dual(&d, &bin, &mut out);
-            out.iter()
-                .map(|c| Complex64::new(c.re.eps, c.im.eps))
-                .collect::<Vec<_>>()
-        };
         let bins = [0.004, 0.005, 0.02];
         let mut interleaved = Vec::new();
         for &f in &bins {
             for &a in &dirs {
-                interleaved.push(ask(a, f));
+                interleaved.push(derivative(s.as_ref(), &th, a, f, fs));
             }
         }
         let mut i = 0;
         for &f in &bins {
             for &a in &dirs {
                 // another model's response in between empties this thread's memo
-                let other = model().specialise(&cov).unwrap().unwrap();
-                let mut d: Vec<Dual64> = th.iter().map(|&v| Dual64::from(v)).collect();
-                d[a] = d[a].derivative();
-                let mut cst = vec![Complex64::new(0.0, 0.0); m.n_consts()];
-                m.bin_consts(f, fs, &mut cst);
-                let bin = Bin {
-                    f,
-                    fs,
-                    consts: &cst,
-                };
-                let mut out = vec![Complex::new(Dual64::from(0.0), Dual64::from(0.0)); 10];
-                other.coefficients_dual(&d, &bin, &mut out);
-                let alone = ask(a, f);
+                derivative(on_a(&model()).as_ref(), &th, a, f, fs);
+                let alone = derivative(s.as_ref(), &th, a, f, fs);
                 assert!(alone.iter().any(|z| z.norm() > 0.0), "direction {a}");
                 assert_eq!(interleaved[i], alone, "direction {a} at {f} Hz");
                 i += 1;
