@@ -501,7 +501,7 @@ fn sandwich_warning(
         .max_by(|a, b| a.1.total_cmp(&b.1))?;
     (ratio > 1.05).then(|| {
         format!(
-            "the window (the tapers of the runs between gaps) correlates neighbouring bins, which the Whittle ln L treats as independent: the Fisher errors and the chains' sd are short by up to {:.0} % (`{}`); quote the sandwich errors (`sandwich` in summary.json), which cover",
+            "the Fisher errors and the chains' sd treat the bins as independent and the noise PSD as exact, but the window (the tapers of the runs between gaps) correlates neighbouring bins and a Welch PSD is an estimate: they are short by up to {:.0} % (`{}`); quote the sandwich errors (`sandwich` in summary.json), which account for both",
             100.0 * (ratio - 1.0),
             names[free[k]]
         )
