@@ -37,6 +37,11 @@ pub struct CandidateCount {
     /// how near).
     pub probability: f64,
     pub error: f64,
+    /// `ln(p/(1 − p))` and its error (null where `p` is 0 or 1 or has no error): the scale
+    /// whose errors cover when the candidate switched only a few dozen times
+    /// ([`crate::sampler::BirthDeathResult::inclusion_log_odds`]).
+    pub log_odds: f64,
+    pub log_odds_error: f64,
     pub births: Moves,
     pub deaths: Moves,
     /// Posterior mean and sd of `t0`, `tau`, `a` while on (NaN when never on).
@@ -232,12 +237,15 @@ pub fn glitch_count(
         .iter()
         .zip(&components)
         .zip(r.inclusion.iter().zip(&r.jumps))
-        .map(|((c, comp), (&(p, e), j))| CandidateCount {
+        .zip(r.inclusion_log_odds())
+        .map(|(((c, comp), (&(p, e), j)), (lo, lo_e))| CandidateCount {
             name: c.name.clone(),
             experiment: c.experiment.clone(),
             region: c.region,
             probability: p,
             error: e,
+            log_odds: lo,
+            log_odds_error: lo_e,
             births: j[0],
             deaths: j[1],
             mean: [0, 1, 2].map(|q| r.mean[comp.params[q]]),
