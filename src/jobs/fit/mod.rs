@@ -123,4 +123,33 @@ mod tests {
             "{m}"
         );
     }
+
+    /// The sandwich warning names the parameter whose errors are shortest, stays silent within
+    /// 5 %, and says so when the variance has no finite value (a Welch ν ≤ 4).
+    #[test]
+    fn the_sandwich_warning_names_the_worst_parameter_or_an_infinite_variance() {
+        let names: Vec<String> = ["a", "b"].map(String::from).to_vec();
+        let w = run::sandwich_warning(&[1.1, 2.6], &[1.0, 2.0], &[1.0, 2.1], &names, &[0, 1]);
+        assert!(
+            w.as_deref()
+                .is_some_and(|w| w.contains("24 %") && w.contains("`b`")),
+            "{w:?}"
+        );
+        assert!(
+            run::sandwich_warning(&[1.04, 2.0], &[1.0, 2.0], &[1.0, 2.0], &names, &[0, 1])
+                .is_none()
+        );
+        let w = run::sandwich_warning(
+            &[f64::INFINITY, 2.0],
+            &[1.0, 2.0],
+            &[1.0, 2.0],
+            &names,
+            &[0, 1],
+        );
+        assert!(
+            w.as_deref()
+                .is_some_and(|w| w.contains("not finite") && w.contains("`a`")),
+            "{w:?}"
+        );
+    }
 }

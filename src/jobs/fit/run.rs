@@ -486,7 +486,7 @@ fn sandwich_of(
 
 /// One line when the sandwich errors exceed the Fisher errors or the chains' sd by more than
 /// 5 % somewhere: which parameter, by how much, and what to quote.
-fn sandwich_warning(
+pub(super) fn sandwich_warning(
     sandwich: &[f64],
     cr: &[f64],
     sd: &[f64],
@@ -499,6 +499,13 @@ fn sandwich_warning(
         .map(|(s, (c, d))| s / c.max(*d))
         .enumerate()
         .max_by(|a, b| a.1.total_cmp(&b.1))?;
+    if ratio.is_infinite() {
+        // ν ≤ 4 in some bin (`score_covariance`): the estimate's variance has no finite value
+        return Some(format!(
+            "the noise PSD is a Welch estimate of 4 or fewer degrees of freedom in some bins: the estimate's variance is not finite there, so no error bar of `{}` (nor the chains' sd) can be stood behind; raise [analysis] welch_averages or the noise-only stretch",
+            names[free[k]]
+        ));
+    }
     (ratio > 1.05).then(|| {
         format!(
             "the Fisher errors and the chains' sd treat the bins as independent and the noise PSD as exact, but the window (the tapers of the runs between gaps) correlates neighbouring bins and a Welch PSD is an estimate: they are short by up to {:.0} % (`{}`); quote the sandwich errors (`sandwich` in summary.json), which account for both",
