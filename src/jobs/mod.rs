@@ -21,6 +21,7 @@ pub mod fit;
 pub mod glitch_count;
 pub mod glitch_model;
 pub mod init;
+pub mod injection_bias;
 mod job;
 mod map_search;
 #[cfg(feature = "mpi")]

@@ -742,14 +742,6 @@ pub fn noise_warnings(study: &Study, mi: usize, dataset: &Dataset) -> Vec<String
 /// [`crate::likelihood::ExperimentSpectra::of_experiment`] cannot include its response.
 pub fn gap_notes(study: &Study, dataset: &Dataset) -> Vec<String> {
     let opts = spectra_options(study);
-    let mut inputs: Vec<&str> = Vec::new();
-    for m in &study.models.models {
-        for c in m.data_channels() {
-            if !inputs.contains(&c.as_str()) {
-                inputs.push(c);
-            }
-        }
-    }
     let mut out = Vec::new();
     for e in &dataset.experiments {
         let Some(s) = crate::likelihood::GapSummary::of(e, &opts) else {
@@ -772,25 +764,7 @@ pub fn gap_notes(study: &Study, dataset: &Dataset) -> Vec<String> {
                 ));
             }
         }
-        let reach = (opts.gap_taper * e.fs).round() as usize;
-        let n = e.n_samples();
-        let active: Vec<(String, &[f64])> = inputs
-            .iter()
-            .filter(|c| e.noise_channel(c).is_none())
-            .filter_map(|c| e.channel(c).map(|x| (c.to_string(), x)))
-            .collect();
-        // an input that is active beside a gap but missing inside it: the response to what
-        // it did in the gap cannot be known
-        let hot = e
-            .gaps
-            .iter()
-            .filter(|g| {
-                let (a, b) = (g[0].saturating_sub(reach), (g[1] + reach).min(n));
-                active
-                    .iter()
-                    .any(|(c, x)| !e.known_in_gaps.contains(c) && x[a..b].iter().any(|v| *v != 0.0))
-            })
-            .count();
+        let hot = missing_injections(study, e, &opts).len();
         if hot > 0 {
             out.push(format!(
                 "experiment `{}`: in {hot} of its {} gap(s) an injection is missing while it runs beside the gap (non-zero within gap_taper = {} s of it); the loop's response to what it did in the gap is unknown and the edge correction cannot include it, which biases the estimates at high SNR: supply the commanded injection through the gap, or give the experiment's design beside its data (`design`, `x1`, `x12`, `pre_pad`, …) and occam fills it in (docs: \"Real data: gaps\")",
@@ -801,6 +775,45 @@ pub fn gap_notes(study: &Study, dataset: &Dataset) -> Vec<String> {
         }
     }
     out
+}
+
+/// The gaps of `e` (indices into `e.gaps`) in which some input channel of the study's models
+/// (one with no noise-only series: a commanded injection) is missing while it is active
+/// within `gap_taper` of the gap, each with those channels: the loop's response to what the
+/// input did inside the gap is unknown ([`gap_notes`], [`crate::jobs::injection_bias`]).
+pub fn missing_injections(
+    study: &Study,
+    e: &crate::data::dataset::ExperimentData,
+    opts: &SpectraOptions,
+) -> Vec<(usize, Vec<String>)> {
+    let mut inputs: Vec<&str> = Vec::new();
+    for m in &study.models.models {
+        for c in m.data_channels() {
+            if !inputs.contains(&c.as_str()) {
+                inputs.push(c);
+            }
+        }
+    }
+    let reach = (opts.gap_taper * e.fs).round() as usize;
+    let n = e.n_samples();
+    let active: Vec<(&str, &[f64])> = inputs
+        .iter()
+        .filter(|c| e.noise_channel(c).is_none() && !e.known_in_gaps.iter().any(|k| k == *c))
+        .filter_map(|c| e.channel(c).map(|x| (*c, x)))
+        .collect();
+    e.gaps
+        .iter()
+        .enumerate()
+        .filter_map(|(j, g)| {
+            let (a, b) = (g[0].saturating_sub(reach), (g[1] + reach).min(n));
+            let hit: Vec<String> = active
+                .iter()
+                .filter(|(_, x)| x[a..b].iter().any(|v| *v != 0.0))
+                .map(|(c, _)| c.to_string())
+                .collect();
+            (!hit.is_empty()).then_some((j, hit))
+        })
+        .collect()
 }
 
 /// Gates the glitches of `dataset` (module [`crate::likelihood::glitch_gate`]): the regions

@@ -28,12 +28,14 @@
 //!   bottom needs the resolution).
 //! * [`glitch_gate`]: whitening against a noise PSD and gating of the samples that exceed a
 //!   threshold (`[analysis] glitches = "gate"`).
+//! * [`prediction`]: linear prediction (Burg) of a series through its gaps.
 //! * [`synth`]: Gaussian noise with an exactly prescribed one- or two-channel spectrum.
 
 mod error;
 pub mod fft;
 pub mod glitch_gate;
 pub mod multires;
+pub mod prediction;
 pub mod synth;
 pub mod welch;
 pub mod window;

@@ -31,6 +31,7 @@ mod tests {
             noise_averages: None,
             glitch_gates: vec![],
             glitch_count: None,
+            missing_injection_bias: None,
             n_bins: 1,
             n_coarse_bins: None,
             rho_opt_at_map: f64::NAN,

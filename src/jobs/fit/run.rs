@@ -171,6 +171,29 @@ pub fn run(
     {
         warnings.push(w);
     }
+    let reference = prep.noise_point.as_ref().map_or_else(
+        || crate::jobs::prepare::reference_point(study, model.model),
+        |p| p.theta.clone(),
+    );
+    let injection_bias = match crate::jobs::injection_bias::predict(
+        study,
+        model.model,
+        &prep.dataset,
+        exact,
+        &reference,
+        &map.theta,
+        free,
+        &fisher,
+        &cr,
+    ) {
+        Ok(b) => b,
+        Err(e) => {
+            warnings.push(format!(
+                "the bias of the injection missing inside gaps: not predicted: {e}"
+            ));
+            None
+        }
+    };
     let units = exact.model().param_units();
     let rows: Vec<ParamRow> = free
         .iter()
@@ -200,6 +223,15 @@ pub fn run(
             map.iterations
         ));
     }
+    if let Some(b) = &injection_bias {
+        match b.worst() {
+            Some((_, w)) if w > crate::jobs::injection_bias::BIAS_LIMIT => {
+                invalid_reasons.push(b.line())
+            }
+            Some(_) => warnings.push(b.line()),
+            None => {}
+        }
+    }
     let names_free: Vec<String> = rows.iter().map(|r| r.name.clone()).collect();
     let rhat: Vec<f64> = rows.iter().map(|r| r.rhat).collect();
     let ess: Vec<f64> = rows.iter().map(|r| r.ess).collect();
@@ -224,6 +256,7 @@ pub fn run(
         noise_averages: crate::jobs::prepare::noise_averages_for_summary(study, exact),
         glitch_gates: prep.glitch_gates.clone(),
         glitch_count,
+        missing_injection_bias: injection_bias,
         n_bins: exact.n_bins(),
         n_coarse_bins: n_coarse,
         rho_opt_at_map: exact.snr(&map.theta),

@@ -75,6 +75,11 @@ pub struct FitSummary {
     /// (absent otherwise).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub glitch_count: Option<crate::jobs::glitch_count::GlitchCount>,
+    /// When an injection is missing inside gaps of the data (and no design fills it in): the
+    /// bias it causes, predicted at the MAP ([`crate::jobs::injection_bias`]). Above
+    /// [`BIAS_LIMIT`](crate::jobs::injection_bias::BIAS_LIMIT) σ the run is not valid.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub missing_injection_bias: Option<crate::jobs::injection_bias::InjectionBias>,
     pub n_bins: usize,
     pub n_coarse_bins: Option<usize>,
     pub rho_opt_at_map: f64,
