@@ -274,6 +274,24 @@ fn blanked_injections_are_filled_in_from_the_design() {
         "{}",
         blind["invalid_reasons"]
     );
+    // select on the same data and models leads with it too, per model
+    let select = "\n[select]\ncross_checks = \"off\"\niterations = 2000\nburn_in = 500\nrj_iterations = 4000\nrj_burn_in = 500\n[[select.model]]\nname = \"full\"\n[[select.model]]\nname = \"no_d21\"\nfixed = { d21 = 0.0 }\n";
+    let read = std::fs::read_to_string(d.join("read.toml")).unwrap();
+    std::fs::write(d.join("select.toml"), format!("{read}{select}")).unwrap();
+    let (ok, out, err) = occam(&["select", "select.toml"], d);
+    assert!(ok, "{err}");
+    let at = |w: &str| out.find(w).unwrap_or(usize::MAX);
+    assert!(at("RESULTS NOT VALID") < at("models compared"), "{out}");
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("runs/select/summary.json")).unwrap())
+            .unwrap();
+    assert_eq!(s["valid"], false);
+    let reasons = s["invalid_reasons"].to_string();
+    assert!(
+        reasons.contains("model `full`: the injection missing inside gaps")
+            && reasons.contains("model `no_d21`: the injection missing inside gaps"),
+        "{reasons}"
+    );
     let (worst, said, known) = fit(&eight, true);
     assert!(worst < 4.0, "{worst}σ");
     assert!(

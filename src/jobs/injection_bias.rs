@@ -40,7 +40,7 @@ const NEWTON_STEPS: usize = 8;
 
 /// What [`predict`] found: which injections were continued where, and the bias per free
 /// parameter.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, serde::Deserialize)]
 pub struct InjectionBias {
     /// Per experiment with such gaps: its name, the channels continued and in how many gaps.
     pub experiments: Vec<(String, Vec<String>, usize)>,
@@ -92,6 +92,15 @@ impl InjectionBias {
     }
 }
 
+/// Whether some gap of `dataset` misses an injection active beside it ([`predict`] has work).
+pub fn applies(study: &Study, dataset: &Dataset) -> bool {
+    let opts = spectra_options(study);
+    dataset
+        .experiments
+        .iter()
+        .any(|e| !missing_injections(study, e, &opts).is_empty())
+}
+
 /// The bias of the fit at `map` (over `free`, with Fisher matrix `fisher` and Cramér–Rao σ
 /// `cr`) caused by injections missing inside gaps of `dataset` (module docs); `None` when no
 /// gap misses an active injection. `exact` is the fit's likelihood of model `mi`, built with
@@ -109,6 +118,9 @@ pub fn predict(
     cr: &[f64],
 ) -> Result<Option<InjectionBias>, AnalysisError> {
     let opts = spectra_options(study);
+    if !applies(study, dataset) {
+        return Ok(None);
+    }
     let mut filled = dataset.clone();
     let mut experiments = Vec::new();
     for e in &mut filled.experiments {
@@ -204,7 +216,10 @@ mod tests {
         assert!(!l.contains("w1sq"), "{l}");
         assert!(l.contains("supply the commanded injection"), "{l}");
         let small = bias(&[("w1sq", -0.1), ("dt2", 0.15)]).line();
-        assert!(small.contains("by at most 0.15σ (`dt2`), below 0.2σ"), "{small}");
+        assert!(
+            small.contains("by at most 0.15σ (`dt2`), below 0.2σ"),
+            "{small}"
+        );
         assert!(!small.contains("supply"), "{small}");
     }
 }

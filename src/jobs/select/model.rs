@@ -581,6 +581,7 @@ pub(super) fn run_model(
         prior_probability: m.prior_probability,
         map: map.base.clone(),
         map_found: map.theta.is_some(),
+        missing_injection_bias: None,
         map_at_bound: map.at_bound,
         estimates: super::estimates::param_estimates(
             &m.param_names,

@@ -85,6 +85,10 @@ pub struct ModelOutcome {
     /// point when `map_found` is false.
     pub map: Vec<f64>,
     pub map_found: bool,
+    /// When an injection is missing inside gaps of the data: the bias it causes at this
+    /// model's MAP ([`crate::jobs::injection_bias`]); above its limit the run is not valid.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub missing_injection_bias: Option<crate::jobs::injection_bias::InjectionBias>,
     /// Free parameters whose MAP value is on a bound of the prior box.
     pub map_at_bound: Vec<String>,
     /// Per free parameter: MAP, posterior mean ± sd of the in-model chains, Fisher σ.

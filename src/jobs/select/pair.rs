@@ -542,6 +542,7 @@ mod tests {
             prior_probability: 1.0,
             map: vec![0.0],
             map_found: true,
+            missing_injection_bias: None,
             map_at_bound: vec![],
             estimates: vec![],
             relbin: None,

@@ -454,6 +454,12 @@ fn invalid_reasons(models: &[ModelOutcome], pairs: &[pair::PairResult]) -> Vec<S
             }
             .failures(),
         );
+        if let Some(b) = &m.missing_injection_bias
+            && b.worst()
+                .is_some_and(|(_, w)| w > crate::jobs::injection_bias::BIAS_LIMIT)
+        {
+            out.push(format!("model `{}`: {}", m.name, b.line()));
+        }
         if let Some(c) = m.noise_correction.filter(|c| c.unreliable()) {
             out.push(format!(
                 "model `{}`: the correction to the exact θ-dependent likelihood rests on {:.0} effective of {} samples — its evidences are not to be trusted; give the noise point a better start ([fit] start)",
@@ -491,16 +497,52 @@ fn summarise(
         model_chains.push((r.outcome.name.clone(), r.chains));
         models.push(r.outcome);
     }
+    let mut warnings: Vec<String> = Vec::new();
+    if crate::jobs::injection_bias::applies(study, &prep.dataset) {
+        for (k, (m, pm)) in models.iter_mut().zip(&plan.models).enumerate() {
+            if !m.map_found {
+                continue;
+            }
+            let free = &pm.spec.free;
+            let exact = parents.for_model(k, pm.spec.model);
+            let fisher = crate::likelihood::fisher_exact(exact, &m.map, free);
+            let Some(cr) = crate::likelihood::cramer_rao(&fisher) else {
+                continue;
+            };
+            let reference = parents.noise_point(k).map_or_else(
+                || crate::jobs::prepare::reference_point(study, pm.spec.model),
+                |p| p.theta.clone(),
+            );
+            match crate::jobs::injection_bias::predict(
+                study,
+                pm.spec.model,
+                &prep.dataset,
+                exact,
+                &reference,
+                &m.map,
+                free,
+                &fisher,
+                &cr,
+            ) {
+                Ok(b) => m.missing_injection_bias = b,
+                Err(e) => warnings.push(format!(
+                    "model `{}`: the bias of the injection missing inside gaps: not predicted: {e}",
+                    m.name
+                )),
+            }
+        }
+    }
     let mut pairs = Vec::new();
     for x in 0..models.len() {
         for y in x + 1..models.len() {
             pairs.push(pair::pair(&models, rj.as_ref(), rj_note.as_deref(), x, y));
         }
     }
-    let mut warnings: Vec<String> = parents
-        .indices()
-        .flat_map(|mi| model_warnings(study, mi, &prep.dataset))
-        .collect();
+    warnings.extend(
+        parents
+            .indices()
+            .flat_map(|mi| model_warnings(study, mi, &prep.dataset)),
+    );
     warnings.extend(gap_notes(study, &prep.dataset));
     warnings.extend(prep.glitch_notes());
     if !study.analysis.glitch_count.is_all() {
@@ -510,6 +552,12 @@ fn summarise(
     }
     for m in &models {
         warnings.extend(m.notes.iter().map(|n| format!("model `{}`: {n}", m.name)));
+        if let Some(b) = &m.missing_injection_bias
+            && b.worst()
+                .is_some_and(|(_, w)| w <= crate::jobs::injection_bias::BIAS_LIMIT)
+        {
+            warnings.push(format!("model `{}`: {}", m.name, b.line()));
+        }
         if m.unstable_evaluations > 0 {
             warnings.push(format!(
                 "model `{}`: {} likelihood evaluations fell where the closed loop is unstable and were refused (ln L = −∞): the prior box reaches instability (see the warning on the model's prior box)",
