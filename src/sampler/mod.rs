@@ -50,7 +50,7 @@ pub(crate) mod test_targets;
 mod tests;
 
 pub use birth_death::{
-    BATCHES, BirthDeathOptions, BirthDeathResult, Component, Moves, birth_death,
+    BATCHES, BirthDeathOptions, BirthDeathResult, Component, FEW_SWITCHES, Moves, birth_death,
 };
 pub use chain::{Progress, chain_rng};
 pub use chains::{BestPoint, Chain, ChainCounts, Chains, MaxPosterior, PhaseCounts};
