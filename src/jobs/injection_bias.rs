@@ -9,9 +9,11 @@
 //! it, and its maximum `θ̂₂` is found by Newton steps from the fit's MAP `θ̂`. The bias is
 //! `θ̂ − θ̂₂`, in Cramér–Rao σ: how far the reported estimate is from the one the injection,
 //! known, would give. (Not the difference of the two likelihoods' maxima: with the
-//! injection missing the data misfit the model badly, and the MAP search may stop well short
-//! of that likelihood's maximum — on Table I's data with gaps inside the tones, by 4 000 σ in
-//! `dt2` — which is part of what is wrong with the reported estimate.)
+//! injection missing, the likelihood's maximum may lie outside the prior box — on Table I's
+//! data with gaps inside the tones at `dt2` < 0, 4 000 σ below the reported MAP on the bound
+//! `dt2` = 0 — and what is wrong with the reported estimate is its distance from `θ̂₂`.) The
+//! Newton steps are not held to the prior box: where `θ̂₂` itself lies outside it, the bias is
+//! to the unconstrained maximum.
 //!
 //! It is an estimate, not a correction: where the injection changed inside a gap (a sine
 //! train's tone ending or starting there), the continuation is not what was commanded. On
