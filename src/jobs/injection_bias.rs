@@ -6,14 +6,13 @@
 //! on the estimates is predicted here: the injection is continued through each such gap by
 //! linear prediction from both sides ([`crate::signal::prediction`]: exact for sines of
 //! constant frequency, a plausible continuation otherwise), the likelihood is built again with
-//! it, and its maximum `θ̂₂` is found by Newton steps from the fit's MAP `θ̂`. The bias is
-//! `θ̂ − θ̂₂`, in Cramér–Rao σ: how far the reported estimate is from the one the injection,
-//! known, would give. (Not the difference of the two likelihoods' maxima: with the
-//! injection missing, the likelihood's maximum may lie outside the prior box — on Table I's
-//! data with gaps inside the tones at `dt2` < 0, 4 000 σ below the reported MAP on the bound
-//! `dt2` = 0 — and what is wrong with the reported estimate is its distance from `θ̂₂`.) The
-//! Newton steps are not held to the prior box: where `θ̂₂` itself lies outside it, the bias is
-//! to the unconstrained maximum.
+//! it, and its MAP `θ̂₂` is found by Fisher scoring in the prior box (the fit's own search)
+//! from the fit's MAP `θ̂`. The bias is `θ̂ − θ̂₂`, in Cramér–Rao σ: how far the reported
+//! estimate is from the one the injection, known, would give. Both are MAPs in the prior box:
+//! with the injection missing the likelihood's maximum may lie outside it (on Table I's data
+//! with gaps inside the tones, at `dt2` 4 000 σ below the reported MAP on the bound `dt2` = 0),
+//! and at low SNR the MAP may sit on bounds of the box (a posterior wider than the box), where
+//! an unconstrained search would not converge.
 //!
 //! It is an estimate, not a correction: where the injection changed inside a gap (a sine
 //! train's tone ending or starting there), the continuation is not what was commanded. On
@@ -24,8 +23,7 @@
 use crate::config::Study;
 use crate::data::dataset::Dataset;
 use crate::jobs::prepare::{AnalysisError, likelihood_at, missing_injections, spectra_options};
-use crate::likelihood::{Likelihood, gradient_and_fisher};
-use nalgebra::DMatrix;
+use crate::likelihood::{Likelihood, fisher_scoring};
 use serde::Serialize;
 
 /// A predicted bias above this many σ makes a fit invalid ([`crate::jobs::validity`]).
@@ -37,8 +35,10 @@ const ORDER: usize = 4;
 /// Longest stretch (s) beside a gap the recursion is fitted to: a few periods of the slowest
 /// ladder tone (1 mHz) without reaching far into the neighbouring tones of a sine train.
 const FIT_SECONDS: f64 = 2000.0;
-/// Most Newton steps towards the maximum ([`newton`]).
-const NEWTON_STEPS: usize = 8;
+/// The MAP search with the injection continued: the fit's convergence criterion (steps below
+/// 1e−3 Cramér–Rao σ) and iteration cap ([`crate::jobs::prepare::MAP_MAX_ITER`]).
+const SCORING_TOL: f64 = 1e-3;
+const SCORING_ITER: usize = crate::jobs::prepare::MAP_MAX_ITER;
 
 /// What [`predict`] found: which injections were continued where, and the bias per free
 /// parameter.
@@ -103,8 +103,7 @@ pub fn applies(study: &Study, dataset: &Dataset) -> bool {
         .any(|e| !missing_injections(study, e, &opts).is_empty())
 }
 
-/// The bias of the fit at `map` (over `free`, with Fisher matrix `fisher` and Cramér–Rao σ
-/// `cr`) caused by injections missing inside gaps of `dataset` (module docs); `None` when no
+/// The bias of the fit at `map` (over `free`, with Cramér–Rao σ `cr`) caused by injections missing inside gaps of `dataset` (module docs); `None` when no
 /// gap misses an active injection. `exact` is the fit's likelihood of model `mi`, built with
 /// its residual noise and edge correction at `reference`.
 #[allow(clippy::too_many_arguments)]
@@ -116,7 +115,6 @@ pub fn predict(
     reference: &[f64],
     map: &[f64],
     free: &[usize],
-    fisher: &DMatrix<f64>,
     cr: &[f64],
 ) -> Result<Option<InjectionBias>, AnalysisError> {
     let opts = spectra_options(study);
@@ -153,9 +151,19 @@ pub fn predict(
         return Ok(None);
     }
     let other = likelihood_at(study, mi, &filled, reference)?;
-    let Some(there) = newton(&other, map, free, fisher, cr) else {
-        return Ok(None);
+    let not_known = |m: String| {
+        AnalysisError::Likelihood(format!(
+            "with the injection continued through the gaps, {m}; the bias is not known — supply the commanded injection through the gaps"
+        ))
     };
+    let found = fisher_scoring(&other, map, free, SCORING_TOL, SCORING_ITER)
+        .map_err(|e| not_known(format!("the MAP search failed: {e}")))?;
+    if !found.converged {
+        return Err(not_known(format!(
+            "the MAP search did not converge in {SCORING_ITER} iterations"
+        )));
+    }
+    let there = found.theta;
     let names = exact.model().param_names();
     let sigma = free
         .iter()
@@ -163,45 +171,6 @@ pub fn predict(
         .map(|(k, &i)| (names[i].clone(), (map[i] - there[i]) / cr[k]))
         .collect();
     Ok(Some(InjectionBias { experiments, sigma }))
-}
-
-/// The maximum of `lik` near `from` by Newton steps on the Fisher matrix (the first with
-/// `fisher`, given at `from`), until a step moves every parameter by less than 1 % of its
-/// `cr`; `None` when a step leaves the region where `lik` is finite. Iterated rather than one
-/// linear step because a missing injection at high SNR moves the MAP by thousands of σ,
-/// where the Fisher matrix changes: on Table I's data the first step lands up to 30 σ from the
-/// maximum, which three more steps reach.
-fn newton(
-    lik: &Likelihood,
-    from: &[f64],
-    free: &[usize],
-    fisher: &DMatrix<f64>,
-    cr: &[f64],
-) -> Option<Vec<f64>> {
-    let mut th = from.to_vec();
-    let mut f = fisher.clone();
-    for _ in 0..NEWTON_STEPS {
-        let (g, next) = gradient_and_fisher(lik, &th, free);
-        if g.iter().any(|v| !v.is_finite()) {
-            return None;
-        }
-        let step = crate::linalg::SpdOptions::lower()
-            .factor(&f)
-            .ok()?
-            .solve(&nalgebra::DVector::from_vec(g));
-        for (k, &i) in free.iter().enumerate() {
-            th[i] += step[k];
-        }
-        if free
-            .iter()
-            .enumerate()
-            .all(|(k, _)| step[k].abs() < 0.01 * cr[k])
-        {
-            return Some(th);
-        }
-        f = next;
-    }
-    Some(th)
 }
 
 #[cfg(test)]

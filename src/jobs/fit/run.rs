@@ -183,7 +183,6 @@ pub fn run(
         &reference,
         &map.theta,
         free,
-        &fisher,
         &cr,
     ) {
         Ok(b) => b,

@@ -475,6 +475,54 @@ fn invalid_reasons(models: &[ModelOutcome], pairs: &[pair::PairResult]) -> Vec<S
     out
 }
 
+/// Each model's predicted bias from injections missing inside gaps
+/// ([`crate::jobs::injection_bias`]), set on its outcome; warnings where it could not be
+/// predicted.
+fn injection_biases(
+    study: &Study,
+    prep: &Prepared,
+    plan: &SelectPlan<'_>,
+    parents: &Parents<'_>,
+    models: &mut [ModelOutcome],
+) -> Vec<String> {
+    let mut warnings = Vec::new();
+    if !crate::jobs::injection_bias::applies(study, &prep.dataset) {
+        return warnings;
+    }
+    for (k, (m, pm)) in models.iter_mut().zip(&plan.models).enumerate() {
+        if !m.map_found {
+            continue;
+        }
+        let free = &pm.spec.free;
+        let exact = parents.for_model(k, pm.spec.model);
+        let fisher = crate::likelihood::fisher_exact(exact, &m.map, free);
+        let Some(cr) = crate::likelihood::cramer_rao(&fisher) else {
+            continue;
+        };
+        let reference = parents.noise_point(k).map_or_else(
+            || crate::jobs::prepare::reference_point(study, pm.spec.model),
+            |p| p.theta.clone(),
+        );
+        match crate::jobs::injection_bias::predict(
+            study,
+            pm.spec.model,
+            &prep.dataset,
+            exact,
+            &reference,
+            &m.map,
+            free,
+            &cr,
+        ) {
+            Ok(b) => m.missing_injection_bias = b,
+            Err(e) => warnings.push(format!(
+                "model `{}`: the bias of the injection missing inside gaps: not predicted: {e}",
+                m.name
+            )),
+        }
+    }
+    warnings
+}
+
 /// The summary of a finished run: pairs, warnings (models, data, estimators), residual PSDs
 /// (Fig. 3) and the optimal SNR; `seconds` is left 0 for the caller.
 fn summarise(
@@ -497,41 +545,7 @@ fn summarise(
         model_chains.push((r.outcome.name.clone(), r.chains));
         models.push(r.outcome);
     }
-    let mut warnings: Vec<String> = Vec::new();
-    if crate::jobs::injection_bias::applies(study, &prep.dataset) {
-        for (k, (m, pm)) in models.iter_mut().zip(&plan.models).enumerate() {
-            if !m.map_found {
-                continue;
-            }
-            let free = &pm.spec.free;
-            let exact = parents.for_model(k, pm.spec.model);
-            let fisher = crate::likelihood::fisher_exact(exact, &m.map, free);
-            let Some(cr) = crate::likelihood::cramer_rao(&fisher) else {
-                continue;
-            };
-            let reference = parents.noise_point(k).map_or_else(
-                || crate::jobs::prepare::reference_point(study, pm.spec.model),
-                |p| p.theta.clone(),
-            );
-            match crate::jobs::injection_bias::predict(
-                study,
-                pm.spec.model,
-                &prep.dataset,
-                exact,
-                &reference,
-                &m.map,
-                free,
-                &fisher,
-                &cr,
-            ) {
-                Ok(b) => m.missing_injection_bias = b,
-                Err(e) => warnings.push(format!(
-                    "model `{}`: the bias of the injection missing inside gaps: not predicted: {e}",
-                    m.name
-                )),
-            }
-        }
-    }
+    let mut warnings = injection_biases(study, prep, plan, parents, &mut models);
     let mut pairs = Vec::new();
     for x in 0..models.len() {
         for y in x + 1..models.len() {
