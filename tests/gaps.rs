@@ -276,6 +276,15 @@ fn blanked_injections_are_filled_in_from_the_design() {
         "{}",
         blind["invalid_reasons"]
     );
+    // each experiment's one active injection, in the five gaps it runs beside
+    let missing = &blind["missing_injection_bias"]["experiments"];
+    assert_eq!(
+        missing,
+        &serde_json::json!([
+            {"experiment": "inv1", "channels": ["i1"], "gaps": 5},
+            {"experiment": "inv2", "channels": ["i12"], "gaps": 5}
+        ])
+    );
     // select on the same data and models leads with it too, per model
     let select = "\n[select]\ncross_checks = \"off\"\niterations = 2000\nburn_in = 500\nrj_iterations = 4000\nrj_burn_in = 500\n[[select.model]]\nname = \"full\"\n[[select.model]]\nname = \"no_d21\"\nfixed = { d21 = 0.0 }\n";
     let read = std::fs::read_to_string(d.join("read.toml")).unwrap();

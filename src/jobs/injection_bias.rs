@@ -44,11 +44,20 @@ const SCORING_ITER: usize = crate::jobs::prepare::MAP_MAX_ITER;
 /// parameter.
 #[derive(Debug, Clone, Serialize, serde::Deserialize)]
 pub struct InjectionBias {
-    /// Per experiment with such gaps: its name, the channels continued and in how many gaps.
-    pub experiments: Vec<(String, Vec<String>, usize)>,
+    /// Per experiment with such gaps: which injections were continued, in how many gaps.
+    pub experiments: Vec<MissingIn>,
     /// The predicted bias `θ̂ − θ̂_filled` of each free parameter, in its Cramér–Rao σ, by
     /// name.
     pub sigma: Vec<(String, f64)>,
+}
+
+/// The injections of one experiment continued through its gaps ([`InjectionBias`]).
+#[derive(Debug, Clone, Serialize, serde::Deserialize)]
+pub struct MissingIn {
+    pub experiment: String,
+    pub channels: Vec<String>,
+    /// The gaps in which some of them run beside the gap.
+    pub gaps: usize,
 }
 
 impl InjectionBias {
@@ -73,9 +82,14 @@ impl InjectionBias {
         let wher: Vec<String> = self
             .experiments
             .iter()
-            .map(|(e, c, g)| {
-                let c: Vec<String> = c.iter().map(|c| format!("`{c}`")).collect();
-                format!("{} in {g} gap(s) of `{e}`", c.join(", "))
+            .map(|m| {
+                let c: Vec<String> = m.channels.iter().map(|c| format!("`{c}`")).collect();
+                format!(
+                    "{} in {} gap(s) of `{}`",
+                    c.join(", "),
+                    m.gaps,
+                    m.experiment
+                )
             })
             .collect();
         let how = "predicted by continuing the injection through the gaps by linear prediction — exact for a sine of constant frequency, an estimate where it changed inside a gap";
@@ -118,13 +132,17 @@ pub fn predict(
     cr: &[f64],
 ) -> Result<Option<InjectionBias>, AnalysisError> {
     let opts = spectra_options(study);
-    if !applies(study, dataset) {
+    let hots: Vec<_> = dataset
+        .experiments
+        .iter()
+        .map(|e| missing_injections(study, e, &opts))
+        .collect();
+    if hots.iter().all(Vec::is_empty) {
         return Ok(None);
     }
     let mut filled = dataset.clone();
     let mut experiments = Vec::new();
-    for e in &mut filled.experiments {
-        let hot = missing_injections(study, e, &opts);
+    for (e, hot) in filled.experiments.iter_mut().zip(hots) {
         if hot.is_empty() {
             continue;
         }
@@ -145,10 +163,11 @@ pub fn predict(
             e.set_channel(c, x);
             e.known_in_gaps.push(c.clone());
         }
-        experiments.push((e.name.clone(), channels, hot.len()));
-    }
-    if experiments.is_empty() {
-        return Ok(None);
+        experiments.push(MissingIn {
+            experiment: e.name.clone(),
+            channels,
+            gaps: hot.len(),
+        });
     }
     let other = likelihood_at(study, mi, &filled, reference)?;
     let not_known = |m: String| {
@@ -179,7 +198,11 @@ mod tests {
 
     fn bias(sigma: &[(&str, f64)]) -> InjectionBias {
         InjectionBias {
-            experiments: vec![("inv1".into(), vec!["i1".into()], 3)],
+            experiments: vec![MissingIn {
+                experiment: "inv1".into(),
+                channels: vec!["i1".into()],
+                gaps: 3,
+            }],
             sigma: sigma.iter().map(|(n, b)| (n.to_string(), *b)).collect(),
         }
     }

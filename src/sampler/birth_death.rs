@@ -786,9 +786,10 @@ mod tests {
             let (mut zp, mut zl, mut sw) = (Vec::new(), Vec::new(), 0.0);
             for seed in 5000..5300 {
                 let r = run(&toy, &[false, false], seed, iters);
+                let odds = r.inclusion_log_odds();
                 for c in 0..2 {
                     let (p, e) = r.inclusion[c];
-                    let (l, el) = r.inclusion_log_odds()[c];
+                    let (l, el) = odds[c];
                     let j = r.jumps[c];
                     sw += (j[0].accepted + j[1].accepted) as f64;
                     assert!(e > 0.0 && el.is_finite(), "seed {seed}: never switched");

@@ -17,8 +17,8 @@
 //! fitted by least squares of minimum norm (an SVD), not by Burg's method, whose estimate of a
 //! pure tone's frequency from a finite stretch is biased (measured: 14 % errors after an hour
 //! at 1 and 3 mHz); an order higher than the signal needs then adds only decaying terms. A
-//! continuation that grows beyond twice the fitted stretch's peak (noise, which no recursion
-//! predicts) is not used.
+//! continuation that grows beyond twice the peak of the samples beside the gap (noise, which
+//! no recursion predicts) is not used.
 
 use nalgebra::{DMatrix, DVector};
 
@@ -34,7 +34,8 @@ use nalgebra::{DMatrix, DVector};
 /// assert!((c[0] - 2.0 * 0.3f64.cos()).abs() < 1e-9 && (c[1] + 1.0).abs() < 1e-9);
 /// ```
 pub fn fit_recursion(x: &[f64], order: usize, lag: usize) -> Option<Vec<f64>> {
-    let hist = order * lag.max(1);
+    let lag = lag.max(1);
+    let hist = order * lag;
     if order == 0 || x.len() < hist + 2 * order {
         return None;
     }
@@ -53,9 +54,9 @@ pub fn fit_recursion(x: &[f64], order: usize, lag: usize) -> Option<Vec<f64>> {
 
 /// `x`'s values inside `gaps` (`[start, end)` sample ranges, sorted, not overlapping)
 /// replaced by a continuation of its values beside each gap: a recursion of order up to
-/// `order` ([`fit_recursion`], module docs) fitted to at most `fit_len` samples before the gap (back to the previous gap)
-/// is run forward through it, one fitted to at most `fit_len` samples after it (up to the
-/// next gap) backward, and the two are blended with weights that fall linearly across the
+/// `order` ([`fit_recursion`], module docs) fitted to at most `fit_len` samples before the
+/// gap (back to the previous gap) is run forward through it, one fitted to at most `fit_len`
+/// samples after it (up to the next gap) backward, and the two are blended with weights that fall linearly across the
 /// gap away from each side (so that the fill meets the data at both ends) and with each
 /// side's error in predicting its own last samples. A side with fewer than `2 order + 1`
 /// samples, or whose continuation grows without bound, is not used; a gap with neither side
@@ -117,9 +118,8 @@ pub fn predict_through_gaps(x: &mut [f64], gaps: &[[usize; 2]], order: usize, fi
 /// each order up to `order` and each fitted stretch (the last whole, half, quarter and eighth
 /// of `x`) is fitted without the last `h = min(len, |x|/4)` samples and scored on predicting
 /// them; the best is refitted on its stretch up to the end and run on, within twice the peak
-/// of `x`. A sine train changes
-/// frequency every few periods, so a stretch reaching back past the last change fits neither
-/// tone; the hold-out finds the stretch since it. `None` when no candidate predicts within
+/// of `x`. A sine train changes frequency every few periods, so a stretch reaching back past
+/// the last change fits neither tone; the hold-out finds the stretch since it. `None` when no candidate predicts within
 /// bounds ([`continue_at`]). With the continuation, its relative error on the hold-out
 /// (squared error over the held-out samples' energy).
 fn best_continuation(x: &[f64], order: usize, len: usize) -> Option<(Vec<f64>, f64)> {
