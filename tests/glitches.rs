@@ -121,6 +121,26 @@ fn simulate_then_fit_gated() {
     let gates = summary["glitch_gates"].as_array().unwrap();
     assert_eq!(gates.len(), 2);
     assert!(gates.iter().all(|g| g["detected"].as_u64().unwrap() >= 1));
+    // what the default tail leaves of a glitch's response (the loop at the detection point:
+    // 23 % at 1200 s) and the tail that leaves 10 %, and the line that says so
+    for g in gates {
+        let (left, settle) = (
+            g["outlasting"].as_f64().unwrap(),
+            g["settling"].as_f64().unwrap(),
+        );
+        assert!((0.15..0.35).contains(&left), "{g}");
+        assert!((2400.0..4800.0).contains(&settle), "{g}");
+    }
+    assert!(
+        summary["warnings"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|w| w.as_str().unwrap().contains("outlasts its gate")),
+        "{}",
+        summary["warnings"]
+    );
+    assert!(format!("{out}{err}").contains("outlasts its gate"));
     for r in summary["rows"].as_array().unwrap() {
         let (map, cr, truth) = (
             r["map"].as_f64().unwrap(),

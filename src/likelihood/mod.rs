@@ -30,7 +30,8 @@ pub use fisher::{
 };
 pub use glitch_gate::{
     DEFAULT_GLITCH_AMPLITUDE, DEFAULT_GLITCH_DECAY, DEFAULT_GLITCH_PAD, DEFAULT_GLITCH_RISE,
-    DEFAULT_GLITCH_TAIL, DEFAULT_GLITCH_THRESHOLD, GlitchGate, GlitchTreatment, detect_glitches,
+    DEFAULT_GLITCH_TAIL, DEFAULT_GLITCH_THRESHOLD, GlitchGate, GlitchTreatment, OUTLASTING_LIMIT,
+    detect_glitches,
 };
 pub use map::{
     MapError, RUNAWAY_WIDTHS, ScoringResult, fisher_scoring, fisher_scoring_unbounded,

@@ -513,6 +513,46 @@ impl Quadratic {
     }
 }
 
+/// How long the residual's response to a force outlasts it: `e(t)`, the largest
+/// `|h_r(t')|` over the residual channels `r` and `t' ≥ t`, over the peak of `|h_r|`, for
+/// `t = 0, 1, … , seconds` s, where `h_r` is channel `r`'s response to a differential force
+/// impulse ([`Model::force_response`] at `theta`, sampled at 1 Hz: the envelope is what the
+/// loop's slow modes set). `None` when the model does not say how a force enters its residual.
+pub fn force_envelope(model: &dyn Model, theta: &[f64], seconds: f64) -> Option<Vec<f64>> {
+    let fs = 1.0;
+    let n = (seconds.max(1.0).ceil() as usize).checked_add(1)?;
+    let m = padded_len(2 * n + (MIN_PAD_SECONDS * fs) as usize);
+    let g = GridConsts::new(model, m, fs);
+    let nr = model.residual_channels().len();
+    let mut h = Vec::new();
+    let mut probe = vec![Complex64::new(0.0, 0.0); nr];
+    if !model.force_response(theta, &g.bin(1), &mut probe) {
+        return None;
+    }
+    response_grid(model, theta, &g, &mut h);
+    let mut fft = RealFft::new(m).ok()?;
+    let mut q = vec![Complex64::new(0.0, 0.0); m / 2 + 1];
+    let mut t = vec![0.0; m];
+    let mut env = vec![0.0f64; n];
+    let mut peak = 0.0f64;
+    for r in 0..nr {
+        for (j, v) in q.iter_mut().enumerate() {
+            *v = h[j * nr + r];
+        }
+        fft.inverse(&q, &mut t).ok()?;
+        peak = t.iter().take(m - n).fold(peak, |p, v| p.max(v.abs()));
+        let mut run = 0.0f64;
+        for i in (0..n).rev() {
+            run = run.max(t[i].abs());
+            env[i] = env[i].max(run);
+        }
+    }
+    if !(peak > 0.0 && peak.is_finite()) {
+        return None;
+    }
+    Some(env.into_iter().map(|v| v / peak).collect())
+}
+
 /// The causal response of a unit glitch at every start on the record's sample times, for a
 /// scan over starts (`jobs::glitch_model`'s grid): the response of a glitch at sample `n0` is
 /// that of a glitch at sample 0 delayed by `n0` samples and cut at the record's end (causal and
@@ -853,6 +893,43 @@ mod tests {
         for (a, b) in out.iter().zip(&want) {
             assert!((a - b).norm() < 1e-9, "{a} {b}");
         }
+    }
+
+    /// The LTP loop's response to a force impulse outlasts it by its slowest closed-loop mode
+    /// (τ ≈ 1200 s, ltp-model.md §4): after the response's peak (~200 s) the envelope falls by
+    /// about e⁻¹ per 1200 s, and the response of one channel computed directly from the
+    /// impulse's transform agrees.
+    #[test]
+    fn the_loop_s_response_to_a_force_outlasts_it() {
+        use crate::ltp::LtpParams;
+        use crate::model::LtpModel;
+        let m = LtpModel::new("ltp", Default::default());
+        let th = LtpParams::default().to_array().to_vec();
+        let e = force_envelope(&m, &th, 8000.0).unwrap();
+        assert_eq!(e.len(), 8001);
+        assert_eq!(e[0], 1.0);
+        assert!(e.windows(2).all(|w| w[1] <= w[0]));
+        // measured 0.230 at 1200 s, 0.082 at 3600 s, 0.0045 at 7200 s
+        assert!((0.15..0.35).contains(&e[1200]), "{}", e[1200]);
+        assert!((0.04..0.12).contains(&e[3600]), "{}", e[3600]);
+        assert!(e[7200] < 0.01, "{}", e[7200]);
+        // late, the slowest closed-loop pole (the state matrix's eigenvalues) sets the decay
+        let poles = crate::ltp::closed_loop_poles(
+            &LtpParams::default(),
+            &crate::ltp::Controllers::default(),
+            &crate::ltp::Masses::default(),
+        )
+        .unwrap();
+        let slowest = poles.iter().map(|z| -z.re).fold(f64::INFINITY, f64::min);
+        let want = (-2400.0 * slowest).exp();
+        let got = e[7200] / e[4800];
+        assert!(
+            (got / want - 1.0).abs() < 0.1,
+            "{got} vs e^(−2400 s/τ) = {want}"
+        );
+        // a model that does not say how a force enters has none
+        let acc = crate::model::AccelModel::new("acc", Default::default());
+        assert!(force_envelope(&acc, &th, 100.0).is_none());
     }
 
     /// A scanned start equals the full transform of a glitch there.
