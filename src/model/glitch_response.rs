@@ -10,8 +10,8 @@
 //! parameters left a residual power of 40 for a glitch of 1e−13 m s⁻² starting at 70 % of its
 //! stretch, 3.5e3 at 85 % and 1.4e5 (all of it) at 98 %, against 1e−3 in the record's first
 //! half (`tests/glitches.rs`, `a_modelled_glitch_explains_noiseless_data_wherever_it_starts`):
-//! fitted, that wrapped response pulled the loop's parameters by tens of σ (the pull spreads of
-//! 7–22 of the glitch guide).
+//! it was not, as first thought, the cause of the glitch guide's modelled pull spreads of 7–22:
+//! re-measured with this causal response on 40 realisations, they stay.
 //!
 //! # What is computed instead
 //! The glitches' force, sampled as the simulator samples it (`Σ_g a_g s(m/fs − t0_g)`,
