@@ -100,7 +100,7 @@ pub struct GlitchGate {
 }
 
 /// Above this share of a force's peak response left after the tail, gating leaves enough of
-/// a glitch's response in the data to bias the fit, and the run says so. Measured on
+/// a glitch's response in the data to pull the fit, and the run says so. Measured on
 /// `examples/glitches.toml` (five glitches of 2e−14 to 2e−13 m s⁻² per stretch; 40
 /// realisations, docs/src/guide/glitches.md): with 23 % left (`glitch_tail` 1200 s) the
 /// pulls of the stiffnesses, `dt2`, `a_sus` and `d21` scatter 1.4–3.2 times their errors;

@@ -540,6 +540,7 @@ pub fn force_envelope(model: &dyn Model, theta: &[f64], seconds: f64) -> Option<
             *v = h[j * nr + r];
         }
         fft.inverse(&q, &mut t).ok()?;
+        // the last n samples hold what a band-limited delay puts before t = 0, wrapped
         peak = t.iter().take(m - n).fold(peak, |p, v| p.max(v.abs()));
         let mut run = 0.0f64;
         for i in (0..n).rev() {
@@ -896,9 +897,9 @@ mod tests {
     }
 
     /// The LTP loop's response to a force impulse outlasts it by its slowest closed-loop mode
-    /// (τ ≈ 1200 s, ltp-model.md §4): after the response's peak (~200 s) the envelope falls by
-    /// about e⁻¹ per 1200 s, and the response of one channel computed directly from the
-    /// impulse's transform agrees.
+    /// (0.13 mHz, ltp-model.md §4): the envelope is monotone, starts at its peak, holds 23 % at
+    /// 1200 s and 8 % at 3600 s, and late falls as `e^{−t/τ}` with `τ` from the eigenvalues of
+    /// the closed-loop state matrix (an independent computation) to within 10 %.
     #[test]
     fn the_loop_s_response_to_a_force_outlasts_it() {
         use crate::ltp::LtpParams;
