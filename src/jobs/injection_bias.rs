@@ -117,8 +117,9 @@ pub fn applies(study: &Study, dataset: &Dataset) -> bool {
         .any(|e| !missing_injections(study, e, &opts).is_empty())
 }
 
-/// The bias of the fit at `map` (over `free`, with Cramér–Rao σ `cr`) caused by injections missing inside gaps of `dataset` (module docs); `None` when no
-/// gap misses an active injection. `exact` is the fit's likelihood of model `mi`, built with
+/// The bias of the fit at `map` (over `free`, with Cramér–Rao σ `cr`) caused by injections
+/// missing inside gaps of `dataset` (module docs); `None` when no gap misses an active
+/// injection. `exact` is the fit's likelihood of model `mi`, built with
 /// its residual noise and edge correction at `reference`.
 #[allow(clippy::too_many_arguments)]
 pub fn predict(

@@ -922,11 +922,14 @@ fn add_gates(
     crate::data::gaps::check(&e.gaps, e.n_samples())
 }
 
+/// Seconds of a force's response [`outlasting`] follows (a day).
+const OUTLASTING_HORIZON: f64 = 86_400.0;
+
 /// What the tail leaves of a gated glitch's response on experiment `name`: the residual's
 /// response to a force impulse `glitch_tail` s after it over its peak, with model `mi` (as it
 /// applies to the experiment) at `at`, and the tail after which it falls below
-/// [`crate::likelihood::OUTLASTING_LIMIT`] (`None` beyond a day). `None` when the model does
-/// not say how a force enters its residual.
+/// [`crate::likelihood::OUTLASTING_LIMIT`] (`None` beyond [`OUTLASTING_HORIZON`]). `None` when
+/// the model does not say how a force enters its residual.
 fn outlasting(
     study: &Study,
     mi: usize,
@@ -940,10 +943,12 @@ fn outlasting(
         .map_err(AnalysisError::Likelihood)?
         .unwrap_or_else(|| model.clone());
     let tail = study.analysis.glitch_tail.unwrap_or(DEFAULT_GLITCH_TAIL);
-    let Some(env) = crate::model::force_envelope(here.as_ref(), at, tail.max(86_400.0)) else {
+    // a day's horizon whatever the tail: a tail longer than that leaves the day's value at
+    // most, and a horizon set by the tail (any finite number) could exhaust memory
+    let Some(env) = crate::model::force_envelope(here.as_ref(), at, OUTLASTING_HORIZON) else {
         return Ok(None);
     };
-    let left = env[(tail.round() as usize).min(env.len() - 1)];
+    let left = env[(tail.min(OUTLASTING_HORIZON).round() as usize).min(env.len() - 1)];
     let settle = env
         .iter()
         .position(|v| *v <= OUTLASTING_LIMIT)

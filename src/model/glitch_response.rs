@@ -513,12 +513,19 @@ impl Quadratic {
     }
 }
 
+/// Longest horizon [`force_envelope`] computes (ten days at 1 Hz: a few MB).
+pub const MAX_ENVELOPE_SECONDS: f64 = 864_000.0;
+
 /// How long the residual's response to a force outlasts it: `e(t)`, the largest
 /// `|h_r(t')|` over the residual channels `r` and `t' ≥ t`, over the peak of `|h_r|`, for
 /// `t = 0, 1, … , seconds` s, where `h_r` is channel `r`'s response to a differential force
 /// impulse ([`Model::force_response`] at `theta`, sampled at 1 Hz: the envelope is what the
-/// loop's slow modes set). `None` when the model does not say how a force enters its residual.
+/// loop's slow modes set). `None` when the model does not say how a force enters its residual,
+/// or for `seconds` beyond [`MAX_ENVELOPE_SECONDS`] or not finite.
 pub fn force_envelope(model: &dyn Model, theta: &[f64], seconds: f64) -> Option<Vec<f64>> {
+    if !(seconds.is_finite() && seconds <= MAX_ENVELOPE_SECONDS) {
+        return None;
+    }
     let fs = 1.0;
     let n = (seconds.max(1.0).ceil() as usize).checked_add(1)?;
     let m = padded_len(2 * n + (MIN_PAD_SECONDS * fs) as usize);
@@ -928,9 +935,11 @@ mod tests {
             (got / want - 1.0).abs() < 0.1,
             "{got} vs e^(−2400 s/τ) = {want}"
         );
-        // a model that does not say how a force enters has none
+        // a model that does not say how a force enters has none; no horizon can exhaust memory
         let acc = crate::model::AccelModel::new("acc", Default::default());
         assert!(force_envelope(&acc, &th, 100.0).is_none());
+        assert!(force_envelope(&m, &th, 1e12).is_none());
+        assert!(force_envelope(&m, &th, f64::NAN).is_none());
     }
 
     /// A scanned start equals the full transform of a glitch there.

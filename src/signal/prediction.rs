@@ -56,8 +56,8 @@ pub fn fit_recursion(x: &[f64], order: usize, lag: usize) -> Option<Vec<f64>> {
 /// replaced by a continuation of its values beside each gap: a recursion of order up to
 /// `order` ([`fit_recursion`], module docs) fitted to at most `fit_len` samples before the
 /// gap (back to the previous gap) is run forward through it, one fitted to at most `fit_len`
-/// samples after it (up to the next gap) backward, and the two are blended with weights that fall linearly across the
-/// gap away from each side (so that the fill meets the data at both ends) and with each
+/// samples after it (up to the next gap) backward, and the two are blended with weights that
+/// fall linearly across the gap away from each side (so that the fill meets the data at both ends) and with each
 /// side's error in predicting its own last samples. A side with fewer than `2 order + 1`
 /// samples, or whose continuation grows without bound, is not used; a gap with neither side
 /// usable is filled with zeros.
@@ -119,8 +119,8 @@ pub fn predict_through_gaps(x: &mut [f64], gaps: &[[usize; 2]], order: usize, fi
 /// of `x`) is fitted without the last `h = min(len, |x|/4)` samples and scored on predicting
 /// them; the best is refitted on its stretch up to the end and run on, within twice the peak
 /// of `x`. A sine train changes frequency every few periods, so a stretch reaching back past
-/// the last change fits neither tone; the hold-out finds the stretch since it. `None` when no candidate predicts within
-/// bounds ([`continue_at`]). With the continuation, its relative error on the hold-out
+/// the last change fits neither tone; the hold-out finds the stretch since it. `None` when no
+/// candidate predicts within bounds ([`continue_at`]). With the continuation, its relative error on the hold-out
 /// (squared error over the held-out samples' energy).
 fn best_continuation(x: &[f64], order: usize, len: usize) -> Option<(Vec<f64>, f64)> {
     let n = x.len();
