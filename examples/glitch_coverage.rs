@@ -95,6 +95,14 @@ fn realisation(base: &Study, seed: u64, truth: &[f64]) -> Outcome {
         .zip(&sd)
         .map(|(&i, &s)| (map.theta[i] - truth[i], s))
         .collect();
+    if study.analysis.glitch_count.is_all() && !prep.glitch_candidates.is_empty() {
+        let pulls: Vec<f64> = rows.iter().map(|(d, s)| d / s).collect();
+        eprintln!(
+            "seed {seed}: MAP pulls {pulls:.2?}; {} glitches modelled, {} injected",
+            prep.glitch_candidates.len(),
+            injected
+        );
+    }
     // the number of glitches by the reversible jump: its marginal mean and sd
     let mut mean_count = f64::NAN;
     if !study.analysis.glitch_count.is_all() && !prep.glitch_candidates.is_empty() {

@@ -238,6 +238,7 @@ pub fn prepare_for(study: &Study, models: &[usize]) -> Result<Prepared, Analysis
         &mut dataset,
         &spectra_options(study),
         &physics,
+        &first_spec(study, first).free,
         &build,
     )
     .map_err(|m| AnalysisError::Likelihood(format!("glitches = \"model\": {m}")))?

@@ -10,8 +10,9 @@
 //! parameters left a residual power of 40 for a glitch of 1e−13 m s⁻² starting at 70 % of its
 //! stretch, 3.5e3 at 85 % and 1.4e5 (all of it) at 98 %, against 1e−3 in the record's first
 //! half (`tests/glitches.rs`, `a_modelled_glitch_explains_noiseless_data_wherever_it_starts`):
-//! it was not, as first thought, the cause of the glitch guide's modelled pull spreads of 7–22:
-//! re-measured with this causal response on 40 realisations, they stay.
+//! it was not, as first thought, the cause of the glitch guide's modelled pull spreads of 7–22
+//! (re-measured with this causal response on 40 realisations, they stayed); regions holding
+//! more than one glitch, fitted with one, were (`jobs::glitch_model`).
 //!
 //! # What is computed instead
 //! The glitches' force, sampled as the simulator samples it (`Σ_g a_g s(m/fs − t0_g)`,
