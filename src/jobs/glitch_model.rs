@@ -85,8 +85,10 @@ pub type BuildLikelihood<'a> = dyn Fn(&Study, &Dataset) -> Result<Likelihood, St
 /// channel to every experiment of `dataset`. `opts` are the spectra options; `physics` the
 /// first model's parameters fitted without glitches (its MAP), where the glitches are
 /// detected and their starts found (at the prior centre the residual would be the
-/// injections' response, not the glitches); they also become the start of the loop's
-/// parameters that `[fit] start` does not give. `build` builds a likelihood.
+/// injections' response, not the glitches); `physics_free` are its free parameters. The
+/// joint MAP of the rounds (`further_glitches`) becomes the start of the glitches and of the
+/// loop's parameters that `[fit] start` does not give (`physics` when no search converged).
+/// `build` builds a likelihood.
 pub fn model_glitches(
     study: &Study,
     models: &[usize],
@@ -200,8 +202,10 @@ pub fn model_glitches(
             min_gain,
             inset: 0.5 * pad,
         };
-        if let Some((o, l, t)) = further_glitches(&rounds, out.clone(), &lik, &theta)? {
-            (out, lik, theta) = (o, l, t);
+        match further_glitches(&rounds, out.clone(), &lik, &theta)? {
+            Some((Some((o, l)), t)) => (out, lik, theta) = (o, l, t),
+            Some((None, t)) => theta = t,
+            None => {}
         }
     }
     out.dropped = dropped;
@@ -251,15 +255,17 @@ struct Rounds<'a> {
 /// such candidates gained 50–800 in regions where nothing was injected. Why not at the ends: a
 /// best start on a window's end gains from what lies outside it (measured: 24–89, where real
 /// further glitches gained 90–1700 inside). At most [`MAX_PER_REGION`] per region; each
-/// experiment's glitches in the order of their starts. `None` when no region holds another or
-/// the MAP search on a model with more glitches fails: the last model whose search converged is
-/// kept. Else that model, its likelihood and its start (its MAP).
+/// experiment's glitches in the order of their starts. Returns the model with more glitches and
+/// its likelihood (`None` when no region holds another, or the MAP search on a model with more
+/// fails: the last model whose search converged is kept), with the MAP of the model returned
+/// (the job's search then starts there); `None` when no MAP search converged.
+#[allow(clippy::type_complexity)]
 fn further_glitches(
     r: &Rounds<'_>,
     mut cur: ModelledGlitches,
     lik: &Likelihood,
     theta: &[f64],
-) -> Result<Option<(ModelledGlitches, Likelihood, Vec<f64>)>, String> {
+) -> Result<Option<(Option<(ModelledGlitches, Likelihood)>, Vec<f64>)>, String> {
     let mut theta = theta.to_vec();
     let mut open = vec![true; cur.candidates.len()];
     // the likelihood of `cur` once it differs from the input's, and the last such model whose
@@ -280,8 +286,10 @@ fn further_glitches(
             Ok(map) if map.converged => theta = map.theta,
             _ => break,
         }
-        if let Some(l) = pending.take() {
-            good = Some((cur.clone(), l, theta.clone()));
+        match pending.take() {
+            Some(l) => good = Some((Some((cur.clone(), l)), theta.clone())),
+            None if good.is_none() => good = Some((None, theta.clone())),
+            None => {}
         }
         let in_region = |c: &GlitchCandidate| {
             cur.candidates
