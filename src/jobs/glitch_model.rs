@@ -222,7 +222,7 @@ pub fn model_glitches(
 }
 
 /// The most glitches one detected region may carry (`further_glitches`). Measured on
-/// `examples/glitches.toml` (five glitches per 5.3 h stretch): regions up to ~3000 s long held
+/// `examples/glitches.toml` (five glitches per 5.3 h stretch): regions up to ~7000 s long held
 /// up to three injected glitches.
 pub const MAX_PER_REGION: usize = 4;
 
