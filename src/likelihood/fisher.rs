@@ -119,6 +119,38 @@ pub fn fisher_parts(
     f
 }
 
+/// `∂_a r_k` of experiment `e` (the `e`-th of `lik`'s spectra) at `th` for every parameter
+/// `a` of `free` and bin `k`: `out[(i·K + k)·R + r]` for `free[i]`, `K` bins, `R` residual
+/// channels (zero where the experiment's model does not read the parameter). The columns a
+/// scan that profiles those parameters correlates against (`jobs::glitch_model`).
+pub fn residual_derivatives(
+    lik: &Likelihood,
+    e: usize,
+    th: &[f64],
+    free: &[usize],
+) -> Vec<Complex64> {
+    let m = lik.model_of(e).as_ref();
+    let sp = &lik.spectra()[e];
+    let nr = m.residual_channels().len();
+    let nk = sp.len();
+    let mut out = vec![ZERO; free.len() * nk * nr];
+    let mut buf = vec![Dual64::from(0.0); th.len()];
+    let z = Complex::new(Dual64::from(0.0), Dual64::from(0.0));
+    let mut coef = vec![z; nr * m.data_channels().len()];
+    let mut r = [ZERO; MAX_RESIDUALS];
+    for (i, &a) in free.iter().enumerate() {
+        if !m.reads_param(a) {
+            continue;
+        }
+        for k in 0..nk {
+            let at = (i * nk + k) * nr;
+            let dr = &mut out[at..at + nr];
+            dual_residual(m, sp, k, th, a, &mut buf, &mut coef, (&mut r[..nr], dr));
+        }
+    }
+    out
+}
+
 /// Adds the gradient of every bin to `g` and its Fisher matrix to `f[group(e, f_k)]`.
 fn accumulate(
     lik: &Likelihood,

@@ -26,7 +26,8 @@ pub mod transfer;
 pub use exact::{Likelihood, LikelihoodError};
 pub use fisher::{
     cramer_rao, default_step, describe_unconstrained, fisher_exact, fisher_numeric, fisher_parts,
-    gradient_and_fisher, gradient_hessian_numeric, sandwich_errors, score_covariance,
+    gradient_and_fisher, gradient_hessian_numeric, residual_derivatives, sandwich_errors,
+    score_covariance,
 };
 pub use glitch_gate::{
     DEFAULT_GLITCH_AMPLITUDE, DEFAULT_GLITCH_DECAY, DEFAULT_GLITCH_PAD, DEFAULT_GLITCH_RISE,

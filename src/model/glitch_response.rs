@@ -593,6 +593,31 @@ struct Target {
     kappa: Vec<Vec<Complex64>>,
     /// `κ_rs(0)` per pair.
     kappa0: Vec<f64>,
+    /// `q` of each further column ([`GlitchScan::set_columns`]).
+    columns: Vec<Vec<Vec<Complex64>>>,
+}
+
+/// What [`GlitchScan::gains_and_columns`] gives for every start `n0`.
+#[derive(Debug, Clone)]
+pub struct ScanGains {
+    /// `B(n0)`.
+    pub b: Vec<f64>,
+    /// `A(n0)`.
+    pub a: Vec<f64>,
+    /// `B(n0)` of each column of [`GlitchScan::set_columns`].
+    pub columns: Vec<Vec<f64>>,
+}
+
+/// `DFT_P` of `t` zero-padded to the length `P` of `fft` (NaN when the transform fails).
+fn padded_spectrum(t: &[f64], fft: &mut RealFft) -> Vec<Complex64> {
+    let p = fft.len();
+    let mut pad = vec![0.0; p];
+    pad[..t.len()].copy_from_slice(t);
+    let mut o = vec![Complex64::new(0.0, 0.0); p / 2 + 1];
+    if fft.forward(&pad, &mut o).is_err() {
+        o.fill(Complex64::new(f64::NAN, f64::NAN));
+    }
+    o
 }
 
 impl GlitchScan {
@@ -637,42 +662,60 @@ impl GlitchScan {
         imp: &[Complex64],
     ) {
         let n = self.causal.n();
-        let nr = self.nr;
-        let nk = n / 2 + 1;
-        let zero = Complex64::new(0.0, 0.0);
         let p = padded_len(2 * n);
         let mut fft = RealFft::new(p).expect("p ≥ 2");
-        let mut pad = vec![0.0; p];
-        let mut to_p = |t: &[f64], fft: &mut RealFft| {
-            pad[..t.len()].copy_from_slice(t);
-            pad[t.len()..].fill(0.0);
-            let mut o = vec![zero; p / 2 + 1];
-            if fft.forward(&pad, &mut o).is_err() {
-                o.fill(Complex64::new(f64::NAN, f64::NAN));
-            }
-            o
-        };
-        let mut q = Vec::with_capacity(nr);
-        for r in 0..nr {
-            let mut x = vec![zero; nk];
-            for (j, &k) in bins.iter().enumerate() {
-                x[k] = imp[j].conj() * w[j * nr + r];
-            }
-            let t = self.real_sum(&mut x);
-            q.push(to_p(&t, &mut fft));
-        }
+        let q = self.correlation_target(&mut fft, bins, w, imp);
         let (mut kappa, mut kappa0) = (Vec::new(), Vec::new());
-        for mut t in kappa_sums(&mut self.causal.fft_n, nr, bins, cinv, imp) {
+        for mut t in kappa_sums(&mut self.causal.fft_n, self.nr, bins, cinv, imp) {
             kappa0.push(t[0]);
             t[0] = 0.0;
-            kappa.push(to_p(&t, &mut fft));
+            kappa.push(padded_spectrum(&t, &mut fft));
         }
         self.target = Some(Target {
             fft,
             q,
             kappa,
             kappa0,
+            columns: Vec::new(),
         });
+    }
+
+    /// Further columns `ws[i]` (each laid out as [`GlitchScan::set_target`]'s `w`, `C⁻¹` times
+    /// a column such as a parameter's `∂r`) whose correlations with every start
+    /// [`GlitchScan::gains_and_columns`] gives beside `B`. Needs a target; replaces earlier
+    /// columns.
+    pub fn set_columns(&mut self, bins: &[usize], ws: &[Vec<Complex64>], imp: &[Complex64]) {
+        let Some(mut t) = self.target.take() else {
+            return;
+        };
+        t.columns = ws
+            .iter()
+            .map(|w| self.correlation_target(&mut t.fft, bins, w, imp))
+            .collect();
+        self.target = Some(t);
+    }
+
+    /// `q_r` of a weighted column `w` on the correlation grid, per channel.
+    fn correlation_target(
+        &mut self,
+        fft: &mut RealFft,
+        bins: &[usize],
+        w: &[Complex64],
+        imp: &[Complex64],
+    ) -> Vec<Vec<Complex64>> {
+        let nr = self.nr;
+        let nk = self.causal.n() / 2 + 1;
+        let zero = Complex64::new(0.0, 0.0);
+        (0..nr)
+            .map(|r| {
+                let mut x = vec![zero; nk];
+                for (j, &k) in bins.iter().enumerate() {
+                    x[k] = imp[j].conj() * w[j * nr + r];
+                }
+                let t = self.real_sum(&mut x);
+                padded_spectrum(&t, fft)
+            })
+            .collect()
     }
 
     /// For a unit glitch with the decay of the last [`GlitchScan::set_tau`] starting at each
@@ -683,6 +726,12 @@ impl GlitchScan {
     /// transforms of `P ≥ 2N` instead of one DFT each (`A` by a recursion over the cut). `None`
     /// without a target.
     pub fn gains(&mut self) -> Option<(Vec<f64>, Vec<f64>)> {
+        self.gains_and_columns().map(|g| (g.b, g.a))
+    }
+
+    /// [`GlitchScan::gains`] and, per column of [`GlitchScan::set_columns`], its `B(n0)` with
+    /// that column in place of the residual.
+    pub fn gains_and_columns(&mut self) -> Option<ScanGains> {
         let n = self.causal.n();
         let nr = self.nr;
         let t = self.target.as_mut()?;
@@ -701,11 +750,19 @@ impl GlitchScan {
         }
         let mut spec = vec![zero; p / 2 + 1];
         // B(n0) = −Σ_r Σ_u z_r(u) q_r(u + n0): a cross-correlation
-        for (i, v) in spec.iter_mut().enumerate() {
-            *v = (0..nr).map(|r| zs[r][i].conj() * t.q[r][i]).sum();
-        }
-        t.fft.inverse(&spec, &mut pad).ok()?;
-        let b: Vec<f64> = pad[..n].iter().map(|c| -c).collect();
+        let mut correlate = |q: &[Vec<Complex64>], spec: &mut [Complex64]| {
+            for (i, v) in spec.iter_mut().enumerate() {
+                *v = (0..nr).map(|r| zs[r][i].conj() * q[r][i]).sum();
+            }
+            t.fft.inverse(spec, &mut pad).ok()?;
+            Some(pad[..n].iter().map(|c| -c).collect::<Vec<f64>>())
+        };
+        let b = correlate(&t.q, &mut spec)?;
+        let columns = t
+            .columns
+            .iter()
+            .map(|q| correlate(q, &mut spec))
+            .collect::<Option<Vec<_>>>()?;
         // g_r(L) = Σ_s Σ_{u<L} κ_rs(L − u) z_s(u): causal convolutions
         let mut g = vec![0.0; nr * n];
         for r in 0..nr {
@@ -729,7 +786,7 @@ impl GlitchScan {
             f[l + 1] = f[l] + d;
         }
         let a = (0..n).map(|n0| f[n - n0]).collect();
-        Some((b, a))
+        Some(ScanGains { b, a, columns })
     }
 
     /// The record's length in samples.
@@ -999,8 +1056,17 @@ mod tests {
             })
             .collect();
         scan.set_target(&bins, &w, &cinv, &imp);
+        // a column's correlations are the B of a target made of it
+        let w2: Vec<Complex64> = (0..2 * bins.len()).map(|_| z() * 1e-3).collect();
+        scan.set_columns(&bins, &[w2.clone(), w.clone()], &imp);
+        let mut other = GlitchScan::new(&m, &th, n, fs, rise);
+        other.set_target(&bins, &w2, &cinv, &imp);
         for tau in [30.0, 400.0] {
             scan.set_tau(tau);
+            other.set_tau(tau);
+            let g = scan.gains_and_columns().unwrap();
+            assert_eq!(g.columns[0], other.gains().unwrap().0);
+            assert_eq!(g.columns[1], g.b);
             let (b, a) = scan.gains().unwrap();
             let mut y = vec![Complex64::new(0.0, 0.0); (n / 2 + 1) * 2];
             for n0 in [0, 1, 17, 500, 999, 1000] {

@@ -46,7 +46,7 @@ pub use checks::{check_finite, check_identifiable, coefficients_at, validate_sha
 pub use covariates::Covariates;
 pub use drift::{DriftModel, DriftRule};
 pub use glitch::{GLITCH_CHANNEL, GlitchModel, map_tolerance};
-pub use glitch_response::{GlitchScan, force_envelope, grid_index};
+pub use glitch_response::{GlitchScan, ScanGains, force_envelope, grid_index};
 pub use ltp::{LoopResponse, LtpModel, LtpModelOptions, ThrusterResponse};
 pub use reparam::{Reparam, ReparamModel};
 pub use tied::TiedModel;
