@@ -15,11 +15,10 @@
 //!    amplitude, so each candidate's start is the best of a grid in `(t0, τ)` with the
 //!    amplitude solved there and the loop's parameters profiled out ([`glitch_starts`]: the
 //!    point the candidates are found at is pulled by the glitches); the MAP search refines
-//!    all jointly. They
-//!    become `[fit] start` values. A candidate whose start gains less `ln L` than a glitch at
-//!    the detection threshold (`threshold²/2`) is left out and reported: the detector splits a
-//!    large glitch's long response into several regions, and fitting the first leaves the
-//!    others with nothing to explain.
+//!    all jointly. They become `[fit] start` values. A candidate whose start gains less
+//!    `ln L` than a glitch at the detection threshold (`threshold²/2`) is left out and
+//!    reported: the detector splits a large glitch's long response into several regions, and
+//!    fitting the first leaves the others with nothing to explain.
 //! 4. **Regions holding more than one glitch.** The detector also merges glitches whose
 //!    responses overlap into one region; in rounds, the joint MAP is found and every region
 //!    whose latest candidate was kept is scanned for one more (`further_glitches`).
@@ -252,11 +251,11 @@ struct Rounds<'a> {
 /// of the model as it stands (from `theta`, the loop's parameters and the glitches' starts),
 /// then one more candidate in every region whose latest was kept, scanned as the first ones
 /// are ([`best_start`], twice, everything else at the MAP, the loop profiled), kept when it
-/// gains at least
-/// `min_gain`, as a first one must, and starts more than `inset` inside its window and not on
-/// the scanned window's ends. Why at the MAP: at the detection point the loop's parameters are
-/// still pulled by the glitches, a fitted glitch's response is off by more than the noise, and
-/// such candidates gained 50–800 in regions where nothing was injected. Why not at the ends: a
+/// gains at least `min_gain`, as a first one must, and starts more than `inset` inside its
+/// window and not on the scanned window's ends. Why at the MAP: at the detection point the
+/// loop's parameters are still pulled by the glitches, a fitted glitch's response is off by
+/// more than the noise, and such candidates gained 50–800 in regions where nothing was
+/// injected. Why not at the ends: a
 /// best start on a window's end gains from what lies outside it (measured: 24–89, where real
 /// further glitches gained 90–1700 inside). At most [`MAX_PER_REGION`] per region; each
 /// experiment's glitches in the order of their starts. Returns the model with more glitches and
