@@ -225,7 +225,9 @@ pub fn model_glitches(
 
 /// The most glitches one detected region may carry (`further_glitches`). Measured on
 /// `examples/glitches.toml` (five glitches per 5.3 h stretch): regions up to ~7000 s long held
-/// up to three injected glitches.
+/// up to three injected glitches in realisations 3014–3016; realisation 3027's 7650 s region
+/// of `inv2` holds all five, and with four its loop pulls stay at up to 17σ (a larger cap is
+/// not yet measured).
 pub const MAX_PER_REGION: usize = 4;
 
 /// What [`further_glitches`] needs besides the candidates.
