@@ -30,8 +30,8 @@ use crate::likelihood::{
     DEFAULT_GLITCH_AMPLITUDE, DEFAULT_GLITCH_DECAY, DEFAULT_GLITCH_PAD, DEFAULT_GLITCH_RISE,
     DEFAULT_GLITCH_THRESHOLD, Likelihood, SpectraOptions, detect_glitches,
 };
-use crate::likelihood::{fisher_scoring, residual_derivatives};
-use crate::model::glitch::GLITCH_PARAMS;
+use crate::likelihood::{MapError, fisher_scoring, residual_derivatives};
+use crate::model::glitch::{GLITCH_PARAMS, glitch_of};
 use crate::model::{GLITCH_CHANNEL, GlitchModel, GlitchScan, Model, grid_index, map_tolerance};
 use crate::prior::{Prior, PriorKind};
 use nalgebra::DMatrix;
@@ -155,7 +155,7 @@ pub fn model_glitches(
                 .map(|k| k.centre()),
         )
         .collect();
-    let starts = glitch_starts(&lik, &at, &all.candidates, rise, physics_free);
+    let starts = glitch_starts(&lik, &at, &all.candidates, rise, min_gain, physics_free);
     let mut kept: Vec<GlitchCandidate> = Vec::new();
     let mut kept_starts = Vec::new();
     for (c, st) in all.candidates.iter().zip(&starts) {
@@ -200,9 +200,11 @@ pub fn model_glitches(
             durations: &durations,
             build,
             free: physics_free,
-            rise,
-            min_gain,
-            inset: 0.5 * pad,
+            rule: StartRule {
+                rise,
+                inset: 0.5 * pad,
+                min_gain,
+            },
         };
         match further_glitches(&rounds, out.clone(), &lik, &theta)? {
             Some((Some((o, l)), t)) => (out, lik, theta) = (o, l, t),
@@ -226,9 +228,9 @@ pub fn model_glitches(
 /// The most glitches one detected region may carry (`further_glitches`). Measured on
 /// `examples/glitches.toml` (five glitches per 5.3 h stretch): regions up to ~7000 s long held
 /// up to three injected glitches in realisations 3014–3016; realisation 3027's 7650 s region
-/// of `inv2` holds all five, and with four its loop pulls stay at up to 17σ (a larger cap is
-/// not yet measured).
-pub const MAX_PER_REGION: usize = 4;
+/// of `inv2` holds all five, and with a cap of four its loop pulls stayed at up to 17σ; six
+/// leaves room for all of them and one more.
+pub const MAX_PER_REGION: usize = 6;
 
 /// What [`further_glitches`] needs besides the candidates.
 struct Rounds<'a> {
@@ -239,10 +241,9 @@ struct Rounds<'a> {
     build: &'a BuildLikelihood<'a>,
     /// The first model's free parameters.
     free: &'a [usize],
-    rise: f64,
-    min_gain: f64,
-    /// How far inside its window a further glitch must start (s).
-    inset: f64,
+    /// Where a further glitch may start (more than `inset` inside its window) and what it
+    /// must gain.
+    rule: StartRule,
 }
 
 /// The further glitches the detected regions hold. The detector merges glitches whose
@@ -252,7 +253,7 @@ struct Rounds<'a> {
 /// on `w1sq`, `w2sq`, `a_sus`; 1.5σ, 1.9σ, −1.3σ with them found). In rounds: the joint MAP
 /// of the model as it stands (from `theta`, the loop's parameters and the glitches' starts),
 /// then one more candidate in every region whose latest was kept, scanned as the first ones
-/// are ([`best_start`], twice, everything else at the MAP, the loop profiled), kept when it
+/// are ([`scan_starts`], everything else at the MAP, the loop profiled), kept when it
 /// gains at least `min_gain`, as a first one must, and starts more than `inset` inside its
 /// window and not on the scanned window's ends. Why at the MAP: at the detection point the
 /// loop's parameters are still pulled by the glitches, a fitted glitch's response is off by
@@ -262,7 +263,9 @@ struct Rounds<'a> {
 /// further glitches gained 90–1700 inside). At most [`MAX_PER_REGION`] per region; each
 /// experiment's glitches in the order of their starts. Returns the model with more glitches and
 /// its likelihood (`None` when no region holds another, or the MAP search on a model with more
-/// fails: the last model whose search converged is kept), with the MAP of the model returned
+/// fails: the last model whose search converged is kept; a search that fails on a singular
+/// Fisher matrix first drops the new candidates along its null directions, [`degenerate_new`],
+/// and searches again), with the MAP of the model returned
 /// (the job's search then starts there); `None` when no MAP search converged.
 #[allow(clippy::type_complexity)]
 fn further_glitches(
@@ -289,6 +292,25 @@ fn further_glitches(
             MAP_ITERATIONS,
         ) {
             Ok(map) if map.converged => theta = map.theta,
+            Err(MapError::Singular { unconstrained, .. }) if pending.is_some() => {
+                let drop = degenerate_new(&unconstrained, &cur.candidates, &open);
+                if drop.is_empty() || drop.len() == open.iter().filter(|o| **o).count() {
+                    // none, or every new one: the model would be the last converged one again
+                    break;
+                }
+                let keep: Vec<usize> = (0..open.len()).filter(|j| !drop.contains(j)).collect();
+                let glitch = |j: usize| &theta[np + GLITCH_PARAMS * j..][..GLITCH_PARAMS];
+                theta = theta[..np]
+                    .iter()
+                    .chain(keep.iter().flat_map(|&j| glitch(j)))
+                    .copied()
+                    .collect();
+                open = keep.iter().map(|&j| open[j]).collect();
+                let list = keep.iter().map(|&j| cur.candidates[j].clone()).collect();
+                cur = with_glitches(r.study, r.models, &named(list), r.durations)?;
+                pending = Some((r.build)(&cur.study, r.dataset)?);
+                continue;
+            }
             _ => break,
         }
         match pending.take() {
@@ -316,31 +338,13 @@ fn further_glitches(
         let trial = with_glitches(r.study, r.models, &named(all), r.durations)?;
         let tlik = (r.build)(&trial.study, r.dataset)?;
         let n = theta.len();
-        let mut th: Vec<f64> = theta
+        let th: Vec<f64> = theta
             .iter()
             .copied()
             .chain(tlik.prior().kinds()[n..].iter().map(|k| k.centre()))
             .collect();
-        let mut found = vec![
-            GlitchStart {
-                values: [0.0; GLITCH_PARAMS],
-                gain: 0.0
-            };
-            probes.len()
-        ];
-        for j in 0..probes.len() {
-            th[n + GLITCH_PARAMS * j + 2] = 0.0;
-        }
-        let profile = Profile::new(&tlik, &th, r.free);
-        for _pass in 0..2 {
-            for (j, c) in probes.iter().enumerate() {
-                let i = n + GLITCH_PARAMS * j;
-                th[i + 2] = 0.0;
-                found[j] = best_start(&tlik, &th, i, c, r.rise, r.inset, profile.as_ref());
-                th[i..i + GLITCH_PARAMS].copy_from_slice(&found[j].values);
-            }
-        }
-        if found.iter().all(|s| s.gain < r.min_gain) {
+        let found = scan_starts(&tlik, &th, n, &probes, r.rule, r.free);
+        if found.iter().all(|s| s.gain < r.rule.min_gain) {
             break;
         }
         // the model with the new glitches, each experiment's in the order of their starts
@@ -352,7 +356,7 @@ fn further_glitches(
             .map(|(c, v)| (c, [v[0], v[1], v[2]], false))
             .collect();
         for (c, s) in probes.into_iter().zip(&found) {
-            if s.gain >= r.min_gain {
+            if s.gain >= r.rule.min_gain {
                 glitches.push((GlitchCandidate { gain: s.gain, ..c }, s.values, true));
             }
         }
@@ -370,6 +374,31 @@ fn further_glitches(
         pending = Some((r.build)(&cur.study, r.dataset)?);
     }
     Ok(good)
+}
+
+/// The candidates added in the last round (`open`) to drop when the MAP search of the model
+/// with them finds the Fisher matrix singular along `unconstrained`: those it names, but of
+/// a null direction among new candidates alone (two probes that found the same response) the
+/// one that gained most stays. Realisation 3022 of `examples/glitches.toml`: a round whose
+/// probes found both glitches still missing also added two candidates of identical response
+/// (null direction 0.71·g13_a − 0.71·g14_a), and its search failed.
+fn degenerate_new(
+    unconstrained: &[String],
+    candidates: &[GlitchCandidate],
+    open: &[bool],
+) -> Vec<usize> {
+    let new = |n: &String| glitch_of(n).filter(|&j| open.get(j) == Some(&true));
+    let mut named: Vec<usize> = unconstrained.iter().filter_map(new).collect();
+    named.sort_unstable();
+    named.dedup();
+    if named.len() > 1 && unconstrained.iter().all(|n| new(n).is_some()) {
+        let best = named
+            .iter()
+            .copied()
+            .max_by(|&a, &b| candidates[a].gain.total_cmp(&candidates[b].gain));
+        named.retain(|&j| Some(j) != best);
+    }
+    named
 }
 
 /// The iterations of a MAP search between rounds of [`further_glitches`].
@@ -453,11 +482,9 @@ fn with_glitches(
     })
 }
 
-/// Grid of the start search: start times per candidate window and decay times over the
-/// prior range (log-spaced), then twice a finer grid around the best point.
-const T0_GRID: usize = 61;
+/// Grid of the start search's decay times: log-spaced over the prior range, then twice a
+/// finer grid around the best. Every sample of the window is a start for each.
 const TAU_GRID: usize = 8;
-const REFINE_T0: usize = 11;
 const REFINE_TAU: usize = 5;
 
 /// A candidate's start: its three parameters and the `ln L` they gain over no glitch.
@@ -567,21 +594,51 @@ impl Profile {
 /// ones) are profiled out of each gain, linearised at `theta` (`Profile`): the gain is what a
 /// joint fit of the glitch and those parameters would gain, wherever `theta` has pulled them.
 /// Two passes: in time order with the earlier candidates at their starts, then each again
-/// with all the others at theirs, so that a candidate that only repeats another glitch's
+/// with all the others at theirs (those that gained less than `min_gain` back at none, as
+/// the model will not carry them), so that a candidate that only repeats another glitch's
 /// response gains little.
 pub fn glitch_starts(
     lik: &Likelihood,
     theta: &[f64],
     candidates: &[GlitchCandidate],
     rise: f64,
+    min_gain: f64,
     profiled: &[usize],
 ) -> Vec<GlitchStart> {
-    let names = lik.model().param_names();
-    let first = names.len() - GLITCH_PARAMS * candidates.len();
+    let first = lik.model().param_names().len() - GLITCH_PARAMS * candidates.len();
+    let rule = StartRule {
+        rise,
+        inset: 0.0,
+        min_gain,
+    };
+    scan_starts(lik, theta, first, candidates, rule, profiled)
+}
+
+/// Where a scan may put a glitch's start and what it must gain to be kept.
+#[derive(Debug, Clone, Copy)]
+struct StartRule {
+    /// The glitches' rise time (s).
+    rise: f64,
+    /// How far inside its window a start must lie (s; [`best_start`]).
+    inset: f64,
+    /// The gain a candidate needs to be kept.
+    min_gain: f64,
+}
+
+/// [`glitch_starts`] of the glitches `candidates`, whose parameters follow from `first`, the
+/// others at `theta`.
+fn scan_starts(
+    lik: &Likelihood,
+    theta: &[f64],
+    first: usize,
+    candidates: &[GlitchCandidate],
+    rule: StartRule,
+    profiled: &[usize],
+) -> Vec<GlitchStart> {
     let mut th = theta.to_vec();
+    let amplitude = |j: usize| first + GLITCH_PARAMS * j + 2;
     for j in 0..candidates.len() {
-        let i = first + GLITCH_PARAMS * j;
-        th[i + 2] = 0.0;
+        th[amplitude(j)] = 0.0;
     }
     let mut out = vec![
         GlitchStart {
@@ -591,12 +648,19 @@ pub fn glitch_starts(
         candidates.len()
     ];
     let profile = Profile::new(lik, &th, profiled);
-    for _pass in 0..2 {
+    for pass in 0..2 {
         for (j, c) in candidates.iter().enumerate() {
             let i = first + GLITCH_PARAMS * j;
             th[i + 2] = 0.0;
-            out[j] = best_start(lik, &th, i, c, rise, 0.0, profile.as_ref());
+            out[j] = best_start(lik, &th, i, c, rule.rise, rule.inset, profile.as_ref());
             th[i..i + GLITCH_PARAMS].copy_from_slice(&out[j].values);
+        }
+        if pass == 0 {
+            for (j, s) in out.iter().enumerate() {
+                if s.gain < rule.min_gain {
+                    th[amplitude(j)] = 0.0;
+                }
+            }
         }
     }
     out
@@ -668,57 +732,59 @@ fn best_start(
         scan.set_columns(&bins, &p.columns[ei], &imp);
         (p, p.g_inv_b(lik, th))
     });
-    // the scan of the last decay time asked for
-    let mut last: Option<(f64, crate::model::ScanGains)> = None;
-    let mut at = |t0: f64, tau: f64| -> Option<GlitchStart> {
-        if last.as_ref().is_none_or(|x| x.0 != tau) {
-            scan.set_tau(tau);
-            last = Some((tau, scan.gains_and_columns()?));
-        }
-        let (_, g) = last.as_ref()?;
-        // the scan's starts are sample times; the MAP search refines between them
-        let n0 = ((t0 * e.fs).round().max(0.0) as usize).min(e.n - 1);
-        let (b, a) = match &profile {
-            Some((p, g_inv_b)) => p.terms(g_inv_b, g.b[n0], g.a[n0], &g.columns, n0)?,
-            None => (g.b[n0], g.a[n0]),
-        };
-        if !(a > 0.0) {
-            return None;
-        }
-        let x = (-b / a).clamp(-amp, amp);
-        let gain = -2.0 * b * x - a * x * x;
-        gain.is_finite().then_some(GlitchStart {
-            values: [n0 as f64 / e.fs, tau, x],
-            gain,
-        })
-    };
+    // the samples of the window
+    let n_lo = (t_lo * e.fs).ceil().max(0.0) as usize;
+    let n_hi = ((t_hi * e.fs).floor().max(0.0) as usize).min(e.n - 1);
+    if n_hi < n_lo {
+        return none;
+    }
     let mut best = none;
-    let (mut t_step, mut ln_step) = (
-        (t_hi - t_lo) / (T0_GRID - 1) as f64,
-        (d_hi / d_lo).ln() / (TAU_GRID - 1) as f64,
-    );
-    let grid = |lo: f64, step: f64, n: usize| (0..n).map(move |a| lo + step * a as f64);
-    let mut points: Vec<(f64, f64)> = grid(t_lo, t_step, T0_GRID)
-        .flat_map(|t| grid(d_lo.ln(), ln_step, TAU_GRID).map(move |l| (t, l)))
-        .collect();
-    for _round in 0..3 {
-        // decay-major: the scan's transforms are per decay time, a start costs one DFT
-        points.sort_by(|a, b| a.1.total_cmp(&b.1).then(a.0.total_cmp(&b.0)));
-        for &(t0, l) in &points {
-            if let Some(s) = at(t0.clamp(t_lo, t_hi), l.clamp(d_lo.ln(), d_hi.ln()).exp())
-                && s.gain > best.gain
-            {
-                best = s;
+    // every start of one decay time: the scan's gains at every sample (the MAP search
+    // refines between them)
+    let mut scan_tau = |tau: f64, best: &mut GlitchStart| {
+        scan.set_tau(tau);
+        let Some(g) = scan.gains_and_columns() else {
+            return;
+        };
+        let g_inv_b = profile.as_ref().map(|(_, b)| b.as_slice());
+        for n0 in n_lo..=n_hi {
+            let (b, a) = match (&profile, g_inv_b) {
+                (Some((p, _)), Some(gb)) => match p.terms(gb, g.b[n0], g.a[n0], &g.columns, n0) {
+                    Some(x) => x,
+                    None => continue,
+                },
+                _ => (g.b[n0], g.a[n0]),
+            };
+            if !(a > 0.0) {
+                continue;
+            }
+            let x = (-b / a).clamp(-amp, amp);
+            let gain = -2.0 * b * x - a * x * x;
+            if gain.is_finite() && gain > best.gain {
+                *best = GlitchStart {
+                    values: [n0 as f64 / e.fs, tau, x],
+                    gain,
+                };
             }
         }
-        // a finer grid around the best point
-        let (t0, l) = (best.values[0], best.values[1].ln());
-        t_step /= ((REFINE_T0 - 1) / 2) as f64;
+    };
+    let (lo, hi) = (d_lo.ln(), d_hi.ln());
+    let mut ln_step = (hi - lo) / (TAU_GRID - 1) as f64;
+    let mut taus: Vec<f64> = (0..TAU_GRID).map(|k| lo + ln_step * k as f64).collect();
+    let mut done: Vec<f64> = Vec::new();
+    for _round in 0..3 {
+        for l in taus {
+            let l = l.clamp(lo, hi);
+            if !done.contains(&l) {
+                done.push(l);
+                scan_tau(l.exp(), &mut best);
+            }
+        }
+        // a finer grid around the best decay time
         ln_step /= ((REFINE_TAU - 1) / 2) as f64;
-        let half_t = t_step * ((REFINE_T0 - 1) / 2) as f64;
-        let half_l = ln_step * ((REFINE_TAU - 1) / 2) as f64;
-        points = grid(t0 - half_t, t_step, REFINE_T0)
-            .flat_map(|t| grid(l - half_l, ln_step, REFINE_TAU).map(move |l| (t, l)))
+        let centre = best.values[1].max(d_lo).ln() - ln_step * ((REFINE_TAU - 1) / 2) as f64;
+        taus = (0..REFINE_TAU)
+            .map(|k| centre + ln_step * k as f64)
             .collect();
     }
     // a further glitch whose best start is an end of its window gains from outside it
@@ -910,6 +976,30 @@ mod tests {
             "joint fit gains {gain:.1}, the profiled scan {:.1}",
             profiled.gain
         );
+    }
+
+    /// Of a null direction, the new candidates go; of new candidates alone, all but the one
+    /// that gained most; an old candidate or a loop parameter alone drops nothing.
+    #[test]
+    fn degenerate_new_drops_the_new_candidates_of_a_null_direction() {
+        let c = |gain: f64| GlitchCandidate {
+            name: String::new(),
+            experiment: "x".into(),
+            region: [0.0, 1.0],
+            t0: [0.0, 1.0],
+            gain,
+        };
+        let cs = [c(50.0), c(900.0), c(300.0), c(700.0)];
+        let open = [false, true, true, true];
+        let names = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+        let d = |v: &[&str]| degenerate_new(&names(v), &cs, &open);
+        assert_eq!(d(&["g1_a", "g3_a"]), vec![2]);
+        assert_eq!(d(&["g3_a", "g4_a"]), vec![2]);
+        assert_eq!(d(&["g4_a", "g3_a", "g2_tau"]), vec![2, 3]);
+        assert_eq!(d(&["w1sq", "g3_a", "g4_a"]), vec![2, 3]);
+        assert_eq!(d(&["g4_t0"]), vec![3]);
+        assert!(d(&["g1_a", "w1sq"]).is_empty());
+        assert!(d(&["g9_a"]).is_empty());
     }
 
     #[test]

@@ -48,13 +48,17 @@ pub const GLITCH_PARAMS: usize = 3;
 
 /// Whether `name` is a glitch's parameter (`g<j>_t0`, `g<j>_tau`, `g<j>_a`).
 pub fn is_glitch_param(name: &str) -> bool {
-    let Some(rest) = name.strip_prefix('g') else {
-        return false;
-    };
-    let Some((j, p)) = rest.split_once('_') else {
-        return false;
-    };
-    !j.is_empty() && j.bytes().all(|b| b.is_ascii_digit()) && matches!(p, "t0" | "tau" | "a")
+    glitch_of(name).is_some()
+}
+
+/// The glitch (0-based: `g1` is 0) whose parameter `name` is, if it is one.
+pub fn glitch_of(name: &str) -> Option<usize> {
+    let (j, p) = name.strip_prefix('g')?.split_once('_')?;
+    let ok = !j.is_empty() && j.bytes().all(|b| b.is_ascii_digit());
+    if !ok || !matches!(p, "t0" | "tau" | "a") {
+        return None;
+    }
+    j.parse::<usize>().ok()?.checked_sub(1)
 }
 
 /// The convergence tolerance (in Cramér–Rao σ, as for
@@ -785,9 +789,11 @@ pub(super) mod tests {
         let names = m.param_names();
         assert!(names[..7].iter().all(|n| !is_glitch_param(n)));
         assert!(names[7..].iter().all(|n| is_glitch_param(n)));
-        for n in ["g_t0", "gx_tau", "g1_b", "g1", "w1sq", "g12_a2"] {
+        for n in ["g_t0", "gx_tau", "g1_b", "g1", "w1sq", "g12_a2", "g0_a"] {
             assert!(!is_glitch_param(n), "{n}");
         }
+        assert_eq!(glitch_of("g13_a"), Some(12));
+        assert_eq!(glitch_of("g1_t0"), Some(0));
     }
 
     /// The closed form equals the FFT of the sampled shape, for starts on and off the sample
