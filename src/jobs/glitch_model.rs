@@ -12,8 +12,9 @@
 //!    every `[fit]` and `[[select.model]]` model on it frees them. The data gain the impulse
 //!    channel the glitches act through.
 //! 3. **Starts, and which candidates stay.** A glitch's likelihood is exactly quadratic in its
-//!    amplitude, so each candidate's start is the best of a grid in `(t0, τ)` with the
-//!    amplitude solved there and the loop's parameters profiled out ([`glitch_starts`]: the
+//!    amplitude, so each candidate's start is the best of every sample time in its window
+//!    and a grid of decay times, with the amplitude solved there and the loop's parameters
+//!    profiled out ([`glitch_starts`]: the
 //!    point the candidates are found at is pulled by the glitches); the MAP search refines
 //!    all jointly. They become `[fit] start` values. A candidate whose start gains less
 //!    `ln L` than a glitch at the detection threshold (`threshold²/2`) is left out and
@@ -21,7 +22,8 @@
 //!    fitting the first leaves the others with nothing to explain.
 //! 4. **Regions holding more than one glitch.** The detector also merges glitches whose
 //!    responses overlap into one region; in rounds, the joint MAP is found and every region
-//!    whose latest candidate was kept is scanned for one more (`further_glitches`).
+//!    whose latest candidate was kept is scanned for one more (`further_glitches`); new
+//!    candidates along a null direction of that MAP search's Fisher matrix are dropped.
 
 use crate::config::Study;
 use crate::data::dataset::Dataset;
