@@ -748,14 +748,13 @@ fn best_start(
         let Some(g) = scan.gains_and_columns() else {
             return;
         };
-        let g_inv_b = profile.as_ref().map(|(_, b)| b.as_slice());
         for n0 in n_lo..=n_hi {
-            let (b, a) = match (&profile, g_inv_b) {
-                (Some((p, _)), Some(gb)) => match p.terms(gb, g.b[n0], g.a[n0], &g.columns, n0) {
+            let (b, a) = match &profile {
+                Some((p, gb)) => match p.terms(gb, g.b[n0], g.a[n0], &g.columns, n0) {
                     Some(x) => x,
                     None => continue,
                 },
-                _ => (g.b[n0], g.a[n0]),
+                None => (g.b[n0], g.a[n0]),
             };
             if !(a > 0.0) {
                 continue;
