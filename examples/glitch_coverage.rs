@@ -11,12 +11,19 @@
 //! seconds it gates on the glitch-free data (the false alarms).
 //!
 //!   cargo run --release --example glitch_coverage -- examples/glitches.toml 100
+//!   cargo run --release --example glitch_coverage -- examples/glitches.toml 100 modelled runs/cov
 //!
 //! A third argument names the cases to run (`none,gated,modelled,free`, the default all); the
 //! others print `–`.
 //!
 //! Realisations whose MAP search fails, does not converge or ends on a prior bound are counted
 //! and reported, not dropped silently.
+//!
+//! A fourth argument names a directory that keeps each realisation's outcome as it ends
+//! (`<case>-<key>-<seed>.json`), so a run of hours can be stopped and run again: a kept outcome
+//! is read instead of fitted. The key is a hash of the study file and of this executable, so
+//! outcomes of another study or another build are never mixed in; the output says how many
+//! were read.
 
 use occam::config::GlitchCountMethod;
 use occam::config::Study;
@@ -153,6 +160,66 @@ fn realisation(base: &Study, seed: u64, truth: &[f64]) -> Outcome {
     ))
 }
 
+/// Where realisations' outcomes are kept between runs, and the key of this study and build.
+struct Cache {
+    dir: std::path::PathBuf,
+    key: String,
+    read: std::sync::atomic::AtomicUsize,
+}
+
+impl Cache {
+    fn new(dir: &str, study_path: &str) -> Cache {
+        use sha2::{Digest, Sha256};
+        let mut h = Sha256::new();
+        h.update(std::fs::read(study_path).expect("study file"));
+        let exe = std::env::current_exe().expect("this executable's path");
+        h.update(std::fs::read(&exe).expect("this executable"));
+        let key: String = h.finalize()[..8]
+            .iter()
+            .map(|b| format!("{b:02x}"))
+            .collect();
+        std::fs::create_dir_all(dir).expect("cache directory");
+        Cache {
+            dir: dir.into(),
+            key,
+            read: 0.into(),
+        }
+    }
+
+    /// The kept outcome of `case` at `seed`, or `fit`'s, kept (written whole, then renamed).
+    fn outcome(&self, case: &str, seed: u64, fit: impl FnOnce() -> Outcome) -> Outcome {
+        use serde_json::{Value, json};
+        let path = self.dir.join(format!("{case}-{}-{seed}.json", self.key));
+        let num = |v: &Value| v.as_f64().unwrap_or(f64::NAN);
+        if let Ok(text) = std::fs::read_to_string(&path) {
+            let v: Value = serde_json::from_str(&text).expect("a kept outcome");
+            self.read.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            if let Some(why) = v["err"].as_str() {
+                return Err(why.to_string());
+            }
+            let rows = v["rows"].as_array().expect("rows");
+            let rec = v["record"].as_array().expect("record");
+            let mut record = [f64::NAN; 7];
+            for (r, x) in record.iter_mut().zip(rec) {
+                *r = num(x);
+            }
+            return Ok((
+                rows.iter().map(|r| (num(&r[0]), num(&r[1]))).collect(),
+                record,
+            ));
+        }
+        let out = fit();
+        let v = match &out {
+            Ok((rows, record)) => json!({"rows": rows, "record": record}),
+            Err(why) => json!({ "err": why }),
+        };
+        let tmp = path.with_extension("part");
+        std::fs::write(&tmp, v.to_string()).expect("write a kept outcome");
+        std::fs::rename(&tmp, &path).expect("keep an outcome");
+        out
+    }
+}
+
 /// Per free parameter: (coverage, bias, pull sd), and the number of usable realisations.
 fn stats(outcomes: &[Outcome], n_par: usize) -> (Vec<[f64; 3]>, usize) {
     let good: Vec<&Vec<(f64, f64)>> = outcomes
@@ -208,6 +275,7 @@ fn main() {
     let mut clean_gated = gated.clone();
     clean_gated.simulation.glitches = None;
     let truth = reference_point(&base, base.fit_model.model);
+    let cache = args.get(4).map(|d| Cache::new(d, path));
     let t0 = Instant::now();
     let run = |case: &str, s: &Study| -> Vec<Outcome> {
         if !wanted.contains(&case) {
@@ -215,7 +283,14 @@ fn main() {
         }
         (0..n)
             .into_par_iter()
-            .map(|k| realisation(s, s.seed.wrapping_add(1000 + k), &truth))
+            .map(|k| {
+                let seed = s.seed.wrapping_add(1000 + k);
+                let fit = || realisation(s, seed, &truth);
+                match &cache {
+                    Some(c) => c.outcome(case, seed, fit),
+                    None => fit(),
+                }
+            })
             .collect()
     };
     let cases = [
@@ -239,6 +314,14 @@ fn main() {
         "{n} realisations of {path}: no treatment, gated, modelled, counted, glitch-free; {:.1} s",
         t0.elapsed().as_secs_f64()
     );
+    if let Some(c) = &cache {
+        println!(
+            "{} outcomes read from {} (key {}), the others fitted and kept there",
+            c.read.load(std::sync::atomic::Ordering::Relaxed),
+            c.dir.display(),
+            c.key
+        );
+    }
     for (label, out) in &cases {
         for o in out {
             if let Err(why) = o {

@@ -267,7 +267,10 @@ struct Rounds<'a> {
 /// its likelihood (`None` when no region holds another, or the MAP search on a model with more
 /// fails: the last model whose search converged is kept; a search that fails on a singular
 /// Fisher matrix first drops the new candidates along its null directions, [`degenerate_new`],
-/// and searches again), with the MAP of the model returned
+/// and searches again). After each search that converges, the candidates whose removal
+/// costs less than `min_gain` at its MAP go ([`weak_glitches`]) and the search runs again
+/// before any probe; a region whose open candidate went gets no further probe. Returned with
+/// the MAP of the model
 /// (the job's search then starts there); `None` when no MAP search converged.
 #[allow(clippy::type_complexity)]
 fn further_glitches(
@@ -301,24 +304,21 @@ fn further_glitches(
                     break;
                 }
                 let keep: Vec<usize> = (0..open.len()).filter(|j| !drop.contains(j)).collect();
-                let glitch = |j: usize| &theta[np + GLITCH_PARAMS * j..][..GLITCH_PARAMS];
-                theta = theta[..np]
-                    .iter()
-                    .chain(keep.iter().flat_map(|&j| glitch(j)))
-                    .copied()
-                    .collect();
-                open = keep.iter().map(|&j| open[j]).collect();
-                let list = keep.iter().map(|&j| cur.candidates[j].clone()).collect();
-                cur = with_glitches(r.study, r.models, &named(list), r.durations)?;
-                pending = Some((r.build)(&cur.study, r.dataset)?);
+                pending = Some(keep_only(r, &keep, np, &mut cur, &mut theta, &mut open)?);
                 continue;
             }
             _ => break,
         }
+        let weak = weak_glitches(pending.as_ref().unwrap_or(lik), &theta, np, r.rule.min_gain);
         match pending.take() {
             Some(l) => good = Some((Some((cur.clone(), l)), theta.clone())),
             None if good.is_none() => good = Some((None, theta.clone())),
             None => {}
+        }
+        if !weak.is_empty() {
+            let keep: Vec<usize> = (0..open.len()).filter(|j| !weak.contains(j)).collect();
+            pending = Some(keep_only(r, &keep, np, &mut cur, &mut theta, &mut open)?);
+            continue;
         }
         let in_region = |c: &GlitchCandidate| {
             cur.candidates
@@ -376,6 +376,51 @@ fn further_glitches(
         pending = Some((r.build)(&cur.study, r.dataset)?);
     }
     Ok(good)
+}
+
+/// The model of [`further_glitches`] with only the candidates `keep` (indices into
+/// `cur.candidates`, in order), their starts in `theta` and flags in `open` kept; `np` is the
+/// number of the loop's parameters. Returns its likelihood.
+fn keep_only(
+    r: &Rounds<'_>,
+    keep: &[usize],
+    np: usize,
+    cur: &mut ModelledGlitches,
+    theta: &mut Vec<f64>,
+    open: &mut Vec<bool>,
+) -> Result<Likelihood, String> {
+    let glitch = |j: usize| &theta[np + GLITCH_PARAMS * j..][..GLITCH_PARAMS];
+    *theta = theta[..np]
+        .iter()
+        .chain(keep.iter().flat_map(|&j| glitch(j)))
+        .copied()
+        .collect();
+    *open = keep.iter().map(|&j| open[j]).collect();
+    let list = keep.iter().map(|&j| cur.candidates[j].clone()).collect();
+    *cur = with_glitches(r.study, r.models, &named(list), r.durations)?;
+    (r.build)(&cur.study, r.dataset)
+}
+
+/// The glitches of `theta` (after its `np` loop parameters) whose removal, every other
+/// parameter held, costs less than `min_gain` in `ln L`: what a candidate must gain to be
+/// kept ([`KEEP_FRACTION`]). A candidate is kept on the gain of its scan, with the glitches
+/// not yet fitted still in the residual; at the joint MAP the others may explain what it
+/// took. Measured on realisation 3022 of `examples/glitches.toml`: all 10 injected glitches
+/// were matched by 11 of 23 candidates; the 12 others, kept on scanned gains of 71–2463,
+/// cost 0.0–3.7 each at the MAP, all with decays on the prior's lower bound, and removing
+/// all 12 moved no loop parameter's pull by more than 0.1 while halving the dimension.
+fn weak_glitches(lik: &Likelihood, theta: &[f64], np: usize, min_gain: f64) -> Vec<usize> {
+    use rayon::prelude::*;
+    let full = lik.ln_likelihood(theta);
+    let n = (theta.len() - np) / GLITCH_PARAMS;
+    let cost = |j: usize| {
+        let mut th = theta.to_vec();
+        // the amplitude is the glitch's last parameter
+        th[np + GLITCH_PARAMS * j + GLITCH_PARAMS - 1] = 0.0;
+        full - lik.ln_likelihood(&th)
+    };
+    let costs: Vec<f64> = (0..n).into_par_iter().map(cost).collect();
+    (0..n).filter(|&j| costs[j] < min_gain).collect()
 }
 
 /// The candidates added in the last round (`open`) to drop when the MAP search of the model
@@ -867,21 +912,11 @@ pub fn glitch_model_notes(
 mod tests {
     use super::*;
 
-    /// A glitch scanned from a point where the loop's parameters are pulled far off (as by
-    /// glitches not yet fitted) is found where it is found from the truth once the loop is
-    /// profiled ([`Profile`]), and the profiled gain is what the joint fit of the amplitude and
-    /// the loop gains (measured: 0.4 of 10 795). Table I's study with one 1.5e−13 m s⁻², 150 s
-    /// glitch in `inv1`; the point is the truth moved by `PULL` Cramér–Rao σ in `w1sq` and
-    /// `−PULL` in `w2sq`. The plain scan's gain there is 82 short of the joint fit's, so the
-    /// last check fails without the profile; its start is still right at this seed (a lone
-    /// glitch's template is broadband, the mis-fit of the injections narrowband): the start
-    /// the plain scan got wrong was measured on realisation 3036 of `examples/glitches.toml`
-    /// ([`Profile`]), whose `prepare` takes minutes.
-    #[test]
-    fn a_profiled_scan_finds_a_glitch_from_a_pulled_point() {
-        use crate::jobs::prepare::{likelihood_of, load_data, reference_point};
-        use crate::likelihood::{cramer_rao, fisher_exact};
-        const PULL: f64 = 100.0;
+    /// Table I's study with one 1.5e−13 m s⁻², 150 s glitch injected in `inv1` (seed 7), the
+    /// data with the glitch channel, each experiment's duration, the glitch's start and its
+    /// Δg (signed).
+    fn one_glitch() -> (Study, Dataset, Vec<(String, f64)>, f64, f64) {
+        use crate::jobs::prepare::load_data;
         let text = format!(
             "{}{}",
             include_str!("../../examples/tn3045.toml"),
@@ -906,14 +941,75 @@ mod tests {
             durations.push((e.name.clone(), e.n_samples() as f64 / e.fs));
             e.set_channel(GLITCH_CHANNEL, impulse);
         }
-        let region = [t_in - 600.0, t_in + 1500.0];
-        let c = GlitchCandidate {
+        (study, data, durations, t_in, dg)
+    }
+
+    /// A candidate in `inv1` whose region is `region`.
+    fn candidate(region: [f64; 2], duration: f64) -> GlitchCandidate {
+        GlitchCandidate {
             name: String::new(),
             experiment: "inv1".into(),
             region,
-            t0: t0_window(region, durations[0].1),
+            t0: t0_window(region, duration),
             gain: 0.0,
+        }
+    }
+
+    /// At a point where one candidate carries the injected glitch, one explains nothing and a
+    /// third shares the injected glitch with the first, only the one that explains nothing is
+    /// weak: a candidate's cost is taken with the others held, so two that share a glitch each
+    /// cost about a quarter of its gain. A threshold above every cost makes all weak.
+    #[test]
+    fn weak_glitches_are_those_whose_removal_costs_less_than_the_keep_threshold() {
+        use crate::jobs::prepare::{likelihood_of, reference_point};
+        let (study, data, durations, t_in, dg) = one_glitch();
+        let duration = durations[0].1;
+        let near = [t_in - 600.0, t_in + 1500.0];
+        let far = if t_in > 0.5 * duration {
+            [200.0, 2300.0]
+        } else {
+            [duration - 2300.0, duration - 200.0]
         };
+        let cands = [near, far, near].map(|r| candidate(r, duration)).to_vec();
+        let mi = study.fit_model.model;
+        let all = with_glitches(&study, &[mi], &named(cands), &durations).unwrap();
+        let lik = likelihood_of(&all.study, mi, &data).unwrap();
+        let mut theta = reference_point(&study, mi);
+        let np = theta.len();
+        theta.extend([
+            t_in,
+            150.0,
+            0.5 * dg,
+            far[0] + 700.0,
+            10.0,
+            1e-16,
+            t_in,
+            150.0,
+            0.5 * dg,
+        ]);
+        let min_gain = 0.5 * DEFAULT_GLITCH_THRESHOLD * DEFAULT_GLITCH_THRESHOLD;
+        assert_eq!(weak_glitches(&lik, &theta, np, min_gain), vec![1]);
+        assert_eq!(weak_glitches(&lik, &theta, np, 1e9), vec![0, 1, 2]);
+        assert!(weak_glitches(&lik, &theta[..np + 3], np, min_gain).is_empty());
+    }
+
+    /// A glitch scanned from a point where the loop's parameters are pulled far off (as by
+    /// glitches not yet fitted) is found where it is found from the truth once the loop is
+    /// profiled ([`Profile`]), and the profiled gain is what the joint fit of the amplitude and
+    /// the loop gains (measured: 0.4 of 10 795). Table I's study with one 1.5e−13 m s⁻², 150 s
+    /// glitch in `inv1`; the point is the truth moved by `PULL` Cramér–Rao σ in `w1sq` and
+    /// `−PULL` in `w2sq`. The plain scan's gain there is 82 short of the joint fit's, so the
+    /// last check fails without the profile; its start is still right at this seed (a lone
+    /// glitch's template is broadband, the mis-fit of the injections narrowband): the start
+    /// the plain scan got wrong was measured on realisation 3036 of `examples/glitches.toml`
+    /// ([`Profile`]), whose `prepare` takes minutes.
+    #[test]
+    fn a_profiled_scan_finds_a_glitch_from_a_pulled_point() {
+        use crate::jobs::prepare::{likelihood_of, reference_point};
+        use crate::likelihood::{cramer_rao, fisher_exact};
+        const PULL: f64 = 100.0;
+        let (study, data, durations, t_in, dg) = one_glitch();
+        let c = candidate([t_in - 600.0, t_in + 1500.0], durations[0].1);
         let mi = study.fit_model.model;
         let free = study.fit_model.free.clone();
         let all = with_glitches(&study, &[mi], &named(vec![c]), &durations).unwrap();
