@@ -23,7 +23,9 @@
 //! 4. **Regions holding more than one glitch.** The detector also merges glitches whose
 //!    responses overlap into one region; in rounds, the joint MAP is found and every region
 //!    whose latest candidate was kept is scanned for one more (`further_glitches`); new
-//!    candidates along a null direction of that MAP search's Fisher matrix are dropped.
+//!    candidates along a null direction of that MAP search's Fisher matrix are dropped, and
+//!    at each round's MAP a candidate whose removal costs less than the keep threshold is
+//!    left out (the others may explain what its scan took).
 
 use crate::config::Study;
 use crate::data::dataset::Dataset;
@@ -61,7 +63,8 @@ pub struct ModelledGlitches {
     pub study: Study,
     /// The glitches the models carry.
     pub candidates: Vec<GlitchCandidate>,
-    /// The candidates left out: their best start gained too little ([`KEEP_FRACTION`]).
+    /// The candidates left out: their best start gained too little, or their removal at a
+    /// round's MAP cost too little ([`KEEP_FRACTION`]); `gain` is that gain or cost.
     pub dropped: Vec<GlitchCandidate>,
 }
 
@@ -214,7 +217,7 @@ pub fn model_glitches(
             None => {}
         }
     }
-    out.dropped = dropped;
+    out.dropped = dropped.into_iter().chain(out.dropped).collect();
     let names = lik.model().param_names();
     let start = out.study.fit.start.get_or_insert_with(Default::default);
     for (k, (n, v)) in names.iter().zip(&theta).enumerate() {
@@ -285,6 +288,8 @@ fn further_glitches(
     // MAP search converged
     let mut pending: Option<Likelihood> = None;
     let mut good = None;
+    // the candidates whose removal cost too little at a MAP, with that cost
+    let mut pruned: Vec<GlitchCandidate> = Vec::new();
     loop {
         let here = pending.as_ref().unwrap_or(lik);
         let np = theta.len() - GLITCH_PARAMS * cur.candidates.len();
@@ -311,12 +316,24 @@ fn further_glitches(
         }
         let weak = weak_glitches(pending.as_ref().unwrap_or(lik), &theta, np, r.rule.min_gain);
         match pending.take() {
-            Some(l) => good = Some((Some((cur.clone(), l)), theta.clone())),
+            Some(l) => {
+                let model = ModelledGlitches {
+                    dropped: pruned.clone(),
+                    ..cur.clone()
+                };
+                good = Some((Some((model, l)), theta.clone()));
+            }
             None if good.is_none() => good = Some((None, theta.clone())),
             None => {}
         }
         if !weak.is_empty() {
-            let keep: Vec<usize> = (0..open.len()).filter(|j| !weak.contains(j)).collect();
+            pruned.extend(weak.iter().map(|&(j, cost)| GlitchCandidate {
+                gain: cost,
+                ..cur.candidates[j].clone()
+            }));
+            let keep: Vec<usize> = (0..open.len())
+                .filter(|j| weak.iter().all(|w| w.0 != *j))
+                .collect();
             pending = Some(keep_only(r, &keep, np, &mut cur, &mut theta, &mut open)?);
             continue;
         }
@@ -409,7 +426,8 @@ fn keep_only(
 /// were matched by 11 of 23 candidates; the 12 others, kept on scanned gains of 71–2463,
 /// cost 0.0–3.7 each at the MAP, all with decays on the prior's lower bound, and removing
 /// all 12 moved no loop parameter's pull by more than 0.1 while halving the dimension.
-fn weak_glitches(lik: &Likelihood, theta: &[f64], np: usize, min_gain: f64) -> Vec<usize> {
+/// Returns each such glitch's index and cost.
+fn weak_glitches(lik: &Likelihood, theta: &[f64], np: usize, min_gain: f64) -> Vec<(usize, f64)> {
     use rayon::prelude::*;
     let full = lik.ln_likelihood(theta);
     let n = (theta.len() - np) / GLITCH_PARAMS;
@@ -420,7 +438,11 @@ fn weak_glitches(lik: &Likelihood, theta: &[f64], np: usize, min_gain: f64) -> V
         full - lik.ln_likelihood(&th)
     };
     let costs: Vec<f64> = (0..n).into_par_iter().map(cost).collect();
-    (0..n).filter(|&j| costs[j] < min_gain).collect()
+    costs
+        .into_iter()
+        .enumerate()
+        .filter(|(_, c)| *c < min_gain)
+        .collect()
 }
 
 /// The candidates added in the last round (`open`) to drop when the MAP search of the model
@@ -892,7 +914,7 @@ pub fn glitch_model_notes(
         }
         if !left.is_empty() {
             line += &format!(
-                "; {} candidate(s) left out, their best glitch gaining less ln L than one at the detection threshold: {}",
+                "; {} candidate(s) left out, their best glitch gaining (or, at the joint MAP, its removal costing) less ln L than one at the detection threshold: {}",
                 left.len(),
                 left.join("; ")
             );
@@ -988,9 +1010,20 @@ mod tests {
             0.5 * dg,
         ]);
         let min_gain = 0.5 * DEFAULT_GLITCH_THRESHOLD * DEFAULT_GLITCH_THRESHOLD;
-        assert_eq!(weak_glitches(&lik, &theta, np, min_gain), vec![1]);
-        assert_eq!(weak_glitches(&lik, &theta, np, 1e9), vec![0, 1, 2]);
-        assert!(weak_glitches(&lik, &theta[..np + 3], np, min_gain).is_empty());
+        let weak = |th: &[f64], g: f64| -> Vec<usize> {
+            weak_glitches(&lik, th, np, g).iter().map(|w| w.0).collect()
+        };
+        assert_eq!(weak(&theta, min_gain), vec![1]);
+        assert_eq!(weak(&theta, 1e9), vec![0, 1, 2]);
+        assert!(weak(&theta[..np + 3], min_gain).is_empty());
+        // the cost is the ln L the glitch's removal loses, the others held
+        let cost = weak_glitches(&lik, &theta, np, 1e9)[0].1;
+        let mut without = theta.clone();
+        without[np + 2] = 0.0;
+        assert_eq!(
+            cost,
+            lik.ln_likelihood(&theta) - lik.ln_likelihood(&without)
+        );
     }
 
     /// A glitch scanned from a point where the loop's parameters are pulled far off (as by
