@@ -272,7 +272,11 @@ struct Rounds<'a> {
 /// Fisher matrix first drops the new candidates along its null directions, [`degenerate_new`],
 /// and searches again). After each search that converges, the candidates whose removal
 /// costs less than `min_gain` at its MAP go ([`weak_glitches`]) and the search runs again
-/// before any probe; a region whose open candidate went gets no further probe. Returned with
+/// before any probe; a region whose open candidate went gets no further probe. A search on
+/// a model with more that does not converge does the same where it ended, and runs again
+/// from there (realisation 3027: a round's 18-glitch search rose 13 534 in `ln L` above the
+/// last converged model's and did not converge in [`MAP_ITERATIONS`]); with none to prune
+/// the rounds end. Returned with
 /// the MAP of the model
 /// (the job's search then starts there); `None` when no MAP search converged.
 #[allow(clippy::type_complexity)]
@@ -302,6 +306,25 @@ fn further_glitches(
             MAP_ITERATIONS,
         ) {
             Ok(map) if map.converged => theta = map.theta,
+            Ok(map) if pending.is_some() => {
+                // not converged: the candidates that cost too little where it ended go, and
+                // the search runs again from there
+                let weak = weak_glitches(here, &map.theta, np, r.rule.min_gain);
+                if weak.is_empty() || weak.len() == cur.candidates.len() {
+                    break;
+                }
+                theta = map.theta;
+                pending = Some(prune(
+                    r,
+                    &weak,
+                    np,
+                    &mut cur,
+                    &mut theta,
+                    &mut open,
+                    &mut pruned,
+                )?);
+                continue;
+            }
             Err(MapError::Singular { unconstrained, .. }) if pending.is_some() => {
                 let drop = degenerate_new(&unconstrained, &cur.candidates, &open);
                 if drop.is_empty() || drop.len() == open.iter().filter(|o| **o).count() {
@@ -327,14 +350,15 @@ fn further_glitches(
             None => {}
         }
         if !weak.is_empty() {
-            pruned.extend(weak.iter().map(|&(j, cost)| GlitchCandidate {
-                gain: cost,
-                ..cur.candidates[j].clone()
-            }));
-            let keep: Vec<usize> = (0..open.len())
-                .filter(|j| weak.iter().all(|w| w.0 != *j))
-                .collect();
-            pending = Some(keep_only(r, &keep, np, &mut cur, &mut theta, &mut open)?);
+            pending = Some(prune(
+                r,
+                &weak,
+                np,
+                &mut cur,
+                &mut theta,
+                &mut open,
+                &mut pruned,
+            )?);
             continue;
         }
         let in_region = |c: &GlitchCandidate| {
@@ -416,6 +440,27 @@ fn keep_only(
     let list = keep.iter().map(|&j| cur.candidates[j].clone()).collect();
     *cur = with_glitches(r.study, r.models, &named(list), r.durations)?;
     (r.build)(&cur.study, r.dataset)
+}
+
+/// [`keep_only`] without the `weak` candidates (index, cost), which join `pruned` with their
+/// cost as `gain`.
+fn prune(
+    r: &Rounds<'_>,
+    weak: &[(usize, f64)],
+    np: usize,
+    cur: &mut ModelledGlitches,
+    theta: &mut Vec<f64>,
+    open: &mut Vec<bool>,
+    pruned: &mut Vec<GlitchCandidate>,
+) -> Result<Likelihood, String> {
+    pruned.extend(weak.iter().map(|&(j, cost)| GlitchCandidate {
+        gain: cost,
+        ..cur.candidates[j].clone()
+    }));
+    let keep: Vec<usize> = (0..open.len())
+        .filter(|j| weak.iter().all(|w| w.0 != *j))
+        .collect();
+    keep_only(r, &keep, np, cur, theta, open)
 }
 
 /// The glitches of `theta` (after its `np` loop parameters) whose removal, every other
