@@ -276,9 +276,8 @@ struct Rounds<'a> {
 /// a model with more that does not converge does the same where it ended, and runs again
 /// from there (realisation 3027: a round's 18-glitch search rose 13 534 in `ln L` above the
 /// last converged model's and did not converge in [`MAP_ITERATIONS`]); with none to prune
-/// the rounds end. Returned with
-/// the MAP of the model
-/// (the job's search then starts there); `None` when no MAP search converged.
+/// the rounds end. Returned with the MAP of the model (the job's search then starts there);
+/// `None` when no MAP search converged.
 #[allow(clippy::type_complexity)]
 fn further_glitches(
     r: &Rounds<'_>,
