@@ -297,32 +297,22 @@ fn further_glitches(
         let here = pending.as_ref().unwrap_or(lik);
         let np = theta.len() - GLITCH_PARAMS * cur.candidates.len();
         let free: Vec<usize> = r.free.iter().copied().chain(np..theta.len()).collect();
-        match fisher_scoring(
+        let converged = match fisher_scoring(
             here,
             &theta,
             &free,
             map_tolerance(here.model().as_ref()),
             MAP_ITERATIONS,
         ) {
-            Ok(map) if map.converged => theta = map.theta,
-            Ok(map) if pending.is_some() => {
-                // not converged: the candidates that cost too little where it ended go, and
-                // the search runs again from there
-                let weak = weak_glitches(here, &map.theta, np, r.rule.min_gain);
-                if weak.is_empty() || weak.len() == cur.candidates.len() {
-                    break;
-                }
+            Ok(map) if map.converged => {
                 theta = map.theta;
-                pending = Some(prune(
-                    r,
-                    &weak,
-                    np,
-                    &mut cur,
-                    &mut theta,
-                    &mut open,
-                    &mut pruned,
-                )?);
-                continue;
+                true
+            }
+            // not converged on a model with more: the candidates that cost too little where it
+            // ended go (below), and the search runs again from there
+            Ok(map) if pending.is_some() => {
+                theta = map.theta;
+                false
             }
             Err(MapError::Singular { unconstrained, .. }) if pending.is_some() => {
                 let drop = degenerate_new(&unconstrained, &cur.candidates, &open);
@@ -335,18 +325,22 @@ fn further_glitches(
                 continue;
             }
             _ => break,
-        }
+        };
         let weak = weak_glitches(pending.as_ref().unwrap_or(lik), &theta, np, r.rule.min_gain);
-        match pending.take() {
-            Some(l) => {
-                let model = ModelledGlitches {
-                    dropped: pruned.clone(),
-                    ..cur.clone()
-                };
-                good = Some((Some((model, l)), theta.clone()));
+        if converged {
+            match pending.take() {
+                Some(l) => {
+                    let model = ModelledGlitches {
+                        dropped: pruned.clone(),
+                        ..cur.clone()
+                    };
+                    good = Some((Some((model, l)), theta.clone()));
+                }
+                None if good.is_none() => good = Some((None, theta.clone())),
+                None => {}
             }
-            None if good.is_none() => good = Some((None, theta.clone())),
-            None => {}
+        } else if weak.is_empty() || weak.len() == cur.candidates.len() {
+            break;
         }
         if !weak.is_empty() {
             pending = Some(prune(
