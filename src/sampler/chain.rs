@@ -7,6 +7,7 @@ use serde::{Deserialize, Serialize};
 use super::adapt::AdaptState;
 use super::chains::{BestPoint, Chain, ChainCounts};
 use super::error::SamplerError;
+use super::independence::Independence;
 use super::proposal::{GaussianProposal, Proposal};
 use super::settings::{MhSettings, Start};
 use crate::density::LogDensity;
@@ -58,6 +59,10 @@ pub(crate) struct ChainState {
     ln_like: f64,
     counts: ChainCounts,
     proposal: GaussianProposal,
+    /// Drawn from instead of `proposal` in a share of the iterations. Absent from
+    /// checkpoints of older versions (which had none).
+    #[serde(default)]
+    pub(crate) independence: Option<Independence>,
     adapt: Option<AdaptState>,
     #[serde(with = "super::bits::vec")]
     samples: Vec<f64>,
@@ -118,6 +123,7 @@ impl ChainState {
         target: &D,
         settings: &MhSettings,
         proposal: &GaussianProposal,
+        independence: Option<&Independence>,
         start: &Start,
     ) -> Result<Self, SamplerError> {
         let err = |problem: String| SamplerError::Start {
@@ -208,6 +214,7 @@ impl ChainState {
             ln_like,
             counts: ChainCounts::default(),
             proposal,
+            independence: independence.cloned(),
             adapt: settings.adapt.as_ref().map(|_| AdaptState::new(dim)),
             samples: Vec::new(),
             kept_ln_post: Vec::new(),
@@ -225,6 +232,9 @@ impl ChainState {
     pub(crate) fn prepare(&mut self, settings: &MhSettings) {
         let d = self.x.len();
         self.proposal.prepare();
+        if let Some(q) = &mut self.independence {
+            q.prepare();
+        }
         if let Some(a) = &mut self.adapt {
             a.prepare();
         }
@@ -328,23 +338,45 @@ impl ChainState {
                 Some(a) => (a.beta(n), a.step_scale(n)),
                 None => (1.0, 1.0),
             };
-            let ln_hastings = self
-                .proposal
-                .propose(&self.x, scale, &mut self.rng, &mut self.x_new);
-            let phase = if n <= settings.burn_in {
-                &mut self.counts.burn_in
-            } else {
+            // the kernel is chosen independently of the state, so each keeps the target
+            // invariant on its own and so does the mixture
+            let (ln_hastings, independent) = match &mut self.independence {
+                Some(q) if self.rng.random::<f64>() < q.share() => (
+                    q.proposal()
+                        .propose(&self.x, scale, &mut self.rng, &mut self.x_new),
+                    true,
+                ),
+                _ => (
+                    self.proposal
+                        .propose(&self.x, scale, &mut self.rng, &mut self.x_new),
+                    false,
+                ),
+            };
+            let sampling = n > settings.burn_in;
+            let phase = if sampling {
                 &mut self.counts.sampling
+            } else {
+                &mut self.counts.burn_in
             };
             phase.proposed += 1;
+            let counts_independent = independent && sampling;
+            if counts_independent {
+                self.counts.independent.proposed += 1;
+            }
             let mut accepted = false;
             let lp = prior.ln_pdf(&self.x_new);
             if lp == f64::NEG_INFINITY {
                 phase.prior_rejected += 1;
+                if counts_independent {
+                    self.counts.independent.prior_rejected += 1;
+                }
             } else {
                 let ll = target.ln_likelihood(&self.x_new);
                 if !ll.is_finite() {
                     phase.non_finite += 1;
+                    if counts_independent {
+                        self.counts.independent.non_finite += 1;
+                    }
                 } else {
                     let post = lp + ll;
                     if post > self.best_ln_post {
@@ -357,6 +389,9 @@ impl ChainState {
                     if ln_alpha >= 0.0 || u.ln() < ln_alpha {
                         accepted = true;
                         phase.accepted += 1;
+                        if counts_independent {
+                            self.counts.independent.accepted += 1;
+                        }
                         self.x.copy_from_slice(&self.x_new);
                         self.ln_post = post;
                         self.ln_like = ll;

@@ -37,6 +37,10 @@ pub struct ChainCounts {
     pub burn_in: PhaseCounts,
     /// Iterations `n > burn_in`.
     pub sampling: PhaseCounts,
+    /// Of `sampling`, the iterations that drew from the independence proposal
+    /// ([`super::MetropolisHastings::independence`]; zero without one).
+    #[serde(default)]
+    pub independent: PhaseCounts,
 }
 
 /// A point with its log densities.

@@ -655,6 +655,7 @@ mod tests {
                         accepted,
                         ..Default::default()
                     },
+                    ..Default::default()
                 },
                 best: BestPoint {
                     theta: vec![a[0], b[0]],

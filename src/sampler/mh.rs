@@ -11,6 +11,7 @@ use super::chains::Chains;
 use super::checkpoint::{self, CheckpointRef};
 use super::driver::{Driver, Ended, Sampler};
 use super::error::SamplerError;
+use super::independence::Independence;
 use super::proposal::{GaussianProposal, Proposal};
 use super::settings::{MhSettings, Start};
 use crate::density::LogDensity;
@@ -93,6 +94,7 @@ pub struct MetropolisHastings<'a, D: LogDensity> {
     target: &'a D,
     settings: MhSettings,
     proposal: GaussianProposal,
+    independence: Option<Independence>,
     observer: Option<&'a (dyn Fn(&Progress) + Sync)>,
     checkpoint: Option<PathBuf>,
     /// Save at most this often (wall-clock); zero: after every block.
@@ -132,12 +134,31 @@ impl<'a, D: LogDensity> MetropolisHastings<'a, D> {
             target,
             settings,
             proposal,
+            independence: None,
             observer: None,
             checkpoint: None,
             save_every: std::time::Duration::ZERO,
             identity: String::new(),
             stop: None,
         })
+    }
+
+    /// Mixes an independence kernel into the random walk ([`Independence`]): each iteration
+    /// draws from it with probability `share`, from the random walk otherwise. Its dimension
+    /// must be the target's.
+    pub fn independence(mut self, q: Independence) -> Result<Self, SamplerError> {
+        let mut q = q;
+        if q.proposal().dim() != self.target.dim() {
+            return Err(SamplerError::Covariance {
+                problem: format!(
+                    "the independence proposal has {} parameters but the target has {}",
+                    q.proposal().dim(),
+                    self.target.dim()
+                ),
+            });
+        }
+        self.independence = Some(q);
+        Ok(self)
     }
 
     /// Progress observer, called from the worker threads every `progress_every` iterations
@@ -198,7 +219,16 @@ impl<'a, D: LogDensity> MetropolisHastings<'a, D> {
             });
         }
         let states = (0..self.settings.n_chains)
-            .map(|c| ChainState::new(c, self.target, &self.settings, &self.proposal, start))
+            .map(|c| {
+                ChainState::new(
+                    c,
+                    self.target,
+                    &self.settings,
+                    &self.proposal,
+                    self.independence.as_ref(),
+                    start,
+                )
+            })
             .collect::<Result<Vec<_>, _>>()?;
         self.drive(states)
     }
@@ -210,6 +240,18 @@ impl<'a, D: LogDensity> MetropolisHastings<'a, D> {
         let path = path.as_ref();
         let ckpt = checkpoint::read(path, (!self.identity.is_empty()).then_some(&*self.identity))?;
         ckpt.verify(path, self.target, &self.settings, &self.proposal)?;
+        if let Some(c) = ckpt
+            .chains
+            .iter()
+            .find(|c| c.independence != self.independence)
+        {
+            return Err(SamplerError::CheckpointMismatch {
+                path: path.to_path_buf(),
+                field: "independence proposal",
+                in_checkpoint: describe(c.independence.as_ref()),
+                in_run: describe(self.independence.as_ref()),
+            });
+        }
         self.drive(ckpt.chains)
     }
 
@@ -254,6 +296,13 @@ impl<'a, D: LogDensity> MetropolisHastings<'a, D> {
         )?;
         Ok(RunOutcome::Finished(chains))
     }
+}
+
+fn describe(q: Option<&Independence>) -> String {
+    q.map_or_else(
+        || "none".into(),
+        |q| format!("share {} of a Student-t around the MAP", q.share()),
+    )
 }
 
 /// The chains of a run as the [`Driver`] advances them: in parallel, each on its own stream.

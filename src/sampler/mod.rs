@@ -8,6 +8,7 @@
 //! |---|---|
 //! | `settings` | [`MhSettings`], [`Anneal`], [`Adapt`], [`Start`] and their validation |
 //! | `proposal` | [`Proposal`] trait, [`GaussianProposal`] (Cholesky-factored once) |
+//! | `independence` | [`StudentProposal`], the independence kernel mixed into the walk ([`Independence`]) |
 //! | `anneal` | LTPDA's heat schedule β(n) and search-jump scales (ltp-model.md §9.1) |
 //! | `adapt` | Haario-style covariance adaptation, burn-in only |
 //! | `chain` | one chain's state and the allocation-free hot loop; per-chain RNG streams |
@@ -38,6 +39,7 @@ pub use checkpoint::{KIND as CHECKPOINT_KIND, progress as checkpoint_progress};
 mod diagnostics;
 mod driver;
 mod error;
+mod independence;
 mod mh;
 mod optimize;
 mod proposal;
@@ -57,6 +59,7 @@ pub use chains::{BestPoint, Chain, ChainCounts, Chains, MaxPosterior, PhaseCount
 pub use diagnostics::{Diagnostics, Thresholds, Warning, ess, split_rhat};
 pub use driver::{Driver, Ended, Sampler};
 pub use error::SamplerError;
+pub use independence::{DEFAULT_DOF, Independence, StudentProposal};
 pub use mh::{MetropolisHastings, RunOutcome};
 pub use optimize::{MapEstimate, Minimum, NelderMeadSettings, find_map, nelder_mead};
 pub use proposal::{GaussianProposal, Proposal, cap_to_prior};
