@@ -147,3 +147,63 @@ fn a_posterior_wider_than_its_prior_box_is_still_sampled() {
     let box_sd = 2e-8 / 12f64.sqrt();
     assert!((sd / box_sd - 1.0).abs() < 0.2, "sd {sd}, box {box_sd}");
 }
+
+/// `[fit] independence`: with 80 % of the iterations drawn from the Laplace approximation the
+/// chains sample the posterior the random walk does — every parameter's mean within 4
+/// combined Monte-Carlo errors, its sd within 4 errors of the sd's (measured: the independence
+/// draws accepted as if their ratio were 1 fail it) — with more ESS for the same iterations, and `summary.json` and the terminal say how many were accepted.
+#[test]
+fn independence_draws_sample_the_walk_s_posterior() {
+    let run = |extra: &str| {
+        let dir = tempfile::tempdir().unwrap();
+        let study = small().replace("burn_in = 1000\n", &format!("burn_in = 1000\n{extra}"));
+        std::fs::write(dir.path().join("s.toml"), study).unwrap();
+        let (ok, stdout, stderr) = occam(&["fit", "s.toml"], dir.path());
+        assert!(ok, "{stderr}");
+        let s: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(dir.path().join("out/fit/summary.json")).unwrap(),
+        )
+        .unwrap();
+        (s, stdout)
+    };
+    let (walk, _) = run("");
+    let (mixed, stdout) = run("independence = 0.8\n");
+    assert!(walk.get("independence").is_none());
+    let q = &mixed["independence"];
+    let (proposed, accepted) = (
+        q["proposed"].as_u64().unwrap(),
+        q["accepted"].as_u64().unwrap(),
+    );
+    // 0.8 of 2 × 2000 sampling iterations: 3200 ± 25
+    assert!((proposed as f64 - 3200.0).abs() < 150.0, "{proposed}");
+    assert!(
+        accepted as f64 > 0.3 * proposed as f64,
+        "{accepted} of {proposed}"
+    );
+    assert!(
+        stdout.contains("80 % of the iterations drew from the Laplace approximation"),
+        "{stdout}"
+    );
+    let rows = |s: &serde_json::Value| s["rows"].as_array().unwrap().clone();
+    for (a, b) in rows(&walk).iter().zip(&rows(&mixed)) {
+        let f = |r: &serde_json::Value, k: &str| r[k].as_f64().unwrap();
+        let (sa, sb) = (f(a, "sd"), f(b, "sd"));
+        let (ea, eb) = (f(a, "ess"), f(b, "ess"));
+        let se_mean = (sa * sa / ea + sb * sb / eb).sqrt();
+        assert!(
+            (f(a, "mean") - f(b, "mean")).abs() < 4.0 * se_mean,
+            "{}: means {} and {} (se {se_mean})",
+            a["name"],
+            f(a, "mean"),
+            f(b, "mean")
+        );
+        // the relative error of an sd from n effective draws is 1/√(2n)
+        let se_ratio = (1.0 / (2.0 * ea) + 1.0 / (2.0 * eb)).sqrt();
+        assert!(
+            (sb / sa - 1.0).abs() < 4.0 * se_ratio,
+            "{}: sds {sa} and {sb} (se of the ratio {se_ratio})",
+            a["name"]
+        );
+        assert!(eb > 2.0 * ea, "{}: ESS {eb} mixed, {ea} walk", a["name"]);
+    }
+}

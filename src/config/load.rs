@@ -1185,6 +1185,14 @@ fn validate_fit(f: &FitOptions, models: &ModelSet, file: &str) -> Result<(), Con
             "must be ≥ 1 iteration between checkpoints".into(),
         ));
     }
+    if let Some(s) = f.independence
+        && !(0.0..=1.0).contains(&s)
+    {
+        return Err(bad(
+            "independence",
+            format!("must be a share in [0, 1] of the iterations (got {s})"),
+        ));
+    }
     if !finite_pos(f.proposal_scale) {
         return Err(bad(
             "proposal_scale",

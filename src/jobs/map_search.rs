@@ -23,10 +23,7 @@ pub fn map_search(
         theta: start.to_vec(),
     }];
     let model = exact.model();
-    let glitches = model
-        .data_channels()
-        .iter()
-        .any(|c| c == crate::model::GLITCH_CHANNEL);
+    let glitches = crate::model::glitch::carries_glitches(model.as_ref());
     let vary: Vec<usize> = if glitches {
         let names = model.param_names();
         free.iter()

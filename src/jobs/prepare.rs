@@ -574,11 +574,7 @@ pub fn sampled_kind(
         return (crate::config::LikelihoodKind::Exact, Some(why));
     }
     if kind == crate::config::LikelihoodKind::Relbin
-        && exact
-            .model()
-            .data_channels()
-            .iter()
-            .any(|c| c == crate::model::GLITCH_CHANNEL)
+        && crate::model::glitch::carries_glitches(exact.model().as_ref())
     {
         // each coarse edge's coefficient needs the glitches' causal response over the whole
         // record, which is the exact kernel's cost already: binning would only add its

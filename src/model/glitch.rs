@@ -46,6 +46,11 @@ pub const GLITCH_CHANNEL: &str = "glitch_impulse";
 /// Parameters per glitch (`t0`, `tau`, `a`).
 pub const GLITCH_PARAMS: usize = 3;
 
+/// Whether `model` carries modelled glitches (reads [`GLITCH_CHANNEL`]).
+pub fn carries_glitches(model: &dyn Model) -> bool {
+    model.data_channels().iter().any(|c| c == GLITCH_CHANNEL)
+}
+
 /// Whether `name` is a glitch's parameter (`g<j>_t0`, `g<j>_tau`, `g<j>_a`).
 pub fn is_glitch_param(name: &str) -> bool {
     glitch_of(name).is_some()

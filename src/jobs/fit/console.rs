@@ -39,6 +39,15 @@ pub fn console(s: &FitSummary, study: &Study) -> Vec<String> {
             .map(|a| (a * 100.0).round() / 100.0)
             .collect::<Vec<_>>()
     ));
+    if let Some(q) = &s.independence {
+        out.push(format!(
+            "  {:.0} % of the iterations drew from the Laplace approximation at the MAP; {:.0} % of those after the burn-in were accepted ({} of {})",
+            100.0 * q.share,
+            100.0 * q.accepted as f64 / q.proposed.max(1) as f64,
+            q.accepted,
+            q.proposed
+        ));
+    }
     if let Some(g) = &s.glitch_count {
         out.extend(g.describe());
         out.push("loop parameters marginalised over the number of glitches:".into());

@@ -37,6 +37,7 @@ mod tests {
             rho_opt_at_map: f64::NAN,
             map_ln_posterior: -1.0,
             map_iterations: 1,
+            independence: None,
             rows,
             acceptance: vec![0.0],
             non_finite: vec![0],

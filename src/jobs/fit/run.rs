@@ -1,7 +1,9 @@
 //! The fit pipeline: MAP, Fisher matrix, Cramér–Rao bounds and the Metropolis–Hastings chains,
 //! checkpointed and resumable.
 
-use super::summary::{FitError, FitOutcome, FitSummary, ParamRow, non_finite_warnings};
+use super::summary::{
+    FitError, FitOutcome, FitSummary, IndependenceCounts, ParamRow, non_finite_warnings,
+};
 use crate::config::{LikelihoodKind, Study};
 use crate::density::LogDensity;
 use crate::jobs::prepare::{
@@ -13,7 +15,8 @@ use crate::linalg::SpdOptions;
 use crate::model::map_tolerance;
 use crate::nested::SubModel;
 use crate::sampler::{
-    Adapt, Chains, MetropolisHastings, MhSettings, Progress, RunOutcome, Start, chain_starts,
+    Adapt, Chains, DEFAULT_DOF, Independence, MetropolisHastings, MhSettings, Progress, RunOutcome,
+    Start, StudentProposal, chain_starts,
 };
 use nalgebra::DMatrix;
 use std::path::Path;
@@ -121,7 +124,14 @@ pub fn run(
         resume,
         identity: &identity,
     };
-    let around = (&map.theta[..], &walk, &cov);
+    let independence = f.independence.unwrap_or(
+        if crate::model::glitch::carries_glitches(exact.model().as_ref()) {
+            crate::config::DEFAULT_GLITCH_INDEPENDENCE
+        } else {
+            0.0
+        },
+    );
+    let around = (&map.theta[..], &walk, &cov, independence);
     let (chains, n_coarse) = match kind {
         LikelihoodKind::Exact => (
             sample(exact, model, around, settings, &ckpt, (observer, stop))?,
@@ -264,6 +274,14 @@ pub fn run(
         map_iterations: map.iterations,
         rows,
         acceptance: diag.acceptance.clone(),
+        independence: (independence > 0.0).then(|| {
+            let counts = chains.chains().iter().map(|c| c.counts.independent);
+            IndependenceCounts {
+                share: independence,
+                proposed: counts.clone().map(|c| c.proposed).sum(),
+                accepted: counts.map(|c| c.accepted).sum(),
+            }
+        }),
         non_finite: diag.non_finite.clone(),
         warnings,
         chains: f.chains,
@@ -461,7 +479,7 @@ type Hooks<'a> = (
 fn sample<D: LogDensity>(
     parent: &D,
     model: &crate::config::ModelSpec,
-    (map, walk, cov): (&[f64], &DMatrix<f64>, &DMatrix<f64>),
+    (map, walk, cov, independence): (&[f64], &DMatrix<f64>, &DMatrix<f64>, f64),
     settings: MhSettings,
     ck: &Checkpoint,
     (observer, stop): Hooks,
@@ -478,6 +496,11 @@ fn sample<D: LogDensity>(
     let mut mh = MetropolisHastings::new(&sub, cov, settings)?
         .checkpoint(&ckpt)
         .checkpoint_identity(ck.identity);
+    let centre: Vec<f64> = model.free.iter().map(|&i| map[i]).collect();
+    if independence > 0.0 {
+        let laplace = StudentProposal::new(centre.clone(), walk, DEFAULT_DOF)?;
+        mh = mh.independence(Independence::new(independence, laplace)?)?;
+    }
     if let Some(o) = observer {
         mh = mh.observer(o);
     }
@@ -489,7 +512,6 @@ fn sample<D: LogDensity>(
     } else {
         // select's starts: N(MAP, capped F⁻¹) truncated to the prior, prior draws where that
         // Gaussian misses the box (a MAP on a corner)
-        let centre: Vec<f64> = model.free.iter().map(|&i| map[i]).collect();
         let starts = chain_starts(&sub, &centre, walk, n_chains, seed).map_err(FitError::Other)?;
         mh.run(&Start::PerChain(starts))?
     };

@@ -87,6 +87,10 @@ pub struct FitSummary {
     pub map_iterations: usize,
     pub rows: Vec<ParamRow>,
     pub acceptance: Vec<f64>,
+    /// The draws from the Laplace approximation mixed into the random walk
+    /// (`[fit] independence`), when there were any.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub independence: Option<IndependenceCounts>,
     pub non_finite: Vec<u64>,
     pub warnings: Vec<String>,
     pub chains: usize,
@@ -101,6 +105,17 @@ pub struct FitSummary {
     pub iterations_per_second: f64,
     /// Fisher matrix at the MAP over the free parameters.
     pub fisher: Vec<Vec<f64>>,
+}
+
+/// How the independence kernel of a fit did after the burn-in, over all chains.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct IndependenceCounts {
+    /// The share of iterations that drew from it (`[fit] independence`).
+    pub share: f64,
+    /// Its proposals after the burn-in.
+    pub proposed: u64,
+    /// Of those, accepted.
+    pub accepted: u64,
 }
 
 /// The outcome of a fit (`run`).
