@@ -1064,6 +1064,39 @@ mod tests {
         );
     }
 
+    /// The Fisher pass over a glitch model's directions in parallel
+    /// (`likelihood::fisher`'s `derivatives_ahead`) gives the serial pass's gradient and
+    /// matrix bit for bit, in a pool of one thread and of three.
+    #[test]
+    fn the_parallel_fisher_pass_is_the_serial_one() {
+        use crate::jobs::prepare::{likelihood_of, reference_point};
+        use crate::likelihood::{gradient_and_fisher, gradient_and_fisher_serial};
+        let (study, data, durations, t_in, dg) = one_glitch();
+        let duration = durations[0].1;
+        let cands = vec![candidate([t_in - 600.0, t_in + 1500.0], duration)];
+        let mi = study.fit_model.model;
+        let all = with_glitches(&study, &[mi], &named(cands), &durations).unwrap();
+        let lik = likelihood_of(&all.study, mi, &data).unwrap();
+        let mut theta = reference_point(&study, mi);
+        theta.extend([t_in + 0.3, 140.0, 0.9 * dg]);
+        let free: Vec<usize> = (0..theta.len()).filter(|&i| i != 2).collect();
+        let bits = |(g, f): (Vec<f64>, DMatrix<f64>)| {
+            g.iter()
+                .chain(f.iter())
+                .map(|x| x.to_bits())
+                .collect::<Vec<_>>()
+        };
+        let serial = bits(gradient_and_fisher_serial(&lik, &theta, &free));
+        for threads in [1, 3] {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let parallel = pool.install(|| bits(gradient_and_fisher(&lik, &theta, &free)));
+            assert!(parallel == serial, "{threads} threads");
+        }
+    }
+
     /// A glitch scanned from a point where the loop's parameters are pulled far off (as by
     /// glitches not yet fitted) is found where it is found from the truth once the loop is
     /// profiled ([`Profile`]), and the profiled gain is what the joint fit of the amplitude and

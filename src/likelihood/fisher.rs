@@ -95,7 +95,22 @@ pub fn gradient_and_fisher(
 ) -> (Vec<f64>, DMatrix<f64>) {
     let mut g = vec![0.0; free.len()];
     let mut f = [DMatrix::<f64>::zeros(free.len(), free.len())];
-    accumulate(lik, th, free, &mut g, &mut f, |_, _| Some(0));
+    accumulate(lik, th, free, &mut g, &mut f, |_, _| Some(0), true);
+    let [f] = f;
+    (g, f)
+}
+
+/// [`gradient_and_fisher`] with every direction evaluated bin by bin in one thread (the
+/// oracle of its parallel pass over modelled glitches' directions).
+#[cfg(test)]
+pub(crate) fn gradient_and_fisher_serial(
+    lik: &Likelihood,
+    th: &[f64],
+    free: &[usize],
+) -> (Vec<f64>, DMatrix<f64>) {
+    let mut g = vec![0.0; free.len()];
+    let mut f = [DMatrix::<f64>::zeros(free.len(), free.len())];
+    accumulate(lik, th, free, &mut g, &mut f, |_, _| Some(0), false);
     let [f] = f;
     (g, f)
 }
@@ -113,9 +128,15 @@ pub fn fisher_parts(
 ) -> Vec<DMatrix<f64>> {
     let mut g = vec![0.0; free.len()];
     let mut f = vec![DMatrix::<f64>::zeros(free.len(), free.len()); n_parts];
-    accumulate(lik, th, free, &mut g, &mut f, |e, x| {
-        group(e, x).filter(|&p| p < n_parts)
-    });
+    accumulate(
+        lik,
+        th,
+        free,
+        &mut g,
+        &mut f,
+        |e, x| group(e, x).filter(|&p| p < n_parts),
+        true,
+    );
     f
 }
 
@@ -159,6 +180,7 @@ fn accumulate(
     g: &mut [f64],
     f: &mut [DMatrix<f64>],
     group: impl Fn(usize, f64) -> Option<usize>,
+    ahead: bool,
 ) {
     let nr = lik.model().residual_channels().len();
     let d = free.len();
@@ -169,6 +191,8 @@ fn accumulate(
     let mut coef = vec![z; nr * lik.model().data_channels().len()];
     for (ei, e) in lik.spectra().iter().enumerate() {
         let m = lik.model_of(ei).as_ref();
+        let ahead = (ahead && crate::model::glitch::carries_glitches(m))
+            .then(|| derivatives_ahead(m, e, th, free, nr));
         for k in 0..e.len() {
             // the residual's value is the same from every direction's dual evaluation
             let mut have_r = false;
@@ -178,8 +202,16 @@ fn accumulate(
                     dr[i][..nr].fill(ZERO);
                     continue;
                 }
-                let out = (&mut r[..nr], &mut dr[i][..nr]);
-                dual_residual(m, e, k, th, a, &mut buf, &mut coef, out);
+                match &ahead {
+                    Some((values, ds)) => {
+                        r[..nr].copy_from_slice(&values[k * nr..(k + 1) * nr]);
+                        dr[i][..nr].copy_from_slice(&ds[i][k * nr..(k + 1) * nr]);
+                    }
+                    None => {
+                        let out = (&mut r[..nr], &mut dr[i][..nr]);
+                        dual_residual(m, e, k, th, a, &mut buf, &mut coef, out);
+                    }
+                }
                 have_r = true;
             }
             match (have_r, free.first()) {
@@ -215,6 +247,47 @@ fn accumulate(
             }
         }
     }
+}
+
+/// Every bin's residual `r_k` (`K × nr`) and, per direction of `free`, `∂_a r_k` (empty where
+/// `m` does not read the parameter), the directions in parallel. For a model whose dual path
+/// computes the whole record's response at a direction's first bin (modelled glitches: its
+/// padded transforms, kept per thread), this spreads those over the cores; the values are the
+/// serial pass's, bit for bit (each direction evaluated as there; every direction's residual
+/// value is the same).
+fn derivatives_ahead(
+    m: &dyn Model,
+    e: &ExperimentSpectra,
+    th: &[f64],
+    free: &[usize],
+    nr: usize,
+) -> (Vec<Complex64>, Vec<Vec<Complex64>>) {
+    use rayon::prelude::*;
+    let nk = e.len();
+    let per: Vec<(Vec<Complex64>, Vec<Complex64>)> = free
+        .par_iter()
+        .map(|&a| {
+            if !m.reads_param(a) {
+                return (Vec::new(), Vec::new());
+            }
+            let mut buf = vec![Dual64::from(0.0); th.len()];
+            let z = Complex::new(Dual64::from(0.0), Dual64::from(0.0));
+            let mut coef = vec![z; nr * m.data_channels().len()];
+            let (mut r, mut dr) = (vec![ZERO; nk * nr], vec![ZERO; nk * nr]);
+            for k in 0..nk {
+                let at = k * nr..(k + 1) * nr;
+                let out = (&mut r[at.clone()], &mut dr[at]);
+                dual_residual(m, e, k, th, a, &mut buf, &mut coef, out);
+            }
+            (r, dr)
+        })
+        .collect();
+    let values = per
+        .iter()
+        .rev()
+        .find(|(r, _)| !r.is_empty())
+        .map_or_else(Vec::new, |(r, _)| r.clone());
+    (values, per.into_iter().map(|(_, dr)| dr).collect())
 }
 
 /// The default central-difference step for parameter `name` at `value`: `ε^{1/3}` relative to

@@ -24,6 +24,8 @@ pub mod theta_noise;
 pub mod transfer;
 
 pub use exact::{Likelihood, LikelihoodError};
+#[cfg(test)]
+pub(crate) use fisher::gradient_and_fisher_serial;
 pub use fisher::{
     cramer_rao, default_step, describe_unconstrained, fisher_exact, fisher_numeric, fisher_parts,
     gradient_and_fisher, gradient_hessian_numeric, residual_derivatives, sandwich_errors,

@@ -889,6 +889,7 @@ pub(super) mod tests {
         assert_eq!(map_tolerance(&model()), 1e-2);
         let plain = LtpModel::new("ltp", Default::default());
         assert_eq!(map_tolerance(&plain), 1e-3);
+        assert!(carries_glitches(&model()) && !carries_glitches(&plain));
     }
 
     /// The LTP loop with glitches in experiments `a` (two: `g1`, `g3`) and `b` (`g2`).

@@ -18,6 +18,18 @@ pub use summary::{FitError, FitOutcome, FitSummary, ParamRow, non_finite_warning
 mod tests {
     use super::*;
     use crate::config::LikelihoodKind;
+
+    /// `[fit] independence` as given; unset, none for a model without modelled glitches.
+    /// (With them, 0.8: [`crate::model::glitch::carries_glitches`] is tested on the glitch
+    /// model.)
+    #[test]
+    fn the_independence_share_is_the_study_s_or_the_model_s_default() {
+        let ltp = crate::model::LtpModel::new("ltp", Default::default());
+        let mut f = crate::config::FitOptions::default();
+        assert_eq!(run::independence_share(&f, &ltp), 0.0);
+        f.independence = Some(0.3);
+        assert_eq!(run::independence_share(&f, &ltp), 0.3);
+    }
     use nalgebra::DMatrix;
 
     fn summary(rows: Vec<ParamRow>) -> FitSummary {

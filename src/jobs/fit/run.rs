@@ -124,13 +124,7 @@ pub fn run(
         resume,
         identity: &identity,
     };
-    let independence = f.independence.unwrap_or(
-        if crate::model::glitch::carries_glitches(exact.model().as_ref()) {
-            crate::config::DEFAULT_GLITCH_INDEPENDENCE
-        } else {
-            0.0
-        },
-    );
+    let independence = independence_share(f, exact.model().as_ref());
     let around = (&map.theta[..], &walk, &cov, independence);
     let (chains, n_coarse) = match kind {
         LikelihoodKind::Exact => (
@@ -325,6 +319,20 @@ pub fn run(
         bode,
         raw,
     })
+}
+
+/// `[fit] independence`, or the model's default: [`crate::config::DEFAULT_GLITCH_INDEPENDENCE`]
+/// with modelled glitches, none otherwise.
+pub(super) fn independence_share(
+    f: &crate::config::FitOptions,
+    model: &dyn crate::model::Model,
+) -> f64 {
+    f.independence
+        .unwrap_or(if crate::model::glitch::carries_glitches(model) {
+            crate::config::DEFAULT_GLITCH_INDEPENDENCE
+        } else {
+            0.0
+        })
 }
 
 /// When the chains' best sample lies above the MAP search's maximum, searches from there
