@@ -478,6 +478,11 @@ glitches = "model"
     s.seed = 2030;
     let prep = prepare(&s).unwrap();
     let st = prep.study(&s);
+    // the study gives no run lengths: the glitch model's
+    assert_eq!(
+        (st.fit.iterations, st.fit.burn_in),
+        occam::config::GLITCH_ITERATIONS
+    );
     let starts = st.fit.start.clone().unwrap_or_default();
     let injected = prep.dataset.extra["glitches"].as_object().unwrap();
     let inv1: Vec<f64> = injected["inv1"]["fit"]

@@ -66,7 +66,23 @@ impl Study {
                 msg,
             }
         })?;
-        raw.resolve(file, base)
+        let mut study = raw.resolve(file, base)?;
+        if study.analysis.glitches == crate::likelihood::GlitchTreatment::Model {
+            // parsed once more as a table: the run lengths `[fit]` did not give are the glitch
+            // model's (the plain ones would take hours at its ln L's cost)
+            let fit = toml::from_str::<toml::Table>(text)
+                .ok()
+                .and_then(|t| t.get("fit").and_then(|f| f.as_table()).cloned())
+                .unwrap_or_default();
+            let (iterations, burn_in) = super::study::GLITCH_ITERATIONS;
+            if !fit.contains_key("iterations") {
+                study.fit.iterations = iterations;
+            }
+            if !fit.contains_key("burn_in") {
+                study.fit.burn_in = burn_in.min(study.fit.iterations.saturating_sub(1));
+            }
+        }
+        Ok(study)
     }
 }
 
@@ -1701,6 +1717,8 @@ mod tests {
     use super::*;
     use crate::config::JumpProposal;
 
+    use crate::config::GLITCH_ITERATIONS;
+
     fn load(s: &str) -> Result<Study, ConfigError> {
         Study::from_toml(s, "study.toml", Path::new("."))
     }
@@ -1712,6 +1730,32 @@ output = "out"
 name = "inv1"
 design = "tn3045_x1"
 "#;
+
+    /// With `glitches = "model"` the run lengths `[fit]` does not give are the glitch
+    /// model's, each on its own; without, the plain defaults. `independence` outside [0, 1] is
+    /// refused by name.
+    #[test]
+    fn modelled_glitches_take_their_run_lengths_where_the_file_gives_none() {
+        let lengths = |extra: &str| {
+            let f = load(&format!("{OK}{extra}")).unwrap().fit;
+            (f.iterations, f.burn_in)
+        };
+        let model = "[analysis]\nglitches = \"model\"\n";
+        assert_eq!(lengths(""), (20_000, 5_000));
+        assert_eq!(lengths(model), GLITCH_ITERATIONS);
+        assert_eq!(
+            lengths(&format!("{model}[fit]\niterations = 9000\n")),
+            (9000, GLITCH_ITERATIONS.1)
+        );
+        assert_eq!(
+            lengths(&format!("{model}[fit]\nburn_in = 100\nchains = 2\n")),
+            (GLITCH_ITERATIONS.0, 100)
+        );
+        let e = load(&format!("{OK}[fit]\nindependence = 1.5\n"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("independence") && e.contains("[0, 1]"), "{e}");
+    }
 
     #[test]
     fn a_simulated_loop_unstable_through_its_thruster_actuator_or_oms_delay_is_refused() {
