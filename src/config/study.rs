@@ -486,7 +486,7 @@ pub struct FitOptions {
 /// `[fit] iterations` and `burn_in` of a study with `glitches = "model"` when its file gives
 /// none (each replaced on its own, at load, so the resolved study says it). With
 /// [`DEFAULT_GLITCH_INDEPENDENCE`] of the iterations drawn from the Laplace approximation,
-/// 1 500 iterations (300 burn-in) per chain on `examples/glitches.toml` (38 parameters) gave
+/// 1 500 iterations (300 burn-in) per chain on `examples/glitches.toml` (34 parameters) gave
 /// the loop's parameters ESS 312–748 and R-hat up to 1.018; about twice the draws bring them
 /// to ~600 and ~1.01 (docs/src/guide/glitches.md). The plain 20 000 per chain would take over
 /// an hour at ~0.2 s per `ln L`.

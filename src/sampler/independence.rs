@@ -23,7 +23,7 @@ use super::proposal::Proposal;
 use crate::linalg::SpdOptions;
 
 /// Degrees of freedom of the fit's proposal: infinite, a Gaussian. Measured on
-/// `examples/glitches.toml` with modelled glitches (38 parameters; 300 draws from the Laplace
+/// `examples/glitches.toml` with modelled glitches (34 parameters; 300 draws from the Laplace
 /// approximation at the MAP, each weighed by its exact posterior): the Gaussian's draws, run
 /// through an independence sampler, were accepted 53 % of the time (Kish's effective share of
 /// the weights 40 %); a Student-t with ν = 8 28 % (23 %), ν = 4 27 % (24 %), and the Gaussian

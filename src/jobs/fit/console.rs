@@ -7,10 +7,8 @@ use super::summary::FitSummary;
 use crate::config::{LikelihoodKind, Study};
 
 /// What `occam fit` prints on standard output after the run of `study` summarised by `s`,
-/// line by line (its warnings, on standard error, are `s.warnings`). Everything printed comes
-/// from `s` (the run lengths too, which modelled glitches may change); `study` is kept for
-/// the callers.
-pub fn console(s: &FitSummary, _study: &Study) -> Vec<String> {
+/// line by line (its warnings, on standard error, are `s.warnings`).
+pub fn console(s: &FitSummary, study: &Study) -> Vec<String> {
     // split, not lines: the table ends with a newline, printed as the blank line after it
     let mut out = crate::jobs::validity::invalid_lines(&s.invalid_reasons);
     out.extend(table(s).to_string().split('\n').map(str::to_string));
@@ -27,7 +25,7 @@ pub fn console(s: &FitSummary, _study: &Study) -> Vec<String> {
     out.push(format!(
         "MCMC: {} chains × {} iterations, {:.0} iterations/s ({} {} likelihood{}), acceptance {:?}",
         s.chains,
-        s.iterations,
+        study.fit.iterations,
         s.iterations_per_second,
         s.statistic.name(),
         match s.likelihood {

@@ -55,7 +55,6 @@ mod tests {
             non_finite: vec![0],
             warnings: vec![],
             chains: 1,
-            iterations: 15,
             kept_per_chain: 10,
             burn_in: 5,
             thin: 1,

@@ -279,7 +279,6 @@ pub fn run(
         non_finite: diag.non_finite.clone(),
         warnings,
         chains: f.chains,
-        iterations: f.iterations,
         kept_per_chain: chains.n_kept(),
         burn_in: f.burn_in,
         thin: f.thin,

@@ -94,9 +94,6 @@ pub struct FitSummary {
     pub non_finite: Vec<u64>,
     pub warnings: Vec<String>,
     pub chains: usize,
-    /// Iterations per chain, burn-in included (`[fit] iterations`, or with modelled glitches
-    /// their default [`crate::config::GLITCH_ITERATIONS`]).
-    pub iterations: usize,
     pub kept_per_chain: usize,
     /// Iterations per chain before the first kept draw (`[fit] burn_in`); they are not stored.
     pub burn_in: usize,
