@@ -68,8 +68,8 @@ impl Study {
         })?;
         let mut study = raw.resolve(file, base)?;
         if study.analysis.glitches == crate::likelihood::GlitchTreatment::Model {
-            // parsed once more as a table: the run lengths `[fit]` did not give are the glitch
-            // model's (the plain ones would take hours at its ln L's cost)
+            // parsed once more as a table: the run lengths and MAP starts `[fit]` did not give
+            // are the glitch model's (the plain ones would take hours at its ln L's cost)
             let fit = toml::from_str::<toml::Table>(text)
                 .ok()
                 .and_then(|t| t.get("fit").and_then(|f| f.as_table()).cloned())
@@ -80,6 +80,9 @@ impl Study {
             }
             if !fit.contains_key("burn_in") {
                 study.fit.burn_in = burn_in.min(study.fit.iterations.saturating_sub(1));
+            }
+            if !fit.contains_key("map_starts") {
+                study.fit.map_starts = super::study::GLITCH_MAP_STARTS;
             }
         }
         Ok(study)
@@ -1731,8 +1734,8 @@ name = "inv1"
 design = "tn3045_x1"
 "#;
 
-    /// With `glitches = "model"` the run lengths `[fit]` does not give are the glitch
-    /// model's, each on its own; without, the plain defaults. `independence` outside [0, 1] is
+    /// With `glitches = "model"` the run lengths and MAP starts `[fit]` does not give are
+    /// the glitch model's, each on its own; without, the plain defaults. `independence` outside [0, 1] is
     /// refused by name.
     #[test]
     fn modelled_glitches_take_their_run_lengths_where_the_file_gives_none() {
@@ -1743,6 +1746,9 @@ design = "tn3045_x1"
         let model = "[analysis]\nglitches = \"model\"\n";
         assert_eq!(lengths(""), (20_000, 5_000));
         assert_eq!(lengths(model), GLITCH_ITERATIONS);
+        let starts = |extra: &str| load(&format!("{OK}{extra}")).unwrap().fit.map_starts;
+        assert_eq!(starts(model), 0);
+        assert_eq!(starts(&format!("{model}[fit]\nmap_starts = 2\n")), 2);
         assert_eq!(
             lengths(&format!("{model}[fit]\niterations = 9000\n")),
             (9000, GLITCH_ITERATIONS.1)
