@@ -93,9 +93,18 @@ pub fn gradient_and_fisher(
     th: &[f64],
     free: &[usize],
 ) -> (Vec<f64>, DMatrix<f64>) {
+    whole_pass(lik, th, free, true)
+}
+
+fn whole_pass(
+    lik: &Likelihood,
+    th: &[f64],
+    free: &[usize],
+    ahead: bool,
+) -> (Vec<f64>, DMatrix<f64>) {
     let mut g = vec![0.0; free.len()];
     let mut f = [DMatrix::<f64>::zeros(free.len(), free.len())];
-    accumulate(lik, th, free, &mut g, &mut f, |_, _| Some(0), true);
+    accumulate(lik, th, free, &mut g, &mut f, |_, _| Some(0), ahead);
     let [f] = f;
     (g, f)
 }
@@ -108,11 +117,7 @@ pub(crate) fn gradient_and_fisher_serial(
     th: &[f64],
     free: &[usize],
 ) -> (Vec<f64>, DMatrix<f64>) {
-    let mut g = vec![0.0; free.len()];
-    let mut f = [DMatrix::<f64>::zeros(free.len(), free.len())];
-    accumulate(lik, th, free, &mut g, &mut f, |_, _| Some(0), false);
-    let [f] = f;
-    (g, f)
+    whole_pass(lik, th, free, false)
 }
 
 /// The Fisher matrix over `free` at `th` split by where its information comes from: bin `k`

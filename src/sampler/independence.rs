@@ -15,11 +15,11 @@
 
 use nalgebra::DMatrix;
 use rand::Rng;
-use rand_distr::{ChiSquared, Distribution, StandardNormal};
+use rand_distr::{ChiSquared, Distribution};
 use serde::{Deserialize, Serialize};
 
 use super::error::SamplerError;
-use super::proposal::Proposal;
+use super::proposal::{Proposal, correlated_normal};
 use crate::linalg::SpdOptions;
 
 /// Degrees of freedom of the fit's proposal: infinite, a Gaussian. Measured on
@@ -151,11 +151,7 @@ impl Proposal for StudentProposal {
         rng: &mut R,
         out: &mut [f64],
     ) -> f64 {
-        let d = self.centre.len();
         let here = self.ln_density_scaled(current, scale);
-        for z in &mut self.z {
-            *z = StandardNormal.sample(rng);
-        }
         let stretch = if self.dof.is_infinite() {
             scale
         } else {
@@ -164,11 +160,10 @@ impl Proposal for StudentProposal {
                 .sample(rng);
             scale / (w / self.dof).sqrt()
         };
-        for (i, o) in out.iter_mut().enumerate().take(d) {
-            let row = &self.chol[i * d..i * d + i + 1];
-            let s: f64 = row.iter().zip(&self.z).map(|(l, z)| l * z).sum();
-            *o = self.centre[i] + stretch * s;
-        }
+        let centre = &self.centre;
+        correlated_normal(&self.chol, &mut self.z, rng, |i, s| {
+            out[i] = centre[i] + stretch * s
+        });
         here - self.ln_density_scaled(out, scale)
     }
 }

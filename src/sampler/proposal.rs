@@ -160,16 +160,28 @@ impl Proposal for GaussianProposal {
         rng: &mut R,
         out: &mut [f64],
     ) -> f64 {
-        let d = self.dim;
-        for z in &mut self.z {
-            *z = StandardNormal.sample(rng);
-        }
-        for (i, o) in out.iter_mut().enumerate().take(d) {
-            let row = &self.chol[i * d..i * d + i + 1];
-            let s: f64 = row.iter().zip(&self.z).map(|(l, z)| l * z).sum();
-            *o = current[i] + scale * s;
-        }
+        correlated_normal(&self.chol, &mut self.z, rng, |i, s| {
+            out[i] = current[i] + scale * s
+        });
         0.0
+    }
+}
+
+/// Draws `z ~ N(0, I)` into `z` (its length is the dimension `D`), then hands each
+/// `(i, (L z)_i)` to `put`, with `L` the row-major lower-triangular `D × D` factor `chol`.
+pub(super) fn correlated_normal<R: Rng + ?Sized>(
+    chol: &[f64],
+    z: &mut [f64],
+    rng: &mut R,
+    mut put: impl FnMut(usize, f64),
+) {
+    let d = z.len();
+    for v in z.iter_mut() {
+        *v = StandardNormal.sample(rng);
+    }
+    for i in 0..d {
+        let row = &chol[i * d..i * d + i + 1];
+        put(i, row.iter().zip(z.iter()).map(|(l, z)| l * z).sum());
     }
 }
 
