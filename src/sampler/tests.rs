@@ -916,13 +916,23 @@ fn hot_loop_does_not_allocate() {
     let t = GaussianTarget::correlated(4, 1e3, 91);
     let s = full_settings();
     let q = GaussianProposal::new(&optimal_cov(&t)).unwrap();
-    let mut state = ChainState::new(0, &t, &s, &q, None, &Start::Point(t.mu.clone())).unwrap();
-    let obs = |_: &Progress| {};
-    let before = ALLOCS.with(Cell::get);
-    state.advance(&t, &s, s.n_iter, Some(&obs));
-    let after = ALLOCS.with(Cell::get);
-    assert_eq!(after - before, 0, "allocations in {} iterations", s.n_iter);
-    assert_eq!(state.iter, s.n_iter);
+    // the walk alone, and with a Student-t or Gaussian independence kernel mixed in
+    let mixes = [None, Some(8.0), Some(DEFAULT_DOF)].map(|dof| {
+        dof.map(|dof| {
+            let q = StudentProposal::new(t.mu.clone(), &t.cov, dof).unwrap();
+            Independence::new(0.5, q).unwrap()
+        })
+    });
+    for mix in &mixes {
+        let start = Start::Point(t.mu.clone());
+        let mut state = ChainState::new(0, &t, &s, &q, mix.as_ref(), &start).unwrap();
+        let obs = |_: &Progress| {};
+        let before = ALLOCS.with(Cell::get);
+        state.advance(&t, &s, s.n_iter, Some(&obs));
+        let after = ALLOCS.with(Cell::get);
+        assert_eq!(after - before, 0, "allocations in {} iterations", s.n_iter);
+        assert_eq!(state.iter, s.n_iter);
+    }
 }
 
 #[test]
