@@ -15,6 +15,7 @@ use occam::config::Study;
 use occam::density::LogDensity;
 use occam::jobs::prepare::{default_start, prepare};
 use occam::likelihood::{fisher_exact, fisher_scoring};
+use occam::linalg::SpdOptions;
 use occam::model::map_tolerance;
 use occam::sampler::{Proposal, StudentProposal, cap_to_prior, chain_rng};
 use rand::RngExt;
@@ -58,9 +59,13 @@ fn main() {
         .map(|(&i, _)| names[i].as_str())
         .collect();
     println!("MAP on a prior bound: {at_bound:?}");
+    // inverted as `occam fit` inverts it (symmetric to the last bit)
     let fisher = fisher_exact(lik, &map.theta, free);
     let cov = cap_to_prior(
-        &fisher.try_inverse().expect("a regular Fisher matrix"),
+        &SpdOptions::lower()
+            .factor(&fisher)
+            .expect("a regular Fisher matrix")
+            .inverse(),
         &lik.prior().subset(free),
     );
     let centre: Vec<f64> = free.iter().map(|&i| map.theta[i]).collect();
