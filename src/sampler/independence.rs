@@ -24,10 +24,10 @@ use crate::linalg::SpdOptions;
 
 /// Degrees of freedom of the fit's proposal: infinite, a Gaussian. Measured on
 /// `examples/glitches.toml` with modelled glitches (34 parameters; 300 draws from the Laplace
-/// approximation at the MAP, each weighed by its exact posterior): the Gaussian's draws, run
-/// through an independence sampler, were accepted 53 % of the time (Kish's effective share of
-/// the weights 40 %); a Student-t with ν = 8 28 % (23 %), ν = 4 27 % (24 %), and the Gaussian
-/// 1.2 times wider 24 % (7 %). The posterior is that close to its Laplace approximation, and a
+/// approximation at the MAP, each weighed by its exact posterior; `examples/laplace_weights`):
+/// the Gaussian's draws, run through an independence sampler, were accepted 51 % of the time
+/// (Kish's effective share of the weights 41 %); a Student-t with ν = 8 36 % (24 %), ν = 4
+/// 28 % (20 %), and the Gaussian 1.2 times wider 27 % (13 %). The posterior is that close to its Laplace approximation, and a
 /// heavier tail only spends draws where it is not; the random walk mixed in explores what the
 /// Gaussian's tails miss.
 pub const DEFAULT_DOF: f64 = f64::INFINITY;
