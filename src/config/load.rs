@@ -43,7 +43,7 @@ impl Study {
     /// Parses and validates TOML text; `file` names it in messages and `base` resolves
     /// relative injection-file paths.
     pub fn from_toml(text: &str, file: &str, base: &Path) -> Result<Study, ConfigError> {
-        let raw: StudyFile = toml::from_str(text).map_err(|e| {
+        let mut raw: StudyFile = toml::from_str(text).map_err(|e| {
             let missing = super::missing::missing_keys(text, &e);
             let msg = if missing.len() > 1 {
                 let each: Vec<String> = missing
@@ -66,26 +66,26 @@ impl Study {
                 msg,
             }
         })?;
-        let mut study = raw.resolve(file, base)?;
-        if study.analysis.glitches == crate::likelihood::GlitchTreatment::Model {
+        if raw.analysis.glitches == crate::likelihood::GlitchTreatment::Model {
             // parsed once more as a table: the run lengths and MAP starts `[fit]` did not give
-            // are the glitch model's (the plain ones would take hours at its ln L's cost)
+            // are the glitch model's (the plain ones would take hours at its ln L's cost);
+            // before the checks, which hold `burn_in` below `iterations`
             let fit = toml::from_str::<toml::Table>(text)
                 .ok()
                 .and_then(|t| t.get("fit").and_then(|f| f.as_table()).cloned())
                 .unwrap_or_default();
             let (iterations, burn_in) = super::study::GLITCH_ITERATIONS;
             if !fit.contains_key("iterations") {
-                study.fit.iterations = iterations;
+                raw.fit.iterations = iterations;
             }
             if !fit.contains_key("burn_in") {
-                study.fit.burn_in = burn_in.min(study.fit.iterations.saturating_sub(1));
+                raw.fit.burn_in = burn_in.min(raw.fit.iterations.saturating_sub(1));
             }
             if !fit.contains_key("map_starts") {
-                study.fit.map_starts = super::study::GLITCH_MAP_STARTS;
+                raw.fit.map_starts = super::study::GLITCH_MAP_STARTS;
             }
         }
-        Ok(study)
+        raw.resolve(file, base)
     }
 }
 
@@ -1752,6 +1752,11 @@ design = "tn3045_x1"
         assert_eq!(
             lengths(&format!("{model}[fit]\niterations = 9000\n")),
             (9000, GLITCH_ITERATIONS.1)
+        );
+        // shorter than the plain burn-in: the glitch model's burn-in, not an error about 5 000
+        assert_eq!(
+            lengths(&format!("{model}[fit]\niterations = 2000\n")),
+            (2000, GLITCH_ITERATIONS.1)
         );
         assert_eq!(
             lengths(&format!("{model}[fit]\nburn_in = 100\nchains = 2\n")),
