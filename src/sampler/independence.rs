@@ -2,13 +2,14 @@
 //! MAP, whatever the chain's state.
 //!
 //! A random walk in `D` dimensions moves about `2.4/√D` posterior widths per accepted step, so
-//! its autocorrelation time grows like `D`: in the ~40 dimensions of a fit with modelled
-//! glitches, each `ln L` costing a tenth of a second, it needs hours for a few hundred
+//! its autocorrelation time grows like `D`: in the ~35 dimensions of a fit with modelled
+//! glitches, each `ln L` costing ~0.2 s of a core, it needs hours for a few hundred
 //! independent draws. Where the posterior is close to its Laplace approximation (the MAP and
 //! the inverse Fisher matrix), a draw from that approximation is nearly a draw from the
 //! posterior, and Metropolis–Hastings with the ratio `q(θ)/q(θ')` corrects what remains: the
-//! chain is exact for any proposal that covers the posterior, and the Student-t's tails cover
-//! one a little wider than the Fisher matrix says. Mixed with the random walk
+//! chain is exact for any proposal, and efficient where the proposal covers the posterior (a
+//! Student-t's tails cover one wider than the Fisher matrix says; the fit's default is the
+//! Gaussian, [`DEFAULT_DOF`]). Mixed with the random walk
 //! ([`super::MetropolisHastings::independence`]), each iteration picks one of the two kernels
 //! at random, independently of the state; each kernel keeps the posterior invariant, so the
 //! mixture does.
@@ -27,9 +28,9 @@ use crate::linalg::SpdOptions;
 /// approximation at the MAP, each weighed by its exact posterior; `examples/laplace_weights`):
 /// the Gaussian's draws, run through an independence sampler, were accepted 51 % of the time
 /// (Kish's effective share of the weights 41 %); a Student-t with ν = 8 36 % (24 %), ν = 4
-/// 28 % (20 %), and the Gaussian 1.2 times wider 27 % (13 %). The posterior is that close to its Laplace approximation, and a
-/// heavier tail only spends draws where it is not; the random walk mixed in explores what the
-/// Gaussian's tails miss.
+/// 28 % (20 %), and the Gaussian 1.2 times wider 27 % (13 %). The posterior is that close to
+/// its Laplace approximation, and a heavier tail only spends draws where it is not; the random
+/// walk mixed in explores what the Gaussian's tails miss.
 pub const DEFAULT_DOF: f64 = f64::INFINITY;
 
 /// A multivariate Student-t `t_ν(μ, Σ)`, drawn independently of the chain's state:
@@ -73,8 +74,7 @@ impl PartialEq for StudentProposal {
 
 impl StudentProposal {
     /// Validates the centre (finite, of Σ's dimension), `dof` (> 0; `f64::INFINITY` for a
-    /// Gaussian) and Σ (as
-    /// [`super::GaussianProposal::new`]: symmetric, positive definite).
+    /// Gaussian) and Σ (as [`super::GaussianProposal::new`]: symmetric, positive definite).
     pub fn new(centre: Vec<f64>, cov: &DMatrix<f64>, dof: f64) -> Result<Self, SamplerError> {
         let bad = |problem: String| Err(SamplerError::Covariance { problem });
         let d = centre.len();
@@ -189,6 +189,11 @@ impl Independence {
             });
         }
         Ok(Self { share, proposal })
+    }
+
+    /// The dimension of its draws.
+    pub fn dim(&self) -> usize {
+        self.proposal.dim()
     }
 
     /// The share of iterations drawn from [`Independence::proposal`].

@@ -147,12 +147,11 @@ impl<'a, D: LogDensity> MetropolisHastings<'a, D> {
     /// draws from it with probability `share`, from the random walk otherwise. Its dimension
     /// must be the target's.
     pub fn independence(mut self, q: Independence) -> Result<Self, SamplerError> {
-        let mut q = q;
-        if q.proposal().dim() != self.target.dim() {
+        if q.dim() != self.target.dim() {
             return Err(SamplerError::Covariance {
                 problem: format!(
                     "the independence proposal has {} parameters but the target has {}",
-                    q.proposal().dim(),
+                    q.dim(),
                     self.target.dim()
                 ),
             });
