@@ -448,6 +448,33 @@ fn modelled_glitches_on_glitch_free_data_keep_only_supported_candidates() {
     }
 }
 
+/// The pulls of the loop's seven parameters at the MAP of `prep`'s `[fit]` model (searched from
+/// its start), in Cramér–Rao σ of the whole model, against `s`'s truth.
+fn loop_pulls(prep: &occam::jobs::prepare::Prepared, s: &Study) -> Vec<f64> {
+    use occam::jobs::prepare::{default_start, reference_point};
+    use occam::likelihood::{cramer_rao, fisher_exact, fisher_scoring};
+    use occam::model::map_tolerance;
+    let st = prep.study(s);
+    let lik = &prep.likelihood;
+    let spec = &st.fit_model;
+    let map = fisher_scoring(
+        lik,
+        &default_start(st, spec),
+        &spec.free,
+        map_tolerance(lik.model().as_ref()),
+        200,
+    )
+    .unwrap();
+    assert!(map.converged);
+    let sd = cramer_rao(&fisher_exact(lik, &map.theta, &spec.free)).unwrap();
+    let truth = reference_point(s, s.fit_model.model);
+    let pulls: Vec<f64> = (0..7)
+        .map(|k| (map.theta[spec.free[k]] - truth[spec.free[k]]) / sd[k])
+        .collect();
+    eprintln!("loop pulls {pulls:.2?}");
+    pulls
+}
+
 /// Two glitches whose responses overlap make one detected region, and each gets its own
 /// modelled glitch. Seed 2030 puts two of 1e−13 m s⁻² (decay 100 s, test mass 2) 293 s apart in
 /// `inv1`; the detector merges them. With one candidate per region the loop's MAP was pulled
@@ -460,9 +487,7 @@ fn modelled_glitches_on_glitch_free_data_keep_only_supported_candidates() {
 /// one test mass look much like one longer one), so the pull bound is a sanity check only.
 #[test]
 fn a_region_holding_two_glitches_fits_both() {
-    use occam::jobs::prepare::{default_start, prepare, reference_point};
-    use occam::likelihood::{cramer_rao, fisher_exact, fisher_scoring};
-    use occam::model::map_tolerance;
+    use occam::jobs::prepare::prepare;
     let dir = tempfile::tempdir().unwrap();
     let extra = r#"
 [simulation.glitches]
@@ -519,23 +544,7 @@ glitches = "model"
             );
         }
     }
-    let lik = &prep.likelihood;
-    let spec = &st.fit_model;
-    let map = fisher_scoring(
-        lik,
-        &default_start(st, spec),
-        &spec.free,
-        map_tolerance(lik.model().as_ref()),
-        200,
-    )
-    .unwrap();
-    assert!(map.converged);
-    let sd = cramer_rao(&fisher_exact(lik, &map.theta, &spec.free)).unwrap();
-    let truth = reference_point(&s, s.fit_model.model);
-    let pulls: Vec<f64> = (0..7)
-        .map(|k| (map.theta[spec.free[k]] - truth[spec.free[k]]) / sd[k])
-        .collect();
-    eprintln!("loop pulls {pulls:.2?}");
+    let pulls = loop_pulls(&prep, &s);
     assert!(pulls.iter().all(|p| p.abs() < 3.5), "{pulls:.2?}");
 }
 
@@ -549,9 +558,7 @@ glitches = "model"
 /// modelled candidate's region with a start within 15 s of it, and every loop pull within 2.5.
 #[test]
 fn a_candidate_pruned_at_a_map_is_scanned_again() {
-    use occam::jobs::prepare::{default_start, prepare, reference_point};
-    use occam::likelihood::{cramer_rao, fisher_exact, fisher_scoring};
-    use occam::model::map_tolerance;
+    use occam::jobs::prepare::prepare;
     let mut s = Study::load(Path::new(concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/examples/glitches-short.toml"
@@ -574,23 +581,7 @@ fn a_candidate_pruned_at_a_map_is_scanned_again() {
             );
         }
     }
-    let lik = &prep.likelihood;
-    let spec = &st.fit_model;
-    let map = fisher_scoring(
-        lik,
-        &default_start(st, spec),
-        &spec.free,
-        map_tolerance(lik.model().as_ref()),
-        200,
-    )
-    .unwrap();
-    assert!(map.converged);
-    let sd = cramer_rao(&fisher_exact(lik, &map.theta, &spec.free)).unwrap();
-    let truth = reference_point(&s, s.fit_model.model);
-    let pulls: Vec<f64> = (0..7)
-        .map(|k| (map.theta[spec.free[k]] - truth[spec.free[k]]) / sd[k])
-        .collect();
-    eprintln!("loop pulls {pulls:.2?}");
+    let pulls = loop_pulls(&prep, &s);
     assert!(pulls.iter().all(|p| p.abs() < 2.5), "{pulls:.2?}");
 }
 
