@@ -60,8 +60,8 @@ use nalgebra::{DMatrix, DVector};
 pub const RUNAWAY_WIDTHS: f64 = 3.0;
 
 /// How many times `tol` a Newton step may be where no step ascends and the search still counts
-/// as converged (module docs: a maximum on a kink of `ln L`). Ten: a step of 10 `tol` σ
-/// predicts a gain of `50 tol²` in `ln L`, which rounding hides from no likelihood here.
+/// as converged (module docs: a maximum on a kink of `ln L`). Ten: 0.1σ at the glitch models'
+/// tolerance (`model::map_tolerance`), three times the 0.033σ step measured at a kink.
 pub const NONSMOOTH: f64 = 10.0;
 
 /// Result of [`fisher_scoring`].
@@ -853,7 +853,7 @@ mod tests {
     }
 
     /// A maximum on a kink: `−(x − 0.2)²/2 − |x|/2` peaks at `x = 0`, where the one-sided
-    /// gradient (0.2 from the right as the gradient code takes it, 0.7 from the left) never
+    /// gradient (−0.3 at and right of it, as the gradient code takes it; 0.7 left of it) never
     /// vanishes, so no Newton step gets below `tol` = 0.1. With kinks the search converges
     /// there (no step ascends, every Newton step within `NONSMOOTH × tol`); without, it does
     /// not, as before.
