@@ -31,7 +31,7 @@
 //! Cramér–Rao σ of the start apart: on realisation 3023 of `examples/glitches-short.toml` the
 //! search sat at `g2_t0` = 13 188 s exactly, the Newton step 0.033 σ every iteration with
 //! `ln L` unchanged, and ran out of iterations. Smooth models keep the first two rules only
-//! (taken for all, the third moved every CI golden's MAP in its last digits).
+//! (taken for all, the third changed eight of the 29 CI goldens, MAPs in their last digits).
 //!
 //! # The unbounded search
 //! Without the box, the same iteration looks for the maximum of `ln L` (plus the Gaussian
