@@ -883,6 +883,29 @@ mod tests {
         };
         let r = smooth.solve(&[1.0], &post, &gf).unwrap();
         assert!(!r.converged, "{r:?}");
+        // the kink on the box's lower bound: the gradient there points out of the box, so
+        // the bound holds it (the KKT rule), with kinks or without
+        for kinked in [true, false] {
+            let p = Problem {
+                tol: 0.1,
+                kinked,
+                ..problem(&[(0.0, 3.0)], true)
+            };
+            let r = p.solve(&[1.0], &post, &gf).unwrap();
+            assert!(
+                r.converged && r.x[0] == 0.0 && r.at_bound[0],
+                "{kinked}: {r:?}"
+            );
+        }
+        // the unbounded search (the Laplace expansion point) on a kinked model ends at the
+        // kink as converged rather than as divergent
+        let p = Problem {
+            tol: 0.1,
+            kinked: true,
+            ..problem(&bounds, false)
+        };
+        let r = p.solve(&[1.0], &post, &gf).unwrap();
+        assert!(r.converged && r.x[0].abs() < 1e-6, "{r:?}");
     }
 
     #[test]
