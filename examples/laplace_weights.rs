@@ -8,7 +8,9 @@
 //!   cargo run --release --example laplace_weights -- STUDY [DRAWS] [DOF,…]
 //!
 //! DRAWS defaults to 300, DOF to `inf,8,4` (`inf`: the Gaussian); each is tried at the
-//! Fisher widths and at 1.2 times them. The MAP is searched from the prepared start
+//! Fisher widths and at 1.2 times them, with every axis drawn as it is (`lin`) and with the
+//! glitches' decays and amplitudes drawn in logarithm as `occam fit` draws them (`log`,
+//! `occam::model::glitch::log_axes`). The MAP is searched from the prepared start
 //! (`[fit] start`, and with modelled glitches the rounds' MAP) by Fisher scoring.
 
 use occam::config::Study;
@@ -70,10 +72,25 @@ fn main() {
     );
     let centre: Vec<f64> = free.iter().map(|&i| map.theta[i]).collect();
     let ln_post_map = lik.ln_posterior(&map.theta);
-    println!("dof  widths  inside the prior  Kish share  accepted  log-weight 5/50/95 %");
+    let sd: Vec<f64> = (0..cov.nrows()).map(|k| cov[(k, k)].sqrt()).collect();
+    let log = occam::model::glitch::log_axes(names, free, &centre, &sd);
+    println!("{} axes drawn in logarithm with `log`", log.len());
+    for &k in &log {
+        println!(
+            "  {} centre {:.4e} sd {:.3e}",
+            names[free[k]], centre[k], sd[k]
+        );
+    }
+    println!("dof  widths  axes  inside the prior  Kish share  accepted  log-weight 5/50/95 %");
     for &dof in &dofs {
-        for widths in [1.0, 1.2] {
+        for (widths, axes) in [
+            (1.0, &[][..]),
+            (1.0, &log[..]),
+            (1.2, &[][..]),
+            (1.2, &log[..]),
+        ] {
             let mut q = StudentProposal::new(centre.clone(), &(&cov * (widths * widths)), dof)
+                .and_then(|q| q.log_axes(axes))
                 .expect("the capped inverse Fisher matrix");
             let mut rng = chain_rng(11, 0);
             // each draw with ln q(draw) − ln q(MAP), from the proposal's own Hastings ratio
@@ -94,16 +111,17 @@ fn main() {
                     lik.ln_posterior(&th) - ln_post_map - ln_q
                 })
                 .collect();
-            report(dof, widths, &lw);
+            let kind = if axes.is_empty() { "lin" } else { "log" };
+            report(&format!("{dof:>4} {widths:>6}  {kind}"), &lw);
         }
     }
 }
 
-/// One line of the table for the log-weights `lw` (−∞ outside the prior).
-fn report(dof: f64, widths: f64, lw: &[f64]) {
+/// One line of the table, headed `head`, for the log-weights `lw` (−∞ outside the prior).
+fn report(head: &str, lw: &[f64]) {
     let mut inside: Vec<f64> = lw.iter().copied().filter(|v| v.is_finite()).collect();
     if inside.is_empty() {
-        println!("{dof:>4} {widths:>6}  0 of {}", lw.len());
+        println!("{head}  0 of {}", lw.len());
         return;
     }
     let top = inside.iter().copied().fold(f64::MIN, f64::max);
@@ -124,7 +142,7 @@ fn report(dof: f64, widths: f64, lw: &[f64]) {
     inside.sort_by(f64::total_cmp);
     let q = |p: f64| inside[((inside.len() - 1) as f64 * p).round() as usize];
     println!(
-        "{dof:>4} {widths:>6}  {:>4} of {}  {:>10.2}  {:>8.2}  {:.2} / {:.2} / {:.2}",
+        "{head}  {:>4} of {}  {:>10.2}  {:>8.2}  {:.2} / {:.2} / {:.2}",
         inside.len(),
         lw.len(),
         s1 * s1 / (s2 * lw.len() as f64),

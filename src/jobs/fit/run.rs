@@ -125,7 +125,10 @@ pub fn run(
         identity: &identity,
     };
     let independence = independence_share(f, exact.model().as_ref());
-    let around = (&map.theta[..], &walk, &cov, independence);
+    let centre: Vec<f64> = model.free.iter().map(|&i| map.theta[i]).collect();
+    let widths: Vec<f64> = (0..walk.nrows()).map(|k| walk[(k, k)].sqrt()).collect();
+    let log = crate::model::glitch::log_axes(&names, &model.free, &centre, &widths);
+    let around = (&map.theta[..], &walk, &cov, independence, &log[..]);
     let (chains, n_coarse) = match kind {
         LikelihoodKind::Exact => (
             sample(exact, model, around, settings, &ckpt, (observer, stop))?,
@@ -487,7 +490,7 @@ type Hooks<'a> = (
 fn sample<D: LogDensity>(
     parent: &D,
     model: &crate::config::ModelSpec,
-    (map, walk, cov, independence): (&[f64], &DMatrix<f64>, &DMatrix<f64>, f64),
+    (map, walk, cov, independence, log): (&[f64], &DMatrix<f64>, &DMatrix<f64>, f64, &[usize]),
     settings: MhSettings,
     ck: &Checkpoint,
     (observer, stop): Hooks,
@@ -506,7 +509,7 @@ fn sample<D: LogDensity>(
         .checkpoint_identity(ck.identity);
     let centre: Vec<f64> = model.free.iter().map(|&i| map[i]).collect();
     if independence > 0.0 {
-        let laplace = StudentProposal::new(centre.clone(), walk, DEFAULT_DOF)?;
+        let laplace = StudentProposal::new(centre.clone(), walk, DEFAULT_DOF)?.log_axes(log)?;
         mh = mh.independence(Independence::new(independence, laplace)?)?;
     }
     if let Some(o) = observer {
