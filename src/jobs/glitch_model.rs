@@ -27,6 +27,9 @@
 //!    at each round's MAP a candidate whose removal costs less than the keep threshold is
 //!    left out (the others may explain what its scan took). Those left out in step 3 and
 //!    those pruned are scanned once more at a later round's MAP, once per region.
+//! 5. **Regions restarted.** Each region holding more than one glitch is scanned afresh at
+//!    the rounds' MAP, its glitches taken out (`restart_regions`): the rounds fit them one at
+//!    a time and may end on a local maximum where two glitches share what each should explain.
 
 use crate::config::Study;
 use crate::data::dataset::Dataset;
