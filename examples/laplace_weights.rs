@@ -10,7 +10,7 @@
 //! DRAWS defaults to 300, DOF to `inf,8,4` (`inf`: the Gaussian); each is tried at the
 //! Fisher widths and at 1.2 times them, with every axis drawn as it is (`lin`) and with the
 //! glitches' decays and amplitudes drawn in logarithm as `occam fit` draws them (`log`,
-//! `occam::model::glitch::log_axes`). The MAP is searched from the prepared start
+//! `occam::jobs::fit::log_axes`). The MAP is searched from the prepared start
 //! (`[fit] start`, and with modelled glitches the rounds' MAP) by Fisher scoring.
 
 use occam::config::Study;
@@ -73,7 +73,7 @@ fn main() {
     let centre: Vec<f64> = free.iter().map(|&i| map.theta[i]).collect();
     let ln_post_map = lik.ln_posterior(&map.theta);
     let sd: Vec<f64> = (0..cov.nrows()).map(|k| cov[(k, k)].sqrt()).collect();
-    let log = occam::model::glitch::log_axes(names, free, &centre, &sd);
+    let log = occam::jobs::fit::log_axes(names, free, &centre, &sd);
     println!("{} axes drawn in logarithm with `log`", log.len());
     for &k in &log {
         println!(

@@ -653,8 +653,8 @@ fn restart_regions(
         );
         tries.push(th);
         if let PriorKind::LogUniform { lo, hi } = kinds[at[0] + 1] {
-            for k in 0..TAU_GRID {
-                let tau = (lo.ln() + (hi / lo).ln() * k as f64 / (TAU_GRID - 1) as f64).exp();
+            for ln_tau in coarse_ln_decays(lo.ln(), hi.ln()) {
+                let tau = ln_tau.exp();
                 let mut th = cleared.clone();
                 let first = best_start(
                     lik,
@@ -787,6 +787,13 @@ fn with_glitches(
 /// Grid of the start search's decay times: log-spaced over the prior range, then twice a
 /// finer grid around the best. Every sample of the window is a start for each.
 const TAU_GRID: usize = 8;
+
+/// The coarse grid's logarithms of the decay, [`TAU_GRID`] evenly spaced from `ln_lo` to
+/// `ln_hi`.
+fn coarse_ln_decays(ln_lo: f64, ln_hi: f64) -> Vec<f64> {
+    let step = (ln_hi - ln_lo) / (TAU_GRID - 1) as f64;
+    (0..TAU_GRID).map(|k| ln_lo + step * k as f64).collect()
+}
 const REFINE_TAU: usize = 5;
 
 /// A candidate's start: its three parameters and the `ln L` they gain over no glitch.
@@ -1101,7 +1108,7 @@ fn best_start(
     };
     let (lo, hi) = (d_lo.ln(), d_hi.ln());
     let mut ln_step = (hi - lo) / (TAU_GRID - 1) as f64;
-    let mut taus: Vec<f64> = (0..TAU_GRID).map(|k| lo + ln_step * k as f64).collect();
+    let mut taus = coarse_ln_decays(lo, hi);
     let mut done: Vec<f64> = Vec::new();
     let rounds = if let Some(tau) = decay {
         scan_tau(tau.clamp(d_lo, d_hi), &mut best);

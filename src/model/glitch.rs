@@ -56,35 +56,6 @@ pub fn is_glitch_param(name: &str) -> bool {
     glitch_of(name).is_some()
 }
 
-/// Least distance of a glitch's amplitude from 0, in its posterior widths, for
-/// [`log_axes`] to draw it in logarithm.
-pub const LOG_AMPLITUDE_SIGMAS: f64 = 5.0;
-
-/// Which of the parameters `free` (indices into `names`, with `centre` and widths `sd` per
-/// free parameter) an independence proposal draws in logarithm
-/// ([`crate::sampler::StudentProposal::log_axes`]): every glitch's decay `g<j>_tau`, and its
-/// amplitude `g<j>_a` where that lies at least [`LOG_AMPLITUDE_SIGMAS`] widths from 0 (nearer,
-/// a log-normal of that width would be skewed where the posterior is not). Why: a glitch
-/// decaying faster than the loop responds is seen through the product `a τ`, so its posterior
-/// is a ridge `ln |a| + ln τ ≈ const`. Measured on `examples/glitches.toml` (seed 2014): a
-/// glitch of −5.3e−14 m s⁻² decaying in 37 s had chains spread 1.2–1.5 times its Cramér–Rao σ,
-/// one chain wandering to 18 s and −7.8e−14 and staying there (R-hat 1.16, ESS 11). Returns
-/// positions in `free`.
-pub fn log_axes(names: &[String], free: &[usize], centre: &[f64], sd: &[f64]) -> Vec<usize> {
-    free.iter()
-        .enumerate()
-        .filter(|&(k, &i)| {
-            let name = names[i].as_str();
-            is_glitch_param(name)
-                && (name.ends_with("_tau")
-                    || (name.ends_with("_a")
-                        && centre[k].abs() >= LOG_AMPLITUDE_SIGMAS * sd[k]
-                        && centre[k] != 0.0))
-        })
-        .map(|(k, _)| k)
-        .collect()
-}
-
 /// The glitch (0-based: `g1` is 0) whose parameter `name` is, if it is one.
 pub fn glitch_of(name: &str) -> Option<usize> {
     let (j, p) = name.strip_prefix('g')?.split_once('_')?;

@@ -11,13 +11,38 @@ pub use crate::jobs::chains_npz::chains_arrays;
 pub use console::console;
 pub use job::{Fit, Fitted};
 pub use output::{LEGACY_OUTPUTS, fmt_rhat, table, write_chains_npz, write_outputs};
-pub use run::{CHECKPOINT_FILE, fix_hint, near_singular_warning, run, singular_message};
+pub use run::{
+    CHECKPOINT_FILE, LOG_AXIS_WIDTHS, fix_hint, log_axes, near_singular_warning, run,
+    singular_message,
+};
 pub use summary::{FitError, FitOutcome, FitSummary, ParamRow, non_finite_warnings};
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::config::LikelihoodKind;
+
+    /// Drawn in logarithm: a glitch's decay and amplitude 5 or more widths from 0; not a
+    /// decay the data hardly constrain (width above a fifth of it), an amplitude near 0, a
+    /// loop parameter far from 0, or a glitch's start.
+    #[test]
+    fn log_axes_are_the_well_measured_glitch_decays_and_amplitudes() {
+        let names: Vec<String> = ["w1sq", "g1_t0", "g1_tau", "g1_a", "g2_tau", "g2_a"]
+            .iter()
+            .map(|s| s.to_string())
+            .collect();
+        let free = [0, 1, 2, 3, 4, 5];
+        let centre = [-1.3e-6, 3146.0, 37.0, -5.3e-14, 10.0, 2.0e-15];
+        let sd = [5e-10, 3.0, 6.0, 5.5e-15, 860.0, 1.0e-15];
+        assert_eq!(run::log_axes(&names, &free, &centre, &sd), vec![2, 3]);
+        // at exactly five widths, and positions counted in `free`
+        let sd = [5e-10, 3.0, 7.4, 5.5e-15, 2.0, 3.9e-16];
+        assert_eq!(
+            run::log_axes(&names, &free[1..], &centre[1..], &sd[1..]),
+            vec![1, 2, 3, 4]
+        );
+        assert!(run::log_axes(&names, &free, &[0.0; 6], &[1.0; 6]).is_empty());
+    }
 
     /// `[fit] independence` as given; unset, none for a model without modelled glitches.
     /// (With them, 0.8: [`crate::model::glitch::carries_glitches`] is tested on the glitch
