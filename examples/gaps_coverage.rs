@@ -11,7 +11,9 @@
 //! square 1 if `J` is its covariance; by `F` beside it) and the curvature of `ln L` at the MAP
 //! (central differences at 0.3 σ) against `F`'s diagonal.
 //!
-//!   cargo run --release --example gaps_coverage -- examples/gaps.toml 100
+//!   cargo run --release --example gaps_coverage -- examples/gaps.toml 100 [FIRST]
+//!
+//! Realisation `k` is seed `seed + FIRST + k` (FIRST defaults to 1000, the guide's sample).
 //!
 //! Realisations whose MAP search fails, does not converge or ends on a prior bound are
 //! counted and reported, not dropped silently.
@@ -173,6 +175,7 @@ fn main() {
     let args: Vec<String> = std::env::args().collect();
     let path = args.get(1).map_or("examples/gaps.toml", String::as_str);
     let n: u64 = args.get(2).map_or(100, |s| s.parse().expect("N"));
+    let first: u64 = args.get(3).map_or(1000, |s| s.parse().expect("FIRST"));
     let gapped = Study::load(Path::new(path)).expect("study");
     let mut free = gapped.clone();
     free.simulation.gaps = None;
@@ -185,13 +188,13 @@ fn main() {
     let run = |s: &Study| -> Vec<_> {
         (0..n)
             .into_par_iter()
-            .map(|k| realisation(s, s.seed.wrapping_add(1000 + k), &truth))
+            .map(|k| realisation(s, s.seed.wrapping_add(first + k), &truth))
             .collect()
     };
     let with = run(&gapped);
     let without = run(&free);
     println!(
-        "{n} realisations of {path} with and without its gaps, {:.1} s",
+        "{n} realisations of {path} (seeds from {first} after the study's) with and without its gaps, {:.1} s",
         t0.elapsed().as_secs_f64()
     );
     report("with gaps", &gapped, &with);

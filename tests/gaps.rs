@@ -368,15 +368,16 @@ fn blanked_injections_are_filled_in_from_the_design() {
 /// runs' tapers correlate their bins; the noise estimate has ν = 29): over 50 realisations the
 /// score whitened by `J` has mean square 1 within 0.23 (three standard errors of the 350
 /// values), where errors 20 % too small or large give 1.44 or 0.69 and the Fisher matrix 1.35
-/// (measured at 100 realisations: 1.041 by `J`, 1.354 by `F`).
+/// (measured here: 0.950 by `J`, 1.225 by `F`).
 ///
 /// And the MAP's error bars cover: on the same realisations the pulls `(MAP − truth)/σ` by the
 /// sandwich error have an RMS within 1 ± 0.11 (two standard errors, 0.055, estimated from the
 /// realisations' own mean squares: error bars 20 % too small give ≈ 1.33, 20 % too large
 /// ≈ 0.89 — both fail), by the Fisher errors above 1.1 (they are short), and each parameter's
 /// mean pull is within 0.42 (three standard errors of 50 realisations; a 2σ bias fails).
-/// Measured: RMS 1.064 by the sandwich, 1.197 by the Fisher errors; mean pulls −0.06 to
-/// +0.26 (`dt1`).
+/// Measured: RMS 1.011 by the sandwich, 1.141 by the Fisher errors; mean pulls −0.10 to
+/// +0.26 (`dt1`). Before the runs' bins had their exact variance (`likelihood::run_noise`):
+/// RMS 1.064 by the sandwich and 1.197 by the Fisher errors on these realisations.
 #[test]
 fn the_score_covariance_holds_on_gapped_table_one_data() {
     use occam::jobs::prepare::{default_start, prepare};

@@ -16,6 +16,7 @@ mod multistart;
 mod noise_matrix;
 mod relbin;
 pub mod residual_psd;
+mod run_noise;
 mod segments;
 mod spectra;
 pub mod stability;

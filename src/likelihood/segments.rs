@@ -23,12 +23,17 @@
 //!   `MIN_CYCLES` of its periods: below that the window's main lobe spans the steep noise
 //!   and the bins' variance is not `S(f_k)` (with bins from the first period up the Fisher
 //!   errors of the stiffnesses were half the scatter);
+//! - even from `MIN_CYCLES` up, the kernel of a run's taper carries power from far below a bin
+//!   into it where the noise is steep (the `o12` read-out's `f⁻⁴`): each run's bins take the
+//!   covariance they have exactly under the stretch's noise ([`super::run_noise`]), not
+//!   `S(f_k)`;
 //! - gap-free experiments take none of this: they give the numbers they always gave.
 //!
 //! The noise-only stretch's Welch estimate averages only segments that lie inside its valid
 //! runs ([`crate::signal::welch_csd2_runs`]).
 
-use super::spectra::{ExperimentSpectra, SpectraError, SpectraOptions, edge_taper};
+use super::run_noise::StretchNoise;
+use super::spectra::{ExperimentSpectra, SpectraError, SpectraOptions, data_noise, edge_taper};
 use crate::data::dataset::ExperimentData;
 use crate::data::gaps;
 use crate::hermitian::Mat2;
@@ -97,6 +102,12 @@ impl ExperimentSpectra {
         }
         let [lo, hi] = opts.band;
         let taper_len = (opts.gap_taper.max(0.0) * e.fs).round() as usize;
+        let stretch = stretch_noise(e, opts, model, theta_ref, model_csd).map_err(|msg| {
+            SpectraError::Invalid {
+                exp: e.name.clone(),
+                msg,
+            }
+        })?;
         let mut out = Vec::new();
         let mut dropped = 0;
         for run in e.valid_runs() {
@@ -116,7 +127,15 @@ impl ExperimentSpectra {
             // `k·fs/len` cannot drop bin MIN_CYCLES itself)
             let mut ro = opts.clone();
             ro.band[0] = lo.max((MIN_CYCLES - 0.5) * e.fs / len as f64);
-            let sp = Self::tapered(&sub, &ro, model, theta_ref, model_csd, taper)?;
+            let sp = Self::tapered(
+                &sub,
+                &ro,
+                model,
+                theta_ref,
+                model_csd,
+                taper,
+                Some(&stretch),
+            )?;
             out.push((sp, run, taper));
         }
         if out.is_empty() {
@@ -280,6 +299,30 @@ fn identity_readouts(
         }
     }
     pick
+}
+
+/// The noise of the data channels over the whole fit stretch of `e`, on its DFT grid (DC
+/// excluded), as the autocovariance the runs' exact bin covariances are taken from
+/// ([`super::run_noise`]): the same source as the runs' (`[analysis] noise`), evaluated at
+/// every frequency of the stretch, below the band too, for the leakage comes from there.
+fn stretch_noise(
+    e: &ExperimentData,
+    opts: &SpectraOptions,
+    model: &dyn Model,
+    theta_ref: &[f64],
+    model_csd: Option<&dyn Fn(f64) -> Mat2>,
+) -> Result<StretchNoise, String> {
+    let n = e.n_samples();
+    let fs = e.fs;
+    let freqs: Vec<f64> = (1..=n / 2).map(|j| j as f64 * fs / n as f64).collect();
+    let ncst = model.n_consts();
+    let mut consts = vec![Complex64::new(0.0, 0.0); freqs.len() * ncst];
+    for (k, &f) in freqs.iter().enumerate() {
+        model.bin_consts(f, fs, &mut consts[k * ncst..(k + 1) * ncst]);
+    }
+    let noise = data_noise(e, opts, model, theta_ref, model_csd, &freqs, &consts)?;
+    let (noisy, sd) = noise.noise;
+    StretchNoise::new(n, noisy.len(), &sd, fs)
 }
 
 /// The lowest bin of a run is `MIN_CYCLES` of its periods (`k ≥ MIN_CYCLES`).

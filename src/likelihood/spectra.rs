@@ -2,6 +2,7 @@
 //! noise matrix per bin, and the θ-independent closed-loop factors.
 
 use super::noise_matrix::{DataNoise, factorise, model_noise, residual_csd};
+use super::run_noise::StretchNoise;
 use crate::data::dataset::ExperimentData;
 use crate::hermitian::{self, Mat2};
 use crate::model::{Bin, BinBlock, Model};
@@ -215,7 +216,7 @@ impl ExperimentSpectra {
                 msg: "the fit stretch has gaps: prepare it with ExperimentSpectra::of_experiment, one spectrum per valid run".into(),
             });
         }
-        Self::tapered(e, opts, model, theta_ref, model_csd, [0, 0])
+        Self::tapered(e, opts, model, theta_ref, model_csd, [0, 0], None)
     }
 
     /// [`ExperimentSpectra::new`] of a gap-free stretch whose first `taper[0]` and last
@@ -228,6 +229,7 @@ impl ExperimentSpectra {
         theta_ref: &[f64],
         model_csd: Option<&dyn Fn(f64) -> Mat2>,
         taper: [usize; 2],
+        stretch: Option<&StretchNoise>,
     ) -> Result<Self, SpectraError> {
         let inv = |msg: String| SpectraError::Invalid {
             exp: e.name.clone(),
@@ -306,51 +308,22 @@ impl ExperimentSpectra {
             model.bin_consts(f, fs, &mut consts[k * ncst..(k + 1) * ncst]);
         }
         // the CSD of the measured channels, S_d, over the noisy channels
-        let mut noise_dof = None;
-        let mut noise_dof_per_bin = None;
-        let (noisy, sd): DataNoise = match opts.noise {
-            NoiseSource::Model => {
-                match model_noise(model, theta_ref, fs, &freqs, &consts).map_err(&inv)? {
-                    Some(x) => x,
-                    None => study_noise(model, &channels, &freqs, model_csd).map_err(&inv)?,
-                }
+        let DataNoiseOf {
+            noise: (noisy, mut sd),
+            dof: noise_dof,
+            dof_per_bin: noise_dof_per_bin,
+        } = data_noise(e, opts, model, theta_ref, model_csd, &freqs, &consts).map_err(&inv)?;
+        if let Some(sn) = stretch {
+            // a gapped run: its bins' exact covariance under the stretch's noise
+            if sn.channels() != noisy.len() {
+                return Err(inv(format!(
+                    "the stretch's noise has {} channels, the run's {}",
+                    sn.channels(),
+                    noisy.len()
+                )));
             }
-            NoiseSource::Welch => {
-                let noisy: Vec<usize> = (0..nc)
-                    .filter(|&c| e.noise_channel(&channels[c]).is_some())
-                    .collect();
-                if noisy.is_empty() {
-                    return Err(inv(format!(
-                        "Welch noise needs a noise-only stretch of at least one channel model `{}` reads ({})",
-                        model.name(),
-                        channels.join(", ")
-                    )));
-                }
-                let ser: Vec<&[f64]> = noisy
-                    .iter()
-                    .map(|&c| e.noise_channel(&channels[c]).expect("filtered"))
-                    .collect();
-                let (sd, dof) = match opts.welch_resolution {
-                    WelchResolution::Fixed => {
-                        welch_noise(e, &ser, &e.noise_valid_runs(), opts, &freqs).map_err(&inv)?
-                    }
-                    WelchResolution::PerBand => {
-                        if !e.noise_gaps.is_empty() {
-                            return Err(inv(
-                                "welch_resolution = \"per_band\" does not handle gaps in the noise-only stretch yet; use \"fixed\"".into(),
-                            ));
-                        }
-                        let (sd, per_bin) =
-                            welch_noise_per_band(e, &ser, opts, &freqs).map_err(&inv)?;
-                        let lowest = per_bin.iter().cloned().fold(f64::INFINITY, f64::min);
-                        noise_dof_per_bin = Some(per_bin);
-                        (sd, lowest)
-                    }
-                };
-                noise_dof = Some(dof);
-                (noisy, sd)
-            }
-        };
+            sd = sn.windowed(&w, &ks, fs).map_err(&inv)?;
+        }
         let nr = model.residual_channels().len();
         let mut coef = vec![Complex64::new(0.0, 0.0); nr * nc];
         let mut csd = vec![Complex64::new(0.0, 0.0); freqs.len() * nr * nr];
@@ -502,6 +475,80 @@ pub(super) fn edge_taper(w: &mut [f64], taper: [usize; 2]) {
 
 /// The study's noise model of the outputs `(o1, o12)` (`model_csd`) as the CSD of the noisy
 /// channels of `model`, per frequency.
+/// The noise CSD of the data channels that carry noise ([`DataNoise`]) at `freqs`, with the
+/// Welch estimate's degrees of freedom (overall, and per bin for `per_band`).
+pub(super) struct DataNoiseOf {
+    pub noise: DataNoise,
+    pub dof: Option<f64>,
+    pub dof_per_bin: Option<Vec<f64>>,
+}
+
+/// [`DataNoiseOf`] experiment `e` for `model` at `freqs` (`consts` the model's constants
+/// there): the model's own noise or the study's (`noise = "model"`), or the Welch estimate
+/// from the noise-only stretch.
+pub(super) fn data_noise(
+    e: &ExperimentData,
+    opts: &SpectraOptions,
+    model: &dyn Model,
+    theta_ref: &[f64],
+    model_csd: Option<&dyn Fn(f64) -> Mat2>,
+    freqs: &[f64],
+    consts: &[Complex64],
+) -> Result<DataNoiseOf, String> {
+    let channels = model.data_channels();
+    let nc = channels.len();
+    match opts.noise {
+        NoiseSource::Model => {
+            let noise = match model_noise(model, theta_ref, e.fs, freqs, consts)? {
+                Some(x) => x,
+                None => study_noise(model, channels, freqs, model_csd)?,
+            };
+            Ok(DataNoiseOf {
+                noise,
+                dof: None,
+                dof_per_bin: None,
+            })
+        }
+        NoiseSource::Welch => {
+            let noisy: Vec<usize> = (0..nc)
+                .filter(|&c| e.noise_channel(&channels[c]).is_some())
+                .collect();
+            if noisy.is_empty() {
+                return Err(format!(
+                    "Welch noise needs a noise-only stretch of at least one channel model `{}` reads ({})",
+                    model.name(),
+                    channels.join(", ")
+                ));
+            }
+            let ser: Vec<&[f64]> = noisy
+                .iter()
+                .map(|&c| e.noise_channel(&channels[c]).expect("filtered"))
+                .collect();
+            let (sd, dof, dof_per_bin) = match opts.welch_resolution {
+                WelchResolution::Fixed => {
+                    let (sd, dof) = welch_noise(e, &ser, &e.noise_valid_runs(), opts, freqs)?;
+                    (sd, dof, None)
+                }
+                WelchResolution::PerBand => {
+                    if !e.noise_gaps.is_empty() {
+                        return Err(
+                            "welch_resolution = \"per_band\" does not handle gaps in the noise-only stretch yet; use \"fixed\"".into(),
+                        );
+                    }
+                    let (sd, per_bin) = welch_noise_per_band(e, &ser, opts, freqs)?;
+                    let lowest = per_bin.iter().cloned().fold(f64::INFINITY, f64::min);
+                    (sd, lowest, Some(per_bin))
+                }
+            };
+            Ok(DataNoiseOf {
+                noise: (noisy, sd),
+                dof: Some(dof),
+                dof_per_bin,
+            })
+        }
+    }
+}
+
 fn study_noise(
     model: &dyn Model,
     channels: &[String],
