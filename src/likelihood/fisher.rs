@@ -419,8 +419,9 @@ pub fn gradient_hessian_numeric(
 ///
 /// over each experiment's contiguous in-band bins (`J = F` where every `R_m` with `m ≠ 0` is
 /// zero). The pseudo-covariance `E[r_k r_lᵀ] ∝ R_{k+l}` of a real series is left out: it
-/// reaches only the lowest bins, and a run's bins start at `k ≥ 3`
-/// (the gaps guide). The estimate's covariance is then the sandwich `F⁻¹ J F⁻¹`
+/// reaches only the lowest bins: a run's bins start at `k ≥ 3` with the Welch estimate, and
+/// at `k ≥ 1` with the noise model, where the score at the truth whitened by `J` still has
+/// mean square 0.97 ± 0.05 over 100 gapped realisations (the gaps guide). The estimate's covariance is then the sandwich `F⁻¹ J F⁻¹`
 /// ([`sandwich_errors`]), which is what covers when the bins are correlated.
 ///
 /// # A noise PSD estimated with `ν` degrees of freedom

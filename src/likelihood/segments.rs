@@ -19,21 +19,25 @@
 //! - a run's noise is not periodic in it, and the read-out noise's steep low-frequency rise
 //!   leaks through a rectangular edge. Both ends of every run are tapered by a raised cosine
 //!   of `gap_taper` seconds (at most a quarter of the run), every channel alike (the noise
-//!   normalisation `Σ w²` accounts for the lost weight), and a run's bins start at
-//!   `MIN_CYCLES` of its periods: below that the window's main lobe spans the steep noise
-//!   and the bins' variance is not `S(f_k)` (with bins from the first period up the Fisher
-//!   errors of the stiffnesses were half the scatter);
-//! - even from `MIN_CYCLES` up, the kernel of a run's taper carries power from far below a bin
-//!   into it where the noise is steep (the `o12` read-out's `f⁻⁴`): each run's bins take the
-//!   covariance they have exactly under the stretch's noise ([`super::run_noise`]), not
-//!   `S(f_k)`;
+//!   normalisation `Σ w²` accounts for the lost weight);
+//! - even so, the kernel of a run's taper carries power from far below a bin into it where
+//!   the noise is steep (the `o12` read-out's `f⁻⁴`), most in the run's lowest bins: each
+//!   run's bins take the covariance they have exactly under the stretch's noise
+//!   ([`super::run_noise`]), not `S(f_k)`. That needs the noise below the band, down to the
+//!   stretch's lowest frequency. The noise model (`noise = "model"`) knows it, and a run's
+//!   bins start at its first period ([`min_cycles`]); the Welch estimate holds its lowest
+//!   value below its first frequency, which underestimates the leakage into the runs' lowest
+//!   bins, so with it a run's bins start at its third period (with the first two kept, the
+//!   stiffnesses' errors were a third of their scatter short over 100 realisations);
 //! - gap-free experiments take none of this: they give the numbers they always gave.
 //!
 //! The noise-only stretch's Welch estimate averages only segments that lie inside its valid
 //! runs ([`crate::signal::welch_csd2_runs`]).
 
 use super::run_noise::StretchNoise;
-use super::spectra::{ExperimentSpectra, SpectraError, SpectraOptions, data_noise, edge_taper};
+use super::spectra::{
+    ExperimentSpectra, NoiseSource, SpectraError, SpectraOptions, data_noise, edge_taper,
+};
 use crate::data::dataset::ExperimentData;
 use crate::data::gaps;
 use crate::hermitian::Mat2;
@@ -112,7 +116,7 @@ impl ExperimentSpectra {
         let mut dropped = 0;
         for run in e.valid_runs() {
             let len = run[1] - run[0];
-            if !has_bin_in_band(len, e.fs, opts.band) {
+            if !has_bin_in_band(len, e.fs, opts) {
                 dropped += 1;
                 continue;
             }
@@ -123,10 +127,10 @@ impl ExperimentSpectra {
             let name = format!("{}@{}s", e.name, fmt_seconds(run[0] as f64 / e.fs));
             let sub = e.slice(&name, run);
             // the run's lowest bins see the window's main lobe over the steep noise: keep
-            // bins from MIN_CYCLES periods per run up (half a bin below, so that rounding of
-            // `k·fs/len` cannot drop bin MIN_CYCLES itself)
+            // bins from `min_cycles` periods per run up (half a bin below, so that rounding
+            // of `k·fs/len` cannot drop that bin itself)
             let mut ro = opts.clone();
-            ro.band[0] = lo.max((MIN_CYCLES - 0.5) * e.fs / len as f64);
+            ro.band[0] = lo.max((min_cycles(opts.noise) - 0.5) * e.fs / len as f64);
             let sp = Self::tapered(
                 &sub,
                 &ro,
@@ -325,14 +329,22 @@ fn stretch_noise(
     StretchNoise::new(n, noisy.len(), &sd, fs)
 }
 
-/// The lowest bin of a run is `MIN_CYCLES` of its periods (`k ≥ MIN_CYCLES`).
-const MIN_CYCLES: f64 = 3.0;
+/// The lowest bin of a run, in its periods (`k ≥ min_cycles`): the first with the noise
+/// model, which knows the noise below the band that leaks into a run's lowest bins; the
+/// third with the Welch estimate, which does not (module docs).
+pub(super) fn min_cycles(noise: NoiseSource) -> f64 {
+    match noise {
+        NoiseSource::Model => 1.0,
+        NoiseSource::Welch => 3.0,
+    }
+}
 
-/// Whether a valid run of `len` samples has a regular DFT bin of its own in `band`, from
-/// [`MIN_CYCLES`] up.
-fn has_bin_in_band(len: usize, fs: f64, [lo, hi]: [f64; 2]) -> bool {
+/// Whether a valid run of `len` samples has a regular DFT bin of its own in the band of
+/// `opts`, from [`min_cycles`] up.
+fn has_bin_in_band(len: usize, fs: f64, opts: &SpectraOptions) -> bool {
+    let [lo, hi] = opts.band;
     let df = fs / len as f64;
-    let first = (lo / df).ceil().max(MIN_CYCLES) * df;
+    let first = (lo / df).ceil().max(min_cycles(opts.noise)) * df;
     len >= 16 && first <= hi && first < fs / 2.0
 }
 
@@ -346,7 +358,7 @@ impl GapSummary {
         let runs = e.valid_runs();
         let (keep, drop): (Vec<&gaps::Span>, Vec<&gaps::Span>) = runs
             .iter()
-            .partition(|r| has_bin_in_band(r[1] - r[0], e.fs, opts.band));
+            .partition(|r| has_bin_in_band(r[1] - r[0], e.fs, opts));
         Some(summary(
             e,
             keep.len(),
@@ -392,8 +404,9 @@ mod tests {
     use crate::likelihood::NoiseSource;
     use crate::likelihood::tests::{ltp_model, small_study};
 
-    /// A run whose only in-band bin is its `MIN_CYCLES`-th: `3·(fs/len)` rounds below
-    /// `3·fs/len` for `len = 136` at 1 Hz, which once dropped the bin and failed the whole experiment.
+    /// A run whose only in-band bin is its third (the band's bottom at 2.5 of its periods):
+    /// `3·(fs/len)` rounds below `3·fs/len` for `len = 136` at 1 Hz, which once dropped the bin
+    /// and failed the whole experiment.
     #[test]
     fn a_run_keeps_its_lowest_bin_despite_rounding() {
         let len = 136usize;
@@ -411,7 +424,7 @@ mod tests {
         let csd = |f: f64| -> Mat2 { sys.noise_csd(f) };
         let opts = SpectraOptions {
             noise: NoiseSource::Model,
-            band: [1e-3, 3.5 / len as f64],
+            band: [2.5 / len as f64, 3.5 / len as f64],
             ..Default::default()
         };
         let m = ltp_model();
