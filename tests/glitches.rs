@@ -695,14 +695,16 @@ fn detection_starts_from_the_loudest_glitches() {
     assert!(pulls.iter().all(|z| z.abs() < 10.0), "{pulls:?}");
 }
 
-/// The loop's response outlasts the force the detector sees: realisation 3014 of
-/// `examples/glitches.toml` gated without a tail leaves `d21` more than 5σ off (8.5σ when
-/// measured); gated with the default `glitch_tail` (the loop's slowest time constant) every
-/// parameter is within 3σ.
+/// Gated with the default `glitch_tail` (the loop's slowest time constant), realisation 3014 of
+/// `examples/glitches.toml` has every parameter within 3σ (ungated, the glitches pull the
+/// stiffnesses by tens of σ). Gated without a tail it had `d21` 8.5σ off until the runs
+/// between gates took their bins' exact noise covariance (`likelihood::run_noise`); it is now
+/// within 1.4σ there too, and printed beside. That the tail still narrows the pulls on
+/// average is a coverage figure (the glitch guide: 40 realisations each way).
 #[test]
-fn the_gate_s_tail_removes_the_loop_s_response() {
+fn the_gate_with_its_tail_recovers_every_parameter() {
     let (_, bare) = gated_pulls(3014, 0.0);
-    assert!(bare.iter().any(|z| z.abs() > 5.0), "{bare:?}");
+    eprintln!("without the tail: {bare:.2?}");
     let (_, tail) = gated_pulls(3014, occam::likelihood::DEFAULT_GLITCH_TAIL);
     assert!(tail.iter().all(|z| z.abs() < 3.0), "{tail:?}");
 }
