@@ -36,7 +36,7 @@
 
 use super::run_noise::StretchNoise;
 use super::spectra::{
-    ExperimentSpectra, NoiseSource, SpectraError, SpectraOptions, data_noise, edge_taper,
+    ExperimentSpectra, NoiseSource, SpectraError, SpectraOptions, consts_at, data_noise, edge_taper,
 };
 use crate::data::dataset::ExperimentData;
 use crate::data::gaps;
@@ -319,11 +319,7 @@ fn stretch_noise(
     let n = e.n_samples();
     let fs = e.fs;
     let freqs: Vec<f64> = (1..=n / 2).map(|j| j as f64 * fs / n as f64).collect();
-    let ncst = model.n_consts();
-    let mut consts = vec![Complex64::new(0.0, 0.0); freqs.len() * ncst];
-    for (k, &f) in freqs.iter().enumerate() {
-        model.bin_consts(f, fs, &mut consts[k * ncst..(k + 1) * ncst]);
-    }
+    let consts = consts_at(model, &freqs, fs);
     let noise = data_noise(e, opts, model, theta_ref, model_csd, &freqs, &consts)?;
     let (noisy, sd) = noise.noise;
     StretchNoise::new(n, noisy.len(), &sd, fs)

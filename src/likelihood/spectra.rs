@@ -303,10 +303,7 @@ impl ExperimentSpectra {
         }
         let freqs: Vec<f64> = ks.iter().map(|&k| k as f64 * df).collect();
         let ncst = model.n_consts();
-        let mut consts = vec![Complex64::new(0.0, 0.0); freqs.len() * ncst];
-        for (k, &f) in freqs.iter().enumerate() {
-            model.bin_consts(f, fs, &mut consts[k * ncst..(k + 1) * ncst]);
-        }
+        let consts = consts_at(model, &freqs, fs);
         // the CSD of the measured channels, S_d, over the noisy channels
         let DataNoiseOf {
             noise: (noisy, mut sd),
@@ -475,6 +472,16 @@ pub(super) fn edge_taper(w: &mut [f64], taper: [usize; 2]) {
 
 /// The study's noise model of the outputs `(o1, o12)` (`model_csd`) as the CSD of the noisy
 /// channels of `model`, per frequency.
+/// The model's θ-independent constants at `freqs`, `freqs.len() × n_consts`, bin-major.
+pub(super) fn consts_at(model: &dyn Model, freqs: &[f64], fs: f64) -> Vec<Complex64> {
+    let ncst = model.n_consts();
+    let mut consts = vec![Complex64::new(0.0, 0.0); freqs.len() * ncst];
+    for (k, &f) in freqs.iter().enumerate() {
+        model.bin_consts(f, fs, &mut consts[k * ncst..(k + 1) * ncst]);
+    }
+    consts
+}
+
 /// The noise CSD of the data channels that carry noise ([`DataNoise`]) at `freqs`, with the
 /// Welch estimate's degrees of freedom (overall, and per bin for `per_band`).
 pub(super) struct DataNoiseOf {
