@@ -470,8 +470,6 @@ pub(super) fn edge_taper(w: &mut [f64], taper: [usize; 2]) {
     }
 }
 
-/// The study's noise model of the outputs `(o1, o12)` (`model_csd`) as the CSD of the noisy
-/// channels of `model`, per frequency.
 /// The model's θ-independent constants at `freqs`, `freqs.len() × n_consts`, bin-major.
 pub(super) fn consts_at(model: &dyn Model, freqs: &[f64], fs: f64) -> Vec<Complex64> {
     let ncst = model.n_consts();
@@ -556,6 +554,8 @@ pub(super) fn data_noise(
     }
 }
 
+/// The study's noise model of the outputs `(o1, o12)` (`model_csd`) as the CSD of the noisy
+/// channels of `model`, per frequency.
 fn study_noise(
     model: &dyn Model,
     channels: &[String],
