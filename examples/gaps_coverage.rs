@@ -177,12 +177,7 @@ fn main() {
     let n: u64 = args.get(2).map_or(100, |s| s.parse().expect("N"));
     let first: u64 = args.get(3).map_or(1000, |s| s.parse().expect("FIRST"));
     let gapped = Study::load(Path::new(path)).expect("study");
-    let mut free = gapped.clone();
-    free.simulation.gaps = None;
-    for d in &mut free.experiments {
-        d.gaps.clear();
-        d.noise_gaps.clear();
-    }
+    let free = gapped.without_gaps();
     let truth = reference_point(&gapped, gapped.fit_model.model);
     let t0 = Instant::now();
     let run = |s: &Study| -> Vec<_> {

@@ -54,12 +54,7 @@ fn main() {
     let path = args.get(1).map_or("examples/gaps.toml", String::as_str);
     let n: u64 = args.get(2).map_or(20, |s| s.parse().expect("N"));
     let gapped = Study::load(Path::new(path)).expect("study");
-    let mut free = gapped.clone();
-    free.simulation.gaps = None;
-    for d in &mut free.experiments {
-        d.gaps.clear();
-        d.noise_gaps.clear();
-    }
+    let free = gapped.without_gaps();
     for (label, study) in [("with gaps", &gapped), ("without gaps", &free)] {
         let all: Vec<Acc> = (0..n)
             .into_par_iter()

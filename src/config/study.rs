@@ -795,6 +795,19 @@ pub struct Study {
 }
 
 impl Study {
+    /// The same study with no gaps: no `[simulation.gaps]` and no experiment's listed `gaps`
+    /// or `noise_gaps` (what a coverage study compares a gapped one against, on the same
+    /// noise streams).
+    pub fn without_gaps(&self) -> Study {
+        let mut s = self.clone();
+        s.simulation.gaps = None;
+        for d in &mut s.experiments {
+            d.gaps.clear();
+            d.noise_gaps.clear();
+        }
+        s
+    }
+
     /// The true system of the study (`[truth]`, `[masses]`, `[noise]`, the OMS delay and the
     /// `[simulation]` thruster and actuators).
     pub fn system(&self) -> crate::experiment::System {
