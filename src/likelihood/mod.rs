@@ -45,6 +45,7 @@ pub use multistart::{
     CHAIN_MARGIN, MapStart, Maximum, MultiStartMap, StartFrom, multi_start_map, quasi_random_starts,
 };
 pub use relbin::{MAX_REFINEMENTS, RelBinError, RelBinLikelihood, RelBinOptions, RelBinValidation};
+pub use run_noise::NoiseLeak;
 pub use segments::GapSummary;
 pub use spectra::{
     DEFAULT_GAP_TAPER, ExperimentSpectra, MAX_WINDOW_LAGS, NoiseSource, SpectraError,

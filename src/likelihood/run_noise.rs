@@ -24,6 +24,7 @@
 //! lowest value (the `o12` read-out rises as `f⁻⁴` there, so the leakage is underestimated).
 
 use crate::signal::RealFft;
+use nalgebra::DMatrix;
 use num_complex::Complex64;
 
 /// The autocovariance `γ_ab(τ)` of the noisy data channels over a stretch, from their CSD on
@@ -111,13 +112,86 @@ impl StretchNoise {
                 }
                 fft.forward(&d, &mut e).map_err(|x| x.to_string())?;
                 for (o, &k) in out.iter_mut().zip(ks) {
-                    let v = e[k] / scale;
+                    let mut v = e[k] / scale;
+                    if p == q {
+                        // real up to the transform's rounding
+                        v.im = 0.0;
+                    }
                     o[p * nn + q] = v;
                     o[q * nn + p] = v.conj();
                 }
             }
         }
         Ok(out)
+    }
+}
+
+/// How a gapped run's exact noise covariance relates to the nominal one, per bin: `T_k` with
+/// `S_exact,k = T_k S_nom,k T_kᴴ` (`T = L_exact L_nom⁻¹` from their Cholesky factors) over the
+/// noisy data channels `channels`. The θ-dependent likelihood
+/// ([`crate::likelihood::theta_noise`]) applies it to the noise it evaluates at θ, so that at
+/// the point the spectra were made at it is the likelihood's own, and away from it the
+/// leakage keeps its proportion to the noise.
+#[derive(Debug, Clone)]
+pub struct NoiseLeak {
+    /// The data channels the transforms act on (the noisy ones).
+    pub channels: Vec<usize>,
+    /// `T_k`, `n × n` row-major per bin (`n = channels.len()`).
+    pub transforms: Vec<Complex64>,
+}
+
+impl NoiseLeak {
+    /// From the nominal and the exact CSD of each bin (`n × n` row-major); an error where
+    /// either is not positive definite.
+    pub(super) fn new(
+        channels: Vec<usize>,
+        nominal: &[Vec<Complex64>],
+        exact: &[Vec<Complex64>],
+    ) -> Result<Self, String> {
+        let n = channels.len();
+        let mut transforms = Vec::with_capacity(nominal.len() * n * n);
+        for (k, (a, b)) in nominal.iter().zip(exact).enumerate() {
+            let chol = |m: &[Complex64]| {
+                DMatrix::from_row_slice(n, n, m)
+                    .cholesky()
+                    .map(|c| c.l())
+                    .ok_or_else(|| format!("bin {k}: a noise CSD that is not positive definite"))
+            };
+            let ln_inv = chol(a)?
+                .try_inverse()
+                .ok_or_else(|| format!("bin {k}: a singular noise CSD"))?;
+            let t = chol(b)? * ln_inv;
+            for i in 0..n {
+                for j in 0..n {
+                    transforms.push(t[(i, j)]);
+                }
+            }
+        }
+        Ok(Self {
+            channels,
+            transforms,
+        })
+    }
+
+    /// Replaces the noisy channels' block of `s` (the data channels' CSD at bin `k`, `nc × nc`
+    /// row-major) by `T_k s T_kᴴ`.
+    pub fn apply(&self, k: usize, s: &mut [Complex64], nc: usize) {
+        let n = self.channels.len();
+        let t = &self.transforms[k * n * n..(k + 1) * n * n];
+        let block: Vec<Complex64> = (0..n * n)
+            .map(|x| s[self.channels[x / n] * nc + self.channels[x % n]])
+            .collect();
+        for i in 0..n {
+            for j in 0..n {
+                let mut v = Complex64::new(0.0, 0.0);
+                for a in 0..n {
+                    for b in 0..n {
+                        v += t[i * n + a] * block[a * n + b] * t[j * n + b].conj();
+                    }
+                }
+                s[self.channels[i] * nc + self.channels[j]] = v;
+            }
+        }
     }
 }
 
@@ -251,6 +325,53 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// The leakage transform turns each bin's nominal CSD into its exact one, in place inside
+    /// a larger CSD whose other channels it leaves alone, and is the identity where they agree.
+    #[test]
+    fn the_leak_transform_maps_the_nominal_csd_to_the_exact_one() {
+        let (n, fs, nr) = (2048, 1.0, 300);
+        let sn = StretchNoise::new(n, 2, &flat(steep, n, fs), fs).unwrap();
+        let w = tukey(nr, 75);
+        let ks = [1usize, 3, 8, 60];
+        let exact = sn.windowed(&w, &ks, fs).unwrap();
+        let nominal: Vec<Vec<Complex64>> = ks
+            .iter()
+            .map(|&k| {
+                let m = steep(k as f64 * fs / nr as f64);
+                vec![m[0][0], m[0][1], m[1][0], m[1][1]]
+            })
+            .collect();
+        // the noisy channels are data channels 2 and 0 of three (channel 1 noiseless)
+        let leak = NoiseLeak::new(vec![2, 0], &nominal, &exact).unwrap();
+        let same = NoiseLeak::new(vec![2, 0], &nominal, &nominal).unwrap();
+        for (k, (nom, ex)) in nominal.iter().zip(&exact).enumerate() {
+            let mut s = vec![Complex64::new(0.0, 0.0); 9];
+            for (i, &a) in [2usize, 0].iter().enumerate() {
+                for (j, &b) in [2usize, 0].iter().enumerate() {
+                    s[a * 3 + b] = nom[i * 2 + j];
+                }
+            }
+            let mut t = s.clone();
+            leak.apply(k, &mut t, 3);
+            same.apply(k, &mut s, 3);
+            for (i, &a) in [2usize, 0].iter().enumerate() {
+                for (j, &b) in [2usize, 0].iter().enumerate() {
+                    let want = ex[i * 2 + j];
+                    assert!(
+                        (t[a * 3 + b] - want).norm() < 1e-10 * want.norm().max(1.0),
+                        "bin {k} ({a},{b}): {} vs {want}",
+                        t[a * 3 + b]
+                    );
+                    let was = nom[i * 2 + j];
+                    assert!((s[a * 3 + b] - was).norm() < 1e-12 * was.norm().max(1.0));
+                }
+            }
+            assert!(t[3..6].iter().all(|z| z.norm() == 0.0), "channel 1 touched");
+        }
+        // bin 1 leaks: the transform is not the identity there
+        assert!((leak.transforms[0].norm() - 1.0).abs() > 0.1);
     }
 
     /// Monte Carlo: noise drawn on the stretch's grid, a tapered run cut from it; the mean of

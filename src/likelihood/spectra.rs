@@ -2,7 +2,7 @@
 //! noise matrix per bin, and the θ-independent closed-loop factors.
 
 use super::noise_matrix::{DataNoise, factorise, model_noise, residual_csd};
-use super::run_noise::StretchNoise;
+use super::run_noise::{NoiseLeak, StretchNoise};
 use crate::data::dataset::ExperimentData;
 use crate::hermitian::{self, Mat2};
 use crate::model::{Bin, BinBlock, Model};
@@ -172,6 +172,9 @@ pub struct ExperimentSpectra {
     /// Noise whose PSD is smooth over a few bins has `E[r_k r_lᴴ] ≈ R_{k−l} C_k^{½} C_l^{½}`:
     /// what [`crate::likelihood::score_covariance`] needs for the error bars of tapered runs.
     pub window_lags: Vec<Complex64>,
+    /// A gapped run's exact noise covariance against the nominal one, per bin
+    /// ([`NoiseLeak`]); `None` for a gap-free stretch.
+    pub noise_leak: Option<NoiseLeak>,
 }
 
 /// Most lags kept in [`ExperimentSpectra::window_lags`].
@@ -310,6 +313,7 @@ impl ExperimentSpectra {
             dof: noise_dof,
             dof_per_bin: noise_dof_per_bin,
         } = data_noise(e, opts, model, theta_ref, model_csd, &freqs, &consts).map_err(&inv)?;
+        let mut noise_leak = None;
         if let Some(sn) = stretch {
             // a gapped run: its bins' exact covariance under the stretch's noise
             if sn.channels() != noisy.len() {
@@ -319,7 +323,9 @@ impl ExperimentSpectra {
                     noisy.len()
                 )));
             }
-            sd = sn.windowed(&w, &ks, fs).map_err(&inv)?;
+            let exact = sn.windowed(&w, &ks, fs).map_err(&inv)?;
+            noise_leak = Some(NoiseLeak::new(noisy.clone(), &sd, &exact).map_err(&inv)?);
+            sd = exact;
         }
         let nr = model.residual_channels().len();
         let mut coef = vec![Complex64::new(0.0, 0.0); nr * nc];
@@ -377,6 +383,7 @@ impl ExperimentSpectra {
             noise_dof_per_bin,
             covariates: Default::default(),
             window_lags: window_lags(&w).map_err(sig)?,
+            noise_leak,
         })
     }
 

@@ -94,6 +94,10 @@ fn visit(lik: &Likelihood, th: &[f64], mut f: impl FnMut(f64, Option<(usize, f64
                 f(0.0, None);
                 continue;
             }
+            // a gapped run: the leakage its bins have at the spectra's point, in proportion
+            if let Some(leak) = &e.noise_leak {
+                leak.apply(k, &mut sd, nc);
+            }
             m.coefficients(th, &bin, &mut coef);
             residual_csd(&coef, nr, nc, &all, &sd, &mut s);
             match factorise(&s, nr, e.noise_scale, bin.f, m.residual_channels()) {
