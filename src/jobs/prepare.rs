@@ -1106,7 +1106,7 @@ fn outlasting_line(gates: &[crate::likelihood::GlitchGate]) -> Option<String> {
         None => "fit the glitches instead (glitches = \"model\")".into(),
     };
     Some(format!(
-        "glitch gating: the loop's response to a glitch outlasts its gate ({:.0} % of a force impulse's peak response is left after the glitch_tail), and what the gates leave in the data pulls the parameters it reaches, so their errors may be short (on Table I's study with five glitches of 2e-14 to 2e-13 m s⁻² per stretch the stiffnesses', dt2's, a_sus' and d21's pulls scattered 1.4 to 3.2 times their errors; docs/src/guide/glitches.md); {fix}",
+        "glitch gating: the loop's response to a glitch outlasts its gate ({:.0} % of a force impulse's peak response is left after the glitch_tail), and what the gates leave in the data pulls the parameters it reaches, so their errors may be short (on Table I's study with five glitches of 2e-14 to 2e-13 m s⁻² per stretch and the default glitch_tail, the pulls of the stiffnesses, dt2, a_sus and d21 scattered 1.3 to 2.7 times their errors over 40 realisations, a_sus the most; docs/src/guide/glitches.md); {fix}",
         100.0 * worst.0
     ))
 }
