@@ -207,3 +207,40 @@ fn independence_draws_sample_the_walk_s_posterior() {
         assert!(eb > 2.0 * ea, "{}: ESS {eb} mixed, {ea} walk", a["name"]);
     }
 }
+
+/// `[fit] until`: the chains stop once every parameter has ESS ≥ 400 and R-hat ≤ 1.01, at a
+/// multiple of `every` before `iterations`; the summary says where (`converged_at`) and its
+/// rows meet the rule, the terminal says so, and a run without it has no `converged_at`.
+#[test]
+fn until_converged_stops_the_chains_early_and_says_where() {
+    let run = |extra: &str| {
+        let dir = tempfile::tempdir().unwrap();
+        let study = small()
+            .replace("iterations = 3000", "iterations = 20000")
+            .replace("burn_in = 1000\n", &format!("burn_in = 1000\n{extra}"));
+        std::fs::write(dir.path().join("s.toml"), study).unwrap();
+        let (ok, stdout, stderr) = occam(&["fit", "s.toml"], dir.path());
+        assert!(ok, "{stderr}");
+        let s: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(dir.path().join("out/fit/summary.json")).unwrap(),
+        )
+        .unwrap();
+        (s, stdout)
+    };
+    let (s, stdout) = run("until = { ess = 400, every = 50 }\n");
+    let at = s["converged_at"].as_u64().expect("converged_at");
+    assert!(at % 50 == 0 && at > 1000 && at < 20000, "{at}");
+    assert_eq!(s["kept_per_chain"].as_u64(), Some(at - 1000));
+    for r in s["rows"].as_array().unwrap() {
+        assert!(r["ess"].as_f64().unwrap() >= 400.0, "{r}");
+        assert!(r["rhat"].as_f64().unwrap() <= 1.01, "{r}");
+    }
+    assert!(
+        stdout.contains(&format!("2 chains × {at} iterations (converged")),
+        "{stdout}"
+    );
+    // an ESS no run of 20 000 reaches: it runs them all and says it did not converge
+    let (s, stdout) = run("until = { ess = 1e9 }\n");
+    assert!(s.get("converged_at").is_none());
+    assert!(stdout.contains("not converged by then"), "{stdout}");
+}

@@ -84,6 +84,9 @@ impl Study {
             if !fit.contains_key("map_starts") {
                 raw.fit.map_starts = super::study::GLITCH_MAP_STARTS;
             }
+            if !fit.contains_key("until") {
+                raw.fit.until = Some(super::study::GLITCH_UNTIL);
+            }
         }
         raw.resolve(file, base)
     }
@@ -1204,6 +1207,12 @@ fn validate_fit(f: &FitOptions, models: &ModelSet, file: &str) -> Result<(), Con
             "must be ≥ 1 iteration between checkpoints".into(),
         ));
     }
+    if let Some(u) = &f.until
+        && let Err(crate::sampler::SamplerError::Setting { field, problem }) =
+            crate::sampler::Until::new(u.ess, u.rhat, u.every)
+    {
+        return Err(bad(field, problem));
+    }
     if let Some(s) = f.independence
         && !(0.0..=1.0).contains(&s)
     {
@@ -1766,6 +1775,30 @@ design = "tn3045_x1"
             .unwrap_err()
             .to_string();
         assert!(e.contains("independence") && e.contains("[0, 1]"), "{e}");
+        // the convergence rule: the glitch model's unless given; none otherwise
+        let until = |extra: &str| load(&format!("{OK}{extra}")).unwrap().fit.until;
+        assert_eq!(until(""), None);
+        assert_eq!(until(model), Some(crate::config::GLITCH_UNTIL));
+        let given = until(&format!("{model}[fit]\nuntil = {{ ess = 1000 }}\n")).unwrap();
+        assert_eq!((given.ess, given.rhat, given.every), (1000.0, 1.01, 100));
+        assert_eq!(
+            until("[fit]\nuntil = { rhat = 1.05, every = 50 }\n").map(|u| (u.rhat, u.every)),
+            Some((1.05, 50))
+        );
+        for (bad, field) in [
+            ("{ ess = 0 }", "fit.until.ess"),
+            ("{ rhat = 0.99 }", "fit.until.rhat"),
+            ("{ every = 0 }", "fit.until.every"),
+        ] {
+            let e = load(&format!("{OK}[fit]\nuntil = {bad}\n"))
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains(field), "{bad}: {e}");
+        }
+        let e = load(&format!("{OK}[fit]\nuntil = {{ ess_min = 400 }}\n"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("ess_min"), "{e}");
     }
 
     #[test]

@@ -57,8 +57,8 @@ pub use resolved::{RESOLVED_FILE, resolved_toml, with_run_dir, write_resolved};
 pub use study::{
     ActuatorEntry, ActuatorOptions, AnalysisOptions, CrossChecks, DEFAULT_GLITCH_COUNT_ITERATIONS,
     DEFAULT_GLITCH_INDEPENDENCE, ExperimentEntry, FitOptions, GLITCH_ITERATIONS, GLITCH_MAP_STARTS,
-    GlitchCountMethod, InjectionEntry, JumpProposal, LikelihoodKind, SelectModel, SelectModelEntry,
-    SelectOptions, SimulationOptions, Study, StudyFile,
+    GLITCH_UNTIL, GlitchCountMethod, InjectionEntry, JumpProposal, LikelihoodKind, SelectModel,
+    SelectModelEntry, SelectOptions, SimulationOptions, Study, StudyFile, UntilOptions,
 };
 pub use suggest::closest;
 pub use sweep::{MAX_POINTS, MAX_REALISATIONS, Spacing, SweepAxis, SweepOptions};

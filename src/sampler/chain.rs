@@ -312,6 +312,16 @@ impl ChainState {
         self.x.len()
     }
 
+    /// The kept draws of parameter `k` so far.
+    pub(crate) fn kept_series(&self, k: usize) -> Vec<f64> {
+        self.samples
+            .iter()
+            .skip(k)
+            .step_by(self.x.len().max(1))
+            .copied()
+            .collect()
+    }
+
     /// Current state.
     pub(crate) fn theta(&self) -> &[f64] {
         &self.x

@@ -57,10 +57,19 @@ pub enum Ended {
         /// Iterations done.
         iterations: usize,
     },
+    /// The convergence hook ([`Driver::until`]) was met after `iterations` iterations, before
+    /// the last; the state is saved if a checkpoint hook was set. The run is over.
+    Converged {
+        /// Iterations done.
+        iterations: usize,
+    },
 }
 
 /// The checkpoint hook and how often it runs.
 type Save<'a, S> = &'a mut dyn FnMut(&S) -> Result<(), <S as Sampler>::Error>;
+
+/// The convergence hook and the iterations it is asked at (multiples of the `usize`).
+type Until<'a, S> = (usize, &'a dyn Fn(&S) -> bool);
 
 /// Runs a [`Sampler`] in blocks of `block` iterations. After each block: the checkpoint hook
 /// saves the state (at most every [`save_every`](Self::save_every); always after the last block
@@ -71,6 +80,7 @@ pub struct Driver<'a, S: Sampler> {
     save: Option<Save<'a, S>>,
     save_every: Duration,
     stop: Option<&'a dyn Fn(usize) -> bool>,
+    until: Option<Until<'a, S>>,
 }
 
 impl<'a, S: Sampler> Driver<'a, S> {
@@ -82,6 +92,7 @@ impl<'a, S: Sampler> Driver<'a, S> {
             save: None,
             save_every: Duration::ZERO,
             stop: None,
+            until: None,
         }
     }
 
@@ -111,20 +122,43 @@ impl<'a, S: Sampler> Driver<'a, S> {
         self
     }
 
-    /// Runs `sampler` from where it is to its end, or until the stop hook says so.
+    /// Ends the run early once `converged` says so, asked at every multiple of `every`
+    /// iterations (0 is taken as 1) before the last: blocks are cut there too, so where a run
+    /// ends depends on its state alone, never on the block length or on where it was resumed.
+    /// A run resumed at such a multiple is asked first, as the uninterrupted run was there.
+    pub fn until(mut self, every: usize, converged: &'a dyn Fn(&S) -> bool) -> Self {
+        self.until = Some((every.max(1), converged));
+        self
+    }
+
+    /// Runs `sampler` from where it is to its end, or until the stop or convergence hook says
+    /// so.
     pub fn run(mut self, sampler: &mut S) -> Result<Ended, S::Error> {
         let total = sampler.total();
         let mut last_save = Instant::now();
+        let asked = |n: usize, every: usize| n > 0 && n < total && n.is_multiple_of(every);
+        if let Some((every, converged)) = self.until {
+            let done = sampler.done();
+            if asked(done, every) && converged(sampler) {
+                return Ok(Ended::Converged { iterations: done });
+            }
+        }
         loop {
             let done = sampler.done();
             if done >= total {
                 return Ok(Ended::Finished);
             }
-            let until = done.saturating_add(self.block).min(total);
+            let mut until = done.saturating_add(self.block).min(total);
+            if let Some((every, _)) = self.until {
+                until = until.min((done / every + 1).saturating_mul(every));
+            }
             sampler.advance(until)?;
+            let converged = self
+                .until
+                .is_some_and(|(every, f)| asked(until, every) && f(sampler));
             let mut saved = false;
             if let Some(save) = self.save.as_mut()
-                && (until == total || last_save.elapsed() >= self.save_every)
+                && (until == total || converged || last_save.elapsed() >= self.save_every)
             {
                 save(sampler)?;
                 (saved, last_save) = (true, Instant::now());
@@ -132,6 +166,9 @@ impl<'a, S: Sampler> Driver<'a, S> {
             // after the save: an observer that ends the process loses nothing
             if let Some(f) = self.observer.as_mut() {
                 f(sampler);
+            }
+            if converged {
+                return Ok(Ended::Converged { iterations: until });
             }
             if until < total && self.stop.is_some_and(|stop| stop(until)) {
                 if let Some(save) = self.save.as_mut()
@@ -228,6 +265,57 @@ mod tests {
         assert_eq!((s.done, s.sum), (10, 55));
         // a finished sampler runs nothing more
         assert_eq!(Driver::new(5).run(&mut s).unwrap(), Ended::Finished);
+        assert_eq!(s.sum, 55);
+    }
+
+    #[test]
+    fn the_convergence_hook_ends_the_run_at_a_multiple_of_its_interval_whatever_the_blocks() {
+        // converged once the sum passes 40: first asked true at 9 (sum 45), a multiple of 3
+        let converged = |s: &Sum| s.sum > 40;
+        for block in [1, 2, 4, 7, 100] {
+            let mut s = sum(20);
+            let mut saved = Vec::new();
+            let mut save = |s: &Sum| -> Result<(), String> {
+                saved.push(s.done);
+                Ok(())
+            };
+            let end = Driver::new(block)
+                .save(&mut save)
+                .save_every(Duration::from_secs(3600))
+                .until(3, &converged)
+                .run(&mut s)
+                .unwrap();
+            assert_eq!(end, Ended::Converged { iterations: 9 }, "block {block}");
+            assert_eq!((s.done, saved), (9, vec![9]), "block {block}");
+            // resumed where it converged, it is asked first and runs nothing more
+            let end = Driver::new(block).until(3, &converged).run(&mut s).unwrap();
+            assert_eq!((end, s.done), (Ended::Converged { iterations: 9 }, 9));
+        }
+        // blocks end at the multiples too, so a stop asked for after 5 comes at 6; resumed,
+        // the run converges where the whole run did
+        let mut s = sum(20);
+        let stop = |n: usize| n >= 5;
+        let end = Driver::new(4)
+            .until(3, &converged)
+            .stop_when(&stop)
+            .run(&mut s);
+        assert_eq!(end, Ok(Ended::Stopped { iterations: 6 }));
+        let end = Driver::new(4).until(3, &converged).run(&mut s).unwrap();
+        assert_eq!(
+            (end, s.done, s.sum),
+            (Ended::Converged { iterations: 9 }, 9, 45)
+        );
+        // never asked at the last iteration: a run that converges only there finishes
+        let mut s = sum(9);
+        let end = Driver::new(4).until(3, &converged).run(&mut s).unwrap();
+        assert_eq!((end, s.done), (Ended::Finished, 9));
+        // a hook never met leaves the run to its end
+        let never = |_: &Sum| false;
+        let mut s = sum(10);
+        assert_eq!(
+            Driver::new(4).until(3, &never).run(&mut s).unwrap(),
+            Ended::Finished
+        );
         assert_eq!(s.sum, 55);
     }
 

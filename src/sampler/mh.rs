@@ -14,6 +14,7 @@ use super::error::SamplerError;
 use super::independence::Independence;
 use super::proposal::{GaussianProposal, Proposal};
 use super::settings::{MhSettings, Start};
+use super::until::Until;
 use crate::density::LogDensity;
 
 /// How a run ended.
@@ -28,13 +29,21 @@ pub enum RunOutcome {
         /// Iterations completed per chain.
         iterations: usize,
     },
+    /// The chains met the convergence rule ([`MetropolisHastings::until`]) after `iterations`
+    /// per chain, before `n_iter`; the run is over and these are its chains.
+    Converged {
+        /// The chains' draws up to `iterations`.
+        chains: Chains,
+        /// Iterations completed per chain.
+        iterations: usize,
+    },
 }
 
 impl RunOutcome {
-    /// The chains of a finished run; `None` if it was stopped.
+    /// The chains of a run that ended (at `n_iter` or converged); `None` if it was stopped.
     pub fn into_chains(self) -> Option<Chains> {
         match self {
-            RunOutcome::Finished(c) => Some(c),
+            RunOutcome::Finished(c) | RunOutcome::Converged { chains: c, .. } => Some(c),
             RunOutcome::Stopped { .. } => None,
         }
     }
@@ -102,6 +111,7 @@ pub struct MetropolisHastings<'a, D: LogDensity> {
     /// The run's identity in its checkpoints (empty: none is checked beyond the contents).
     identity: String,
     stop: Option<&'a dyn Fn(usize) -> bool>,
+    until: Option<Until>,
 }
 
 impl<'a, D: LogDensity> MetropolisHastings<'a, D> {
@@ -140,6 +150,7 @@ impl<'a, D: LogDensity> MetropolisHastings<'a, D> {
             save_every: std::time::Duration::ZERO,
             identity: String::new(),
             stop: None,
+            until: None,
         })
     }
 
@@ -195,6 +206,15 @@ impl<'a, D: LogDensity> MetropolisHastings<'a, D> {
     /// [`RunOutcome::Stopped`]. Not called after the last block.
     pub fn stop_when(mut self, f: &'a dyn Fn(usize) -> bool) -> Self {
         self.stop = Some(f);
+        self
+    }
+
+    /// Ends the run once its chains meet `rule` ([`Until`]: every parameter's ESS and R̂),
+    /// checked every `rule.every()` iterations after the burn-in, with
+    /// [`RunOutcome::Converged`]; `n_iter` stays the most it runs. Not part of the
+    /// checkpoint: a resumed run may set another rule, as it may a longer `n_iter`.
+    pub fn until(mut self, rule: Until) -> Self {
+        self.until = Some(rule);
         self
     }
 
@@ -285,7 +305,15 @@ impl<'a, D: LogDensity> MetropolisHastings<'a, D> {
         if let Some(stop) = self.stop {
             driver = driver.stop_when(stop);
         }
-        if let Ended::Stopped { iterations } = driver.run(&mut run)? {
+        let burn_in = settings.burn_in;
+        let converged = |r: &Running<'_, D>| {
+            r.done() > burn_in && self.until.is_some_and(|u| u.met_by(&r.states))
+        };
+        if let Some(u) = &self.until {
+            driver = driver.until(u.every(), &converged);
+        }
+        let ended = driver.run(&mut run)?;
+        if let Ended::Stopped { iterations } = ended {
             return Ok(RunOutcome::Stopped { iterations });
         }
         debug_assert!(run.states.iter().all(|s| s.dim() == self.proposal.dim()));
@@ -293,7 +321,10 @@ impl<'a, D: LogDensity> MetropolisHastings<'a, D> {
             names,
             run.states.into_iter().map(ChainState::into_chain).collect(),
         )?;
-        Ok(RunOutcome::Finished(chains))
+        Ok(match ended {
+            Ended::Converged { iterations } => RunOutcome::Converged { chains, iterations },
+            _ => RunOutcome::Finished(chains),
+        })
     }
 }
 

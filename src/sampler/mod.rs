@@ -19,6 +19,7 @@
 //! | `checkpoint` | atomic JSON checkpoints and their match against the run |
 //! | `optimize` | bounded Nelder–Mead with restarts, [`find_map`] |
 //! | `starts` | dispersed chain starts inside the prior around a MAP, [`chain_starts`] |
+//! | `until` | running until converged (ESS and R̂ per parameter) in place of a fixed length, [`Until`] |
 //! | `birth_death` | reversible-jump birth and death of optional components (glitches), [`birth_death()`] |
 //!
 //! # Conventions
@@ -45,6 +46,7 @@ mod optimize;
 mod proposal;
 mod settings;
 mod starts;
+mod until;
 
 #[cfg(test)]
 pub(crate) mod test_targets;
@@ -65,3 +67,4 @@ pub use optimize::{MapEstimate, Minimum, NelderMeadSettings, find_map, nelder_me
 pub use proposal::{GaussianProposal, Proposal, cap_to_prior};
 pub use settings::{Adapt, Anneal, MhSettings, Start};
 pub use starts::chain_starts;
+pub use until::Until;

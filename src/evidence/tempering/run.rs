@@ -246,9 +246,9 @@ impl<'a> ParallelTempering<'a> {
         }
         match driver.run(&mut run)? {
             Ended::Stopped { iterations } => Ok(TemperingOutcome::Stopped { sweeps: iterations }),
-            Ended::Finished => Ok(TemperingOutcome::Finished(Box::new(result(
-                run.ladder, opts,
-            )))),
+            Ended::Finished | Ended::Converged { .. } => Ok(TemperingOutcome::Finished(Box::new(
+                result(run.ladder, opts),
+            ))),
         }
     }
 }

@@ -23,9 +23,20 @@ pub fn console(s: &FitSummary, study: &Study) -> Vec<String> {
         s.seconds_map
     ));
     out.push(format!(
-        "MCMC: {} chains × {} iterations, {:.0} iterations/s ({} {} likelihood{}), acceptance {:?}",
+        "MCMC: {} chains × {} iterations{}, {:.0} iterations/s ({} {} likelihood{}), acceptance {:?}",
         s.chains,
-        study.fit.iterations,
+        s.converged_at.unwrap_or(study.fit.iterations),
+        match (s.converged_at, study.fit.until) {
+            (Some(_), Some(u)) => format!(
+                " (converged: every ESS ≥ {} and R-hat ≤ {}; at most {})",
+                u.ess, u.rhat, study.fit.iterations
+            ),
+            (None, Some(u)) => format!(
+                " (not converged by then: [fit] until asks every ESS ≥ {} and R-hat ≤ {})",
+                u.ess, u.rhat
+            ),
+            _ => String::new(),
+        },
         s.iterations_per_second,
         s.statistic.name(),
         match s.likelihood {

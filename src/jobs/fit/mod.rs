@@ -80,6 +80,7 @@ mod tests {
             non_finite: vec![0],
             warnings: vec![],
             chains: 1,
+            converged_at: None,
             kept_per_chain: 10,
             burn_in: 5,
             thin: 1,

@@ -129,16 +129,34 @@ pub fn run(
     let widths: Vec<f64> = (0..walk.nrows()).map(|k| walk[(k, k)].sqrt()).collect();
     let log = log_axes(&names, &model.free, &centre, &widths);
     let around = (&map.theta[..], &walk, &cov, independence, &log[..]);
-    let (chains, n_coarse) = match kind {
+    let until = f
+        .until
+        .map(|u| crate::sampler::Until::new(u.ess, u.rhat, u.every))
+        .transpose()?;
+    let ((chains, converged_at), n_coarse) = match kind {
         LikelihoodKind::Exact => (
-            sample(exact, model, around, settings, &ckpt, (observer, stop))?,
+            sample(
+                exact,
+                model,
+                around,
+                (settings, until),
+                &ckpt,
+                (observer, stop),
+            )?,
             None,
         ),
         LikelihoodKind::Relbin => {
             let rb = relbin_of(study, exact, &map.theta)?;
             let n = rb.n_coarse();
             (
-                sample(&rb, model, around, settings, &ckpt, (observer, stop))?,
+                sample(
+                    &rb,
+                    model,
+                    around,
+                    (settings, until),
+                    &ckpt,
+                    (observer, stop),
+                )?,
                 Some(n),
             )
         }
@@ -221,7 +239,7 @@ pub fn run(
             }
         })
         .collect();
-    let total_iter = (f.iterations * f.chains) as f64;
+    let total_iter = (converged_at.unwrap_or(f.iterations) * f.chains) as f64;
     let mut invalid_reasons = Vec::new();
     if !map.converged {
         invalid_reasons.push(format!(
@@ -282,6 +300,7 @@ pub fn run(
         non_finite: diag.non_finite.clone(),
         warnings,
         chains: f.chains,
+        converged_at,
         kept_per_chain: chains.n_kept(),
         burn_in: f.burn_in,
         thin: f.thin,
@@ -520,10 +539,10 @@ fn sample<D: LogDensity>(
     parent: &D,
     model: &crate::config::ModelSpec,
     (map, walk, cov, independence, log): (&[f64], &DMatrix<f64>, &DMatrix<f64>, f64, &[usize]),
-    settings: MhSettings,
+    (settings, until): (MhSettings, Option<crate::sampler::Until>),
     ck: &Checkpoint,
     (observer, stop): Hooks,
-) -> Result<Chains, FitError> {
+) -> Result<(Chains, Option<usize>), FitError> {
     let (out, resume) = (ck.out, ck.resume);
     let mut base = model.base.clone();
     for &i in &model.free {
@@ -547,6 +566,9 @@ fn sample<D: LogDensity>(
     if let Some(s) = stop {
         mh = mh.stop_when(s);
     }
+    if let Some(u) = until {
+        mh = mh.until(u);
+    }
     let outcome = if resume && ckpt.exists() {
         mh.resume(&ckpt)?
     } else {
@@ -556,7 +578,8 @@ fn sample<D: LogDensity>(
         mh.run(&Start::PerChain(starts))?
     };
     match outcome {
-        RunOutcome::Finished(c) => Ok(c),
+        RunOutcome::Finished(c) => Ok((c, None)),
+        RunOutcome::Converged { chains, iterations } => Ok((chains, Some(iterations))),
         RunOutcome::Stopped { iterations } => Err(FitError::Other(format!(
             "stopped after {iterations} iterations; run again with --resume"
         ))),

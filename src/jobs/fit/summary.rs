@@ -94,6 +94,10 @@ pub struct FitSummary {
     pub non_finite: Vec<u64>,
     pub warnings: Vec<String>,
     pub chains: usize,
+    /// Iterations per chain at which the chains met `[fit] until` and stopped, before
+    /// `[fit] iterations`; absent when they ran all of them.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub converged_at: Option<usize>,
     pub kept_per_chain: usize,
     /// Iterations per chain before the first kept draw (`[fit] burn_in`); they are not stored.
     pub burn_in: usize,

@@ -291,7 +291,7 @@ fn in_model_chains(
         })
         .map_err(|e| e.to_string())
         .and_then(|o| match o {
-            RunOutcome::Finished(c) => Ok(c),
+            RunOutcome::Finished(c) | RunOutcome::Converged { chains: c, .. } => Ok(c),
             RunOutcome::Stopped { .. } => Err("the in-model chains stopped early".to_string()),
         });
     Ok(match chains {
