@@ -1799,6 +1799,22 @@ design = "tn3045_x1"
             .unwrap_err()
             .to_string();
         assert!(e.contains("ess_min"), "{e}");
+        // `true` for the defaults, `false` for fixed lengths with modelled glitches too, and
+        // the resolved study reads back to the same
+        assert_eq!(
+            until("[fit]\nuntil = true\n"),
+            Some(crate::config::UntilOptions::default())
+        );
+        let off = load(&format!("{OK}{model}[fit]\nuntil = false\n")).unwrap();
+        assert_eq!(off.fit.until, None);
+        for study in [off, load(&format!("{OK}{model}")).unwrap()] {
+            let text = crate::config::resolved_toml(&study).unwrap();
+            assert_eq!(load(&text).unwrap().fit.until, study.fit.until, "{text}");
+        }
+        let e = load(&format!("{OK}[fit]\nuntil = 400\n"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("true or false"), "{e}");
     }
 
     #[test]

@@ -46,10 +46,23 @@ pub fn resolved_toml(study: &Study) -> Result<String, ConfigError> {
             ),
         });
     }
-    let body = toml::to_string(&file).map_err(|e| ConfigError::Parse {
+    let cannot = |e: String| ConfigError::Parse {
         file: study.source.clone(),
         msg: format!("cannot write the resolved study: {e}"),
-    })?;
+    };
+    let body = if file.analysis.glitches == crate::likelihood::GlitchTreatment::Model
+        && file.fit.until.is_none()
+    {
+        // no `until` would read back as the glitch model's default rule: say `false`
+        let mut t = toml::Table::try_from(&file).map_err(|e| cannot(e.to_string()))?;
+        if let Some(toml::Value::Table(fit)) = t.get_mut("fit") {
+            fit.insert("until".into(), toml::Value::Boolean(false));
+        }
+        toml::to_string(&t)
+    } else {
+        toml::to_string(&file)
+    }
+    .map_err(|e| cannot(e.to_string()))?;
     let body = super::toml_floats::scientific_floats(&body);
     let base = study.base_dir.display().to_string();
     let base = if base.is_empty() { ".".into() } else { base };

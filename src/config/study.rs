@@ -482,10 +482,33 @@ pub struct FitOptions {
     /// [`DEFAULT_GLITCH_INDEPENDENCE`] with modelled glitches, 0 otherwise.
     pub independence: Option<f64>,
     /// End the chains once every free parameter has converged (`[fit] until = { ess = 400,
-    /// rhat = 1.01 }`), with `iterations` the most they run; `None` runs `iterations`. Set
-    /// with modelled glitches when the file gives none ([`GLITCH_UNTIL`]).
-    #[serde(skip_serializing_if = "Option::is_none")]
+    /// rhat = 1.01 }`, or `true` for those defaults), with `iterations` the most they run;
+    /// `None` (`until = false`, or no key) runs `iterations`. Set with modelled glitches when
+    /// the file gives none ([`GLITCH_UNTIL`]).
+    #[serde(
+        deserialize_with = "until_or_off",
+        skip_serializing_if = "Option::is_none"
+    )]
     pub until: Option<UntilOptions>,
+}
+
+/// `[fit] until` from a table of the rule's settings, or `true` (the defaults) or `false`
+/// (none); a table's own errors (an unknown key) pass through.
+fn until_or_off<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<UntilOptions>, D::Error> {
+    struct V;
+    impl<'de> serde::de::Visitor<'de> for V {
+        type Value = Option<UntilOptions>;
+        fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+            f.write_str("a table { ess, rhat, every }, or true or false")
+        }
+        fn visit_bool<E: serde::de::Error>(self, on: bool) -> Result<Self::Value, E> {
+            Ok(on.then(UntilOptions::default))
+        }
+        fn visit_map<A: serde::de::MapAccess<'de>>(self, m: A) -> Result<Self::Value, A::Error> {
+            UntilOptions::deserialize(serde::de::value::MapAccessDeserializer::new(m)).map(Some)
+        }
+    }
+    d.deserialize_any(V)
 }
 
 /// `[fit] until`: the convergence rule that ends a fit's chains early

@@ -103,6 +103,11 @@ pub fn parts(s: &Value) -> Parts {
             "iterations per second",
             cell(at(s, "iterations_per_second")),
         ),
+        // absent (and left out) unless [fit] until ended the chains early
+        (
+            "iterations per chain when the chains converged ([fit] until)",
+            cell(at(s, "converged_at")),
+        ),
     ]));
     p.diagnostics = d;
     p
