@@ -23,6 +23,20 @@ burn_in = 1000
     )
 }
 
+/// `occam fit` on `study` with `extra` lines after its `burn_in`: the summary and the terminal.
+fn fit_with(study: &str, extra: &str) -> (serde_json::Value, String) {
+    let dir = tempfile::tempdir().unwrap();
+    let study = study.replace("burn_in = 1000\n", &format!("burn_in = 1000\n{extra}"));
+    std::fs::write(dir.path().join("s.toml"), study).unwrap();
+    let (ok, stdout, stderr) = occam(&["fit", "s.toml"], dir.path());
+    assert!(ok, "{stderr}");
+    let s = serde_json::from_str(
+        &std::fs::read_to_string(dir.path().join("out/fit/summary.json")).unwrap(),
+    )
+    .unwrap();
+    (s, stdout)
+}
+
 #[test]
 fn fit_writes_table_chains_and_plots() {
     let dir = tempfile::tempdir().unwrap();
@@ -154,18 +168,7 @@ fn a_posterior_wider_than_its_prior_box_is_still_sampled() {
 /// draws accepted as if their ratio were 1 fail it) — with more ESS for the same iterations, and `summary.json` and the terminal say how many were accepted.
 #[test]
 fn independence_draws_sample_the_walk_s_posterior() {
-    let run = |extra: &str| {
-        let dir = tempfile::tempdir().unwrap();
-        let study = small().replace("burn_in = 1000\n", &format!("burn_in = 1000\n{extra}"));
-        std::fs::write(dir.path().join("s.toml"), study).unwrap();
-        let (ok, stdout, stderr) = occam(&["fit", "s.toml"], dir.path());
-        assert!(ok, "{stderr}");
-        let s: serde_json::Value = serde_json::from_str(
-            &std::fs::read_to_string(dir.path().join("out/fit/summary.json")).unwrap(),
-        )
-        .unwrap();
-        (s, stdout)
-    };
+    let run = |extra: &str| fit_with(&small(), extra);
     let (walk, _) = run("");
     let (mixed, stdout) = run("independence = 0.8\n");
     assert!(walk.get("independence").is_none());
@@ -213,20 +216,8 @@ fn independence_draws_sample_the_walk_s_posterior() {
 /// rows meet the rule, the terminal says so, and a run without it has no `converged_at`.
 #[test]
 fn until_converged_stops_the_chains_early_and_says_where() {
-    let run = |extra: &str| {
-        let dir = tempfile::tempdir().unwrap();
-        let study = small()
-            .replace("iterations = 3000", "iterations = 20000")
-            .replace("burn_in = 1000\n", &format!("burn_in = 1000\n{extra}"));
-        std::fs::write(dir.path().join("s.toml"), study).unwrap();
-        let (ok, stdout, stderr) = occam(&["fit", "s.toml"], dir.path());
-        assert!(ok, "{stderr}");
-        let s: serde_json::Value = serde_json::from_str(
-            &std::fs::read_to_string(dir.path().join("out/fit/summary.json")).unwrap(),
-        )
-        .unwrap();
-        (s, stdout)
-    };
+    let long = small().replace("iterations = 3000", "iterations = 20000");
+    let run = |extra: &str| fit_with(&long, extra);
     let (s, stdout) = run("until = { ess = 400, every = 50 }\n");
     let at = s["converged_at"].as_u64().expect("converged_at");
     assert!(at % 50 == 0 && at > 1000 && at < 20000, "{at}");

@@ -133,32 +133,13 @@ pub fn run(
         .until
         .map(|u| crate::sampler::Until::new(u.ess, u.rhat, u.every))
         .transpose()?;
+    let (length, hooks) = ((settings, until), (observer, stop));
     let ((chains, converged_at), n_coarse) = match kind {
-        LikelihoodKind::Exact => (
-            sample(
-                exact,
-                model,
-                around,
-                (settings, until),
-                &ckpt,
-                (observer, stop),
-            )?,
-            None,
-        ),
+        LikelihoodKind::Exact => (sample(exact, model, around, length, &ckpt, hooks)?, None),
         LikelihoodKind::Relbin => {
             let rb = relbin_of(study, exact, &map.theta)?;
             let n = rb.n_coarse();
-            (
-                sample(
-                    &rb,
-                    model,
-                    around,
-                    (settings, until),
-                    &ckpt,
-                    (observer, stop),
-                )?,
-                Some(n),
-            )
+            (sample(&rb, model, around, length, &ckpt, hooks)?, Some(n))
         }
     };
     let seconds_mcmc = t1.elapsed().as_secs_f64();
