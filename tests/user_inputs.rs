@@ -523,3 +523,83 @@ fn a_job_reads_only_the_channels_of_the_models_it_uses() {
         "{err}"
     );
 }
+
+/// A read-out with a NaN or two (a missing sample each) fits from CSV: a single NaN splits the
+/// stretch into runs, a run too short to hold an in-band bin is left out and the warning says
+/// so, and data whose only valid run holds no in-band bin are refused naming the experiment,
+/// the band and the longest run.
+#[test]
+fn nan_samples_in_a_csv_read_out_split_the_fit_into_runs() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let sim = format!("seed = 8\noutput = \"sim\"\n{FIT}{DESIGNS}");
+    std::fs::write(d.join("sim.toml"), &sim).unwrap();
+    let (ok, _, err) = occam(&["simulate", "sim.toml"], d);
+    assert!(ok, "{err}");
+    let ds = occam::data::dataset::Dataset::read(&d.join("sim")).unwrap();
+    let fit = |case: &str, blank: &dyn Fn(usize) -> bool| {
+        let mut exps = String::new();
+        for e in &ds.experiments {
+            let mut o1 = e.o[0].clone();
+            if e.name == "a" {
+                for (k, v) in o1.iter_mut().enumerate() {
+                    if blank(k) {
+                        *v = f64::NAN;
+                    }
+                }
+            }
+            let (data, quiet) = (
+                format!("{case}_{}.csv", e.name),
+                format!("{case}_{}_q.csv", e.name),
+            );
+            write_csv(
+                &d.join(&data),
+                &["t", "o1", "o12", "i1", "i12"],
+                &[&o1, &e.o[1], &e.i[0], &e.i[1]],
+                e.fs,
+            );
+            write_csv(
+                &d.join(&quiet),
+                &["t", "o1", "o12"],
+                &[&e.noise[0], &e.noise[1]],
+                e.fs,
+            );
+            write!(
+                exps,
+                "[[experiment]]\nname = \"{}\"\ndata = \"{data}\"\nnoise_data = \"{quiet}\"\n",
+                e.name
+            )
+            .unwrap();
+        }
+        let study = format!("seed = 8\noutput = \"{case}\"\n{FIT}{exps}");
+        std::fs::write(d.join(format!("{case}.toml")), study).unwrap();
+        occam(&["fit", &format!("{case}.toml"), "-q"], d)
+    };
+    let (ok, _, err) = fit("one", &|k| k == 77);
+    assert!(ok, "{err}");
+    assert!(
+        err.contains("experiment `a`: 1 gap(s)") && err.contains("2 valid run(s)"),
+        "{err}"
+    );
+    let (ok, _, err) = fit("two", &|k| k == 700 || k == 780);
+    assert!(ok, "{err}");
+    assert!(err.contains("3 valid run(s)"), "{err}");
+    let (ok, _, err) = fit("edge", &|k| k == 2);
+    assert!(ok, "{err}");
+    assert!(
+        err.contains("1 run(s) of 2 samples in all left out (no in-band bin)"),
+        "{err}"
+    );
+    let (ok, _, err) = fit("short", &|k| !(5..7).contains(&k));
+    assert!(!ok);
+    assert!(
+        err.contains("experiment `a`")
+            && err.contains("none of its 1 valid runs")
+            && err.contains("the longest is 2 s"),
+        "{err}"
+    );
+    assert!(
+        !err.contains("panicked") && !err.contains("relative binning"),
+        "{err}"
+    );
+}
