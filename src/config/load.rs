@@ -1817,6 +1817,49 @@ design = "tn3045_x1"
         assert!(e.contains("true or false"), "{e}");
     }
 
+    /// Pairs with a third number were read as their first two, silently (issue 51); now every
+    /// pair of a study is exactly two numbers or an error naming what was given.
+    #[test]
+    fn pairs_with_another_count_of_numbers_are_refused() {
+        for (extra, line) in [
+            (
+                "[[experiment]]\nname = \"b\"\ndesign = \"tn3045_x12\"\ngaps = [[1.0, 2.0, 3.0]]\n",
+                "gaps",
+            ),
+            (
+                "[[experiment]]\nname = \"b\"\ndesign = \"tn3045_x12\"\nglitches = [[500.0, 560.0, 9.0]]\n",
+                "glitches",
+            ),
+            (
+                "[[experiment]]\nname = \"b\"\ndesign = \"tn3045_x12\"\nnoise_gaps = [[5.0]]\n",
+                "noise_gaps",
+            ),
+            (
+                "[analysis]\nglitches = \"model\"\nglitch_decay = [10.0, 3000.0, 1.0]\n",
+                "glitch_decay",
+            ),
+            (
+                "[simulation.glitches]\ncount = 1\ndecay = [10.0, 100.0]\namplitude = [1e-14, 1e-13, 5.0]\n",
+                "amplitude",
+            ),
+            (
+                "[simulation.glitches]\ncount = 1\ndecay = [10.0]\namplitude = [1e-14, 1e-13]\n",
+                "decay",
+            ),
+        ] {
+            let e = load(&format!("{OK}{extra}")).unwrap_err().to_string();
+            assert!(
+                e.contains("exactly two numbers") && e.contains(line),
+                "{extra}: {e}"
+            );
+        }
+        let s = load(&format!(
+            "{OK}[[experiment]]\nname = \"b\"\ndesign = \"tn3045_x12\"\ngaps = [[1.0, 2.0]]\n"
+        ))
+        .unwrap();
+        assert!(!s.experiments.is_empty());
+    }
+
     #[test]
     fn a_simulated_loop_unstable_through_its_thruster_actuator_or_oms_delay_is_refused() {
         // the state matrix alone (no thruster, actuator or OMS delay) calls each of these stable

@@ -262,14 +262,26 @@ pub struct ExperimentEntry {
     pub noise_data: Option<PathBuf>,
     /// Missing data of the fit stretch, `[[t0, t1], …]` in seconds from its first sample
     /// (beside any NaN, empty cells or missing time stamps of a data file).
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    #[serde(
+        default,
+        deserialize_with = "crate::experiment::pair::pairs",
+        skip_serializing_if = "Vec::is_empty"
+    )]
     pub gaps: Vec<[f64; 2]>,
     /// Missing data of the noise-only stretch, likewise.
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    #[serde(
+        default,
+        deserialize_with = "crate::experiment::pair::pairs",
+        skip_serializing_if = "Vec::is_empty"
+    )]
     pub noise_gaps: Vec<[f64; 2]>,
     /// Glitches to gate, `[[t0, t1], …]` in seconds from the fit stretch's first sample
     /// (gated whatever `[analysis] glitches` says).
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    #[serde(
+        default,
+        deserialize_with = "crate::experiment::pair::pairs",
+        skip_serializing_if = "Vec::is_empty"
+    )]
     pub glitches: Vec<[f64; 2]>,
     /// The `[[stretch]]` the experiment was taken in ([`crate::config::stretches`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -370,7 +382,11 @@ pub struct AnalysisOptions {
     pub glitch_tail: Option<f64>,
     /// `glitches = "model"`: the prior range `[lo, hi]` of a glitch's decay time (s,
     /// log-uniform; default [`crate::likelihood::DEFAULT_GLITCH_DECAY`]).
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(
+        default,
+        deserialize_with = "crate::experiment::pair::opt_pair",
+        skip_serializing_if = "Option::is_none"
+    )]
     pub glitch_decay: Option<[f64; 2]>,
     /// `glitches = "model"`: a glitch's peak force per unit mass on each test mass is uniform
     /// in `[−A, A]` (m s⁻²; default [`crate::likelihood::DEFAULT_GLITCH_AMPLITUDE`]).

@@ -42,8 +42,10 @@ pub struct RandomGlitches {
     #[serde(default)]
     pub noise_count: usize,
     /// `[lo, hi]` of the peak force per unit mass (m s⁻²).
+    #[serde(deserialize_with = "super::pair::pair")]
     pub amplitude: [f64; 2],
     /// `[lo, hi]` of the exponential decay time (s).
+    #[serde(deserialize_with = "super::pair::pair")]
     pub decay: [f64; 2],
     /// Rise time (s), below the shortest decay.
     #[serde(default = "default_rise")]

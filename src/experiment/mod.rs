@@ -8,6 +8,7 @@ mod generator;
 mod glitches;
 mod model_sim;
 pub mod options;
+pub mod pair;
 mod run;
 mod simulate;
 mod snr_definition;
