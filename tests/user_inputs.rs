@@ -82,6 +82,15 @@ burn_in = 1000
 
 use common::TWO_EXPERIMENTS as DESIGNS;
 
+/// `occam simulate` of [`FIT`] on [`DESIGNS`] into `d/sim`, read back.
+fn simulated(d: &Path) -> occam::data::dataset::Dataset {
+    let sim = format!("seed = 8\noutput = \"sim\"\n{FIT}{DESIGNS}");
+    std::fs::write(d.join("sim.toml"), &sim).unwrap();
+    let (ok, _, err) = occam(&["simulate", "sim.toml"], d);
+    assert!(ok, "{err}");
+    occam::data::dataset::Dataset::read(&d.join("sim")).unwrap()
+}
+
 /// simulate → CSV files with renamed columns → `occam fit` from the CSVs gives exactly the
 /// table of fitting the simulated dataset.
 #[test]
@@ -463,11 +472,7 @@ b = { kind = "uniform", lo = -10.0, hi = 10.0 }
 fn a_job_reads_only_the_channels_of_the_models_it_uses() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let sim = format!("seed = 8\noutput = \"sim\"\n{FIT}{DESIGNS}");
-    std::fs::write(d.join("sim.toml"), &sim).unwrap();
-    let (ok, _, err) = occam(&["simulate", "sim.toml"], d);
-    assert!(ok, "{err}");
-    let ds = occam::data::dataset::Dataset::read(&d.join("sim")).unwrap();
+    let ds = simulated(d);
     let mut exps = String::new();
     for e in &ds.experiments {
         write_csv(
@@ -532,11 +537,7 @@ fn a_job_reads_only_the_channels_of_the_models_it_uses() {
 fn nan_samples_in_a_csv_read_out_split_the_fit_into_runs() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let sim = format!("seed = 8\noutput = \"sim\"\n{FIT}{DESIGNS}");
-    std::fs::write(d.join("sim.toml"), &sim).unwrap();
-    let (ok, _, err) = occam(&["simulate", "sim.toml"], d);
-    assert!(ok, "{err}");
-    let ds = occam::data::dataset::Dataset::read(&d.join("sim")).unwrap();
+    let ds = simulated(d);
     let fit = |case: &str, blank: &dyn Fn(usize) -> bool| {
         let mut exps = String::new();
         for e in &ds.experiments {
