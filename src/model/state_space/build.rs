@@ -302,6 +302,20 @@ fn noise_inputs(s: &Scope, n: usize, p: usize) -> Result<NoiseInputs, String> {
             format!("has {q} entries; 1 to {MAX_CHANNELS} noise inputs are supported"),
         ));
     }
+    // `g`'s rows say how many noise inputs there are; a `noise` list of another length is
+    // what is wrong then, not the rows of `g`
+    if let Some(cols) = g.first().map(Vec::len)
+        && cols != q
+        && g.iter().all(|r| r.len() == cols)
+    {
+        return Err(s.fail(
+            "noise",
+            format!(
+                "has {q} entries, but `g` has {cols} columns (one per noise input): give the \
+                 one-sided PSD of each of the {cols} noise inputs"
+            ),
+        ));
+    }
     let g = s.matrix("g", g, (n, q), "states × noise inputs")?;
     let h = match &def.h {
         Some(h) => s.matrix("h", h, (p, q), "outputs × noise inputs")?,

@@ -3,6 +3,10 @@
 use super::def::TimeDomain;
 use nalgebra::DMatrix;
 
+/// Largest entry of A whose eigenvalues are computed (the square root of the largest `f64`,
+/// with room for sums of products).
+const MAX_ENTRY: f64 = 1e150;
+
 /// `Ok` when every eigenvalue of the `n × n` row-major `a` lies in the stable region
 /// (continuous: real part < 0; discrete: modulus < 1); else the offending eigenvalue,
 /// described for a message.
@@ -12,6 +16,14 @@ pub fn check_stable(a: &[f64], n: usize, time: TimeDomain) -> Result<(), String>
     }
     if n == 0 {
         return Ok(());
+    }
+    // the eigenvalue solver squares entries: beyond this it overflows and reports nonsense
+    // (1e308 gave the eigenvalue 0)
+    if let Some(x) = a.iter().find(|x| x.abs() > MAX_ENTRY) {
+        return Err(format!(
+            "the state matrix has an entry {x:e}, beyond ±{MAX_ENTRY:e}, where its eigenvalues \
+             cannot be computed: write the states in units that keep A's entries (rates) moderate"
+        ));
     }
     let m = DMatrix::from_row_slice(n, n, a);
     let eig = m.complex_eigenvalues();
@@ -25,6 +37,12 @@ pub fn check_stable(a: &[f64], n: usize, time: TimeDomain) -> Result<(), String>
             TimeDomain::Continuous => z.re > w.re,
             TimeDomain::Discrete => z.norm() > w.norm(),
         };
+        if !(z.re.is_finite() && z.im.is_finite()) {
+            return Err(format!(
+                "the eigenvalues of the state matrix could not be computed (got {z}): check A's \
+                 entries at this θ"
+            ));
+        }
         if bad && worst.as_ref().is_none_or(worse) {
             worst = Some(num_complex::Complex::new(z.re, z.im));
         }
@@ -65,5 +83,8 @@ mod tests {
         assert!(check_stable(&[0.5, 0.0, 0.0, -0.9], 2, TimeDomain::Discrete).is_ok());
         assert!(check_stable(&[1.0], 1, TimeDomain::Discrete).is_err());
         assert!(check_stable(&[f64::NAN], 1, TimeDomain::Continuous).is_err());
+        // an entry the solver would square past the largest float is named, not "unstable"
+        let e = check_stable(&[0.0, 1e308, -1.0, -0.2], 2, TimeDomain::Continuous).unwrap_err();
+        assert!(e.contains("1e308") && !e.contains("unstable"), "{e}");
     }
 }

@@ -423,6 +423,21 @@ fn errors_name_the_entry() {
             &["a[0][0]", "finite"],
         ),
         (Box::new(|d| d.a.clear()), &[": a: ", "1 to 32 states"]),
+        // a `noise` list shorter than `g`'s columns is what is wrong, not `g`'s rows
+        (
+            Box::new(|d| {
+                d.g = Some(vec![
+                    vec![RealValue::Number(0.0), RealValue::Number(0.0)],
+                    vec![RealValue::Number(1.0), RealValue::Number(0.0)],
+                ]);
+                d.noise = Some(vec![RealValue::Number(1.0)]);
+            }),
+            &[": noise: ", "has 1 entries, but `g` has 2 columns"],
+        ),
+        (
+            Box::new(|d| d.c[0][0] = RealValue::Expr("foo(k)".into())),
+            &["c[0][0]", "unknown function `foo`"],
+        ),
     ];
     for (k, (edit, want)) in cases.iter().enumerate() {
         let e = err(edit.as_ref());

@@ -34,6 +34,35 @@ pub enum Block {
     },
 }
 
+/// A root of the polynomial with coefficients `c` (descending powers) whose real part is
+/// positive (beyond rounding), if any: the roots are the eigenvalues of its companion matrix.
+/// Roots at zero (integrators, trailing zero coefficients) are stable enough: the loop around
+/// them decides.
+fn unstable_root(c: &[f64]) -> Option<num_complex::Complex64> {
+    let first = c.iter().position(|x| *x != 0.0)?;
+    let last = c.iter().rposition(|x| *x != 0.0)?;
+    let c = &c[first..=last];
+    let n = c.len() - 1;
+    if n == 0 {
+        return None;
+    }
+    let mut m = nalgebra::DMatrix::<f64>::zeros(n, n);
+    for j in 0..n {
+        m[(0, j)] = -c[j + 1] / c[0];
+    }
+    for i in 1..n {
+        m[(i, i - 1)] = 1.0;
+    }
+    // coefficients spanning more than the solver can square: no verdict rather than nonsense
+    if m.iter().any(|x| !(x.abs() <= 1e150)) {
+        return None;
+    }
+    m.complex_eigenvalues()
+        .iter()
+        .find(|z| z.re > 1e-9 * z.norm())
+        .map(|z| num_complex::Complex64::new(z.re, z.im))
+}
+
 impl Block {
     /// The real fields with their names (for messages), in declaration order.
     pub fn fields(&self) -> Vec<(String, &RealExpr)> {
@@ -95,12 +124,27 @@ impl Block {
             }
             Block::Rational { den, .. } => {
                 if den.iter().all(|d| value(d) == Some(0.0)) {
-                    Err((
+                    return Err((
                         "den".into(),
                         "is identically zero; a denominator needs a non-zero coefficient".into(),
-                    ))
-                } else {
-                    Ok(())
+                    ));
+                }
+                let known: Option<Vec<f64>> = den.iter().map(value).collect();
+                match known.as_deref().and_then(unstable_root) {
+                    Some(z) => Err((
+                        "den".into(),
+                        format!(
+                            "has the root s = {:.6e} {} {:.6e}i with a positive real part: the \
+                             block is unstable on its own (a pole block refuses a negative \
+                             frequency likewise), and the frequency-domain likelihood and \
+                             simulation hold only for a stable loop; check the signs of `den` \
+                             (coefficients of descending powers of s)",
+                            z.re,
+                            if z.im < 0.0 { "−" } else { "+" },
+                            z.im.abs()
+                        ),
+                    )),
+                    None => Ok(()),
                 }
             }
         }

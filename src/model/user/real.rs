@@ -2,7 +2,7 @@
 //! parameters and constants with exact symbolic partial derivatives.
 
 use exmex::prelude::*;
-use exmex::{FloatOpsFactory, MatchLiteral};
+use exmex::{FloatOpsFactory, MakeOperators, MatchLiteral};
 use num_dual::DualNum;
 use std::f64::consts::PI;
 
@@ -56,6 +56,45 @@ impl MatchLiteral for SciNumber {
 
 pub type Ex = FlatEx<f64, FloatOpsFactory<f64>, SciNumber>;
 
+/// The parser's functions (`sin`, `exp`, …), as the expressions may call them.
+pub fn function_names() -> Vec<&'static str> {
+    FloatOpsFactory::<f64>::make()
+        .iter()
+        .filter(|o| o.has_unary() && o.repr().chars().all(|c| c.is_ascii_alphanumeric()))
+        .map(|o| o.repr())
+        .collect()
+}
+
+/// The first name called as a function (`name(`) that the parser does not know: `exmex` then
+/// says only that a name cannot stand before a parenthesis.
+fn unknown_function(text: &str) -> Option<&str> {
+    let known = function_names();
+    let b = text.as_bytes();
+    let mut i = 0;
+    while i < b.len() {
+        if b[i].is_ascii_alphabetic() || b[i] == b'_' {
+            let start = i;
+            while i < b.len() && (b[i].is_ascii_alphanumeric() || b[i] == b'_') {
+                i += 1;
+            }
+            let name = &text[start..i];
+            let mut j = i;
+            while j < b.len() && b[j].is_ascii_whitespace() {
+                j += 1;
+            }
+            if b.get(j) == Some(&b'(') && !known.contains(&name) {
+                return Some(name);
+            }
+        } else if b[i].is_ascii_digit() || b[i] == b'.' {
+            // a literal such as 1.5e-3: its `e` is not a name
+            i += SciNumber::is_literal(&text[i..]).map_or(1, str::len);
+        } else {
+            i += 1;
+        }
+    }
+    None
+}
+
 /// A parsed real field.
 #[derive(Debug, Clone)]
 pub enum RealExpr {
@@ -94,7 +133,13 @@ impl RealExpr {
                 VarSrc::Const(x) => RealExpr::Num(x),
             });
         }
-        let ex = Ex::parse(t).map_err(|e| format!("cannot parse `{t}`: {e}"))?;
+        let ex = Ex::parse(t).map_err(|e| match unknown_function(t) {
+            Some(f) => format!(
+                "unknown function `{f}` in `{t}`; the functions are {}",
+                function_names().join(", ")
+            ),
+            None => format!("cannot parse `{t}`: {e}"),
+        })?;
         let names = ex.var_names().to_vec();
         if names.len() > MAX_VARS {
             return Err(format!(
@@ -214,6 +259,22 @@ mod tests {
         assert!((da.re - want).abs() < 1e-15);
         assert!((da.eps - b * a.exp()).abs() < 1e-14);
         assert!((db.eps - (a.exp() - 2.0 * b.cos())).abs() < 1e-14);
+    }
+
+    #[test]
+    fn an_unknown_function_is_named_with_the_known_ones() {
+        let e = RealExpr::parse("-(a + foo(c))", &lookup, &|_| String::new()).unwrap_err();
+        assert!(
+            e.starts_with("unknown function `foo` in `-(a + foo(c))`; the functions are")
+                && e.contains("sin")
+                && e.contains("sqrt")
+                && !e.contains("wlog"),
+            "{e}"
+        );
+        // a known function, a literal's exponent and a name before a bracket of its own
+        let e = RealExpr::parse("a * (b + 1e2) + foo_2 (c)", &lookup, &|_| String::new());
+        assert!(e.unwrap_err().contains("unknown function `foo_2`"));
+        assert!(RealExpr::parse("sqrt(a) + 1e3*(b)", &lookup, &|_| String::new()).is_ok());
     }
 
     #[test]

@@ -459,6 +459,20 @@ fn bad_definitions_name_the_model_the_entry_and_what_is_allowed() {
             ),
             vec!["blocks.g.den", "identically zero"],
         ),
+        // a controller written with a sign flipped: poles at s = (0.477 ± 0.318)/0.0633,
+        // beside an integrator (a root at zero, allowed)
+        (
+            base("", "").replace(
+                "{ kind = \"gain\", value = 3 }",
+                "{ kind = \"rational\", num = [1], den = [0.03166287, -0.47746483, 1, 0] }",
+            ),
+            vec![
+                "blocks.g.den",
+                "has the root s = ",
+                "positive real part",
+                "signs of `den`",
+            ],
+        ),
         (
             base("", "").replace(
                 "{ kind = \"gain\", value = 3 }",
@@ -549,6 +563,18 @@ fn check_and_identifiability() {
     m.check(&[1.0, 1.5]).unwrap();
     let e = m.check(&[1.0, 0.5]).unwrap_err();
     assert!(e.contains("blocks.t.tau") && e.contains("≥ 0"), "{e}");
+    // a denominator whose root crosses into the right half-plane with θ: s² + (y − 1)s + 1
+    let m = from_toml(&base("", "").replace(
+        "{ kind = \"gain\", value = 3 }",
+        "{ kind = \"rational\", num = [1], den = [1, \"y - 1\", 1] }",
+    ))
+    .unwrap();
+    m.check(&[1.0, 1.5]).unwrap();
+    let e = m.check(&[1.0, 0.5]).unwrap_err();
+    assert!(
+        e.contains("blocks.g.den") && e.contains("positive real part") && e.contains("at this θ"),
+        "{e}"
+    );
     assert!(m.check(&[f64::NAN, 1.5]).unwrap_err().contains("`x`"));
     assert!(m.check(&[1.0]).is_err());
     // y enters only as 0·y: used on paper, no effect on the coefficients
