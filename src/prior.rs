@@ -25,6 +25,13 @@ pub enum PriorKind {
     LogUniform { lo: f64, hi: f64 },
 }
 
+/// Narrowest prior width: its square, the variance a proposal and a Fisher step take, is then
+/// still a normal `f64`.
+pub const MIN_WIDTH: f64 = 1.5e-154;
+
+/// Narrowest prior width relative to its centre: room for about 10⁴ distinct values.
+pub const MIN_RELATIVE_WIDTH: f64 = 1e-12;
+
 /// Why a prior could not be built.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum PriorError {
@@ -103,6 +110,23 @@ impl PriorKind {
                     ));
                 }
             }
+        }
+        // a width whose square underflows gave "proposal covariance: diagonal entry (6, 6) =
+        // 0" with no name; one at the last digits of its centre cannot be moved across
+        let (width, what) = match *self {
+            PriorKind::Gaussian { sigma, .. } => (sigma, "sigma"),
+            PriorKind::Uniform { lo, hi } | PriorKind::LogUniform { lo, hi } => {
+                (hi - lo, "hi − lo")
+            }
+        };
+        let centre = self.centre().abs();
+        if width < MIN_WIDTH || width < MIN_RELATIVE_WIDTH * centre {
+            return bad(format!(
+                "{what} = {width:e} is too narrow to sample: a prior's width must be at least \
+                 {MIN_WIDTH:.1e} (its square, a variance, must not underflow) and at least \
+                 {MIN_RELATIVE_WIDTH:e} of its centre ({centre:e}); write the parameter in units \
+                 that make the width larger, or fix it ([fit] fixed)"
+            ));
         }
         Ok(())
     }
@@ -339,6 +363,43 @@ mod tests {
             })
             .is_err()
         );
+        // widths whose square underflows, or at the last digits of the centre, are named
+        let e = mk(PriorKind::Uniform {
+            lo: 0.0,
+            hi: 1e-310,
+        })
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.starts_with("prior of `x`: hi − lo = 1e-310 is too narrow"),
+            "{e}"
+        );
+        let narrow = PriorKind::Gaussian {
+            mu: 1.0,
+            sigma: 1e-13,
+        };
+        assert!(
+            mk(narrow)
+                .unwrap_err()
+                .to_string()
+                .contains("sigma = 1e-13")
+        );
+        for ok in [
+            PriorKind::Uniform {
+                lo: 0.0,
+                hi: 1e-150,
+            },
+            PriorKind::Gaussian {
+                mu: 1.0,
+                sigma: 1e-11,
+            },
+            PriorKind::LogUniform {
+                lo: 1e-28,
+                hi: 1e-24,
+            },
+        ] {
+            mk(ok).unwrap();
+        }
     }
 
     #[test]

@@ -212,6 +212,15 @@ impl StudyFile {
             super::stretches::resolve(&self.stretch, &self.experiment, &truth_names, file)?;
         self.experiment = experiment;
         let bad = |field: String, msg: String| invalid(file, field, msg);
+        if self.output.as_os_str().is_empty() {
+            // it wrote into the working directory and printed `wrote /{…}`
+            return Err(bad(
+                "output".into(),
+                "is empty: name the directory the run writes to, e.g. output = \"runs/study\" \
+                 (a command's -o overrides it)"
+                    .into(),
+            ));
+        }
         let budget = budget::budget_from_env()
             .map_err(|m| bad(format!("{} (environment)", budget::BUDGET_ENV), m))?;
         check_truth(&self.truth, file)?;
@@ -1157,6 +1166,10 @@ fn validate_analysis(a: &AnalysisOptions, file: &str) -> Result<(), ConfigError>
     Ok(())
 }
 
+/// Fewest draws per chain after the burn-in and thinning: split R-hat halves each chain, and
+/// `sampler::diagnostics` refuses fewer than four.
+const MIN_KEPT: usize = 4;
+
 fn validate_fit(f: &FitOptions, models: &ModelSet, file: &str) -> Result<(), ConfigError> {
     let bad = |field: &str, msg: String| ConfigError::Invalid {
         file: file.into(),
@@ -1198,6 +1211,19 @@ fn validate_fit(f: &FitOptions, models: &ModelSet, file: &str) -> Result<(), Con
                 "must be ≥ 1 and keep at least one draw of the {} after the burn-in (got {})",
                 f.iterations - f.burn_in,
                 f.thin
+            ),
+        ));
+    }
+    // found before the chains run, not after (it ran the whole MCMC, then refused)
+    let kept = (f.iterations - f.burn_in) / f.thin;
+    if kept < MIN_KEPT {
+        return Err(bad(
+            "burn_in",
+            format!(
+                "keeps {kept} draw(s) per chain ((iterations − burn_in)/thin = ({} − {})/{}), but \
+                 the convergence checks split each chain and need at least {MIN_KEPT}: lower \
+                 burn_in or thin, or raise iterations",
+                f.iterations, f.burn_in, f.thin
             ),
         ));
     }
@@ -1309,11 +1335,11 @@ fn validate_select(
             format!("must be at most {} (got {})", budget::MAX_CHAINS, s.chains),
         ));
     }
-    if s.iterations == 0 || s.burn_in >= s.iterations || s.chains == 0 {
+    if s.iterations == 0 || s.burn_in.saturating_add(MIN_KEPT) > s.iterations || s.chains == 0 {
         return Err(bad(
             "select.burn_in".into(),
             format!(
-                "need chains ≥ 1 and burn_in < iterations (got chains = {}, burn_in = {}, iterations = {})",
+                "need chains ≥ 1 and at least {MIN_KEPT} draws per chain after the burn-in, which the convergence checks split (got chains = {}, burn_in = {}, iterations = {})",
                 s.chains, s.burn_in, s.iterations
             ),
         ));

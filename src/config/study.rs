@@ -798,7 +798,7 @@ pub struct StudyFile {
     /// Normalised priors by parameter name (defaults: the built-in model's boxes, see
     /// [`crate::model::LtpModel::default_priors`]); every parameter of a user-defined model
     /// needs one.
-    #[serde(default)]
+    #[serde(default, deserialize_with = "priors")]
     pub prior: std::collections::BTreeMap<String, PriorKind>,
     /// `[[model]]` tables: built-in closed loops with options and user-defined models.
     #[serde(default)]
@@ -955,6 +955,34 @@ impl Study {
                 .collect(),
         }
     }
+}
+
+/// `[prior]`: each entry read on its own, so that a message names the parameter and says what
+/// a prior looks like (serde's own: "expected internally tagged enum PriorKind").
+fn priors<'de, D: serde::Deserializer<'de>>(
+    d: D,
+) -> Result<std::collections::BTreeMap<String, PriorKind>, D::Error> {
+    let raw: std::collections::BTreeMap<String, toml::Value> =
+        std::collections::BTreeMap::deserialize(d)?;
+    let example = "{ kind = \"uniform\", lo = …, hi = … }, { kind = \"gaussian\", mu = …, sigma = … } \
+                   or { kind = \"log_uniform\", lo = …, hi = … }";
+    raw.into_iter()
+        .map(|(name, v)| {
+            if !v.is_table() {
+                return Err(serde::de::Error::custom(format!(
+                    "prior `{name}` = {v}: a prior is a table, {example}"
+                )));
+            }
+            PriorKind::deserialize(v)
+                .map(|k| (name.clone(), k))
+                .map_err(|e| {
+                    serde::de::Error::custom(format!(
+                        "prior `{name}`: {}; a prior is {example}",
+                        e.message().trim_end()
+                    ))
+                })
+        })
+        .collect()
 }
 
 /// A band `[lo, hi]` from exactly two numbers: serde's fixed-size arrays take the first two

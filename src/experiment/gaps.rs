@@ -45,6 +45,24 @@ impl RandomGaps {
         Ok(())
     }
 
+    /// Whether gaps of at least `shortest` can miss `fraction` of a stretch of `n` samples at
+    /// `fs` Hz: [`RandomGaps::draw`] ends the last gap where the fraction is reached, so a
+    /// `shortest` longer than the fraction's share of the stretch would be cut without a word.
+    pub fn fits(&self, n: usize, fs: f64) -> Result<(), String> {
+        let share = self.fraction * n as f64 / fs;
+        if n == 0 || self.fraction == 0.0 || self.shortest <= share {
+            return Ok(());
+        }
+        Err(format!(
+            "shortest = {} s: {} % of the {:.1} s stretch is {share:.1} s, shorter than the \
+             shortest gap, which could not be applied; set shortest to at most {share:.1} s (or \
+             raise fraction)",
+            self.shortest,
+            (1e6 * 100.0 * self.fraction).round() / 1e6,
+            n as f64 / fs,
+        ))
+    }
+
     /// Draws the gaps of a stretch of `n` samples at `fs` Hz from `rng`.
     pub fn draw(&self, n: usize, fs: f64, rng: &mut impl Rng) -> Vec<Span> {
         let want = (self.fraction * n as f64).round() as usize;
@@ -98,6 +116,10 @@ pub fn apply(
         return Err("noise_gaps: the experiment has no noise-only stretch".into());
     }
     if let Some(r) = random {
+        for (len, what) in [(n, "fit stretch"), (m, "noise-only stretch")] {
+            r.fits(len, e.fs)
+                .map_err(|x| format!("[simulation.gaps], in its {what}: {x}"))?;
+        }
         let mut rng = stream(seed ^ GAP_SALT, j as u64);
         let g = r.draw(n, e.fs, &mut rng);
         e.add_gaps(&g);
@@ -117,6 +139,29 @@ pub fn apply(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_shortest_gap_longer_than_the_fraction_s_share_is_refused() {
+        let r = RandomGaps {
+            fraction: 0.1,
+            shortest: 1e5,
+            longest: 2e5,
+        };
+        r.check().unwrap();
+        let e = r.fits(14_000, 10.0).unwrap_err();
+        assert!(
+            e.contains("shortest = 100000 s")
+                && e.contains("10 % of the 1400.0 s stretch is 140.0 s")
+                && e.contains("at most 140.0 s"),
+            "{e}"
+        );
+        let ok = RandomGaps {
+            shortest: 140.0,
+            ..r
+        };
+        ok.fits(14_000, 10.0).unwrap();
+        ok.fits(0, 10.0).unwrap();
+    }
 
     #[test]
     fn random_gaps_miss_the_fraction_asked_for() {
