@@ -227,7 +227,7 @@ fn main() {
         }),
     };
     if let Err(e) = result {
-        eprintln!("error: {e:#}");
+        eprintln!("error: {}", occam::jobs::error_text(&e));
         std::process::exit(1);
     }
 }

@@ -824,3 +824,31 @@ fn the_reversible_jump_switches_off_false_alarms() {
         assert!(c.probability < 0.05, "{c:?}");
     }
 }
+
+/// A gate that takes nearly all of an experiment's data leads the fit's error with that, not
+/// only with the singular Fisher matrix that follows from it (issue 51: the gate's own line
+/// was printed only when a run succeeded). `examples/glitches-short.toml` gated with a tail
+/// of 15 000 s leaves 122 s of `inv1`.
+#[test]
+fn a_gate_that_takes_nearly_all_data_leads_the_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/examples/glitches-short.toml"
+    ))
+    .unwrap()
+    .replace(
+        "\nglitches = \"model\"",
+        "\nglitches = \"gate\"\nglitch_tail = 15000.0",
+    );
+    std::fs::write(dir.path().join("s.toml"), text).unwrap();
+    let (ok, _, err) = occam(&["fit", "s.toml", "-q", "-o", "f"], dir.path());
+    assert!(!ok);
+    let line = err.lines().find(|l| l.starts_with("error:")).unwrap();
+    let gate = line.find("glitch gating removed").expect(line);
+    let singular = line.find("Fisher matrix is singular").expect(line);
+    assert!(
+        gate < singular && line.contains("lower glitch_tail"),
+        "{line}"
+    );
+}

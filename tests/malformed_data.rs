@@ -144,7 +144,11 @@ fn run_dataset_case(c: &DatasetCase) -> String {
     }
     match Dataset::read(dir.path()) {
         Ok(_) => panic!("{}: accepted", c.name),
-        Err(e) => e.to_string(),
+        Err(e) => {
+            let msg = e.to_string();
+            common::readable(&msg).unwrap_or_else(|why| panic!("{}: {why}: {msg}", c.name));
+            msg
+        }
     }
 }
 
@@ -551,6 +555,17 @@ fn source_cases() -> Vec<SourceCase> {
             with_row(5, "0.5,1e999,1"),
             &["line 7, column `o1`", "not finite"],
         ),
+        // issue 51: finite, but its square overflows (the fit failed later, naming no file)
+        c(
+            "csv: 1e308 in a read-out",
+            with_row(5, "0.5,1e308,1"),
+            &["line 7, column `o1`", "1e308 is beyond ±1e150"],
+        ),
+        c(
+            "csv: -1e308 in a read-out",
+            with_row(5, "0.5,1,-1e308"),
+            &["line 7, column `o12`", "-1e308 is beyond ±1e150"],
+        ),
         c(
             "csv: not a number",
             with_row(3, "0.3,1,abc"),
@@ -738,6 +753,18 @@ fn source_cases() -> Vec<SourceCase> {
             &["array `o12`, sample 9", "not finite"],
         ),
         npz_case(
+            "npz file: 1e308 in a read-out",
+            zip(&[
+                ("o1".into(), f8(&[1.0; 64])),
+                ("o12".into(), {
+                    let mut v = vec![1.0; 64];
+                    v[9] = 1e308;
+                    f8(&v)
+                }),
+            ]),
+            &["array `o12`, sample 9", "1e308 is beyond ±1e150"],
+        ),
+        npz_case(
             "npz file: empty array",
             zip(&[("o1".into(), f8(&[])), ("o12".into(), f8(&[]))]),
             &["array `o1` has no samples"],
@@ -795,7 +822,11 @@ fn run_source_case(c: &SourceCase) -> String {
     let chans: Vec<String> = c.channels.iter().map(|s| s.to_string()).collect();
     match src.load("inv1", dir.path(), &chans) {
         Ok(_) => panic!("{}: accepted", c.name),
-        Err(e) => e.to_string(),
+        Err(e) => {
+            let msg = e.to_string();
+            common::readable(&msg).unwrap_or_else(|why| panic!("{}: {why}: {msg}", c.name));
+            msg
+        }
     }
 }
 

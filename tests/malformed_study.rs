@@ -2,6 +2,8 @@
 //! message naming the file and the field (issue 10, deliverable 6). Each case is written to a
 //! file and read with `Study::load`, as the commands read it.
 
+mod common;
+
 use occam::config::Study;
 
 /// The top of a valid study; cases add top-level keys (`top`), tables (`tables`) and keys of
@@ -89,6 +91,37 @@ fn corpus() -> Vec<(&'static str, String, &'static str)> {
             "unknown window",
             s("", "[analysis]\nwindow = \"hamm\"", ""),
             "window",
+        ),
+        // issue 51: a prior that is not a table, one too narrow to sample, an empty output,
+        // too few draws kept for the convergence checks (found before the chains run)
+        (
+            "prior a number",
+            s("", "[prior]\nd21 = 3", ""),
+            "prior `d21` = 3",
+        ),
+        (
+            "prior width whose square underflows",
+            s(
+                "",
+                "[prior]\nd21 = { kind = \"uniform\", lo = 0.0, hi = 1e-310 }",
+                "",
+            ),
+            "prior.d21",
+        ),
+        (
+            "output empty",
+            s("", "", "").replace("output = \"out\"", "output = \"\""),
+            "output",
+        ),
+        (
+            "one kept draw per chain",
+            s("", "[fit]\niterations = 300\nburn_in = 299", ""),
+            "fit.burn_in",
+        ),
+        (
+            "two kept draws per select chain",
+            s("", &select(SELECT_OK, "iterations = 100\nburn_in = 98"), ""),
+            "select.burn_in",
         ),
         // bands: length, order, Nyquist
         ("empty band", s("", "[analysis]\nband = []", ""), "band"),
@@ -598,6 +631,9 @@ fn every_malformed_study_is_refused_naming_file_and_field() {
                 let file = path.display().to_string();
                 if !(msg.contains(&file) && msg.contains(field)) {
                     failures.push(format!("{name}: wanted `{field}` in: {msg}"));
+                }
+                if let Err(why) = common::readable(&msg) {
+                    failures.push(format!("{name}: {why}: {msg}"));
                 }
             }
         }

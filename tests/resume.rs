@@ -125,6 +125,23 @@ fn resume_with_nothing_to_resume_is_an_error_for_every_command() {
             "{cmd}: {err}"
         );
     }
+    // a sweep with no finished task but one in progress (its stage file there) has something
+    // to resume: it continues that task, here from a damaged stage file, which it names
+    let out = dir.path().join("out/sweep");
+    let sweep = occam::jobs::sweep::Sweep::load(
+        &dir.path().join("s.toml"),
+        occam::jobs::sweep::SweepArgs {
+            output: Some(out.clone()),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let (_, stage) = sweep.task_checkpoints(0);
+    std::fs::create_dir_all(stage.parent().unwrap()).unwrap();
+    std::fs::write(&stage, b"half a stage").unwrap();
+    assert_eq!((sweep.finished_tasks(), sweep.started_tasks()), (0, 1));
+    let (_, _, err) = occam(&["sweep", "s.toml", "-q", "--resume"], dir.path());
+    assert!(!err.contains("nothing to resume"), "{err}");
 }
 
 #[test]
@@ -333,6 +350,20 @@ fn a_fit_resumed_with_another_likelihood_kind_is_refused() {
     // the same study resumes (a finished fit has nothing left to do)
     let (ok, _, err) = occam(&["fit", "s.toml", "-q", "-o", "f", "--resume"], dir.path());
     assert!(ok, "{err}");
+    // a changed prior is named by its parameter and [prior] entries (it printed both prior
+    // vectors in Debug form, 390–640 bytes)
+    let wider =
+        format!("{exact}\n[prior]\nd21 = {{ kind = \"uniform\", lo = -2e-3, hi = 2e-3 }}\n");
+    std::fs::write(dir.path().join("s.toml"), &wider).unwrap();
+    let (ok, _, err) = occam(&["fit", "s.toml", "-q", "-o", "f", "--resume"], dir.path());
+    assert!(!ok, "a changed prior was resumed");
+    assert!(
+        (err.contains("d21 = { kind = \"uniform\", lo = -0.002, hi = 0.002 }")
+            || err.contains("`prior.d21` changed"))
+            && !err.contains("Uniform {")
+            && err.len() < 500,
+        "{err}"
+    );
     let relbin = exact.replace("likelihood = \"exact\"", "likelihood = \"relbin\"");
     std::fs::write(dir.path().join("s.toml"), relbin).unwrap();
     let (ok, _, err) = occam(&["fit", "s.toml", "-q", "-o", "f", "--resume"], dir.path());

@@ -14,10 +14,10 @@ pyo3::create_exception!(
     "An error of occam: the message is exactly the one the command line prints after `error: `."
 );
 
-/// An occam error as a Python exception with the CLI's message (`{e:#}`: every context, joined
-/// by `: `).
+/// An occam error as a Python exception with the CLI's message (every context, joined by `: `,
+/// each cause once: [`occam::jobs::error_text`]).
 pub(crate) fn occam_error(e: anyhow::Error) -> PyErr {
-    OccamError::new_err(format!("{e:#}"))
+    OccamError::new_err(occam::jobs::error_text(&e))
 }
 
 #[pymodule]

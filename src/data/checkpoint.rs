@@ -122,6 +122,22 @@ pub fn from_bytes<T: DeserializeOwned>(
     decode(bytes, Path::new("(in memory)"), kind, version, identity)
 }
 
+/// A decoding error in words: ciborium's `Display` is its `Debug` (`Semantic(None, "…")`,
+/// `Io(Error { kind: UnexpectedEof, … })`).
+fn cbor_error(e: &ciborium::de::Error<std::io::Error>) -> String {
+    use ciborium::de::Error;
+    match e {
+        Error::Io(e) if e.kind() == std::io::ErrorKind::UnexpectedEof => {
+            "the file ends early (cut short while it was written, or not a checkpoint)".into()
+        }
+        Error::Io(e) => format!("cannot read it: {e}"),
+        Error::Syntax(at) => format!("not a checkpoint: no valid CBOR at byte {at}"),
+        Error::Semantic(Some(at), msg) => format!("unexpected contents at byte {at}: {msg}"),
+        Error::Semantic(None, msg) => format!("unexpected contents: {msg}"),
+        Error::RecursionLimitExceeded => "not a checkpoint: nested too deeply".into(),
+    }
+}
+
 fn decode<T: DeserializeOwned>(
     bytes: &[u8],
     path: &Path,
@@ -144,7 +160,7 @@ fn decode<T: DeserializeOwned>(
             });
         match old {
             Some(f) => unreadable(format!("written by an earlier occam, format `{f}`")),
-            None => unreadable(e.to_string()),
+            None => unreadable(cbor_error(&e)),
         }
     })?;
     if head.format != FORMAT {
@@ -177,7 +193,7 @@ fn decode<T: DeserializeOwned>(
             expected: id.into(),
         });
     }
-    let body: In<T> = ciborium::from_reader(bytes).map_err(|e| unreadable(e.to_string()))?;
+    let body: In<T> = ciborium::from_reader(bytes).map_err(|e| unreadable(cbor_error(&e)))?;
     Ok(body.payload)
 }
 
@@ -240,7 +256,7 @@ pub fn head(path: &Path) -> Result<(String, String), CheckpointError> {
     let reader = std::io::BufReader::new(file);
     let head: Head = ciborium::from_reader(reader).map_err(|e| CheckpointError::Unreadable {
         path: path.to_path_buf(),
-        msg: e.to_string(),
+        msg: cbor_error(&e),
     })?;
     if head.format != FORMAT {
         return Err(CheckpointError::Unreadable {
@@ -283,6 +299,30 @@ mod tests {
             head(&dir.path().join("none")),
             Err(CheckpointError::Io { .. })
         ));
+    }
+
+    #[test]
+    fn a_damaged_checkpoint_is_described_in_words() {
+        let b = to_bytes("fit", 2, "abc", &state());
+        // cut short, and a payload of another shape
+        let e = from_bytes::<State>(&b[..b.len() - 5], "fit", 2, None)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("the file ends early"), "{e}");
+        let e = from_bytes::<Vec<String>>(&b, "fit", 2, None)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("unexpected contents"), "{e}");
+        for e in [
+            from_bytes::<State>(&b[..b.len() - 5], "fit", 2, None),
+            from_bytes::<State>(b"\xff\xff\xff", "fit", 2, None),
+        ] {
+            let e = e.unwrap_err().to_string();
+            assert!(
+                !e.contains("Semantic(") && !e.contains("Error {") && !e.contains("kind:"),
+                "{e}"
+            );
+        }
     }
 
     #[test]

@@ -920,6 +920,27 @@ impl CsvTable {
 /// takes at least a digit and a separator).
 const CSV_MEMORY_FACTOR: u64 = 9;
 
+/// Largest magnitude of a sample read from a user's file: beyond it its square (a power, a
+/// periodogram) overflows, and the run failed later with NaN in messages that named no file.
+pub const MAX_SAMPLE: f64 = 1e150;
+
+/// Why the sample `v` of a user's file cannot be read, if it cannot (`missing` says how
+/// the format marks a missing sample). NaN is a missing sample, not a problem.
+pub fn sample_problem(v: f64, missing: &str) -> Option<String> {
+    if v.is_infinite() {
+        Some(format!(
+            "{v} is not finite (infinities are not allowed; {missing} marks a missing sample)"
+        ))
+    } else if v.abs() > MAX_SAMPLE {
+        Some(format!(
+            "{v:e} is beyond ±{MAX_SAMPLE:e}, not a measurement in SI units (its square, a power, \
+             overflows); {missing} marks a missing sample"
+        ))
+    } else {
+        None
+    }
+}
+
 /// Reads a CSV file with a header row of column names and numeric rows. Lines starting with `#`
 /// and blank lines are skipped; header names and values may be enclosed in double quotes; a
 /// UTF-8 byte-order mark and `\r\n` line ends are accepted. Errors name the file, the line
@@ -1042,14 +1063,8 @@ pub fn parse_csv(file: &Path, bytes: &[u8]) -> Result<CsvTable, DataError> {
                     fmt_err(path, format!("{}: `{shown}` is not a number", at()))
                 })?
             };
-            if v.is_infinite() {
-                return Err(fmt_err(
-                    path,
-                    format!(
-                        "{}: {v} is not finite (infinities are not allowed; NaN or an empty cell marks a missing sample)",
-                        at()
-                    ),
-                ));
+            if let Some(why) = sample_problem(v, "NaN or an empty cell") {
+                return Err(fmt_err(path, format!("{}: {why}", at())));
             }
             columns[j].push(v);
         }
@@ -1132,6 +1147,12 @@ mod tests {
         let e = read_csv(&p).unwrap_err().to_string();
         assert!(
             e.contains("d.csv") && e.contains("line 3") && e.contains("o1"),
+            "{e}"
+        );
+        std::fs::write(&p, "t,o1\n0,1\n0.1,1e308\n").unwrap();
+        let e = read_csv(&p).unwrap_err().to_string();
+        assert!(
+            e.contains("d.csv") && e.contains("line 3, column `o1`") && e.contains("beyond ±1e150"),
             "{e}"
         );
         std::fs::write(&p, "t,o1\n0,1\n0.1\n").unwrap();

@@ -5,12 +5,10 @@ use std::path::Path;
 /// Problems reading or writing data files; every message names the file.
 #[derive(Debug, thiserror::Error)]
 pub enum DataError {
-    #[error("{file}: {source}")]
-    Io {
-        file: String,
-        #[source]
-        source: std::io::Error,
-    },
+    /// The I/O error is in the message and not a `source` as well: a chain printed with
+    /// `{:#}` said its cause twice (`d.csv: a directory, …: a directory, …`).
+    #[error("{file}: {error}")]
+    Io { file: String, error: std::io::Error },
     #[error("{file}: {msg}")]
     Format { file: String, msg: String },
     /// The dataset's experiments are not the study's ([`Dataset::check_names`](crate::data::dataset::Dataset::check_names)); the caller
@@ -27,9 +25,9 @@ pub enum DataError {
 }
 
 pub(super) fn io_err(file: &Path) -> impl FnOnce(std::io::Error) -> DataError + '_ {
-    move |source| DataError::Io {
+    move |error| DataError::Io {
         file: file.display().to_string(),
-        source,
+        error,
     }
 }
 

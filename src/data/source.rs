@@ -1,7 +1,9 @@
 //! [`DataSource`]: one experiment's data read from a CSV or npz file named in the study.
 //! [`ExperimentData::from_csv`] is the shorthand for two CSV files with the fixed columns.
 
-use super::dataset::{ExperimentData, FIXED_CHANNELS, check_channel_name, read_csv};
+use super::dataset::{
+    ExperimentData, FIXED_CHANNELS, check_channel_name, read_csv, sample_problem,
+};
 use super::error::{DataError, fmt_err};
 use super::gaps;
 use super::memory::{check_budget, memory_budget_bytes};
@@ -108,14 +110,12 @@ impl Table {
             if v.is_empty() {
                 return Err(fmt_err(file, format!("array `{w}` has no samples")));
             }
-            if let Some(k) = v.iter().position(|x| x.is_infinite()) {
-                return Err(fmt_err(
-                    file,
-                    format!(
-                        "array `{w}`, sample {k}: {} is not finite (infinities are not allowed; NaN marks a missing sample)",
-                        v[k]
-                    ),
-                ));
+            if let Some((k, why)) = v
+                .iter()
+                .enumerate()
+                .find_map(|(k, x)| sample_problem(*x, "NaN").map(|w| (k, w)))
+            {
+                return Err(fmt_err(file, format!("array `{w}`, sample {k}: {why}")));
             }
             match &first {
                 None => first = Some((w.to_string(), v.len())),
@@ -654,10 +654,20 @@ mod tests {
         let e = s.load("inv1", dir.path(), &chans(&["o1"])).unwrap();
         assert_eq!((e.gaps.clone(), e.o[0][9]), (vec![[9, 10]], 0.0));
         bad[9] = f64::INFINITY;
-        write_npz(&dir.path().join("run.npz"), &[("o1", bad)]);
+        write_npz(&dir.path().join("run.npz"), &[("o1", bad.clone())]);
         let err = load_err(&s, dir.path(), &["o1"]);
         assert!(
             err.contains("run.npz") && err.contains("array `o1`, sample 9") && err.contains("inf"),
+            "{err}"
+        );
+        // finite, but its square overflows: named as well (the fit failed later, with NaN)
+        bad[9] = -1e308;
+        write_npz(&dir.path().join("run.npz"), &[("o1", bad)]);
+        let err = load_err(&s, dir.path(), &["o1"]);
+        assert!(
+            err.contains("run.npz")
+                && err.contains("array `o1`, sample 9")
+                && err.contains("-1e308 is beyond ±1e150"),
             "{err}"
         );
         // a missing array lists the ones that exist

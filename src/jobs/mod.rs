@@ -16,6 +16,7 @@ pub mod bode;
 pub mod chains_npz;
 pub mod demo;
 pub mod design;
+mod error_text;
 pub mod exec;
 pub mod fit;
 pub mod glitch_count;
@@ -41,5 +42,6 @@ pub mod simulate;
 pub mod sweep;
 pub mod validity;
 
+pub use error_text::error_text;
 pub use job::{Context, Done, Job, Log, execute};
 pub use progress::Work;

@@ -46,6 +46,23 @@ impl Prepared {
         self.study.as_deref().unwrap_or(study)
     }
 
+    /// `msg` (an error of the fit) led by the gates that took most of an experiment's data,
+    /// when there are any: the likely cause, which the run's warnings would say only had it
+    /// succeeded.
+    pub fn lead_with_data_loss(&self, msg: String) -> String {
+        let lost: Vec<String> = self
+            .glitch_gates
+            .iter()
+            .filter(|g| g.gated_most())
+            .map(|g| g.describe())
+            .collect();
+        if lost.is_empty() {
+            msg
+        } else {
+            format!("{}. Then: {msg}", lost.join(". "))
+        }
+    }
+
     /// The notes of what was done to the data's glitches (gated or modelled).
     pub fn glitch_notes(&self) -> Vec<String> {
         let mut out = glitch_notes(&self.glitch_gates);

@@ -114,6 +114,11 @@ pub const GATED_MOST: f64 = 0.5;
 
 impl GlitchGate {
     /// One line for the terminal and the run's warnings.
+    /// Whether the gates took more than [`GATED_MOST`] of the experiment's fit data.
+    pub fn gated_most(&self) -> bool {
+        self.seconds > GATED_MOST * (self.seconds + self.remaining)
+    }
+
     pub fn describe(&self) -> String {
         format!(
             "experiment `{}`: glitch gating removed {:.0} s in {} region(s) ({} detected, {} listed){}{}",
@@ -134,7 +139,7 @@ impl GlitchGate {
                         .join(", ")
                 )
             },
-            if self.seconds > GATED_MOST * (self.seconds + self.remaining) {
+            if self.gated_most() {
                 format!(
                     "; only {:.0} s of its fit data are left, and a parameter that only this experiment constrains may be lost (the MAP search then names it): raise glitch_threshold, lower glitch_tail, or fit the glitches (glitches = \"model\")",
                     self.remaining

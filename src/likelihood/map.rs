@@ -148,6 +148,12 @@ pub fn describe_bound(name: &str, kind: &PriorKind, value: f64) -> String {
 pub enum MapError {
     #[error("MAP search: the start point is outside the prior (parameter `{0}`)")]
     StartOutsidePrior(String),
+    /// The start lies inside the prior but `ln L` is not finite there (an unstable loop, a
+    /// delay through zero): what the model's check says.
+    #[error(
+        "MAP search: the likelihood cannot be evaluated at the start point, which lies inside the prior: {0}; start where the model is stable ([fit] start, the [truth], or priors centred on a working system)"
+    )]
+    StartNotEvaluable(String),
     /// The scoring matrix of the free parameters off their bounds is singular;
     /// `unconstrained` names the parameters along its null directions
     /// ([`super::fisher::describe_unconstrained`]), `detail` says how.
@@ -254,10 +260,17 @@ fn scoring(
     }
     let lp0 = lik.ln_posterior(start);
     if bounded && lp0 == f64::NEG_INFINITY {
-        let bad = (0..start.len())
-            .find(|&i| !lik.prior().kinds()[i].ln_pdf(start[i]).is_finite())
-            .unwrap_or(0);
-        return Err(MapError::StartOutsidePrior(names[bad].clone()));
+        // the prior names the parameter outside its box; else the likelihood is what failed
+        // (it was blamed on the first parameter's prior)
+        return Err(
+            match (0..start.len()).find(|&i| !lik.prior().kinds()[i].ln_pdf(start[i]).is_finite()) {
+                Some(bad) => MapError::StartOutsidePrior(names[bad].clone()),
+                None => MapError::StartNotEvaluable(match lik.model().check(start) {
+                    Err(why) => why,
+                    Ok(()) => format!("ln L = {}", lik.ln_likelihood_whittle(start)),
+                }),
+            },
+        );
     }
     let problem = Problem {
         names: free.iter().map(|&i| names[i].clone()).collect(),

@@ -569,6 +569,20 @@ fn unstable_parameter_values_get_minus_infinity_and_are_counted() {
     assert!(rb.ln_likelihood(&stable).is_finite());
     assert_eq!(rb.ln_likelihood(&unstable), f64::NEG_INFINITY);
     assert_eq!(rb.unstable_evaluations(), 1);
+    // a MAP search started there says the start cannot be evaluated, with the model's reason;
+    // it blamed the first parameter's prior ("outside the prior (parameter `w1sq`)")
+    let free: Vec<usize> = (0..unstable.len()).collect();
+    assert!(lik.prior().ln_pdf(&unstable).is_finite());
+    let e = crate::likelihood::fisher_scoring(&lik, &unstable, &free, 1e-3, 20).unwrap_err();
+    assert!(
+        matches!(e, crate::likelihood::MapError::StartNotEvaluable(_)),
+        "{e}"
+    );
+    let e = e.to_string();
+    assert!(
+        e.contains("cannot be evaluated at the start point") && !e.contains("outside the prior"),
+        "{e}"
+    );
 }
 
 /// The per-bin terms are each bin's share of `ln L`: one vector per experiment, one term per

@@ -141,6 +141,31 @@ fn close_adapt(a: &Option<Adapt>, b: &Option<Adapt>) -> bool {
     }
 }
 
+/// A prior as its `[prior]` entry: `{ kind = "uniform", lo = -0.001, hi = 0.001 }`.
+fn prior_entry(k: &crate::prior::PriorKind) -> String {
+    use crate::numfmt::fmt_roundtrip as r;
+    use crate::prior::PriorKind;
+    match *k {
+        PriorKind::Uniform { lo, hi } => {
+            format!("{{ kind = \"uniform\", lo = {}, hi = {} }}", r(lo), r(hi))
+        }
+        PriorKind::LogUniform { lo, hi } => {
+            format!(
+                "{{ kind = \"log_uniform\", lo = {}, hi = {} }}",
+                r(lo),
+                r(hi)
+            )
+        }
+        PriorKind::Gaussian { mu, sigma } => {
+            format!(
+                "{{ kind = \"gaussian\", mu = {}, sigma = {} }}",
+                r(mu),
+                r(sigma)
+            )
+        }
+    }
+}
+
 impl Checkpoint {
     /// Checks that this checkpoint was written by a run with these settings, proposal and
     /// target; the error names the first field that differs. `n_iter` may grow (continuing a
@@ -185,11 +210,22 @@ impl Checkpoint {
                 .zip(prior.kinds())
                 .all(|(a, b)| close_prior_kind(a, b));
         if !same_prior {
-            return mismatch(
-                "prior",
-                format!("{:?}", self.prior.kinds()),
-                format!("{:?}", prior.kinds()),
-            );
+            // the first parameter whose prior differs, as its [prior] entry (it printed both
+            // whole prior vectors in Debug form)
+            let k = (0..self.prior.kinds().len().min(prior.kinds().len()))
+                .find(|&k| !close_prior_kind(&self.prior.kinds()[k], &prior.kinds()[k]));
+            return match k {
+                Some(k) => mismatch(
+                    "prior",
+                    format!("{} = {}", names[k], prior_entry(&self.prior.kinds()[k])),
+                    format!("{} = {}", names[k], prior_entry(&prior.kinds()[k])),
+                ),
+                None => mismatch(
+                    "prior",
+                    format!("{} parameters", self.prior.kinds().len()),
+                    format!("{} parameters", prior.kinds().len()),
+                ),
+            };
         }
         if s.n_chains != settings.n_chains {
             return mismatch(
@@ -228,11 +264,24 @@ impl Checkpoint {
         let (a, b) = (self.proposal.cholesky(), proposal.cholesky());
         let scale = b.iter().fold(0.0f64, |m, x| m.max(x.abs()));
         if a.len() != b.len() || a.iter().zip(b).any(|(x, y)| (x - y).abs() > 1e-12 * scale) {
-            return mismatch(
-                "proposal covariance",
-                format!("{}", self.proposal.covariance()),
-                format!("{}", proposal.covariance()),
-            );
+            // the first entry that differs, by its parameters (not two whole matrices)
+            let (ca, cb) = (self.proposal.covariance(), proposal.covariance());
+            let n = ca.nrows().min(cb.nrows());
+            let tol = 1e-10 * cb.amax();
+            let at = (0..n)
+                .flat_map(|i| (0..=i).map(move |j| (i, j)))
+                .find(|&(i, j)| (ca[(i, j)] - cb[(i, j)]).abs() > tol);
+            let entry = |c: &nalgebra::DMatrix<f64>, (i, j): (usize, usize)| {
+                format!("({}, {}) = {:e}", names[i], names[j], c[(i, j)])
+            };
+            return match at {
+                Some(ij) => mismatch("proposal covariance", entry(&ca, ij), entry(&cb, ij)),
+                None => mismatch(
+                    "proposal covariance",
+                    format!("{} × {}", ca.nrows(), ca.ncols()),
+                    format!("{} × {}", cb.nrows(), cb.ncols()),
+                ),
+            };
         }
         let corrupt = |problem: String| {
             Err(SamplerError::Checkpoint {

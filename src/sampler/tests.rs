@@ -979,6 +979,16 @@ fn mismatched_checkpoints_name_the_difference() {
         field_of(&t, &(&cov * 2.0), s.clone()),
         "proposal covariance"
     );
+    // named by its first differing entry, not printed as two whole matrices
+    let e = MetropolisHastings::new(&t, &(&cov * 2.0), s.clone())
+        .unwrap()
+        .resume(&path)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("proposal covariance is (") && !e.contains('\n') && e.len() < 400,
+        "{e}"
+    );
     let t4 = GaussianTarget::correlated(4, 1e3, 61);
     assert_eq!(field_of(&t4, &optimal_cov(&t4), s.clone()), "dimension");
     // Same prior box, different mean: only the stored ln posterior can tell.

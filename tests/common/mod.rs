@@ -3,18 +3,48 @@
 use std::path::Path;
 use std::process::Command;
 
-/// Runs the `occam` binary in `cwd`: (success, stdout, stderr).
+#[allow(dead_code)] // not every test binary that shares this module runs the binary
+/// Runs the `occam` binary in `cwd`: (success, stdout, stderr). Every `error:` and
+/// `warning:` line it prints is held to [`readable`], so the whole suite scans every message
+/// it provokes.
 pub fn occam(args: &[&str], cwd: &Path) -> (bool, String, String) {
     let out = Command::new(env!("CARGO_BIN_EXE_occam"))
         .args(args)
         .current_dir(cwd)
         .output()
         .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    for line in err.lines() {
+        if (line.starts_with("error:") || line.starts_with("warning:"))
+            && let Err(why) = readable(line)
+        {
+            panic!("occam {args:?}: {why}: {line}");
+        }
+    }
     (
         out.status.success(),
         String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
+        err,
     )
+}
+
+/// Rust's debug formatting that must never reach a person (issue 51).
+const DEBUG_FORMS: [&str; 6] = ["Some(", "None,", "Error {", "kind:", "Semantic(", "Io("];
+
+/// `Ok` when `msg` holds none of [`DEBUG_FORMS`] and no cause twice (a `: `-separated part
+/// of 24 or more characters that appears again in the message).
+#[allow(dead_code)]
+pub fn readable(msg: &str) -> Result<(), String> {
+    if let Some(d) = DEBUG_FORMS.iter().find(|d| msg.contains(*d)) {
+        return Err(format!("Rust debug formatting `{d}`"));
+    }
+    for part in msg.split(": ") {
+        let part = part.trim();
+        if part.chars().count() >= 24 && msg.matches(part).count() > 1 {
+            return Err(format!("a cause said twice: `{part}`"));
+        }
+    }
+    Ok(())
 }
 
 /// Two small experiments at 1 Hz (guidance sines on x1 and x12, long noise-only stretches):

@@ -50,10 +50,10 @@ pub fn run(
         crate::likelihood::MapError::Singular {
             unconstrained,
             detail,
-        } => FitError::Other(format!(
+        } => FitError::Other(prep.lead_with_data_loss(format!(
             "MAP search: the Fisher matrix is singular: {detail}. {}",
             fix_hint(&free_names, &unconstrained, &value_of)
-        )),
+        ))),
         e => FitError::Map(e),
     })?;
     let mut map = search.best().result.clone();
@@ -76,8 +76,14 @@ pub fn run(
     }
     let mut fisher = fisher_exact(exact, &map.theta, free);
     let value_of = |n: &str| names.iter().position(|p| p == n).map(|i| map.theta[i]);
-    let mut cr = cramer_rao(&fisher)
-        .ok_or_else(|| FitError::Other(singular_message(&fisher, &free_names, "MAP", &value_of)))?;
+    let mut cr = cramer_rao(&fisher).ok_or_else(|| {
+        FitError::Other(prep.lead_with_data_loss(singular_message(
+            &fisher,
+            &free_names,
+            "MAP",
+            &value_of,
+        )))
+    })?;
     if let Some(w) = near_singular_warning(&fisher, &free_names) {
         warnings.push(w);
     }

@@ -94,16 +94,16 @@ pub fn plan(req: &SweepRequest, exec: &dyn Executor) -> anyhow::Result<PlannedSw
     };
     let mut lines = Vec::new();
     if req.resume {
-        let done = sweep.finished_tasks();
-        if done == 0 {
+        let (done, started) = (sweep.finished_tasks(), sweep.started_tasks());
+        if done == 0 && started == 0 {
             anyhow::bail!(
-                "--resume: there is nothing to resume in {}: no finished task of this sweep in {}/tasks; run without --resume",
+                "--resume: there is nothing to resume in {}: no finished or started task of this sweep in {}/tasks; run without --resume",
                 sweep.out.display(),
                 sweep.out.display()
             );
         }
         lines.push(format!(
-            "resuming from {}/tasks: {done} of {} tasks finished",
+            "resuming from {}/tasks: {done} of {} tasks finished, {started} started (continued from their checkpoints)",
             sweep.out.display(),
             sweep.task_count()
         ));

@@ -233,7 +233,7 @@ impl Sweep {
         })();
         let (outcome, error) = match result {
             Ok(o) => (Some(o), None),
-            Err(e) => (None, Some(format!("{e:#}"))),
+            Err(e) => (None, Some(crate::jobs::error_text(&e))),
         };
         TaskRecord {
             id: self.id(t),
@@ -250,6 +250,18 @@ impl Sweep {
             record.with_extension("select.cbor"),
             record.with_extension("stage.cbor"),
         )
+    }
+
+    /// How many of the sweep's unfinished tasks have a select checkpoint or stage file in its
+    /// run directory: work in progress that `--resume` continues.
+    pub fn started_tasks(&self) -> usize {
+        (0..self.task_count())
+            .filter(|&t| TaskRecord::load(&self.out, &self.id(t)).is_none())
+            .filter(|&t| {
+                let (a, b) = self.task_checkpoints(t);
+                a.is_file() || b.is_file()
+            })
+            .count()
     }
 
     /// How many of the sweep's tasks are finished in its run directory (what `--resume`
