@@ -120,7 +120,14 @@ def compare_json(old, new, bars_only=False):
     return sorted(out, key=lambda l: l.split()[1])
 
 
+def text_of(v):
+    """A recorded output as text: goldens keep each text as the list of its lines (earlier ones
+    as one string)."""
+    return "\n".join(v) if isinstance(v, list) else v
+
+
 def compare_entry(name, old, new, bars_only=False):
+    old, new = text_of(old), text_of(new)
     if old == new:
         return []
     if old is None or new is None:

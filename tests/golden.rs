@@ -11,10 +11,19 @@
 //! * everything else (`.npz` samples and datasets, `.png`, `.svg`): the SHA-256 of the bytes.
 //!
 //! The default set runs in CI: the short studies in full, the long ones (the sweeps and the
-//! design search) in a reduced form (fewer points and realisations). `OCCAM_GOLDEN=full` runs
-//! every study in full, `occam demo` and the deterministic Rust examples too (about ten minutes
-//! on two cores) — before a refactor is called done. `OCCAM_BLESS=1` records instead of
-//! comparing; a changed golden is a changed number and needs its own commit and reason.
+//! design search) in a reduced form (fewer points and realisations). The rest — every study in
+//! full and `occam demo` — are ignored tests, so CI lists them as ignored rather than passed;
+//! `cargo test --release --test golden -- --include-ignored` runs them all (about ten minutes
+//! on two cores) before a refactor is called done.
+//!
+//! A golden file is pretty-printed JSON: per output file its SHA-256, or its text as a list of
+//! lines, so that a changed number shows as a changed line in `git diff`.
+//! `scripts/golden_diff.py [REV]` lists every changed number beside its error bar.
+//!
+//! `OCCAM_BLESS=1` records instead of comparing. It never passes silently over a change: a
+//! case whose outputs differ from its golden is re-recorded and then fails, naming the first
+//! difference and the command that shows them all; a re-recorded golden is a changed number
+//! and needs its own commit and reason.
 
 mod common;
 
@@ -31,7 +40,7 @@ struct Case {
     args: &'static [&'static str],
     /// Dotted study keys set to TOML values before the run (the reduced forms).
     edits: &'static [(&'static str, &'static str)],
-    /// Only with `OCCAM_GOLDEN=full`.
+    /// An ignored test (run with `--include-ignored`).
     full_only: bool,
 }
 
@@ -121,6 +130,16 @@ const CASES: &[Case] = &[
         "accel-asymmetry",
         &["select", "{study}"],
     ),
+    // the examples of the paths added since the paper (issue 49): gaps, glitches gated, a
+    // state-space loop (3.7 s, 8.9 s, 2.5 s, 10.6 s on two cores)
+    case("fit-gaps", "gaps", &["fit", "{study}"]),
+    case(
+        "fit-gaps-and-glitches",
+        "gaps-and-glitches",
+        &["fit", "{study}"],
+    ),
+    case("fit-state-space", "state-space", &["fit", "{study}"]),
+    case("fit-glitches", "glitches", &["fit", "{study}"]),
     // reduced forms of the long studies
     case(
         "sweep-design-snr-reduced",
@@ -191,11 +210,14 @@ const CASES: &[Case] = &[
         &["select", "{study}"],
     ),
     full("demo", "", &["demo"]),
+    // the long examples of the paths added since the paper (36 s and 65 s)
+    full("fit-glitches-short", "glitches-short", &["fit", "{study}"]),
+    full(
+        "select-drifting-stiffness",
+        "drifting-stiffness",
+        &["select", "{study}"],
+    ),
 ];
-
-fn full_mode() -> bool {
-    std::env::var("OCCAM_GOLDEN").is_ok_and(|v| v == "full")
-}
 
 fn bless() -> bool {
     std::env::var("OCCAM_BLESS").is_ok_and(|v| v == "1")
@@ -287,14 +309,40 @@ fn collect(base: &Path, dir: &Path, tmp: &str, rec: &mut BTreeMap<String, Value>
         let v = match ext.as_deref() {
             Some("json") => {
                 let text = String::from_utf8(raw).unwrap().replace(tmp, "{tmp}");
-                Value::String(strip_clock(&text, name == "manifest.json"))
+                lines(&strip_clock(&text, name == "manifest.json"))
             }
             Some("txt" | "md" | "toml") => {
-                Value::String(String::from_utf8(raw).unwrap().replace(tmp, "{tmp}"))
+                lines(&String::from_utf8(raw).unwrap().replace(tmp, "{tmp}"))
             }
             _ => Value::String(format!("sha256:{:x}", Sha256::digest(&raw))),
         };
         rec.insert(rel, v);
+    }
+}
+
+/// A text as the list of its lines (a final line break is part of the last line's record:
+/// `""` after it), the form a golden file keeps so that a changed number is a changed line.
+fn lines(text: &str) -> Value {
+    Value::Array(
+        text.split('\n')
+            .map(|l| Value::String(l.to_string()))
+            .collect(),
+    )
+}
+
+/// A golden record with every text as its list of lines: goldens recorded before the lists
+/// kept each text as one string.
+fn as_lines(v: Value) -> Value {
+    match v {
+        Value::Object(m) => Value::Object(
+            m.into_iter()
+                .map(|(k, v)| match v {
+                    Value::String(t) if !t.starts_with("sha256:") => (k, lines(&t)),
+                    v => (k, v),
+                })
+                .collect(),
+        ),
+        v => v,
     }
 }
 
@@ -332,79 +380,91 @@ fn first_difference(a: &Value, b: &Value, at: &str) -> Option<String> {
                 (p, q) => Some(format!("{at}.{k}: {p:?} against {q:?}")),
             })
         }
-        (Value::Array(x), Value::Array(y)) if x.len() == y.len() => x
-            .iter()
-            .zip(y)
-            .enumerate()
-            .find_map(|(i, (p, q))| first_difference(p, q, &format!("{at}[{i}]"))),
-        (Value::String(x), Value::String(y)) if x != y => {
-            let line = x.lines().zip(y.lines()).position(|(p, q)| p != q);
-            Some(match line {
-                Some(i) => format!(
-                    "{at} line {}: `{}` against `{}`",
-                    i + 1,
-                    x.lines().nth(i).unwrap(),
-                    y.lines().nth(i).unwrap()
-                ),
-                None => format!("{at}: differing text (lengths {} and {})", x.len(), y.len()),
-            })
+        // a text's lines: the first that differs, by its number
+        (Value::Array(x), Value::Array(y)) => {
+            let line = x.iter().zip(y).position(|(p, q)| p != q);
+            match line {
+                Some(i) => Some(format!("{at} line {}: {} against {}", i + 1, x[i], y[i])),
+                None => (x.len() != y.len())
+                    .then(|| format!("{at}: {} lines against {}", x.len(), y.len())),
+            }
         }
         _ => (a != b).then(|| format!("{at}: {a} against {b}")),
     }
 }
 
 fn check(c: &Case) {
-    if c.full_only && !full_mode() {
-        return;
-    }
     let tmp = tempfile::tempdir().unwrap();
     let got = Value::Object(run_case(c, tmp.path()).into_iter().collect::<Map<_, _>>());
     let path = root().join("tests/golden").join(format!("{}.json", c.name));
+    let want: Option<Value> = std::fs::read_to_string(&path)
+        .ok()
+        .map(|t| as_lines(serde_json::from_str(&t).unwrap()));
+    let diff = want
+        .as_ref()
+        .and_then(|w| first_difference(&got, w, c.name));
     if bless() {
         std::fs::create_dir_all(path.parent().unwrap()).unwrap();
         std::fs::write(&path, serde_json::to_string_pretty(&got).unwrap() + "\n").unwrap();
+        // a re-recording is never silent: the case fails, saying what moved and how to see it all
+        if let Some(d) = diff {
+            panic!(
+                "{}: re-recorded {}: the fresh run differs (fresh against the old golden) at {d}; every changed number beside its error bar: python3 scripts/golden_diff.py",
+                c.name,
+                path.display()
+            );
+        }
         return;
     }
-    let want: Value = serde_json::from_str(
-        &std::fs::read_to_string(&path)
-            .unwrap_or_else(|e| panic!("{}: {e} (record with OCCAM_BLESS=1)", path.display())),
-    )
-    .unwrap();
-    if let Some(d) = first_difference(&got, &want, c.name) {
+    let Some(_) = want else {
         panic!(
-            "{}: the fresh run differs from {} (fresh against golden) at {d}",
+            "{}: no golden {} (record with OCCAM_BLESS=1)",
+            c.name,
+            path.display()
+        );
+    };
+    if let Some(d) = diff {
+        panic!(
+            "{}: the fresh run differs from {} (fresh against golden) at {d}; every changed number beside its error bar: OCCAM_BLESS=1 then python3 scripts/golden_diff.py",
             c.name,
             path.display()
         );
     }
 }
 
-/// Every case has a test of its own (below), so that they run side by side.
+/// Every case has a test of its own (below), so that they run side by side; the full-only
+/// cases' tests are ignored (`--include-ignored` runs them).
 macro_rules! golden_tests {
-    ($($f:ident => $name:literal),* $(,)?) => {
+    (ci { $($f:ident => $name:literal),* $(,)? } full { $($g:ident => $gname:literal),* $(,)? }) => {
         $(#[test]
         fn $f() {
             check(CASES.iter().find(|c| c.name == $name).expect("a case of that name"));
         })*
 
+        $(#[test]
+        #[ignore = "a long study in full: cargo test --release --test golden -- --include-ignored"]
+        fn $g() {
+            check(CASES.iter().find(|c| c.name == $gname).expect("a case of that name"));
+        })*
+
         #[test]
         fn every_case_has_a_test() {
-            let tested = [$($name),*];
             for c in CASES {
-                assert!(tested.contains(&c.name), "case {} has no test", c.name);
+                let (ci, full) = ([$($name),*].contains(&c.name), [$($gname),*].contains(&c.name));
+                assert!(ci || full, "case {} has no test", c.name);
+                assert_eq!(full, c.full_only, "case {} is in the wrong list", c.name);
             }
         }
     };
 }
 
 golden_tests! {
+    ci {
     simulate_tn3045 => "simulate-tn3045",
     simulate_tn3045_snr => "simulate-tn3045-snr",
     simulate_cross_talk => "simulate-cross-talk",
-    select_cross_talk => "select-cross-talk",
     fit_tn3045 => "fit-tn3045",
     fit_two_mass_damper => "fit-two-mass-damper",
-    select_two_mass_damper => "select-two-mass-damper",
     fit_tn3045_k14 => "fit-tn3045-k14",
     fit_user_model_closed_loop => "fit-user-model-closed-loop",
     fit_accel_delay_vs_pole => "fit-accel-delay-vs-pole",
@@ -419,6 +479,14 @@ golden_tests! {
     sweep_design_snr_reduced => "sweep-design-snr-reduced",
     sweep_design_frequency_reduced => "sweep-design-frequency-reduced",
     design_optimise_reduced => "design-optimise-reduced",
+    fit_gaps => "fit-gaps",
+    fit_gaps_and_glitches => "fit-gaps-and-glitches",
+    fit_state_space => "fit-state-space",
+    fit_glitches => "fit-glitches",
+    }
+    full {
+    select_cross_talk => "select-cross-talk",
+    select_two_mass_damper => "select-two-mass-damper",
     sweep_design_snr => "sweep-design-snr",
     sweep_design_frequency => "sweep-design-frequency",
     sweep_accel_asymmetry => "sweep-accel-asymmetry",
@@ -426,4 +494,7 @@ golden_tests! {
     select_accel_k14_strength => "select-accel-k14-strength",
     design_optimise => "design-optimise",
     demo => "demo",
+    fit_glitches_short => "fit-glitches-short",
+    select_drifting_stiffness => "select-drifting-stiffness",
+    }
 }
