@@ -56,8 +56,8 @@ use rand_xoshiro::Xoshiro256PlusPlus;
 use rayon::prelude::*;
 use std::time::Instant;
 
-const N_DATA: usize = 100;
-const SIGMA: f64 = 1.0;
+pub(crate) const N_DATA: usize = 100;
+pub(crate) const SIGMA: f64 = 1.0;
 const SEEDS: u64 = 50;
 const SNRS: [f64; 4] = [3.0, 10.0, 30.0, 100.0];
 const RJ_ITER: usize = 50_000;
@@ -66,7 +66,7 @@ const LM_DRAWS: usize = 1_000;
 const PT: (usize, usize, usize) = (12, 12_000, 2_000);
 /// Block C: dimensions and box half-widths in units of the likelihood width σ/√n.
 const C_DIMS: [usize; 4] = [1, 2, 4, 8];
-const C_WIDTHS: [f64; 2] = [0.2, 0.5];
+pub(crate) const C_WIDTHS: [f64; 2] = [0.2, 0.5];
 /// Nominal 1σ coverage of a calibrated error bar.
 const COVER: f64 = 0.683;
 const RJ_NAMES: [&str; 3] = ["RJ visits", "RJ Rao-Blackwell", "RJ bridge"];
@@ -80,10 +80,10 @@ struct Missing {
 }
 
 #[derive(Clone, Copy)]
-struct Case {
-    d: usize,
-    snr_idx: usize,
-    seed: u64,
+pub(crate) struct Case {
+    pub(crate) d: usize,
+    pub(crate) snr_idx: usize,
+    pub(crate) seed: u64,
 }
 
 impl Case {
@@ -93,7 +93,7 @@ impl Case {
     fn scale(&self) -> f64 {
         LinearGaussian::signal_scale(N_DATA, self.snr(), SIGMA)
     }
-    fn problem_seed(&self, block: u64) -> u64 {
+    pub(crate) fn problem_seed(&self, block: u64) -> u64 {
         (block << 48) | ((self.d as u64) << 32) | ((self.snr_idx as u64) << 16) | self.seed
     }
     fn problem(&self, prior: RandomPrior, n_absent: usize, block: u64) -> LinearGaussian {
@@ -120,7 +120,7 @@ struct Err {
     se: Option<f64>,
 }
 
-struct Pair<'a> {
+pub(crate) struct Pair<'a> {
     lg: &'a LinearGaussian,
     full_cols: Vec<usize>,
     nested_cols: Vec<usize>,
@@ -133,7 +133,7 @@ struct Pair<'a> {
 impl<'a> Pair<'a> {
     /// `seed` drives the QMC of the exact box masses; each problem gets its own, so the box-mass
     /// errors of different problems are independent and coverage over seeds is binomial.
-    fn new(lg: &'a LinearGaussian, d: usize, seed: u64) -> Pair<'a> {
+    pub(crate) fn new(lg: &'a LinearGaussian, d: usize, seed: u64) -> Pair<'a> {
         let full_cols: Vec<usize> = (0..d).collect();
         let nested_cols: Vec<usize> = (0..d - 1).collect();
         let o = MvnOptions {
@@ -421,7 +421,7 @@ impl<'a> Pair<'a> {
 /// Block C jump proposals `(mean, cov)` of [full, nested]: in-model chains from the box-aware
 /// Gaussian (precision of the likelihood plus that of the box, variance h²/3 per parameter),
 /// started at the corner-clamped maximum.
-fn corner_chains(p: &Pair, h: f64, c: &Case) -> [(Vec<f64>, DMatrix<f64>); 2] {
+pub(crate) fn corner_chains(p: &Pair, h: f64, c: &Case) -> [(Vec<f64>, DMatrix<f64>); 2] {
     [
         (&p.full as &dyn LogDensity, &p.full_cols),
         (&p.nested as &dyn LogDensity, &p.nested_cols),
@@ -491,7 +491,7 @@ fn in_model_chain(
 }
 
 /// Sample mean and covariance of `kept` (rows are states).
-fn moments(kept: &[Vec<f64>]) -> (Vec<f64>, DMatrix<f64>) {
+pub(crate) fn moments(kept: &[Vec<f64>]) -> (Vec<f64>, DMatrix<f64>) {
     let d = kept[0].len();
     let k = kept.len() as f64;
     let mean: Vec<f64> = (0..d)
@@ -512,14 +512,14 @@ fn moments(kept: &[Vec<f64>]) -> (Vec<f64>, DMatrix<f64>) {
 /// covariance is (mean round-off)²·11ᵀ, about 1e-31, and nalgebra factors it. That happened
 /// in 4 of the 100 D = 8 runs of block C: the main run then crawled along the diagonal with
 /// steps of about 1e-14 and handed RJ and PT a rank-1 covariance, which both rejected.
-fn pilot_usable(cov: &DMatrix<f64>, moves: usize) -> bool {
+pub(crate) fn pilot_usable(cov: &DMatrix<f64>, moves: usize) -> bool {
     moves >= cov.nrows() && cov.clone().cholesky().is_some()
 }
 
 /// Block C problem: design N(0, 1), box `[−h, h]^D`, truth on the corner `(h, …, h)`, noise
 /// redrawn until the likelihood gradient at the corner points out of the box in every
 /// coordinate (the KKT condition of the concave ln L: the MAP of the full model is the corner).
-fn corner_problem(d: usize, h: f64, seed: u64) -> LinearGaussian {
+pub(crate) fn corner_problem(d: usize, h: f64, seed: u64) -> LinearGaussian {
     let mut rng = Xoshiro256PlusPlus::seed_from_u64(seed);
     let x: DMatrix<f64> = DMatrix::from_fn(N_DATA, d, |_, _| StandardNormal.sample(&mut rng));
     let corner = nalgebra::DVector::from_element(d, h);
@@ -1040,44 +1040,4 @@ fn main() {
         t0.elapsed().as_secs_f64(),
         rayon::current_num_threads()
     );
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use occam::linalg::SpdOptions;
-
-    /// Block C, D = 8, w = 0.2, seed 17: the full model's pilot chain never leaves the corner
-    /// (before the fix RJ and PT both failed on this run's rank-1 proposal covariance).
-    #[test]
-    fn a_pilot_stuck_on_the_corner_still_gives_positive_definite_proposals() {
-        let c = Case {
-            d: 8,
-            snr_idx: 0,
-            seed: 17,
-        };
-        let h = C_WIDTHS[c.snr_idx] * SIGMA / (N_DATA as f64).sqrt();
-        let lg = corner_problem(c.d, h, c.problem_seed(5));
-        let p = Pair::new(&lg, c.d, c.problem_seed(35));
-        for (mean, cov) in corner_chains(&p, h, &c) {
-            SpdOptions::default()
-                .factor(&cov)
-                .expect("in-model chain covariance");
-            assert!(mean.iter().all(|m| m.abs() < h), "{mean:?}");
-        }
-    }
-
-    /// The pilot of that run in small: its kept window, 1 000 copies of the corner. Their
-    /// covariance is 1.13e-31 in every entry (rank 1), and nalgebra factors it (so does
-    /// `SpdOptions::factor`): only the count of moves tells that the pilot never moved.
-    #[test]
-    fn a_pilot_that_never_moved_is_not_used() {
-        let h = C_WIDTHS[0] * SIGMA / (N_DATA as f64).sqrt();
-        let kept = vec![vec![h; 8]; 1_000];
-        let (_, cov) = moments(&kept);
-        assert!(cov.clone().cholesky().is_some());
-        assert!(!pilot_usable(&cov, 0));
-        let moved = DMatrix::<f64>::identity(8, 8) * 1e-4;
-        assert!(pilot_usable(&moved, 8) && !pilot_usable(&moved, 7));
-    }
 }

@@ -69,7 +69,7 @@ fn args() -> Args {
 
 /// The study at `snr` on data seed `seed`; `reference` swaps the tempering for a reversible
 /// jump [`REF_FACTOR`] times longer on its own sampler seed.
-fn study_text(base: &str, snr: f64, seed: u64, reference: bool) -> String {
+pub(crate) fn study_text(base: &str, snr: f64, seed: u64, reference: bool) -> String {
     let t = base
         .replace("target_snr = 450.0", &format!("target_snr = {snr:?}"))
         .replace("seed = 60\n", &format!("seed = {seed}\n"));
@@ -109,17 +109,17 @@ fn row(s: &SelectSummary, method: &str) -> Option<(f64, f64)> {
 
 /// What a row's pulls say: `(n, scatter ÷ stated, mean offset, its sd, > 2σ, > 3σ)`.
 #[derive(Debug, PartialEq)]
-struct Calibration {
-    n: usize,
-    ratio: f64,
-    offset: f64,
-    offset_se: f64,
-    beyond2: f64,
-    beyond3: f64,
+pub(crate) struct Calibration {
+    pub(crate) n: usize,
+    pub(crate) ratio: f64,
+    pub(crate) offset: f64,
+    pub(crate) offset_se: f64,
+    pub(crate) beyond2: f64,
+    pub(crate) beyond3: f64,
 }
 
 /// `diffs[k] = (ln B − ln B_ref, combined stated σ)`.
-fn calibrate(diffs: &[(f64, f64)]) -> Option<Calibration> {
+pub(crate) fn calibrate(diffs: &[(f64, f64)]) -> Option<Calibration> {
     let n = diffs.len();
     if n < 2 {
         return None;
@@ -188,34 +188,4 @@ fn main() {
         }
     }
     println!("wrote {}", a.csv);
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn calibration_of_pulls_with_known_spread() {
-        // stated 0.01, actual scatter 0.012: ratio 1.2
-        let d: Vec<(f64, f64)> = [-1.0, 1.0, -1.0, 1.0]
-            .iter()
-            .map(|&s| (s * 0.012 * (3.0f64 / 4.0).sqrt(), 0.01))
-            .collect();
-        let c = calibrate(&d).unwrap();
-        assert!((c.ratio - 1.2).abs() < 1e-12, "{c:?}");
-        assert_eq!(c.offset, 0.0);
-        assert_eq!((c.beyond2, c.beyond3), (0.0, 0.0));
-        assert!(calibrate(&d[..1]).is_none());
-    }
-
-    #[test]
-    fn the_study_text_changes_what_it_says() {
-        let base = std::fs::read_to_string("examples/guidance-delays.toml").unwrap();
-        let s = study_text(&base, 60.0, 7, false);
-        assert!(s.contains("target_snr = 60.0") && s.contains("seed = 7\n"));
-        let r = study_text(&base, 60.0, 7, true);
-        assert!(r.contains("pt_temperatures = 0") && r.contains("rj_iterations = 1600000"));
-        Study::from_toml(&s, "guidance-delays.toml", Path::new("examples")).unwrap();
-        Study::from_toml(&r, "guidance-delays.toml", Path::new("examples")).unwrap();
-    }
 }
