@@ -103,8 +103,10 @@ fn state_space_loop_reproduces_the_builtin_likelihood_and_fisher_matrix() {
     eprintln!("state-space vs built-in: ln L {worst_l:.1e} relative, Fisher {worst_f:.1e}");
 }
 
-/// The example through `occam fit` and `occam select`: both succeed, the fit recovers the
-/// truth within its errors and the select table names both models.
+/// The example through `occam fit` and `occam select`: both succeed and are valid by their own
+/// checks, the fit recovers the truth (every parameter's pull, `(mean − truth)/sd`, within 3.5;
+/// measured at most 1.75, `dt2`) with finite Cramér–Rao errors, and the select table names
+/// both models. It checked substrings only before (issue 49).
 #[test]
 fn the_example_fits_and_selects() {
     let dir = tempfile::tempdir().unwrap();
@@ -126,8 +128,19 @@ fn the_example_fits_and_selects() {
     let fit_s = t.elapsed().as_secs_f64();
     let summary: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
-    let text = summary.to_string();
-    assert!(text.contains("a_sus") && text.contains("loop"), "{text}");
+    assert_eq!(summary["valid"], true, "{}", summary["invalid_reasons"]);
+    assert_eq!(summary["model"], "loop");
+    let rows = summary["rows"].as_array().unwrap();
+    let names: Vec<&str> = rows.iter().map(|r| r["name"].as_str().unwrap()).collect();
+    assert_eq!(
+        names,
+        ["w1sq", "w2sq", "dt1", "dt2", "a_df", "a_sus", "d21"]
+    );
+    for r in rows {
+        let pull = r["pull"].as_f64().unwrap();
+        let cr = r["cramer_rao"].as_f64().unwrap();
+        assert!(pull.abs() < 3.5 && cr > 0.0 && cr.is_finite(), "{r}");
+    }
     let out = dir.path().join("select");
     let t = std::time::Instant::now();
     let (ok, stdout, stderr) = occam(
@@ -143,6 +156,9 @@ fn the_example_fits_and_selects() {
     assert!(ok, "{stdout}\n{stderr}");
     let table = std::fs::read_to_string(out.join("table.txt")).unwrap();
     assert!(table.contains('X') && table.contains('Y'), "{table}");
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(summary["valid"], true, "{}", summary["invalid_reasons"]);
     eprintln!(
         "state-space example: fit {fit_s:.1} s, select {:.1} s",
         t.elapsed().as_secs_f64()

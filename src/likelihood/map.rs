@@ -117,25 +117,7 @@ pub fn describe_bound(name: &str, kind: &PriorKind, value: f64) -> String {
         ("lower", "lo", "lower")
     };
     let bound = if upper { hi } else { lo };
-    let entry = match *kind {
-        PriorKind::Uniform { lo, hi } => {
-            format!("{{ kind = \"uniform\", lo = {}, hi = {} }}", r(lo), r(hi))
-        }
-        PriorKind::LogUniform { lo, hi } => {
-            format!(
-                "{{ kind = \"log_uniform\", lo = {}, hi = {} }}",
-                r(lo),
-                r(hi)
-            )
-        }
-        PriorKind::Gaussian { mu, sigma } => {
-            format!(
-                "{{ kind = \"gaussian\", mu = {}, sigma = {} }}",
-                r(mu),
-                r(sigma)
-            )
-        }
-    };
+    let entry = crate::sampler::prior_entry(kind);
     format!(
         "`{name}` = {} is on the {side} bound ({key} = {} of [prior] {name} = {entry}: {verb} {key} if the bound is not physical)",
         r(value),

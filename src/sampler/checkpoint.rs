@@ -141,31 +141,6 @@ fn close_adapt(a: &Option<Adapt>, b: &Option<Adapt>) -> bool {
     }
 }
 
-/// A prior as its `[prior]` entry: `{ kind = "uniform", lo = -0.001, hi = 0.001 }`.
-fn prior_entry(k: &crate::prior::PriorKind) -> String {
-    use crate::numfmt::fmt_roundtrip as r;
-    use crate::prior::PriorKind;
-    match *k {
-        PriorKind::Uniform { lo, hi } => {
-            format!("{{ kind = \"uniform\", lo = {}, hi = {} }}", r(lo), r(hi))
-        }
-        PriorKind::LogUniform { lo, hi } => {
-            format!(
-                "{{ kind = \"log_uniform\", lo = {}, hi = {} }}",
-                r(lo),
-                r(hi)
-            )
-        }
-        PriorKind::Gaussian { mu, sigma } => {
-            format!(
-                "{{ kind = \"gaussian\", mu = {}, sigma = {} }}",
-                r(mu),
-                r(sigma)
-            )
-        }
-    }
-}
-
 impl Checkpoint {
     /// Checks that this checkpoint was written by a run with these settings, proposal and
     /// target; the error names the first field that differs. `n_iter` may grow (continuing a
@@ -217,8 +192,16 @@ impl Checkpoint {
             return match k {
                 Some(k) => mismatch(
                     "prior",
-                    format!("{} = {}", names[k], prior_entry(&self.prior.kinds()[k])),
-                    format!("{} = {}", names[k], prior_entry(&prior.kinds()[k])),
+                    format!(
+                        "{} = {}",
+                        names[k],
+                        super::prior_entry::prior_entry(&self.prior.kinds()[k])
+                    ),
+                    format!(
+                        "{} = {}",
+                        names[k],
+                        super::prior_entry::prior_entry(&prior.kinds()[k])
+                    ),
                 ),
                 None => mismatch(
                     "prior",
