@@ -604,3 +604,26 @@ fn nan_samples_in_a_csv_read_out_split_the_fit_into_runs() {
         "{err}"
     );
 }
+
+/// A data file that is a directory is named once, with its cause once (issue 51: `d.csv: a
+/// directory, not a regular file: …: a directory, not a regular file: …`, the I/O error both
+/// in the message and as its source). `common::occam` also holds the line to
+/// `common::readable`, which fails a cause said twice.
+#[test]
+fn a_directory_named_as_data_is_refused_with_its_cause_once() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::create_dir(d.join("d.csv")).unwrap();
+    std::fs::write(
+        d.join("s.toml"),
+        "seed = 1\noutput = \"o\"\n[[experiment]]\nname = \"a\"\ndata = \"d.csv\"\n",
+    )
+    .unwrap();
+    let (ok, _, err) = occam(&["fit", "s.toml", "-q"], d);
+    assert!(!ok);
+    assert!(
+        err.contains("d.csv: a directory, not a regular file")
+            && err.matches("not a regular file").count() == 1,
+        "{err}"
+    );
+}
