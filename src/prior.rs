@@ -42,6 +42,37 @@ pub enum PriorError {
 }
 
 impl PriorKind {
+    /// The `[prior]` entry that writes this prior, every number in its shortest round-tripping
+    /// form: for messages that tell a person what to edit.
+    ///
+    /// ```
+    /// use occam::prior::PriorKind;
+    /// let k = PriorKind::Uniform { lo: -1e-3, hi: 1e-3 };
+    /// assert_eq!(k.entry(), "{ kind = \"uniform\", lo = -0.001, hi = 0.001 }");
+    /// ```
+    pub fn entry(&self) -> String {
+        use crate::numfmt::fmt_roundtrip as r;
+        match *self {
+            PriorKind::Uniform { lo, hi } => {
+                format!("{{ kind = \"uniform\", lo = {}, hi = {} }}", r(lo), r(hi))
+            }
+            PriorKind::LogUniform { lo, hi } => {
+                format!(
+                    "{{ kind = \"log_uniform\", lo = {}, hi = {} }}",
+                    r(lo),
+                    r(hi)
+                )
+            }
+            PriorKind::Gaussian { mu, sigma } => {
+                format!(
+                    "{{ kind = \"gaussian\", mu = {}, sigma = {} }}",
+                    r(mu),
+                    r(sigma)
+                )
+            }
+        }
+    }
+
     /// The centre of the prior: box midpoint, Gaussian mean, geometric mean of a
     /// log-uniform box.
     ///

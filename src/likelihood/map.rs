@@ -117,7 +117,7 @@ pub fn describe_bound(name: &str, kind: &PriorKind, value: f64) -> String {
         ("lower", "lo", "lower")
     };
     let bound = if upper { hi } else { lo };
-    let entry = crate::sampler::prior_entry(kind);
+    let entry = kind.entry();
     format!(
         "`{name}` = {} is on the {side} bound ({key} = {} of [prior] {name} = {entry}: {verb} {key} if the bound is not physical)",
         r(value),

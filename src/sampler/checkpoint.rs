@@ -192,16 +192,8 @@ impl Checkpoint {
             return match k {
                 Some(k) => mismatch(
                     "prior",
-                    format!(
-                        "{} = {}",
-                        names[k],
-                        super::prior_entry::prior_entry(&self.prior.kinds()[k])
-                    ),
-                    format!(
-                        "{} = {}",
-                        names[k],
-                        super::prior_entry::prior_entry(&prior.kinds()[k])
-                    ),
+                    format!("{} = {}", names[k], self.prior.kinds()[k].entry()),
+                    format!("{} = {}", names[k], prior.kinds()[k].entry()),
                 ),
                 None => mismatch(
                     "prior",
