@@ -209,6 +209,10 @@ fn low_snr_regime_every_estimator_reports_or_explains() {
         let v = m.relbin.as_ref().expect("relative binning in use");
         assert!(!v.box_params.is_empty(), "{}: {v:?}", m.name);
         assert!(v.worst_abs_delta_ln_l > 0.0, "{}: {v:?}", m.name);
+        eprintln!(
+            "{}: relbin check over {:?} of each box (box: {:?}), worst {:.2e}",
+            m.name, v.coverage, v.box_params, v.worst_abs_delta_ln_l
+        );
         for (i, name) in m.params.iter().enumerate() {
             let c = v.coverage[i];
             if v.box_params.contains(name) {
