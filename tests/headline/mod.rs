@@ -186,10 +186,10 @@ fn guidance_delays_competitive() {
 
 fn competitive(s: &Value) {
     assert_eq!(s["valid"], true, "{}", s["invalid_reasons"]);
-    let p = pair(&s, "X", "Y");
+    let p = pair(s, "X", "Y");
     assert_eq!(p["preferred"], "Y");
     assert_eq!(p["all_agree"], true);
-    assert!(visits(&s).iter().all(|&v| v > 1000), "{:?}", visits(&s));
+    assert!(visits(s).iter().all(|&v| v > 1000), "{:?}", visits(s));
     // every statistical row within 2.5 combined σ of the 16× longer run (measured: at most
     // 1.25, thermodynamic integration)
     for m in STATISTICAL {
@@ -228,9 +228,9 @@ fn guidance_delays_nominal() {
 
 fn nominal(s: &Value) {
     assert_eq!(s["valid"], true, "{}", s["invalid_reasons"]);
-    let p = pair(&s, "X", "Y");
+    let p = pair(s, "X", "Y");
     assert_eq!(p["preferred"], "Y");
-    assert_eq!(visits(&s)[0], 0);
+    assert_eq!(visits(s)[0], 0);
     assert!(value(p, "RJMCMC visits").is_none());
     assert!(
         row(p, "RJMCMC visits")["note"]
@@ -282,7 +282,7 @@ fn guidance_delays_low_snr() {
 
 fn low_snr(s: &Value) {
     assert_eq!(s["valid"], true, "{}", s["invalid_reasons"]);
-    let p = pair(&s, "X", "Y");
+    let p = pair(s, "X", "Y");
     for e in p["estimates"].as_array().unwrap() {
         assert!(
             e["ln_b"].is_f64() || e["note"].as_str().is_some_and(|n| n.len() > 20),
@@ -355,7 +355,7 @@ fn thruster_pole_against_delay() {
 
 fn thruster(s: &Value) {
     assert_eq!(s["valid"], true, "{}", s["invalid_reasons"]);
-    let p = pair(&s, "X", "Y");
+    let p = pair(s, "X", "Y");
     assert_eq!(p["preferred"], "Y");
     // every row gives a number, except the visit ratio when the jump chain never enters X
     // (which must then say why): a row that stops giving one fails
@@ -396,7 +396,7 @@ fn accel_delay_against_pole() {
 
 fn delay_pole(s: &Value) {
     assert_eq!(s["valid"], true, "{}", s["invalid_reasons"]);
-    let p = pair(&s, "delay", "pole");
+    let p = pair(s, "delay", "pole");
     // within 2.5 combined σ of the 16× longer run (measured −0.3)
     within("delay/pole", p, "RJMCMC bridge", REF_ACCEL_DELAY_POLE, 2.5);
     for e in p["estimates"].as_array().unwrap() {
@@ -405,7 +405,7 @@ fn delay_pole(s: &Value) {
             None => assert!(e["method"] == "RJMCMC visits" && e["note"].is_string()),
         }
     }
-    assert_eq!(winner(&s), "pole");
+    assert_eq!(winner(s), "pole");
     // the pole's frequency, fitted (`occam fit` of the same example, the pole model), within
     // 3 of its Cramér–Rao errors of the truth 1.963 Hz
     let fit = recorded("fit-accel-delay-vs-pole", "summary.json");
