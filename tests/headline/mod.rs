@@ -463,45 +463,52 @@ fn accel_asymmetry_picks_the_symmetric_model() {
 /// 1.5 times larger.
 #[test]
 fn every_headline_check_fails_on_a_moved_row_or_inflated_errors() {
+    // (golden case, file, check, pair, reference, whether the check bounds the errors)
     type Check = fn(&Value);
-    let cases: [(&str, &str, Check, (&str, &str), (f64, f64), bool); 5] = [
+    type PowerCase = (
+        &'static str,
+        &'static str,
+        Check,
+        (&'static str, &'static str),
+    );
+    let cases: [(PowerCase, (f64, f64), bool); 5] = [
         (
-            "demo",
-            "competitive/summary.json",
-            competitive,
-            ("X", "Y"),
+            ("demo", "competitive/summary.json", competitive, ("X", "Y")),
             REF_COMPETITIVE,
             true,
         ),
         (
-            "demo",
-            "high-snr/summary.json",
-            nominal,
-            ("X", "Y"),
+            ("demo", "high-snr/summary.json", nominal, ("X", "Y")),
             NAUTILUS_NOMINAL,
             true,
         ),
         (
-            "select-guidance-delays-low-snr",
-            "summary.json",
-            low_snr,
-            ("X", "Y"),
+            (
+                "select-guidance-delays-low-snr",
+                "summary.json",
+                low_snr,
+                ("X", "Y"),
+            ),
             NAUTILUS_RHO5,
             false,
         ),
         (
-            "select-thruster-response",
-            "summary.json",
-            thruster,
-            ("X", "Y"),
+            (
+                "select-thruster-response",
+                "summary.json",
+                thruster,
+                ("X", "Y"),
+            ),
             REF_THRUSTER,
             true,
         ),
         (
-            "select-accel-delay-vs-pole",
-            "summary.json",
-            delay_pole,
-            ("delay", "pole"),
+            (
+                "select-accel-delay-vs-pole",
+                "summary.json",
+                delay_pole,
+                ("delay", "pole"),
+            ),
             REF_ACCEL_DELAY_POLE,
             false,
         ),
@@ -509,7 +516,7 @@ fn every_headline_check_fails_on_a_moved_row_or_inflated_errors() {
     let fails = |check: Check, s: &Value| {
         std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| check(s))).is_err()
     };
-    for (case, file, check, (x, y), reference, bounds_errors) in cases {
+    for ((case, file, check, (x, y)), reference, bounds_errors) in cases {
         let s = recorded(case, file);
         assert!(!fails(check, &s), "{case}: the record itself fails");
         let k = pair_index(&s, x, y);
