@@ -28,6 +28,7 @@ mod ln_b;
 mod method;
 pub mod mvn;
 mod normal;
+pub mod pareto;
 pub mod rjmcmc;
 pub mod robust;
 pub mod schwarz;

@@ -168,6 +168,7 @@ mod pairs;
 mod prepare;
 mod result;
 mod run;
+mod tail;
 #[cfg(test)]
 mod tests;
 
@@ -177,3 +178,4 @@ pub use result::{
     RjTracePoint, union_columns,
 };
 pub use run::{KIND, ReversibleJump, RjOutcome, run_rjmcmc};
+pub use tail::reciprocal_khat;
