@@ -376,7 +376,7 @@ fn summarise(s: &Sample) -> IsResult {
         ln_z,
         se: var_w.max(0.0).sqrt() / (nf.sqrt() * mean_w),
         ess: s1 * s1 / s2,
-        khat: pareto_khat(&w),
+        khat: pareto_khat(&s.lw),
         outside: s.outside,
         non_finite: s.non_finite,
         max_share: w.iter().cloned().fold(0.0, f64::max) / s1,
@@ -432,57 +432,10 @@ fn block_bias(l: &[f64], m: usize, ln_ref: f64) -> Option<BlockBias> {
     })
 }
 
-/// Pareto k̂ of the largest `M = min(N/5, 3√N)` weights (exceedances over the next largest),
-/// by the generalized-Pareto fit of Zhang & Stephens (2009) with PSIS's weak prior towards 0.5
-/// (as ArviZ's `_gpdfit`).
-fn pareto_khat(w: &[f64]) -> f64 {
-    let n = w.len();
-    let m = ((n / 5) as f64).min(3.0 * (n as f64).sqrt()).floor() as usize;
-    if m < 5 || m + 1 > n {
-        return f64::NAN;
-    }
-    let mut sorted = w.to_vec();
-    sorted.sort_by(|a, b| a.partial_cmp(b).expect("finite weights"));
-    let cutoff = sorted[n - m - 1];
-    let x: Vec<f64> = sorted[n - m..].iter().map(|v| v - cutoff).collect();
-    if x[x.len() - 1] <= 0.0 {
-        return f64::NAN;
-    }
-    gpd_fit_k(&x)
-}
-
-/// Shape of a generalized Pareto fitted to the ascending exceedances `x` (Zhang & Stephens
-/// 2009, the profile-posterior mean of `b = −k/σ` on a quasi-grid), shrunk towards 0.5 with the
-/// weight of 10 observations (Vehtari et al.'s PSIS).
-fn gpd_fit_k(x: &[f64]) -> f64 {
-    let n = x.len();
-    let nf = n as f64;
-    let (prior_bs, prior_k) = (3.0, 10.0);
-    let m_est = 30 + (nf.sqrt() as usize);
-    let quart = x[((nf / 4.0 + 0.5) as usize).max(1) - 1];
-    let xmax = x[n - 1];
-    let b: Vec<f64> = (1..=m_est)
-        .map(|j| (1.0 - (m_est as f64 / (j as f64 - 0.5)).sqrt()) / (prior_bs * quart) + 1.0 / xmax)
-        .collect();
-    let mean_log = |bj: f64| x.iter().map(|&xi| (-bj * xi).ln_1p()).sum::<f64>() / nf;
-    let k: Vec<f64> = b.iter().map(|&bj| mean_log(bj)).collect();
-    let len: Vec<f64> = b
-        .iter()
-        .zip(&k)
-        .map(|(&bj, &kj)| nf * ((-(bj / kj)).ln() - kj - 1.0))
-        .collect();
-    let mut wts: Vec<f64> = (0..m_est)
-        .map(|i| 1.0 / len.iter().map(|&lj| (lj - len[i]).exp()).sum::<f64>())
-        .collect();
-    for v in &mut wts {
-        if !(*v >= 10.0 * f64::EPSILON) {
-            *v = 0.0;
-        }
-    }
-    let tot: f64 = wts.iter().sum();
-    let b_post: f64 = b.iter().zip(&wts).map(|(bj, wj)| bj * wj).sum::<f64>() / tot;
-    let k_post = mean_log(b_post);
-    (nf * k_post + prior_k * 0.5) / (nf + prior_k)
+/// Pareto k̂ of weights given by their logs (the library's, [`occam::evidence::pareto`]; the
+/// zero weights of draws outside the box are left out), NaN where it has none.
+fn pareto_khat(ln_w: &[f64]) -> f64 {
+    occam::evidence::pareto::pareto_khat(ln_w).unwrap_or(f64::NAN)
 }
 
 /// The recorded select summary: from a `summary.json`, or from a golden file whose key
@@ -842,8 +795,7 @@ fn run(
             .iter()
             .map(|&i| jp.ln_t(&bs.xs[i * d..(i + 1) * d], &mut buf) - bs.lpost[i])
             .collect();
-        let (_, vw) = ln_mean(&visited_terms);
-        let visited_khat = pareto_khat(&vw);
+        let visited_khat = pareto_khat(&visited_terms);
         // P_g(box) of the Gaussian/t part
         let g_only = Proposal::new(
             ProposalSpec {
