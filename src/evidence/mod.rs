@@ -13,12 +13,14 @@
 //! | Schwarz (SBIC) | [`schwarz::schwarz_ln_b`] | maximum ln L of each model, n |
 //! | RJMCMC (visits, Rao-Blackwell, bridge) | [`rjmcmc::run_rjmcmc`] | θ̂ and covariance per model |
 //! | Thermodynamic integration, stepping stone | [`tempering::run_tempering`] | a start point and covariance per model |
+//! | Bridge sampling | [`bridge_sampling::bridge_sampling`] | posterior draws of the model's chains |
 //!
 //! Corrections relative to K14 and LTPDA (see `ltp-model.md` §9.2–9.4): the Laplace formulas use
 //! `|H|^{−1/2}`, include `ln π(θ̂)`, and can add the Gaussian's mass inside the prior box; the
 //! RJMCMC acceptance ratio is the full Carlin–Chib ratio with `L` (not `L²`) and the prior ratio
 //! the right way up; MVE keeps repeated chain samples and never rotates the data.
 
+pub mod bridge_sampling;
 #[cfg(test)]
 pub(crate) mod coverage_check;
 mod error;

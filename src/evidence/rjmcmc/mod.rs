@@ -160,6 +160,7 @@
 //! [`mvn_rectangle`]: crate::evidence::mvn_rectangle
 
 mod bridge;
+pub(crate) use bridge::fixed_point;
 mod chain;
 mod estimate;
 mod logsum;
