@@ -151,30 +151,53 @@ pub fn bridge_sampling(
         }
         *lg = ln_norm - 0.5 * z.iter().map(|v| v * v).sum::<f64>();
     }
-    let prop: Vec<f64> = phi
+    // ln(p/g) at the draws from g; outside the box, or where ln L is not finite, p = 0
+    let evaluated: Vec<(f64, bool)> = phi
         .par_chunks(d)
         .zip(ln_g_phi.par_iter())
         .map(|(th, lg)| {
-            let lp = target.ln_posterior(th);
-            // outside the box, or where ln L is not finite: p = 0
-            if lp.is_finite() {
-                lp - lg
-            } else {
-                f64::NEG_INFINITY
+            if target.prior().ln_pdf(th) == f64::NEG_INFINITY {
+                return (f64::NEG_INFINITY, false);
             }
+            let lp = target.ln_posterior(th);
+            (
+                if lp.is_finite() {
+                    lp - lg
+                } else {
+                    f64::NEG_INFINITY
+                },
+                true,
+            )
         })
         .collect();
-    let in_box = prop.iter().filter(|v| v.is_finite()).count();
+    let in_box = evaluated.iter().filter(|v| v.1).count();
+    let prop: Vec<f64> = evaluated.iter().map(|v| v.0).collect();
+    if prop.iter().all(|v| !v.is_finite()) {
+        return Err(EvidenceError::option(
+            "bridge sampling",
+            format!("{n1} draws from the fitted Gaussian"),
+            &format!(
+                "none has a positive density ({} outside the prior box, {} with ln L not finite)",
+                n1 - in_box,
+                in_box
+            ),
+        ));
+    }
+    // the fixed point converges to an absolute 1e-10, finer than the spacing of doubles near
+    // an LTP ln Z (~2.5e6): it runs on the values less their mean
     let y: Vec<f64> = post.iter().flatten().copied().collect();
-    let ln_z = super::rjmcmc::fixed_point(&prop, &y)
+    let shift = y.iter().sum::<f64>() / y.len() as f64;
+    let less = |v: &[f64]| v.iter().map(|l| l - shift).collect::<Vec<f64>>();
+    let ln_z = super::rjmcmc::fixed_point(&less(&prop), &less(&y))
         .filter(|v| v.is_finite())
         .ok_or_else(|| {
-            EvidenceError::non_finite(
-                "the bridge's fixed point",
-                f64::NAN,
+            EvidenceError::option(
+                "bridge sampling",
+                "the optimal bridge's fixed point",
                 "it did not converge: the fitted Gaussian and the posterior hardly overlap",
             )
-        })?;
+        })?
+        + shift;
     let std_err = relative_error(&prop, &post, ln_z)?;
     Ok(BridgeSamplingEstimate {
         ln_z,

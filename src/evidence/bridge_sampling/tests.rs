@@ -261,3 +261,28 @@ fn what_it_cannot_use_it_says() {
     assert!(run(&[]).is_err());
     let _ = rng.random::<f64>();
 }
+
+/// An LTP-sized `ln Z` (~2.5·10⁶, where doubles are 5·10⁻¹⁰ apart) converges, and to the
+/// same number as the unshifted problem, shifted.
+#[test]
+fn an_ltp_sized_evidence_converges() {
+    let offset = 2_534_018.8;
+    let (t, _) = gauss_in_box(0.0, 3.0);
+    let shifted = boxed(
+        &[(0.0, 3.0); 2],
+        Box::new(move |th| offset - 0.5 * (th[0] * th[0] + th[1] * th[1])),
+    );
+    let mut rng = Xoshiro256PlusPlus::seed_from_u64(4);
+    let draw = truncated_draw(0.0, 3.0);
+    let ch = chains_of(&t, 2000, 1, &mut rng, &draw);
+    let up: Vec<(Vec<f64>, Vec<f64>)> = ch
+        .iter()
+        .map(|(s, lp)| (s.clone(), lp.iter().map(|l| l + offset).collect()))
+        .collect();
+    let (a, b) = (estimate(&t, &ch, 8), estimate(&shifted, &up, 8));
+    assert!((b.ln_z - a.ln_z - offset).abs() < 1e-6, "{a:?} {b:?}");
+    assert!(
+        (b.std_err - a.std_err).abs() < 1e-6 * a.std_err,
+        "{a:?} {b:?}"
+    );
+}

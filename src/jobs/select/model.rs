@@ -11,6 +11,7 @@ use super::plan::{ModelPlan, StageSettings};
 use super::stage::StageFile;
 use crate::config::{CrossChecks, JumpProposal, LikelihoodKind, ModelSpec};
 use crate::density::LogDensity;
+use crate::evidence::bridge_sampling::{PosteriorDraws, bridge_sampling};
 use crate::evidence::tempering::{ParallelTempering, TemperingOutcome};
 use crate::evidence::{
     LaplaceEstimate, LaplaceOptions, McdOptions, MveOptions, RobustMethod, TemperingOptions,
@@ -464,6 +465,35 @@ fn laplace_metropolis_stage(
     }
 }
 
+/// Offset of the bridge-sampling draws' seed from the model's seed (whose streams the
+/// in-model chains use).
+const BRIDGE_SEED_OFFSET: u64 = 0x6272_6964_6765;
+
+/// Bridge sampling on the sampled likelihood the chains ran on (their `ln L + ln π` are its
+/// own), from the chains' kept draws.
+fn bridge_sampling_stage(
+    chains: Option<&Chains>,
+    sub_s: &SubModel<&dyn LogDensity>,
+    seed: u64,
+) -> Evidence {
+    let Some(c) = chains else {
+        return Evidence::not_applicable("needs the in-model chains, which did not run".into());
+    };
+    let draws: Vec<PosteriorDraws<'_>> = c
+        .chains()
+        .iter()
+        .map(|ch| PosteriorDraws {
+            samples: &ch.samples,
+            ln_posterior: &ch.ln_posterior,
+        })
+        .collect();
+    Evidence::statistical(
+        bridge_sampling(sub_s, &draws, seed.wrapping_add(BRIDGE_SEED_OFFSET))
+            .map(|b| (b.ln_z, b.std_err, None))
+            .map_err(|e| e.to_string()),
+    )
+}
+
 /// What the raw Laplace–Fisher expansion assumes, for the table.
 fn raw_assumes(statistic: Statistic, min_margin_sigma: f64) -> String {
     if statistic == Statistic::Whittle {
@@ -546,6 +576,7 @@ pub(super) fn run_model(
         &mut notes,
     );
     let (lm_mve, lm_mcd, best) = laplace_metropolis_stage(chains.as_ref(), &sub_exact);
+    let bridge = bridge_sampling_stage(chains.as_ref(), &sub_s, m.seed);
     // parallel tempering (its own stage: [`temper`]) starts from the best sample with the
     // chains' covariance
     let tempering_start = best.clone().unwrap_or_else(|| centre.clone());
@@ -607,6 +638,7 @@ pub(super) fn run_model(
         laplace_metropolis_mcd: Evidence::systematic(lm_mcd, lm_assumes),
         thermodynamic: Evidence::not_applicable("parallel tempering has not run yet".into()),
         stepping_stone: Evidence::not_applicable("parallel tempering has not run yet".into()),
+        bridge_sampling: bridge,
         tempering: None,
         schwarz_ln_z: schwarz,
         mcmc_acceptance: diag.as_ref().map_or(Vec::new(), |g| g.acceptance.clone()),

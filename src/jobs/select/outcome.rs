@@ -41,6 +41,13 @@ impl Evidence {
         }
     }
 
+    /// A stage written by a version that did not compute this estimate (a resumed run).
+    fn not_recorded() -> Self {
+        Self::not_applicable(
+            "not computed: this model's stage was saved by an occam without this estimator; start the run afresh for it".into(),
+        )
+    }
+
     pub(super) fn not_applicable(note: String) -> Self {
         Self {
             ln_z: None,
@@ -110,6 +117,10 @@ pub struct ModelOutcome {
     /// discretisation error (`integration_err`, signed in `discretisation_shift`).
     pub thermodynamic: Evidence,
     pub stepping_stone: Evidence,
+    /// Bridge sampling between the in-model chains' posterior draws and a Gaussian fitted to
+    /// them ([`crate::evidence::bridge_sampling`]).
+    #[serde(default = "Evidence::not_recorded")]
+    pub bridge_sampling: Evidence,
     /// The tempering run: final ladder, swap rate per adjacent pair, acceptance per rung.
     pub tempering: Option<TemperingDiagnostics>,
     pub schwarz_ln_z: f64,
