@@ -45,10 +45,19 @@ def leaves(v, path=""):
                 continue
             yield from leaves(x, f"{path}.{k}" if path else k)
     elif isinstance(v, list):
-        for i, x in enumerate(v):
+        for i, x in zip(labels(v), v):
             yield from leaves(x, f"{path}[{i}]")
     else:
         yield path, v
+
+
+def labels(v):
+    """The labels of a list's entries: a select pair's estimator rows by their `method` (so a
+    row added or moved shows as that, not as every later row changed), else their indices."""
+    methods = [x.get("method") if isinstance(x, dict) else None for x in v]
+    if v and all(isinstance(m, str) for m in methods) and len(set(methods)) == len(methods):
+        return methods
+    return range(len(v))
 
 
 def show(v):
@@ -58,10 +67,16 @@ def show(v):
 
 def lookup(v, path):
     """The value at a leaf path such as `models[0].estimates[2].sd`, or None."""
-    for part in re.findall(r"[^.\[\]]+|\[\d+\]", path):
+    for part in re.findall(r"[^.\[\]]+|\[[^\]]+\]", path):
         if part.startswith("["):
-            i = int(part[1:-1])
-            v = v[i] if isinstance(v, list) and i < len(v) else None
+            label = part[1:-1]
+            if not isinstance(v, list):
+                v = None
+            elif label.isdigit():
+                i = int(label)
+                v = v[i] if i < len(v) else None
+            else:
+                v = next((x for x in v if isinstance(x, dict) and x.get("method") == label), None)
         else:
             v = v.get(part) if isinstance(v, dict) else None
         if v is None:

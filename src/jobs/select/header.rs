@@ -125,9 +125,25 @@ fn reference_value(p: &PairResult) -> Option<String> {
 /// Whether a pair's estimators agree, in words.
 fn agreement(p: &PairResult) -> String {
     let stat = if p.all_agree {
-        "the statistical estimators agree"
+        "the statistical estimators agree".to_string()
     } else {
-        "the statistical estimators DISAGREE beyond their errors"
+        let off: Vec<String> = p
+            .estimates
+            .iter()
+            .filter(|e| e.agrees == Some(false) && e.kind == super::pair::EstimateKind::Statistical)
+            .map(|e| {
+                if super::pair::is_one_sided(e) {
+                    format!("{}, one-sided", e.method)
+                } else {
+                    e.method.clone()
+                }
+            })
+            .collect();
+        format!(
+            "the statistical estimators DISAGREE beyond their errors ({} against {})",
+            off.join("; "),
+            p.reference
+        )
     };
     match p.systematic_agree {
         Some(true) => format!("{stat}, the Laplace estimates are within 1 nat"),

@@ -104,7 +104,8 @@ impl PairResult {
     /// [`DISAGREEMENT_LIMIT`](crate::jobs::validity::DISAGREEMENT_LIMIT) combined standard
     /// errors, as one line naming each: their error bars cannot all hold, so the run failed
     /// its own check (within 2σ is agreement; between 2σ and the limit the answer line says
-    /// "DISAGREE" and the run stands). `None` when none does.
+    /// "DISAGREE" and the run stands). One-sided jump rows, whose notes say their error bar
+    /// can fall short, are left out. `None` when none does.
     pub fn gross_disagreement(&self) -> Option<String> {
         use crate::jobs::validity::DISAGREEMENT_LIMIT;
         let r = self.estimates.iter().find(|e| e.method == self.reference)?;
@@ -112,7 +113,13 @@ impl PairResult {
         let off: Vec<String> = self
             .estimates
             .iter()
-            .filter(|e| e.kind == EstimateKind::Statistical && e.method != self.reference)
+            // a one-sided jump row says its error bar can fall short: it is marked as
+            // disagreeing, and does not void the run the reference stands for
+            .filter(|e| {
+                e.kind == EstimateKind::Statistical
+                    && e.method != self.reference
+                    && !is_one_sided(e)
+            })
             .filter_map(|e| {
                 // a row without an error bar promises nothing to break
                 let (v, se) = (e.ln_b?, e.std_err?);
@@ -155,6 +162,14 @@ const ONE_SIDED_REFERENCE_ORDER: [&str; 7] = [
     "Laplace-Fisher box",
     "Laplace-Fisher raw",
 ];
+
+/// Whether a row is a one-sided jump row (its note starts with [`ONE_SIDED_CAVEAT`]).
+pub(super) fn is_one_sided(e: &PairEstimate) -> bool {
+    e.method.starts_with("RJMCMC")
+        && e.note
+            .as_deref()
+            .is_some_and(|n| n.starts_with("one-sided"))
+}
 
 /// The caveat on a one-sided jump row (module docs, "The reference").
 const ONE_SIDED_CAVEAT: &str = "one-sided (a model never visited): it averages the visited model's terms g/(Lπ), which have no variance where that posterior is skewed, so this error bar can fall short; bridge sampling is the reference";
@@ -732,7 +747,15 @@ mod tests {
             2.0 + 6.0 * 0.5,
             Some(0.4),
         );
+        // a one-sided jump row 6σ off is marked, and leaves the run standing
+        set(&mut p, "RJMCMC bridge", 2.0 + 6.0 * 0.5, Some(0.4));
+        p.estimates
+            .iter_mut()
+            .find(|r| r.method == "RJMCMC bridge")
+            .unwrap()
+            .note = Some(ONE_SIDED_CAVEAT.into());
         let why = p.gross_disagreement().expect("6σ fails");
+        assert!(!why.contains("RJMCMC"), "{why}");
         assert!(
             why.starts_with("X/Y: Thermodynamic integration 5.00 ± 0.40 (6.0 σ)")
                 && why.contains("reference Stepping-stone 2.00 ± 0.30")

@@ -90,8 +90,15 @@ impl TargetOutcome {
             });
             note = Some(match steering {
                 Some(p) => format!(
-                    "{}/{}: the reference row is {}, which the target does not lengthen (it lengthens the reversible jump)",
-                    p.x, p.y, p.reference
+                    "{}/{}: the reference row is {}, which the target does not lengthen (it lengthens the reversible jump){}",
+                    p.x,
+                    p.y,
+                    p.reference,
+                    if p.reference == "Bridge sampling" {
+                        "; a model never visited makes the jump rows one-sided, and bridge sampling's error falls with the in-model chains' length ([select] iterations)"
+                    } else {
+                        ""
+                    }
                 ),
                 None if last >= budget => format!(
                     "the budget ({budget} reversible-jump iterations, `rj_max_iterations`) was reached; raise it, or accept the error reached"
