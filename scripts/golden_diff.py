@@ -18,6 +18,10 @@ in units of the old and new error bars combined in quadrature (two independent r
 
     python3 scripts/golden_diff.py --bars [REV]  # only the numbers that have an error bar,
                                                  # and a count of the other changes per file
+    python3 scripts/golden_diff.py --references [REV]
+                                                 # only the select pairs whose reference row
+                                                 # changed: its ln B before and after, in units
+                                                 # of the two rows' errors combined
 
 Exit status 0 always; the last line counts the changes.
 """
@@ -161,9 +165,45 @@ def compare_entry(name, old, new, bars_only=False):
     return [f"  {name}:"] + compare_json(o, n, bars_only)
 
 
+def pairs_in(v, path=""):
+    """Every select pair (a dict with `reference` and `estimates`) in a JSON tree, by path."""
+    if isinstance(v, dict):
+        if "reference" in v and isinstance(v.get("estimates"), list):
+            yield path, v
+        for k, x in v.items():
+            yield from pairs_in(x, f"{path}.{k}" if path else k)
+    elif isinstance(v, list):
+        for i, x in enumerate(v):
+            yield from pairs_in(x, f"{path}[{i}]")
+
+
+def reference_changes(old, new):
+    """The pairs whose reference row changed: name, ln B ± σ before and after."""
+    before = dict(pairs_in(old))
+    out = []
+    for path, p in pairs_in(new):
+        q = before.get(path)
+        if q is None or q["reference"] == p["reference"]:
+            continue
+        row = lambda pair: next((e for e in pair["estimates"] if e["method"] == pair["reference"]), {})
+        a, b = row(q), row(p)
+        va, vb, ea, eb = a.get("ln_b"), b.get("ln_b"), a.get("std_err") or 0.0, b.get("std_err") or 0.0
+        if va is None or vb is None:
+            out.append(f"    {path} {p['x']}/{p['y']}: {q['reference']} -> {p['reference']}")
+            continue
+        both = (ea * ea + eb * eb) ** 0.5
+        z = f"{(vb - va) / both:+.2f} combined σ" if both > 0 else "no error bar"
+        out.append(
+            f"    {path} {p['x']}/{p['y']}: {q['reference']} {va:.4f} ± {ea:.4f} -> "
+            f"{p['reference']} {vb:.4f} ± {eb:.4f} (diff {vb - va:+.4f} = {z})"
+        )
+    return out
+
+
 def main():
-    args = [a for a in sys.argv[1:] if a != "--bars"]
+    args = [a for a in sys.argv[1:] if not a.startswith("--")]
     bars_only = "--bars" in sys.argv[1:]
+    references = "--references" in sys.argv[1:]
     rev = args[0] if args else "HEAD"
     files = sorted({p.name for p in GOLDEN.glob("*.json")} | set(
         Path(p).name
@@ -179,6 +219,14 @@ def main():
         new = json.loads(path.read_text()) if path.exists() else {}
         lines = []
         for entry in sorted(old.keys() | new.keys()):
+            if references:
+                o, n = text_of(old.get(entry)), text_of(new.get(entry))
+                if o is None or n is None or o.startswith("sha256:") or not o.lstrip().startswith("{"):
+                    continue
+                lenient = lambda t: json.loads(re.sub(r",(\s*[}\]])", r"\1", t))
+                found = reference_changes(lenient(o), lenient(n))
+                lines += [f"  {entry}:"] + found if found else []
+                continue
             lines += compare_entry(entry, old.get(entry), new.get(entry), bars_only)
         if lines:
             print(f"{f}:")

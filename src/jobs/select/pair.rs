@@ -413,12 +413,36 @@ pub(super) fn pair(
             accepted_y_to_x: ayx,
             effective_jumps: rjp.as_ref().map_or(0, |p| p.effective_jumps),
             expected_jumps: rjp.as_ref().map_or(0.0, |p| p.expected_jumps),
-            warning: rjp
-                .as_ref()
-                .and_then(|p| p.warning.clone())
-                .map(|w| w + &jump_advice(&[mx, my])),
+            warning: rjp.as_ref().and_then(|p| {
+                let w = p.warning.clone()?;
+                Some(if one_sided && !reference.starts_with("RJMCMC") {
+                    unreachable_jumps(p, &mx.name, &my.name, &reference)
+                } else {
+                    w + &jump_advice(&[mx, my])
+                })
+            }),
         },
     }
+}
+
+/// The few-jumps warning of a pair with a model never visited whose reference needs no jump:
+/// how many jumps the run could expect (`Σα`) and how much longer a run would have to be for
+/// the visit ratio, instead of advice to run longer (models that far apart exchange no jumps
+/// at any practical length, and the answer does not need them).
+fn unreachable_jumps(p: &crate::evidence::RjPair, x: &str, y: &str, reference: &str) -> String {
+    use crate::evidence::MIN_EFFECTIVE_JUMPS;
+    let longer = if p.expected_jumps > 0.0 {
+        format!(
+            "about {} times this run",
+            crate::numfmt::fmt_sig(MIN_EFFECTIVE_JUMPS as f64 / p.expected_jumps, 2)
+        )
+    } else {
+        "more than any run".into()
+    };
+    format!(
+        "only {} accepted jumps between `{x}` and `{y}` after burn-in (< {MIN_EFFECTIVE_JUMPS}), and Σα = {:.3e} expected: the models are too far apart for the jump chain, and {MIN_EFFECTIVE_JUMPS} jumps would take {longer}. The answer does not need them: the reference is {reference}, and the jump rows are one-sided (their notes say what that costs)",
+        p.effective_jumps, p.expected_jumps
+    )
 }
 
 /// Beyond this many nats from the reference, the Schwarz row says so instead of promising
@@ -613,6 +637,41 @@ mod tests {
         let mut est = rows();
         est.truncate(2);
         assert_eq!(judge(&mut est, true).0, "RJMCMC bridge");
+    }
+
+    /// Models too far apart for any jump (issue 52): the warning says how many jumps the run
+    /// could expect and that the answer needs none, instead of advice to run longer.
+    #[test]
+    fn a_pair_too_far_apart_for_jumps_says_the_answer_needs_none() {
+        let p = crate::evidence::RjPair {
+            k: 0,
+            l: 1,
+            visits: None,
+            rao_blackwell: None,
+            bridge: None,
+            proposals_k_to_l: 0,
+            proposals_l_to_k: 48_000,
+            accepted_k_to_l: 0,
+            accepted_l_to_k: 0,
+            effective_jumps: 0,
+            expected_jumps: 0.048,
+            warning: Some("only 0 accepted jumps".into()),
+        };
+        let w = unreachable_jumps(&p, "X", "Y", "Bridge sampling");
+        assert!(
+            w.starts_with("only 0 accepted jumps between `X` and `Y` after burn-in (< 30)")
+                && w.contains("Σα = 4.800e-2 expected")
+                && w.contains("30 jumps would take about 630 times this run")
+                && w.contains("the reference is Bridge sampling")
+                && !w.contains("run longer")
+                && !w.contains("defensive"),
+            "{w}"
+        );
+        let none = crate::evidence::RjPair {
+            expected_jumps: 0.0,
+            ..p
+        };
+        assert!(unreachable_jumps(&none, "X", "Y", "Stepping-stone").contains("more than any run"));
     }
 
     fn outcome(name: &str, ln_z: Option<f64>) -> ModelOutcome {
