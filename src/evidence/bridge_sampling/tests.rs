@@ -6,10 +6,13 @@ use rand::{RngExt, SeedableRng};
 use rand_distr::Exp1;
 use rand_xoshiro::Xoshiro256PlusPlus;
 
+/// A log-likelihood of the parameters.
+type LnL = Box<dyn Fn(&[f64]) -> f64 + Sync>;
+
 /// `ln L(θ)` on a uniform prior over a box.
 struct Target {
     prior: Prior,
-    ln_l: Box<dyn Fn(&[f64]) -> f64 + Sync>,
+    ln_l: LnL,
 }
 
 impl LogDensity for Target {
@@ -21,7 +24,7 @@ impl LogDensity for Target {
     }
 }
 
-fn boxed(bounds: &[(f64, f64)], ln_l: Box<dyn Fn(&[f64]) -> f64 + Sync>) -> Target {
+fn boxed(bounds: &[(f64, f64)], ln_l: LnL) -> Target {
     Target {
         prior: Prior::new(
             (0..bounds.len()).map(|i| format!("p{i}")).collect(),
@@ -99,7 +102,11 @@ fn chains_of(
         .collect()
 }
 
-fn estimate(t: &Target, ch: &[(Vec<f64>, Vec<f64>)], seed: u64) -> BridgeSamplingEstimate {
+fn try_estimate(
+    t: &Target,
+    ch: &[(Vec<f64>, Vec<f64>)],
+    seed: u64,
+) -> Result<BridgeSamplingEstimate, EvidenceError> {
     let draws: Vec<PosteriorDraws<'_>> = ch
         .iter()
         .map(|(s, lp)| PosteriorDraws {
@@ -107,7 +114,11 @@ fn estimate(t: &Target, ch: &[(Vec<f64>, Vec<f64>)], seed: u64) -> BridgeSamplin
             ln_posterior: lp,
         })
         .collect();
-    bridge_sampling(t, &draws, seed).unwrap()
+    bridge_sampling(t, &draws, seed)
+}
+
+fn estimate(t: &Target, ch: &[(Vec<f64>, Vec<f64>)], seed: u64) -> BridgeSamplingEstimate {
+    try_estimate(t, ch, seed).unwrap()
 }
 
 fn skewed_draw(rng: &mut Xoshiro256PlusPlus) -> Vec<f64> {
@@ -218,16 +229,7 @@ fn what_it_cannot_use_it_says() {
     let draw = truncated_draw(-3.0, 3.0);
     let ch = chains_of(&t, 40, 1, &mut rng, &draw);
     let draws = |ch: &[(Vec<f64>, Vec<f64>)]| -> Vec<(Vec<f64>, Vec<f64>)> { ch.to_vec() };
-    let run = |ch: &[(Vec<f64>, Vec<f64>)]| {
-        let d: Vec<PosteriorDraws<'_>> = ch
-            .iter()
-            .map(|(s, lp)| PosteriorDraws {
-                samples: s,
-                ln_posterior: lp,
-            })
-            .collect();
-        bridge_sampling(&t, &d, 1)
-    };
+    let run = |ch: &[(Vec<f64>, Vec<f64>)]| try_estimate(&t, ch, 1);
     assert!(run(&ch).is_ok());
     // too few draws
     let mut few = draws(&ch);

@@ -391,6 +391,14 @@ pub(super) fn pair(
                 .unwrap_or(0),
         )
     };
+    let warning = rjp.as_ref().and_then(|p| {
+        let w = p.warning.clone()?;
+        Some(if one_sided && !reference.starts_with("RJMCMC") {
+            unreachable_jumps(p, &mx.name, &my.name, &reference)
+        } else {
+            w + &jump_advice(&[mx, my])
+        })
+    });
     let (pxy, axy) = count(x, y);
     let (pyx, ayx) = count(y, x);
     PairResult {
@@ -413,14 +421,7 @@ pub(super) fn pair(
             accepted_y_to_x: ayx,
             effective_jumps: rjp.as_ref().map_or(0, |p| p.effective_jumps),
             expected_jumps: rjp.as_ref().map_or(0.0, |p| p.expected_jumps),
-            warning: rjp.as_ref().and_then(|p| {
-                let w = p.warning.clone()?;
-                Some(if one_sided && !reference.starts_with("RJMCMC") {
-                    unreachable_jumps(p, &mx.name, &my.name, &reference)
-                } else {
-                    w + &jump_advice(&[mx, my])
-                })
-            }),
+            warning,
         },
     }
 }

@@ -534,7 +534,7 @@ fn summarise(
     rj_stage: RjStage,
 ) -> Result<SelectSummary, SelectError> {
     let RjStage {
-        rj,
+        mut rj,
         note: rj_note,
         rate: rj_rate,
         rounds,
@@ -550,6 +550,14 @@ fn summarise(
     for x in 0..models.len() {
         for y in x + 1..models.len() {
             pairs.push(pair::pair(&models, rj.as_ref(), rj_note.as_deref(), x, y));
+        }
+    }
+    // the jump chain's few-jumps warning of a pair becomes the pair's, which knows the
+    // reference (and may say that the answer needs no jumps): the outputs say one thing
+    for rp in rj.iter_mut().flat_map(|r| r.pairs.iter_mut()) {
+        let (x, y) = (&models[rp.k].name, &models[rp.l].name);
+        if let Some(p) = pairs.iter().find(|p| &p.x == x && &p.y == y) {
+            rp.warning.clone_from(&p.jumps.warning);
         }
     }
     warnings.extend(

@@ -49,7 +49,8 @@ pub struct TargetOutcome {
 }
 
 impl TargetOutcome {
-    /// The outcome of `rounds` for the finished pairs: the error their reference rows reached.
+    /// The outcome of `rounds` for the finished pairs: the error their targeted rows reached
+    /// ([`targeted_row`]).
     pub(super) fn finish(
         target: f64,
         budget: usize,
@@ -59,8 +60,7 @@ impl TargetOutcome {
         let mut reached = Some(0.0_f64);
         let mut note = None;
         for p in pairs {
-            let row = p.estimates.iter().find(|e| e.method == p.reference);
-            match row.and_then(|e| e.std_err) {
+            match targeted_row(p).and_then(|e| e.std_err) {
                 Some(e) => reached = reached.map(|r| r.max(e)),
                 None => {
                     reached = None;
@@ -82,23 +82,14 @@ impl TargetOutcome {
         if !met && note.is_none() {
             let last = rounds.last().map_or(0, |r| r.iterations);
             let steering = pairs.iter().find(|p| {
-                !p.estimates.iter().any(|e| {
-                    e.method == p.reference
-                        && e.kind == EstimateKind::Statistical
-                        && e.method.starts_with("RJMCMC")
+                targeted_row(p).is_none_or(|e| {
+                    !(e.kind == EstimateKind::Statistical && e.method.starts_with("RJMCMC"))
                 })
             });
             note = Some(match steering {
                 Some(p) => format!(
-                    "{}/{}: the reference row is {}, which the target does not lengthen (it lengthens the reversible jump){}",
-                    p.x,
-                    p.y,
-                    p.reference,
-                    if p.reference == "Bridge sampling" {
-                        "; a model never visited makes the jump rows one-sided, and bridge sampling's error falls with the in-model chains' length ([select] iterations)"
-                    } else {
-                        ""
-                    }
+                    "{}/{}: the reference row is {}, which the target does not lengthen (it lengthens the reversible jump)",
+                    p.x, p.y, p.reference
                 ),
                 None if last >= budget => format!(
                     "the budget ({budget} reversible-jump iterations, `rj_max_iterations`) was reached; raise it, or accept the error reached"
@@ -138,6 +129,22 @@ impl TargetOutcome {
         }
         s
     }
+}
+
+/// The row of a pair whose error the target is on: its first jump row with an error in the
+/// reference order (bridge, Rao–Blackwell, visits) — the rows the rounds lengthen, so a pair
+/// with a model never visited is held on its one-sided rows, as before bridge sampling became
+/// such a pair's reference — else its reference row (tempering took over: the target cannot
+/// move it, and says so).
+fn targeted_row(p: &PairResult) -> Option<&super::pair::PairEstimate> {
+    ["RJMCMC bridge", "RJMCMC Rao-Blackwell", "RJMCMC visits"]
+        .iter()
+        .find_map(|m| {
+            p.estimates
+                .iter()
+                .find(|e| e.method == *m && e.std_err.is_some())
+        })
+        .or_else(|| p.estimates.iter().find(|e| e.method == p.reference))
 }
 
 /// The largest reference error over the pairs of a reversible-jump run, each pair's taken
