@@ -171,6 +171,22 @@ pub(super) fn is_one_sided(e: &PairEstimate) -> bool {
             .is_some_and(|n| n.starts_with("one-sided"))
 }
 
+/// The one-sided caveat names bridge sampling as the reference; where that row had no number
+/// and another took over, the caveat names that one.
+fn name_the_reference(est: &mut [PairEstimate], reference: &str) {
+    if reference == "Bridge sampling" {
+        return;
+    }
+    for e in est.iter_mut().filter(|e| is_one_sided(e)) {
+        if let Some(n) = e.note.as_mut() {
+            *n = n.replace(
+                "bridge sampling is the reference",
+                &format!("the reference is {reference}"),
+            );
+        }
+    }
+}
+
 /// The caveat on a one-sided jump row (module docs, "The reference").
 const ONE_SIDED_CAVEAT: &str = "one-sided (a model never visited): it averages the visited model's terms g/(Lπ), which have no variance where that posterior is skewed, so this error bar can fall short; bridge sampling is the reference";
 
@@ -377,6 +393,7 @@ pub(super) fn pair(
     });
     correct_for_noise(&mut est, mx, my);
     let (reference, all_agree, systematic_agree) = judge(&mut est, one_sided);
+    name_the_reference(&mut est, &reference);
     let lb = est
         .iter()
         .find(|e| e.method == reference)
@@ -638,6 +655,18 @@ mod tests {
         let mut est = rows();
         est.truncate(2);
         assert_eq!(judge(&mut est, true).0, "RJMCMC bridge");
+        // the caveat names the reference that took over
+        let mut est = rows();
+        est.pop();
+        est[1].note = Some(ONE_SIDED_CAVEAT.into());
+        let (r, _, _) = judge(&mut est, true);
+        name_the_reference(&mut est, &r);
+        let n = est[1].note.as_deref().unwrap();
+        assert!(n.ends_with("the reference is Stepping-stone"), "{n}");
+        let mut est = rows();
+        est[1].note = Some(ONE_SIDED_CAVEAT.into());
+        name_the_reference(&mut est, "Bridge sampling");
+        assert_eq!(est[1].note.as_deref(), Some(ONE_SIDED_CAVEAT));
     }
 
     /// Models too far apart for any jump (issue 52): the warning says how many jumps the run
