@@ -508,6 +508,39 @@ pub fn score_covariance(lik: &Likelihood, th: &[f64], free: &[usize]) -> DMatrix
     j
 }
 
+/// Why the score's covariance ([`score_covariance`]) differs from the Fisher matrix of `lik`,
+/// for a message (`"the window … correlates neighbouring bins"`, `"the Welch noise estimate has
+/// ν = 29 degrees of freedom"`, or both joined by "and"); `None` when it equals it (every
+/// window rectangular over contiguous bins, and the noise PSD the model's or marginalised by
+/// the statistic), so the Fisher errors are the estimate's and no sandwich is needed.
+pub fn score_covariance_differs(lik: &Likelihood) -> Option<String> {
+    let spectra = lik.spectra();
+    let mut why = Vec::new();
+    if spectra.iter().any(|e| !e.window_lags.is_empty()) {
+        why.push(
+            "the window (the tapers of the runs between gaps, or a non-rectangular `window`) correlates neighbouring bins"
+                .to_string(),
+        );
+    }
+    if lik.statistic() == super::statistic::Statistic::Whittle {
+        let nu = spectra
+            .iter()
+            .filter_map(|e| {
+                e.noise_dof_per_bin
+                    .as_ref()
+                    .and_then(|b| b.iter().copied().reduce(f64::min))
+                    .or(e.noise_dof)
+            })
+            .reduce(f64::min);
+        if let Some(nu) = nu {
+            why.push(format!(
+                "the noise PSD is a Welch estimate with ν = {nu:.0} degrees of freedom (at the fewest), which widens the estimate by √(ν/(ν−4))"
+            ));
+        }
+    }
+    (!why.is_empty()).then(|| why.join(" and "))
+}
+
 /// Standard deviations `√diag(F⁻¹ J F⁻¹)` of the estimate whose Fisher matrix is `f` and score
 /// covariance `j` ([`score_covariance`]); `None` if `f` is singular.
 pub fn sandwich_errors(f: &DMatrix<f64>, j: &DMatrix<f64>) -> Option<Vec<f64>> {

@@ -30,7 +30,7 @@ pub(crate) use fisher::gradient_and_fisher_serial;
 pub use fisher::{
     cramer_rao, default_step, describe_unconstrained, fisher_exact, fisher_numeric, fisher_parts,
     gradient_and_fisher, gradient_hessian_numeric, residual_derivatives, sandwich_errors,
-    score_covariance,
+    score_covariance, score_covariance_differs,
 };
 pub use glitch_gate::{
     DEFAULT_GLITCH_AMPLITUDE, DEFAULT_GLITCH_DECAY, DEFAULT_GLITCH_PAD, DEFAULT_GLITCH_RISE,

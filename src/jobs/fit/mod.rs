@@ -169,14 +169,21 @@ mod tests {
     #[test]
     fn the_sandwich_warning_names_the_worst_parameter_or_an_infinite_variance() {
         let names: Vec<String> = ["a", "b"].map(String::from).to_vec();
-        let w = run::sandwich_warning(&[1.1, 2.6], &[1.0, 2.0], &[1.0, 2.1], &names, &[0, 1]);
+        let w = run::sandwich_warning(
+            &[1.1, 2.6],
+            &[1.0, 2.0],
+            &[1.0, 2.1],
+            &names,
+            &[0, 1],
+            "why",
+        );
         assert!(
             w.as_deref()
-                .is_some_and(|w| w.contains("24 %") && w.contains("`b`")),
+                .is_some_and(|w| w.contains("24 %") && w.contains("`b`") && w.contains("but why:")),
             "{w:?}"
         );
         assert!(
-            run::sandwich_warning(&[1.04, 2.0], &[1.0, 2.0], &[1.0, 2.0], &names, &[0, 1])
+            run::sandwich_warning(&[1.04, 2.0], &[1.0, 2.0], &[1.0, 2.0], &names, &[0, 1], "")
                 .is_none()
         );
         let w = run::sandwich_warning(
@@ -185,6 +192,7 @@ mod tests {
             &[1.0, 2.0],
             &names,
             &[0, 1],
+            "",
         );
         assert!(
             w.as_deref()

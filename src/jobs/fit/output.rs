@@ -22,8 +22,13 @@ pub fn fmt_rhat(rhat: f64, sd: f64) -> String {
 }
 
 /// The Table I layout as a text table.
+///
+/// When the rows carry sandwich errors (the Fisher errors are not the estimate's, e.g. with a
+/// Welch noise estimate; [`crate::likelihood::score_covariance_differs`]) a `sandwich σ` column
+/// follows `σ/CR`.
 pub fn table(s: &FitSummary) -> Table {
-    let mut t = Table::new([
+    let sandwich = s.rows.iter().any(|r| r.sandwich.is_some());
+    let mut header = vec![
         "parameter",
         "unit",
         "truth",
@@ -31,11 +36,14 @@ pub fn table(s: &FitSummary) -> Table {
         "estimate ± σ",
         "Cramér-Rao σ",
         "σ/CR",
-        "R-hat",
-        "ESS",
-    ]);
+    ];
+    if sandwich {
+        header.push("sandwich σ");
+    }
+    header.extend(["R-hat", "ESS"]);
+    let mut t = Table::new(header);
     for r in &s.rows {
-        t.push_row([
+        let mut row = vec![
             r.name.clone(),
             if r.unit.is_empty() {
                 "–".into()
@@ -47,10 +55,12 @@ pub fn table(s: &FitSummary) -> Table {
             fmt_pm(r.mean, r.sd),
             fmt_short(r.cramer_rao),
             fmt_fixed(r.sd / r.cramer_rao, 3),
-            fmt_rhat(r.rhat, r.sd),
-            fmt_fixed(r.ess, 0),
-        ])
-        .expect("row width matches the header");
+        ];
+        if sandwich {
+            row.push(r.sandwich.map_or("–".into(), fmt_short));
+        }
+        row.extend([fmt_rhat(r.rhat, r.sd), fmt_fixed(r.ess, 0)]);
+        t.push_row(row).expect("row width matches the header");
     }
     t
 }
