@@ -7,6 +7,8 @@
 For each regime of the guidance-delay study (X: all 7 LTP parameters, Y: dt1 = dt2 = 0 fixed):
   rho5     examples/guidance-delays-low-snr.toml (`target_snr = 5`: the models cannot be told apart)
   rho60    examples/guidance-delays.toml with `[simulation] target_snr = 60`
+  competitive  examples/guidance-delays.toml as shipped (rho_opt = 450: the demo's regime, where
+           the two models compete)
   nominal  examples/guidance-delays-high-snr.toml (the nominal TN3045 amplitudes)
 it writes the study to runs/nested-peers/<regime>/study.toml, exports the exact likelihood
 (`cargo run --release --example peer_inputs`), runs dynesty and nautilus on its numpy peer
@@ -48,6 +50,7 @@ def rho60_study(text):
 REGIMES = {
     "rho5": ("examples/guidance-delays-low-snr.toml", lambda t: t),
     "rho60": ("examples/guidance-delays.toml", rho60_study),
+    "competitive": ("examples/guidance-delays.toml", lambda t: t),
     "nominal": ("examples/guidance-delays-high-snr.toml", lambda t: t),
 }
 
@@ -121,6 +124,7 @@ def main():
     ap.add_argument("--regime", action="append", choices=sorted(REGIMES), help="default: all")
     ap.add_argument("--rerun-peers", action="store_true", help="run dynesty and nautilus even if stored")
     ap.add_argument("--seed", type=int, default=12, help="seed of the peers")
+    ap.add_argument("--tool", action="append", choices=TOOLS, help="default: both")
     a = ap.parse_args()
     os.makedirs(RESULTS, exist_ok=True)
     sh(["cargo", "build", "--release", "--quiet", "--bin", "occam", "--example", "peer_inputs"])
@@ -144,7 +148,7 @@ def main():
         rows.append(dict(regime=regime, tool="occam select", ln_b=occ["ln_b"], err=occ["err"],
                          seconds=occ["seconds"], cpu_seconds=occ["cpu_seconds"], load=occ["load_after"][0], note=occ["method"],
                          occam=occ))
-        for tool in TOOLS:
+        for tool in a.tool or TOOLS:
             r = run_peer(regime, prefix, tool, fp, a.rerun_peers, a.seed)
             rows.append(dict(regime=regime, tool=tool, ln_b=r["ln_b"], err=r["err"],
                              seconds=r["seconds"], cpu_seconds=r["cpu_seconds"], calls=r["calls"],
@@ -171,9 +175,18 @@ def main():
         print(f"| {r['regime']} | {r['tool']} | {r['ln_b']:.3f} | {r['err']:.3f} | {r['seconds']:.1f} |"
               f" {r['cpu_seconds']:.1f} | {r['calls']} | {r['load']:.1f} | {t_eq:.0f} | {r['ratio']:.0f}× |"
               f" {r['ratio_cpu']:.0f}× | {'yes' if agree else 'NO'} |")
+    # a run of some regimes replaces their rows and keeps the others' (each row has its `when`)
     out = os.path.join(RESULTS, "comparison.json")
+    done = {r["regime"] for r in rows}
+    kept = []
+    if os.path.exists(out):
+        with open(out) as f:
+            kept = [r for r in json.load(f)["rows"] if r["regime"] not in done]
+    when = time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime())
+    for r in rows:
+        r.setdefault("when", when)
     with open(out, "w") as f:
-        json.dump(dict(when=time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime()), rows=rows), f, indent=1)
+        json.dump(dict(when=when, rows=kept + rows), f, indent=1)
     print(f"\nwrote {os.path.relpath(out, ROOT)}; targets: occam ≥ 1000× dynesty and ≥ 100× nautilus")
 
 

@@ -24,9 +24,13 @@ const NAUTILUS_RHO5: (f64, f64) = (0.013161020819097757, 0.01408025160631756);
 /// `examples/guidance-delays.toml` (ρ_opt = 450, the demo's competitive regime): the bridge of a
 /// reversible jump 16× longer than the example's on another sampler seed (`[select] seed =
 /// 4242`, `rj_iterations = 1600000`, measured 2026-11-28), ln B_XY. occam's own estimator on
-/// another random stream, not an independent method: no nested-sampling run of this regime is
-/// on record.
+/// another random stream, not an independent method; [`NAUTILUS_COMPETITIVE`] is.
 const REF_COMPETITIVE: (f64, f64) = (-1.2056455627159401, 0.001684428125438415);
+/// nautilus on the exact likelihood of `examples/guidance-delays.toml` as shipped (ρ_opt = 450
+/// of the design, 386 at the truth), `bench/peer/results/competitive.nautilus.json`, made by
+/// `bench/peer/.venv/bin/python bench/peer/nested_vs_occam.py --regime competitive --tool
+/// nautilus` (2026-12-07; 356 s): ln B_XY.
+const NAUTILUS_COMPETITIVE: (f64, f64) = (-1.204737985972315, 0.010680224788695538);
 /// `examples/thruster-response.toml`: two runs of the example's length on sampler seeds 4242
 /// and 4243 (50 000 RJ iterations each, the delay model never entered: bridge −13.660 ± 0.025
 /// and −13.658 ± 0.024), combined.
@@ -212,6 +216,11 @@ fn competitive(s: &Value) {
     // 1.25, thermodynamic integration)
     for m in STATISTICAL {
         within("competitive", p, m, REF_COMPETITIVE, 2.5);
+    }
+    // and of nested sampling, an independent method on the same likelihood (measured: at most
+    // 0.6, thermodynamic integration); the long run itself is 0.08 σ from it
+    for m in STATISTICAL {
+        within("competitive vs nautilus", p, m, NAUTILUS_COMPETITIVE, 2.5);
     }
     // the errors the README quotes (± 0.01 nat for the reversible jump, ± 0.05 for
     // tempering): an error inflated to hide a bias fails
