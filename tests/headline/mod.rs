@@ -598,16 +598,16 @@ fn cross_talk(s: &Value) {
         let mut beyond = false;
         for m in ["Thermodynamic integration", "Stepping-stone"] {
             let (v, e) = value(p, m).unwrap();
-            eprintln!(
-                "{what}, {m}: {v:.2} ± {e:.2}, {:+.2} nats from IS",
-                v - r.0
-            );
+            eprintln!("{what}, {m}: {v:.2} ± {e:.2}, {:+.2} nats from IS", v - r.0);
             assert!((v - r.0).abs() < 3.0, "{what}, {m}: {v} against {}", r.0);
             beyond |= (v - r.0).abs() > 2.0 * e.hypot(r.1);
         }
         // a pair that says its estimators disagree does so because of a tempering row
         if p["all_agree"] == false {
-            assert!(beyond, "{what}: disagreement without a tempering row beyond 2σ");
+            assert!(
+                beyond,
+                "{what}: disagreement without a tempering row beyond 2σ"
+            );
             disagreeing.push(format!("{x}/{y}"));
         }
     }
