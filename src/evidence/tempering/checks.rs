@@ -67,8 +67,10 @@ pub(crate) fn halves(betas: &[f64], series: &[f64]) -> Halves {
     }
     let batch = ((half as f64).sqrt() as usize).max(1);
     let parts = [&series[..half * n_t], &series[half * n_t..2 * half * n_t]];
-    let ti = parts.map(|s| thermodynamic(betas, &rung_moments(s, n_t, half, batch), s, batch).ok());
-    let ss = parts.map(|s| stepping_stone(betas, s, batch).ok());
+    // batch-means errors, as the threshold was calibrated (`integrate::mean_var`)
+    let ti = parts
+        .map(|s| thermodynamic(betas, &rung_moments(s, n_t, half, batch), s, batch, false).ok());
+    let ss = parts.map(|s| stepping_stone(betas, s, batch, false).ok());
     (
         ti[0].zip(ti[1]).map(|(a, b)| [a, b]),
         ss[0].zip(ss[1]).map(|(a, b)| [a, b]),

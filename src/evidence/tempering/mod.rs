@@ -61,7 +61,9 @@
 //! **Monte-Carlo error**: all rungs advance in lockstep, so the estimator is (to first order) the
 //! mean of the per-sweep series `u_t = Σ_i w_i ℓ_i(t) + Σ_i c_i [(ℓ_i(t) − f_i)² − f′_i]` (`w` the
 //! trapezoid weights, `c_i = (h_i² − h_{i−1}²)/12`). Its variance comes from batch means of
-//! `u_t` with batches of `⌊√n⌋` sweeps (as in [`rjmcmc`](super::rjmcmc)). Because the series
+//! `u_t` with batches of `⌊√n⌋` sweeps (as in [`rjmcmc`](super::rjmcmc)), or from its
+//! split-chain effective sample size where that gives more (batches shorter than a few
+//! autocorrelation times are biased low: many free parameters, few sweeps). Because the series
 //! sums the rungs *before* batching, the correlation between rungs that swaps induce is included;
 //! no independence between rungs is assumed. The remaining approximation is the linearisation
 //! (delta method) of the variance term.
@@ -69,7 +71,7 @@
 //! # Stepping stone (Xie et al. 2011)
 //! `ln Z_SS = Σ_{i=0}^{N−2} ln (1/n) Σ_t exp[(β_{i+1} − β_i) ℓ_i(t)]` (log-sum-exp), each ratio
 //! from the samples of the lower rung. Error: delta method `δ ln r_i = mean_t(e^{x_t − ln r_i} − 1)`
-//! summed over rungs per sweep, then batch means as above. SS has no discretisation error, but
+//! summed over rungs per sweep, then as above. SS has no discretisation error, but
 //! its ratios are biased low (Jensen) when a step's weights are dominated by a few samples; the
 //! equalised swap rates keep adjacent rungs overlapping, which is the same condition.
 

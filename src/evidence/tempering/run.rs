@@ -273,8 +273,8 @@ fn result(ladder: Ladder, opts: &TemperingOptions) -> TemperingResult {
         .unwrap_or((n_post as f64).sqrt() as usize)
         .max(1);
     let moments = rung_moments(&series, n_t, n_post, batch);
-    let mut thermodynamic = thermodynamic(&betas, &moments, &series, batch);
-    let mut stepping_stone = stepping_stone(&betas, &series, batch);
+    let mut thermodynamic = thermodynamic(&betas, &moments, &series, batch, true);
+    let mut stepping_stone = stepping_stone(&betas, &series, batch, true);
     let mut notes = TemperingChecks::default();
     let (ti_halves, ss_halves) = checks::halves(&betas, &series);
     if let (Ok(t), Some(h)) = (&mut thermodynamic, ti_halves) {
