@@ -22,6 +22,10 @@ in units of the old and new error bars combined in quadrature (two independent r
                                                  # only the select pairs whose reference row
                                                  # changed: its ln B before and after, in units
                                                  # of the two rows' errors combined
+    python3 scripts/golden_diff.py --errors [REV]
+                                                 # only the changed error bars (`std_err`,
+                                                 # `err`), each with new ÷ old, and per file
+                                                 # the range of those ratios
 
 Exit status 0 always; the last line counts the changes.
 """
@@ -139,6 +143,19 @@ def compare_json(old, new, bars_only=False):
     return sorted(out, key=lambda l: l.split()[1])
 
 
+def error_changes(old, new):
+    """The changed error-bar leaves (last key `std_err` or `err`): (path, old, new)."""
+    a, b = dict(leaves(old)), dict(leaves(new))
+    out = []
+    for k in sorted(a.keys() & b.keys()):
+        if not re.search(r"(^|\.)(std_err|err)$", k):
+            continue
+        x, y = a[k], b[k]
+        if isinstance(x, (int, float)) and isinstance(y, (int, float)) and x != y and x:
+            out.append((k, x, y))
+    return out
+
+
 def text_of(v):
     """A recorded output as text: goldens keep each text as the list of its lines (earlier ones
     as one string)."""
@@ -204,6 +221,7 @@ def main():
     args = [a for a in sys.argv[1:] if not a.startswith("--")]
     bars_only = "--bars" in sys.argv[1:]
     references = "--references" in sys.argv[1:]
+    errors = "--errors" in sys.argv[1:]
     rev = args[0] if args else "HEAD"
     files = sorted({p.name for p in GOLDEN.glob("*.json")} | set(
         Path(p).name
@@ -219,6 +237,17 @@ def main():
         new = json.loads(path.read_text()) if path.exists() else {}
         lines = []
         for entry in sorted(old.keys() | new.keys()):
+            if errors:
+                o, n = text_of(old.get(entry)), text_of(new.get(entry))
+                if o is None or n is None or o.startswith("sha256:") or not o.lstrip().startswith("{"):
+                    continue
+                lenient = lambda t: json.loads(re.sub(r",(\s*[}\]])", r"\1", t))
+                found = error_changes(lenient(o), lenient(n))
+                if found:
+                    r = [y / x for _, x, y in found]
+                    lines.append(f"  {entry}: {len(found)} error bars changed, new ÷ old {min(r):.3f}–{max(r):.3f}")
+                    lines += [f"    {k}: {x:.6g} -> {y:.6g} (×{y / x:.3f})" for k, x, y in found]
+                continue
             if references:
                 o, n = text_of(old.get(entry)), text_of(new.get(entry))
                 if o is None or n is None or o.startswith("sha256:") or not o.lstrip().startswith("{"):
