@@ -555,8 +555,9 @@ fn accel_asymmetry_picks_the_symmetric_model() {
 /// * the one-sided jump rows say so;
 /// * Laplace–Fisher (box) within 0.2 nat: the posteriors are Gaussian to that level;
 /// * the tempering rows are the known limit of the many-channels guide: within 3 nats, with
-///   error bars of 0.8–1.1 that do not cover it on two pairs (none/sensing +2.9σ, none/both
-///   +2.3σ), and those two pairs say that the estimators disagree, for that reason.
+///   error bars of 1.0–1.2 (the ESS floor's; 0.8–1.1 by batch means alone) that leave two pairs
+///   2.0–2.3 combined σ off (none/sensing, none/both), and those two pairs say that the
+///   estimators disagree, for that reason.
 ///
 /// Its power, on the record: bridge sampling moved 3.5 combined σ from importance sampling
 /// either way, on any pair, fails it.
