@@ -380,11 +380,8 @@ fn blanked_injections_are_filled_in_from_the_design() {
 /// RMS 1.064 by the sandwich and 1.197 by the Fisher errors on these realisations.
 #[test]
 fn the_score_covariance_holds_on_gapped_table_one_data() {
-    use occam::jobs::prepare::{default_start, prepare};
-    use occam::likelihood::{
-        cramer_rao, fisher_exact, fisher_scoring, gradient_and_fisher, sandwich_errors,
-        score_covariance,
-    };
+    use occam::jobs::prepare::prepare;
+    use occam::likelihood::{gradient_and_fisher, score_covariance};
     use rayon::prelude::*;
     let base = Study::load(Path::new(concat!(
         env!("CARGO_MANIFEST_DIR"),
@@ -411,24 +408,7 @@ fn the_score_covariance_holds_on_gapped_table_one_data() {
                 let l = c.cholesky().unwrap();
                 l.l().solve_lower_triangular(&g).unwrap().norm_squared()
             };
-            let map =
-                fisher_scoring(lik, &default_start(&s, &s.fit_model), &free, 1e-3, 200).unwrap();
-            assert!(
-                map.converged && !map.at_bound.iter().any(|b| *b),
-                "seed {}",
-                s.seed
-            );
-            let fm = fisher_exact(lik, &map.theta, &free);
-            let cr = cramer_rao(&fm).unwrap();
-            let sw = sandwich_errors(&fm, &score_covariance(lik, &map.theta, &free)).unwrap();
-            let pulls = free
-                .iter()
-                .enumerate()
-                .map(|(k, &i)| {
-                    let d = map.theta[i] - truth[i];
-                    (d / sw[k], d / cr[k])
-                })
-                .collect();
+            let pulls = common::map_pulls(&s, lik, &truth, &free);
             ((whitened(j), whitened(f)), pulls)
         })
         .collect();

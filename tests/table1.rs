@@ -2,6 +2,8 @@
 //! the exact one in the 5σ region, and the MCMC fit recovers every parameter within 3σ with
 //! chain σ within 25 % of the Cramér-Rao σ.
 
+mod common;
+
 use occam::config::Study;
 use occam::jobs::prepare::{prepare, relbin_of};
 use occam::likelihood::{cramer_rao, fisher_exact, fisher_scoring};
@@ -226,8 +228,7 @@ fn the_k14_preset_puts_every_bound_but_dt1_within_a_quarter_of_the_published_one
 /// errors — which is why the fit reports the sandwich.
 #[test]
 fn table_one_error_bars_cover_over_realisations() {
-    use occam::jobs::prepare::default_start;
-    use occam::likelihood::{sandwich_errors, score_covariance, score_covariance_differs};
+    use occam::likelihood::score_covariance_differs;
     use rayon::prelude::*;
     let base = study();
     let n: u64 = std::env::var("OCCAM_TABLE1_REALISATIONS")
@@ -246,22 +247,7 @@ fn table_one_error_bars_cover_over_realisations() {
             let lik = &prep.likelihood;
             let why = score_covariance_differs(lik).expect("a Welch estimate");
             assert!(why.contains("ν = 29"), "{why}");
-            let map =
-                fisher_scoring(lik, &default_start(&s, &s.fit_model), &free, 1e-3, 200).unwrap();
-            assert!(
-                map.converged && !map.at_bound.iter().any(|b| *b),
-                "seed {}",
-                s.seed
-            );
-            let f = fisher_exact(lik, &map.theta, &free);
-            let cr = cramer_rao(&f).unwrap();
-            let sw = sandwich_errors(&f, &score_covariance(lik, &map.theta, &free)).unwrap();
-            (0..N_PARAMS)
-                .map(|i| {
-                    let d = map.theta[i] - truth[i];
-                    (d / sw[i], d / cr[i])
-                })
-                .collect()
+            common::map_pulls(&s, lik, &truth, &free)
         })
         .collect();
     let nf = n as f64;

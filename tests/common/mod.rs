@@ -143,3 +143,36 @@ pub fn summary_numbers(dir: &Path) -> serde_json::Value {
     let text = std::fs::read_to_string(dir.join("summary.json")).unwrap();
     numbers(serde_json::from_str(&text).unwrap())
 }
+
+#[allow(dead_code)] // used by the coverage tests only
+/// Per free parameter of the fit model (in the order of `free`), the MAP's pull
+/// `(MAP − truth)/σ` by the sandwich error `√(F⁻¹JF⁻¹)` and by the Fisher (Cramér–Rao) error.
+/// The MAP is found by Fisher scoring from the prior centre, as `occam fit` starts, and must
+/// converge inside the prior box.
+pub fn map_pulls(
+    s: &occam::config::Study,
+    lik: &occam::likelihood::Likelihood,
+    truth: &[f64],
+    free: &[usize],
+) -> Vec<(f64, f64)> {
+    use occam::jobs::prepare::default_start;
+    use occam::likelihood::{
+        cramer_rao, fisher_exact, fisher_scoring, sandwich_errors, score_covariance,
+    };
+    let map = fisher_scoring(lik, &default_start(s, &s.fit_model), free, 1e-3, 200).unwrap();
+    assert!(
+        map.converged && !map.at_bound.iter().any(|b| *b),
+        "seed {}",
+        s.seed
+    );
+    let f = fisher_exact(lik, &map.theta, free);
+    let cr = cramer_rao(&f).unwrap();
+    let sw = sandwich_errors(&f, &score_covariance(lik, &map.theta, free)).unwrap();
+    free.iter()
+        .enumerate()
+        .map(|(k, &i)| {
+            let d = map.theta[i] - truth[i];
+            (d / sw[k], d / cr[k])
+        })
+        .collect()
+}
