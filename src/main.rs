@@ -29,6 +29,10 @@ enum Command {
         /// Output directory (overrides `output` in the study file).
         #[arg(short, long)]
         output: Option<PathBuf>,
+        /// Also write each experiment as CSV (`<experiment>.csv`, `<experiment>_noise.csv`:
+        /// a time column `t` and the channels), the form `[[experiment]] data = "…"` reads.
+        #[arg(long)]
+        csv: bool,
         #[command(flatten)]
         run: RunFlags,
     },
@@ -167,11 +171,21 @@ impl RunFlags {
 }
 
 fn main() {
+    // Rust ignores SIGPIPE, so printing into a closed pipe (`occam fit … | head`) panicked;
+    // the default action ends the process quietly, as other command-line tools do.
+    #[cfg(unix)]
+    // SAFETY: called once at start, before any thread exists; SIG_DFL is a valid handler.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Simulate { study, output, run } => {
-            run.apply().and_then(|_| simulate(study, output, run))
-        }
+        Command::Simulate {
+            study,
+            output,
+            csv,
+            run,
+        } => run.apply().and_then(|_| simulate(study, output, csv, run)),
         Command::Fit {
             study,
             output,
@@ -245,10 +259,29 @@ fn init(kind: Option<&str>, output: Option<&Path>, force: bool) -> Result<()> {
         "wrote {}: read its comments, edit it, then run the commands its first lines name",
         p.display()
     );
+    let names = |v: &[PathBuf]| {
+        v.iter()
+            .map(|p| p.display().to_string())
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let (written, kept) = occam::jobs::init::write_example_data(kind, &p, force)?;
+    if !written.is_empty() {
+        println!(
+            "wrote {}: simulated measurements (the closed-loop starter's TN3045 experiments) so that the study runs as it is; replace them with yours",
+            names(&written)
+        );
+    }
+    if !kept.is_empty() {
+        println!(
+            "kept {}: they exist (--force replaces them with simulated example data)",
+            names(&kept)
+        );
+    }
     Ok(())
 }
 
-fn simulate(path: PathBuf, output: Option<PathBuf>, flags: RunFlags) -> Result<()> {
+fn simulate(path: PathBuf, output: Option<PathBuf>, csv: bool, flags: RunFlags) -> Result<()> {
     let t0 = Instant::now();
     let study = Study::load(&path)?;
     let out = output.unwrap_or_else(|| study.output.clone());
@@ -263,7 +296,10 @@ fn simulate(path: PathBuf, output: Option<PathBuf>, flags: RunFlags) -> Result<(
         work: Some(&work),
         ..Context::quiet(&out, false)
     };
-    let done = execute(&mut occam::jobs::simulate::Simulate { study: &study }, &ctx)?;
+    let done = execute(
+        &mut occam::jobs::simulate::Simulate { study: &study, csv },
+        &ctx,
+    )?;
     if let Some(b) = bar {
         b.finish();
     }

@@ -2,7 +2,7 @@
 //! name first (the own-data one on CSV files made from a simulation).
 
 mod common;
-use common::{occam, write_csv};
+use common::occam;
 
 #[test]
 fn every_kind_is_written_and_loads_and_an_existing_file_is_kept() {
@@ -35,36 +35,80 @@ fn every_kind_is_written_and_loads_and_an_existing_file_is_kept() {
     }
 }
 
+/// A newcomer's first commands, as the starter's comments give them: `occam init own-data`
+/// writes the study and simulated example files beside it, and `occam fit own-data.toml`
+/// runs on them as it is (issue 52: it used to stop at `inv1.csv: no such file`). A second
+/// init keeps files that exist (the user's own), `--force` replaces them.
 #[test]
-fn the_own_data_study_fits_csv_files() {
+fn the_own_data_starter_runs_as_written() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    // data to stand in for the user's: the closed-loop study's simulation
-    let (ok, _, err) = occam(&["init", "closed-loop"], d);
+    let (ok, out, err) = occam(&["init", "own-data"], d);
     assert!(ok, "{err}");
-    let (ok, _, err) = occam(&["simulate", "closed-loop.toml", "-o", "sim", "-q"], d);
-    assert!(ok, "{err}");
-    let ds = occam::data::dataset::Dataset::read(&d.join("sim")).unwrap();
-    for e in &ds.experiments {
-        write_csv(
-            &d.join(format!("{}.csv", e.name)),
-            &["t", "o1", "o12", "i1", "i12"],
-            &[&e.o[0], &e.o[1], &e.i[0], &e.i[1]],
-            e.fs,
-        );
-        write_csv(
-            &d.join(format!("{}_noise.csv", e.name)),
-            &["t", "o1", "o12"],
-            &[&e.noise[0], &e.noise[1]],
-            e.fs,
-        );
+    for f in ["inv1.csv", "inv1_noise.csv", "inv2.csv", "inv2_noise.csv"] {
+        assert!(d.join(f).is_file(), "{f}: {out}");
+        assert!(out.contains(f), "{out}");
     }
-    let (ok, _, err) = occam(&["init", "own-data"], d);
-    assert!(ok, "{err}");
+    let head = std::fs::read_to_string(d.join("inv1.csv")).unwrap();
+    assert!(head.starts_with("t,o1,o12,i1,i12\n0,"), "{}", &head[..80]);
+    let noise = std::fs::read_to_string(d.join("inv1_noise.csv")).unwrap();
+    assert!(noise.starts_with("t,o1,o12\n0,"), "{}", &noise[..80]);
     let (ok, out, err) = occam(&["fit", "own-data.toml", "-q"], d);
     assert!(ok, "{err}");
     for p in ["w1sq", "dt1", "d21"] {
         assert!(out.contains(p), "{out}");
     }
     assert!(d.join("runs/own-data/fit/summary.json").is_file());
+    // the user's files are kept by a second init, replaced with --force
+    std::fs::write(d.join("inv2.csv"), "mine").unwrap();
+    let (ok, out, err) = occam(&["init", "own-data", "-o", "again.toml"], d);
+    assert!(ok, "{err}");
+    assert!(out.contains("kept") && out.contains("inv2.csv"), "{out}");
+    assert_eq!(std::fs::read_to_string(d.join("inv2.csv")).unwrap(), "mine");
+    let (ok, _, err) = occam(&["init", "own-data", "-o", "again.toml", "--force"], d);
+    assert!(ok, "{err}");
+    assert!(
+        std::fs::read_to_string(d.join("inv2.csv"))
+            .unwrap()
+            .starts_with("t,")
+    );
+}
+
+/// `occam simulate --csv` writes every experiment as the CSV files a study reads back, with
+/// the same numbers bit for bit as `dataset.npz`: the closed-loop starter's simulation,
+/// re-read through a study whose experiments name those files.
+#[test]
+fn simulate_writes_csv_that_reads_back_bit_for_bit() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let (ok, _, err) = occam(&["init", "closed-loop"], d);
+    assert!(ok, "{err}");
+    let (ok, out, err) = occam(&["simulate", "closed-loop.toml", "-o", "sim", "--csv"], d);
+    assert!(ok, "{err}");
+    assert!(
+        out.contains("inv1.csv") && out.contains("inv2_noise.csv"),
+        "{out}"
+    );
+    let ds = occam::data::dataset::Dataset::read(&d.join("sim")).unwrap();
+    for e in &ds.experiments {
+        let source = occam::data::DataSource {
+            data: format!("{}.csv", e.name).into(),
+            columns: Default::default(),
+            fs: None,
+            noise_data: Some(format!("{}_noise.csv", e.name).into()),
+            gaps: Vec::new(),
+            noise_gaps: Vec::new(),
+        };
+        let channels = ["o1", "o12", "i1", "i12"].map(String::from);
+        let back = source.load(&e.name, &d.join("sim"), &channels).unwrap();
+        assert!(
+            (back.fs / e.fs - 1.0).abs() < 1e-12,
+            "{}: fs {}",
+            e.name,
+            back.fs
+        );
+        assert_eq!(back.o, e.o, "{}", e.name);
+        assert_eq!(back.i, e.i, "{}", e.name);
+        assert_eq!(back.noise, e.noise, "{}", e.name);
+    }
 }

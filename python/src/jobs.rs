@@ -131,8 +131,13 @@ pub fn simulate(
             log: &log,
             work: Some(work),
         };
-        let done =
-            occam::jobs::execute(&mut occam::jobs::simulate::Simulate { study: &study }, &ctx)?;
+        let done = occam::jobs::execute(
+            &mut occam::jobs::simulate::Simulate {
+                study: &study,
+                csv: false,
+            },
+            &ctx,
+        )?;
         lines.push(&format!("wrote {}", listing(&out, &done.written)));
         Ok((out, lines.take()))
     })

@@ -170,7 +170,7 @@ const NPZ_FIXED: [&str; 6] = ["o1", "o12", "i1", "i12", "noise_o1", "noise_o12"]
 
 /// Which stretch a series belongs to.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-enum Stretch {
+pub(super) enum Stretch {
     Fit,
     Noise,
 }
@@ -323,7 +323,7 @@ impl ExperimentData {
 
     /// Every stored series as `(array suffix, stretch, series)`, fixed slots first (including
     /// empty ones), then the extra channels in name order.
-    fn series(&self) -> Vec<(String, Stretch, &Vec<f64>)> {
+    pub(super) fn series(&self) -> Vec<(String, Stretch, &Vec<f64>)> {
         let mut v: Vec<(String, Stretch, &Vec<f64>)> = vec![
             ("o1".into(), Stretch::Fit, &self.o[0]),
             ("o12".into(), Stretch::Fit, &self.o[1]),

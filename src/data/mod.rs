@@ -5,6 +5,7 @@
 //! The on-disk dataset format written by `occam simulate` lives in [`crate::data::dataset`].
 
 pub mod checkpoint;
+mod csv_write;
 pub mod dataset;
 mod error;
 mod fnv;

@@ -64,6 +64,53 @@ pub fn write(kind: &str, path: Option<&Path>, force: bool) -> anyhow::Result<Pat
     Ok(path)
 }
 
+/// The study whose simulation stands in for the user's measurements beside the `own-data`
+/// starter: the `closed-loop` starter (TN3045's two experiments, `inv1` and `inv2`, at ρ_opt =
+/// 450, no guidance delays).
+const EXAMPLE_DATA_STUDY: &str = "closed-loop";
+
+/// For `own-data`, example measurements beside the study at `study` so that it runs as
+/// written: the closed-loop starter's simulated experiments as the CSV files the study reads
+/// (`inv1.csv`, `inv1_noise.csv`, `inv2.csv`, `inv2_noise.csv`;
+/// [`crate::data::dataset::Dataset::write_csv`]). Returns the files written and those kept
+/// because they exist (the user's own, unless `force`); nothing for the other kinds.
+pub fn write_example_data(
+    kind: &str,
+    study: &Path,
+    force: bool,
+) -> anyhow::Result<(Vec<PathBuf>, Vec<PathBuf>)> {
+    if kind != "own-data" {
+        return Ok((Vec::new(), Vec::new()));
+    }
+    // beside the study; a bare file name's directory is the empty path, so that the files
+    // are named as the study names them
+    let dir = study.parent().map_or_else(PathBuf::new, Path::to_path_buf);
+    let source = template(EXAMPLE_DATA_STUDY)?;
+    let s = crate::config::Study::from_toml(source, &format!("{EXAMPLE_DATA_STUDY}.toml"), &dir)
+        .context("the example data's study")?;
+    let files: Vec<PathBuf> = s
+        .experiments
+        .iter()
+        .flat_map(|e| [format!("{}.csv", e.name), format!("{}_noise.csv", e.name)])
+        .map(|f| dir.join(f))
+        .collect();
+    let existing: Vec<PathBuf> = files.iter().filter(|p| p.exists()).cloned().collect();
+    if !existing.is_empty() && !force {
+        return Ok((Vec::new(), existing));
+    }
+    let sim = crate::experiment::simulate_observed(&s.simulation_plan(), None)
+        .context("simulating the example data")?;
+    // only the channels the starter reads: the loop's simulation also records its internal
+    // forces (`g1`, `g2`, …), which would only puzzle a reader of the example files
+    let mut data = sim.dataset;
+    for e in &mut data.experiments {
+        e.extra.clear();
+        e.noise_extra.clear();
+    }
+    let written = data.write_csv(&dir).context("writing the example data")?;
+    Ok((written, Vec::new()))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -81,6 +128,36 @@ mod tests {
         let e = template("closed-lop").unwrap_err().to_string();
         assert!(e.contains("did you mean `closed-loop`?"), "{e}");
         assert!(e.contains("`sweep`") && e.contains("`own-data`"), "{e}");
+    }
+
+    /// Every `occam report DIR` a starter's comments name is the directory the job named on
+    /// the line before it writes (`<output>/<job>`): the sweep starter named `runs/sweep`,
+    /// the study's simulation directory, where its sweep writes `runs/sweep/sweep` (issue 52).
+    #[test]
+    fn the_report_each_starter_names_is_where_its_job_writes() {
+        for (kind, _, text) in KINDS {
+            let output = text
+                .lines()
+                .find_map(|l| l.strip_prefix("output = "))
+                .map(|v| v.trim().trim_matches('"'))
+                .unwrap_or_else(|| panic!("{kind}: no output"));
+            let commands: Vec<Vec<&str>> = text
+                .lines()
+                .filter_map(|l| l.strip_prefix('#'))
+                .map(|l| l.split('#').next().unwrap().split_whitespace().collect())
+                .filter(|w: &Vec<&str>| w.first() == Some(&"occam"))
+                .collect();
+            let at = commands
+                .iter()
+                .position(|w| w[1] == "report")
+                .unwrap_or_else(|| panic!("{kind}: no `occam report` line"));
+            let job = commands[at - 1][1];
+            assert_eq!(
+                commands[at][2],
+                format!("{output}/{job}"),
+                "{kind}: `occam report` after `occam {job}`"
+            );
+        }
     }
 
     #[test]

@@ -1,4 +1,5 @@
-//! `occam simulate`: the study's experiments → `dataset.npz` + `dataset.json`.
+//! `occam simulate`: the study's experiments → `dataset.npz` + `dataset.json` (and, asked, the
+//! same as CSV files that `[[experiment]] data = "…"` reads back).
 
 use super::job::{Context, Job};
 use crate::config::Study;
@@ -10,6 +11,9 @@ use std::path::Path;
 pub struct Simulate<'a> {
     /// The study whose experiments are simulated.
     pub study: &'a Study,
+    /// Also write every experiment as CSV ([`crate::data::dataset::Dataset::write_csv`]):
+    /// `<experiment>.csv` and `<experiment>_noise.csv`.
+    pub csv: bool,
 }
 
 impl Job for Simulate<'_> {
@@ -34,6 +38,9 @@ impl Job for Simulate<'_> {
 
     fn write(&self, sim: &Simulation, staging: &Path, _run_dir: &Path) -> anyhow::Result<()> {
         sim.dataset.write(staging)?;
+        if self.csv {
+            sim.dataset.write_csv(staging)?;
+        }
         Ok(())
     }
 }
