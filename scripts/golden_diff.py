@@ -156,6 +156,17 @@ def error_changes(old, new):
     return out
 
 
+def json_pair(old, new):
+    """An entry's recorded JSON text before and after, parsed leniently (the golden drops the
+    wall-clock lines, which can leave a comma before a closing bracket); None unless both are
+    JSON text."""
+    o, n = text_of(old), text_of(new)
+    if o is None or n is None or o.startswith("sha256:") or not o.lstrip().startswith("{"):
+        return None
+    lenient = lambda t: json.loads(re.sub(r",(\s*[}\]])", r"\1", t))
+    return lenient(o), lenient(n)
+
+
 def text_of(v):
     """A recorded output as text: goldens keep each text as the list of its lines (earlier ones
     as one string)."""
@@ -237,24 +248,19 @@ def main():
         new = json.loads(path.read_text()) if path.exists() else {}
         lines = []
         for entry in sorted(old.keys() | new.keys()):
-            if errors:
-                o, n = text_of(old.get(entry)), text_of(new.get(entry))
-                if o is None or n is None or o.startswith("sha256:") or not o.lstrip().startswith("{"):
+            if errors or references:
+                both = json_pair(old.get(entry), new.get(entry))
+                if both is None:
                     continue
-                lenient = lambda t: json.loads(re.sub(r",(\s*[}\]])", r"\1", t))
-                found = error_changes(lenient(o), lenient(n))
-                if found:
-                    r = [y / x for _, x, y in found]
-                    lines.append(f"  {entry}: {len(found)} error bars changed, new ÷ old {min(r):.3f}–{max(r):.3f}")
-                    lines += [f"    {k}: {x:.6g} -> {y:.6g} (×{y / x:.3f})" for k, x, y in found]
-                continue
-            if references:
-                o, n = text_of(old.get(entry)), text_of(new.get(entry))
-                if o is None or n is None or o.startswith("sha256:") or not o.lstrip().startswith("{"):
-                    continue
-                lenient = lambda t: json.loads(re.sub(r",(\s*[}\]])", r"\1", t))
-                found = reference_changes(lenient(o), lenient(n))
-                lines += [f"  {entry}:"] + found if found else []
+                if errors:
+                    found = error_changes(*both)
+                    if found:
+                        r = [y / x for _, x, y in found]
+                        lines.append(f"  {entry}: {len(found)} error bars changed, new ÷ old {min(r):.3f}–{max(r):.3f}")
+                        lines += [f"    {k}: {x:.6g} -> {y:.6g} (×{y / x:.3f})" for k, x, y in found]
+                else:
+                    found = reference_changes(*both)
+                    lines += [f"  {entry}:"] + found if found else []
                 continue
             lines += compare_entry(entry, old.get(entry), new.get(entry), bars_only)
         if lines:
