@@ -152,7 +152,7 @@ impl<D: LogDensity> SubModel<D> {
 
     /// The full parent vector for this model's `theta` (allocates; for reporting, not hot paths).
     pub fn embed(&self, theta: &[f64]) -> Vec<f64> {
-        debug_assert_eq!(theta.len(), self.free.len());
+        assert_eq!(theta.len(), self.free.len());
         let mut full = self.base.clone();
         for (&i, &v) in self.free.iter().zip(theta) {
             full[i] = v;
@@ -167,7 +167,7 @@ impl<D: LogDensity> LogDensity for SubModel<D> {
     }
 
     fn ln_likelihood(&self, theta: &[f64]) -> f64 {
-        debug_assert_eq!(theta.len(), self.free.len());
+        assert_eq!(theta.len(), self.free.len());
         let n = self.base.len();
         let mut buf = [0.0; MAX_PARENT_DIM];
         buf[..n].copy_from_slice(&self.base);

@@ -328,7 +328,7 @@ impl Prior {
 
     /// `ln π(θ)`; `−∞` outside the support. `θ` must have [`Prior::dim`] entries.
     pub fn ln_pdf(&self, theta: &[f64]) -> f64 {
-        debug_assert_eq!(theta.len(), self.kinds.len());
+        assert_eq!(theta.len(), self.kinds.len());
         let mut s = 0.0;
         for (k, &x) in self.kinds.iter().zip(theta) {
             let l = k.ln_pdf(x);

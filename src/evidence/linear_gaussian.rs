@@ -419,7 +419,7 @@ impl LogDensity for LinearGaussian {
     /// `−(n/2) ln 2πσ² − |y − Xθ|²/(2σ²)`, all constants included.
     fn ln_likelihood(&self, theta: &[f64]) -> f64 {
         let d = self.theta_ls.len();
-        debug_assert_eq!(theta.len(), d);
+        assert_eq!(theta.len(), d);
         let mut q = 0.0;
         for i in 0..d {
             let di = theta[i] - self.theta_ls[i];

@@ -453,7 +453,7 @@ impl RelBinLikelihood {
     /// `EC1 − 1` edges.
     #[inline(always)]
     fn eval<const NB: usize, const EC1: usize>(&self, th: &[f64]) -> f64 {
-        debug_assert_eq!(
+        assert_eq!(
             EC1 - 1,
             edges_per_chunk(self.exps.iter().map(|s| s.comps.len()).max().unwrap_or(0)),
             "the prepared batches are chunked as the evaluation"

@@ -27,7 +27,7 @@ pub(crate) fn quantiles_16_50_84(values: impl IntoIterator<Item = f64>) -> Optio
 /// axes, truncated at 3σ. Mass that would fall outside the grid is dropped, as the
 /// histogram's range already covers the samples.
 pub(crate) fn smooth(h: &[f64], nx: usize, ny: usize, sigma: f64) -> Vec<f64> {
-    debug_assert_eq!(h.len(), nx * ny);
+    assert_eq!(h.len(), nx * ny);
     if sigma <= 0.0 {
         return h.to_vec();
     }

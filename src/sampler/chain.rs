@@ -444,7 +444,7 @@ impl ChainState {
                 });
             }
         }
-        debug_assert_eq!(self.x.len(), d);
+        assert_eq!(self.x.len(), d);
     }
 
     /// The chain's output.

@@ -316,7 +316,7 @@ impl<'a, D: LogDensity> MetropolisHastings<'a, D> {
         if let Ended::Stopped { iterations } = ended {
             return Ok(RunOutcome::Stopped { iterations });
         }
-        debug_assert!(run.states.iter().all(|s| s.dim() == self.proposal.dim()));
+        assert!(run.states.iter().all(|s| s.dim() == self.proposal.dim()));
         let chains = Chains::new(
             names,
             run.states.into_iter().map(ChainState::into_chain).collect(),

@@ -342,7 +342,7 @@ fn welch_core(
     series: &[(&'static str, &[f64])],
     runs: &[[usize; 2]],
 ) -> Result<Estimate, SignalError> {
-    debug_assert!((1..=2).contains(&series.len()));
+    assert!((1..=2).contains(&series.len()));
     let (first, x0) = series[0];
     for &(name, x) in &series[1..] {
         if x.len() != x0.len() {

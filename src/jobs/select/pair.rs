@@ -560,7 +560,7 @@ pub(super) fn posterior_probabilities(
             .iter()
             .find(|e| e.method == p.reference)
             .and_then(|e| e.ln_b)?;
-        debug_assert_eq!(m.name, models[k].name);
+        assert_eq!(m.name, models[k].name);
         ln_w.push(m.prior_probability.ln() - lb);
     }
     let mx = ln_w.iter().cloned().fold(f64::NEG_INFINITY, f64::max);

@@ -12,7 +12,7 @@ pub const REFERENCE: &str = "reference";
 /// (Hyndman–Fan type 7, numpy's default).
 pub fn quantile(sorted: &[f64], q: f64) -> f64 {
     let n = sorted.len();
-    debug_assert!(n > 0);
+    assert!(n > 0);
     let h = (n - 1) as f64 * q;
     let lo = h.floor() as usize;
     let hi = (lo + 1).min(n - 1);
