@@ -159,55 +159,57 @@ fn model_residual_vanishes_at_the_truth_on_noiseless_data() {
 /// residual PSD from the noise-only stretch).
 #[test]
 fn acceleration_fit_recovers_the_truth_and_covers_it() {
-    let mut inside = 0usize;
-    let mut total = 0usize;
-    let mut worst: f64 = 0.0;
+    use rayon::prelude::*;
     // per data set, (MAP − truth)ᵀ F (MAP − truth): χ² with 8 degrees of freedom when the
     // Fisher errors are right, independent across data sets (the 1σ rate of the 8 correlated
-    // pulls of one data set is not)
-    let mut d2 = Vec::new();
+    // pulls of one data set is not). The data sets run in parallel (each depends on its seed
+    // only); the statistics are gathered in seed order.
     let seeds = 64u64;
-    for seed in 0..seeds {
-        let s = study("circular", 100 + seed, "");
-        let (data, _) = load_data(&s).unwrap();
-        let mi = s.fit_model.model;
-        let lik = likelihood_of(&s, mi, &data).unwrap();
-        let truth: Vec<f64> = truth_of(&s, mi, &data)
-            .unwrap()
-            .iter()
-            .map(|v| v.unwrap())
-            .collect();
-        let free: Vec<usize> = (0..truth.len()).collect();
-        let map = fisher_scoring(&lik, &truth, &free, 1e-4, 100).unwrap();
-        let fisher = fisher_exact(&lik, &map.theta, &free);
-        let sd = cramer_rao(&fisher).unwrap();
-        let delta = nalgebra::DVector::from_iterator(
-            truth.len(),
-            map.theta.iter().zip(&truth).map(|(m, t)| m - t),
-        );
-        d2.push(delta.dot(&(&fisher * &delta)));
-        for i in 0..truth.len() {
-            let p = (map.theta[i] - truth[i]) / sd[i];
-            if p.abs() > 3.0 {
-                eprintln!(
-                    "seed {seed}: pull of {} is {p:+.2}",
-                    lik.model().param_names()[i]
-                );
-            }
-            worst = worst.max(p.abs());
-            inside += usize::from(p.abs() < 1.0);
-            total += 1;
-        }
-        if seed == 0 {
+    let per_seed: Vec<(f64, Vec<f64>)> = (0..seeds)
+        .into_par_iter()
+        .map(|seed| {
+            let s = study("circular", 100 + seed, "");
+            let (data, _) = load_data(&s).unwrap();
+            let mi = s.fit_model.model;
+            let lik = likelihood_of(&s, mi, &data).unwrap();
+            let truth: Vec<f64> = truth_of(&s, mi, &data)
+                .unwrap()
+                .iter()
+                .map(|v| v.unwrap())
+                .collect();
+            let free: Vec<usize> = (0..truth.len()).collect();
+            let map = fisher_scoring(&lik, &truth, &free, 1e-4, 100).unwrap();
+            let fisher = fisher_exact(&lik, &map.theta, &free);
+            let sd = cramer_rao(&fisher).unwrap();
+            let delta = nalgebra::DVector::from_iterator(
+                truth.len(),
+                map.theta.iter().zip(&truth).map(|(m, t)| m - t),
+            );
             let names = lik.model().param_names();
-            for i in 0..truth.len() {
-                eprintln!(
-                    "{:>7} truth {:+.6e} MAP {:+.6e} ± {:.2e}",
-                    names[i], truth[i], map.theta[i], sd[i]
-                );
+            let pulls: Vec<f64> = (0..truth.len())
+                .map(|i| (map.theta[i] - truth[i]) / sd[i])
+                .collect();
+            for (i, p) in pulls.iter().enumerate() {
+                if p.abs() > 3.0 {
+                    eprintln!("seed {seed}: pull of {} is {p:+.2}", names[i]);
+                }
             }
-        }
-    }
+            if seed == 0 {
+                for i in 0..truth.len() {
+                    eprintln!(
+                        "{:>7} truth {:+.6e} MAP {:+.6e} ± {:.2e}",
+                        names[i], truth[i], map.theta[i], sd[i]
+                    );
+                }
+            }
+            (delta.dot(&(&fisher * &delta)), pulls)
+        })
+        .collect();
+    let d2: Vec<f64> = per_seed.iter().map(|(d, _)| *d).collect();
+    let pulls: Vec<f64> = per_seed.iter().flat_map(|(_, p)| p.clone()).collect();
+    let inside = pulls.iter().filter(|p| p.abs() < 1.0).count();
+    let total = pulls.len();
+    let worst = pulls.iter().fold(0.0f64, |w, p| w.max(p.abs()));
     let rate = inside as f64 / total as f64;
     let k = 8.0;
     let mean_d2 = d2.iter().sum::<f64>() / d2.len() as f64;
