@@ -3,6 +3,7 @@
 
 mod common;
 use common::occam;
+use std::path::Path;
 
 #[test]
 fn every_kind_is_written_and_loads_and_an_existing_file_is_kept() {
@@ -89,7 +90,38 @@ fn simulate_writes_csv_that_reads_back_bit_for_bit() {
         out.contains("inv1.csv") && out.contains("inv2_noise.csv"),
         "{out}"
     );
-    let ds = occam::data::dataset::Dataset::read(&d.join("sim")).unwrap();
+    reads_back(&d.join("sim"));
+}
+
+/// With gaps (`examples/gaps.toml`: random telemetry gaps in both stretches and one listed
+/// gap), the CSV's empty cells read back as the same gaps, in the fit and the noise-only
+/// stretch, and every other sample bit for bit.
+#[test]
+fn simulated_gaps_read_back_from_csv_as_the_same_gaps() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let study = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/gaps.toml");
+    let (ok, _, err) = occam(
+        &["simulate", study.to_str().unwrap(), "-o", "sim", "--csv"],
+        d,
+    );
+    assert!(ok, "{err}");
+    let ds = reads_back(&d.join("sim"));
+    for e in &ds.experiments {
+        assert!(
+            e.gaps.len() > 1 && !e.noise_gaps.is_empty(),
+            "{}: gaps {:?}, noise gaps {:?}: the test has no power",
+            e.name,
+            e.gaps,
+            e.noise_gaps
+        );
+    }
+}
+
+/// Reads `dir/dataset.npz` and each experiment's `<name>.csv` and `<name>_noise.csv` beside it,
+/// asserts both give the same series and gaps, and returns the dataset.
+fn reads_back(dir: &Path) -> occam::data::dataset::Dataset {
+    let ds = occam::data::dataset::Dataset::read(dir).unwrap();
     for e in &ds.experiments {
         let source = occam::data::DataSource {
             data: format!("{}.csv", e.name).into(),
@@ -100,7 +132,7 @@ fn simulate_writes_csv_that_reads_back_bit_for_bit() {
             noise_gaps: Vec::new(),
         };
         let channels = ["o1", "o12", "i1", "i12"].map(String::from);
-        let back = source.load(&e.name, &d.join("sim"), &channels).unwrap();
+        let back = source.load(&e.name, dir, &channels).unwrap();
         assert!(
             (back.fs / e.fs - 1.0).abs() < 1e-12,
             "{}: fs {}",
@@ -110,5 +142,8 @@ fn simulate_writes_csv_that_reads_back_bit_for_bit() {
         assert_eq!(back.o, e.o, "{}", e.name);
         assert_eq!(back.i, e.i, "{}", e.name);
         assert_eq!(back.noise, e.noise, "{}", e.name);
+        assert_eq!(back.gaps, e.gaps, "{}", e.name);
+        assert_eq!(back.noise_gaps, e.noise_gaps, "{}", e.name);
     }
+    ds
 }
