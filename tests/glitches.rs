@@ -317,6 +317,51 @@ fn the_glitch_examples_gate_beside_gaps() {
     }
 }
 
+/// Gating that leaves little of an experiment can leave the posterior nearly degenerate, and
+/// the fit says so: on `examples/glitches.toml` the gates take 82 % of `inv1`, and `w1sq`,
+/// `w2sq` come out correlated at ρ = 0.99995 with σ ~600× Table I's — which every other
+/// number of the run (R-hat, ESS, σ against Cramér–Rao) showed as ordinary, without a word.
+#[test]
+fn gating_most_of_an_experiment_says_the_posterior_is_nearly_degenerate() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let text = std::fs::read_to_string(root.join("examples/glitches.toml")).unwrap();
+    std::fs::write(
+        dir.path().join("study.toml"),
+        format!("{text}\n[fit]\niterations = 600\nburn_in = 200\n"),
+    )
+    .unwrap();
+    let (ok, out, err) = occam(&["fit", "study.toml"], dir.path());
+    assert!(ok, "{err}");
+    let said = format!("{out}{err}");
+    let summary: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.path().join("runs/glitches/fit/summary.json")).unwrap(),
+    )
+    .unwrap();
+    let warnings = summary["warnings"].as_array().unwrap();
+    let w = warnings
+        .iter()
+        .filter_map(|w| w.as_str())
+        .find(|w| w.contains("nearly degenerate"))
+        .unwrap_or_else(|| panic!("no degeneracy warning: {warnings:?}"));
+    assert!(
+        said.contains("the posterior is nearly degenerate"),
+        "{said}"
+    );
+    assert!(
+        w.contains("`w1sq` and `w2sq` correlated at ρ = +0.999"),
+        "{w}"
+    );
+    // σ(w1sq) against the σ it would have with w2sq known: ~1/√(1 − ρ²) ≈ 100
+    let inflation: f64 = w
+        .split("σ(`w1sq`) ")
+        .nth(1)
+        .and_then(|r| r.split('×').next())
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("{w}"));
+    assert!((30.0..1000.0).contains(&inflation), "{inflation}: {w}");
+}
+
 /// A modelled glitch explains the data it is in, wherever it starts: on noiseless data with one
 /// glitch in each experiment, the residual power of the glitch model at the true loop and
 /// glitch parameters is a small fraction of the glitch's own (the model without it), for

@@ -106,6 +106,15 @@ fn table_one_fit_recovers_the_truth() {
         );
         assert!(r.rhat < 1.05, "{}: R-hat {}", r.name, r.rhat);
     }
+    // w1sq–w2sq at ρ = 0.85, condition number 22: no degeneracy to report
+    assert!(
+        !o.summary
+            .warnings
+            .iter()
+            .any(|w| w.contains("nearly degenerate")),
+        "{:?}",
+        o.summary.warnings
+    );
     occam::jobs::fit::write_outputs(&o, dir.path()).unwrap();
     for f in [
         "summary.json",

@@ -7,6 +7,7 @@
 //! `C_k = (fs/2) Σ_n w[n]² S_k` (`= (N fs/2) S_k` for the rectangular window): normalised by the
 //! series length `N`, not by the number of in-band bins.
 
+mod degeneracy;
 mod exact;
 mod fisher;
 pub mod glitch_gate;
@@ -24,6 +25,7 @@ pub mod statistic;
 pub mod theta_noise;
 pub mod transfer;
 
+pub use degeneracy::{CONDITION_LIMIT, CORRELATION_LIMIT, Degeneracy, degeneracy_warning};
 pub use exact::{Likelihood, LikelihoodError};
 #[cfg(test)]
 pub(crate) use fisher::gradient_and_fisher_serial;

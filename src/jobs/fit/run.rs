@@ -84,7 +84,10 @@ pub fn run(
             &value_of,
         )))
     })?;
-    if let Some(w) = near_singular_warning(&fisher, &free_names) {
+    // singular to rounding, or the wide range above it where every number looks ordinary
+    if let Some(w) = near_singular_warning(&fisher, &free_names)
+        .or_else(|| crate::likelihood::degeneracy_warning(&fisher, &free_names, "MAP"))
+    {
         warnings.push(w);
     }
     let seconds_map = t0.elapsed().as_secs_f64();

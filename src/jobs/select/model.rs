@@ -568,6 +568,18 @@ pub(super) fn run_model(
     } else {
         (f_map, fisher_cov)
     };
+    if fisher_cov.is_some() {
+        let at = if map.theta.is_some() {
+            "MAP"
+        } else {
+            "start point"
+        };
+        notes.extend(crate::likelihood::degeneracy_warning(
+            &f_map,
+            &m.free_names,
+            at,
+        ));
+    }
     let lf = laplace_fisher_stage(
         m,
         &map,
