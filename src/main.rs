@@ -386,6 +386,10 @@ fn fit(path: PathBuf, output: Option<PathBuf>, resume: bool, flags: RunFlags) ->
     for line in occam::jobs::fit::console(s, &study) {
         println!("{line}");
     }
+    // each note as it is: they differ per experiment, and are few
+    for n in &s.notes {
+        println!("note: {n}");
+    }
     for w in occam::report::group_warnings(&s.warnings) {
         eprintln!("warning: {w}");
     }
@@ -443,6 +447,9 @@ fn run_select(study: &Study, out: &std::path::Path, resume: bool, quiet: bool) -
     }
     let (s, written) = (done.outcome, done.written);
     println!("{}", occam::jobs::select::console(&s));
+    for n in &s.notes {
+        println!("note: {n}");
+    }
     for w in occam::report::group_warnings(&s.warnings) {
         eprintln!("warning: {w}");
     }

@@ -111,14 +111,41 @@ fn simulate_then_fit_with_ten_percent_gaps() {
     .unwrap();
     let (ok, out, err) = occam(&["fit", "study.toml"], dir.path());
     assert!(ok, "{err}");
+    // gaps are facts, not problems: a note per experiment, each shown (they differ), on stdout
+    let notes: Vec<&str> = out.lines().filter(|l| l.starts_with("note: ")).collect();
+    assert_eq!(notes.len(), 2, "{out}");
+    for (line, e) in notes.iter().zip(["inv1", "inv2"]) {
+        assert!(
+            line.starts_with(&format!("note: experiment `{e}`: "))
+                && line.contains("10.0 % of the fit stretch missing"),
+            "{out}"
+        );
+    }
+    assert!(!err.contains("of the fit stretch missing"), "{err}");
+    // one noise-reference line per experiment, not one per run between its gaps
+    let said = format!("{out}{err}");
+    let refs: Vec<&str> = said
+        .lines()
+        .filter(|l| l.starts_with("noise reference of"))
+        .collect();
+    assert_eq!(refs.len(), 2, "{refs:?}");
     assert!(
-        format!("{out}{err}").contains("10.0 % of the fit stretch missing"),
-        "{out}{err}"
+        refs[0].starts_with("noise reference of `inv1` ("),
+        "{refs:?}"
     );
+    assert!(refs[0].contains("runs between gaps)"), "{refs:?}");
     let summary: serde_json::Value = serde_json::from_str(
         &std::fs::read_to_string(dir.path().join("runs/fit/summary.json")).unwrap(),
     )
     .unwrap();
+    assert_eq!(summary["notes"].as_array().unwrap().len(), 2, "{summary}");
+    assert!(
+        !summary["warnings"]
+            .to_string()
+            .contains("of the fit stretch missing"),
+        "{}",
+        summary["warnings"]
+    );
     for r in summary["rows"].as_array().unwrap() {
         let (map, cr, truth) = (
             r["map"].as_f64().unwrap(),

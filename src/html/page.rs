@@ -66,6 +66,25 @@ fn warnings_section(p: &Parts) -> String {
     h
 }
 
+/// The run's notes (`notes` in its summary: facts about the data that are not problems, such as
+/// its gaps), after the warnings; nothing without them.
+fn notes_section(s: &serde_json::Value) -> String {
+    let notes: Vec<&str> = s
+        .get("notes")
+        .and_then(|v| v.as_array())
+        .map(|a| a.iter().filter_map(|n| n.as_str()).collect())
+        .unwrap_or_default();
+    if notes.is_empty() {
+        return String::new();
+    }
+    let mut h = String::from("<section id=\"notes\"><h2>Notes</h2>\n<ul>\n");
+    for n in notes {
+        h.push_str(&format!("<li>{}</li>\n", esc(n)));
+    }
+    h.push_str("</ul></section>\n");
+    h
+}
+
 /// The headline of a run that failed its own checks (`"valid": false` in its summary, with
 /// `invalid_reasons`): before every table; nothing for a valid run or an older summary.
 fn invalid_section(s: &serde_json::Value) -> String {
@@ -210,6 +229,9 @@ pub fn render(run: &Run) -> String {
         h.push_str(&invalid_section(s));
     }
     h.push_str(&warnings_section(&parts));
+    if let Some((_, s)) = &run.summary {
+        h.push_str(&notes_section(s));
+    }
     h.push_str(&tables_section(run));
     h.push_str(&format!(
         "<section id=\"diagnostics\"><h2>Diagnostics</h2>\n{}</section>\n",
@@ -228,7 +250,7 @@ pub fn render(run: &Run) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::invalid_section;
+    use super::{invalid_section, notes_section};
     use serde_json::json;
 
     #[test]
@@ -239,5 +261,19 @@ mod tests {
         assert!(h.contains("R-hat above 1.1 for `a` 1.64 &lt;x&gt;"), "{h}");
         assert!(invalid_section(&json!({"valid": true, "invalid_reasons": []})).is_empty());
         assert!(invalid_section(&json!({"origin": "an older run"})).is_empty());
+    }
+
+    #[test]
+    fn notes_are_listed_each_and_absent_without_any() {
+        let s = json!({"notes": ["experiment `a`: 3 gap(s) <x>", "experiment `b`: 1 gap(s)"], "warnings": []});
+        let h = notes_section(&s);
+        assert!(h.contains("<h2>Notes</h2>"), "{h}");
+        assert!(
+            h.contains("<li>experiment `a`: 3 gap(s) &lt;x&gt;</li>"),
+            "{h}"
+        );
+        assert!(h.contains("<li>experiment `b`: 1 gap(s)</li>"), "{h}");
+        assert!(notes_section(&json!({"warnings": ["w"]})).is_empty());
+        assert!(notes_section(&json!({"notes": []})).is_empty());
     }
 }

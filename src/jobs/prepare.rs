@@ -367,13 +367,37 @@ pub fn noise_averages_for_summary(study: &Study, lik: &Likelihood) -> Option<Vec
     (shown && !n.is_empty()).then_some(n)
 }
 
-/// One line per experiment: `M_eff` per decade of the band, for the job's log.
+/// One line per experiment: `M_eff` per decade of the band, for the job's log. The runs
+/// between the gaps of one experiment (`inv1@171s`, …: one noise reference each) are one line
+/// (each decade's range over the runs that reach it), not one per run.
 pub fn noise_averages_lines(study: &Study, lik: &Likelihood) -> Vec<String> {
-    noise_averages(lik)
+    // (experiment, runs merged, decades)
+    let mut merged: Vec<(String, usize, Vec<DecadeAverages>)> = Vec::new();
+    for n in noise_averages(lik) {
+        let base = run_parent(&n.experiment)
+            .unwrap_or(&n.experiment)
+            .to_string();
+        match merged.last_mut() {
+            Some((name, runs, decades)) if *name == base && run_parent(&n.experiment).is_some() => {
+                *runs += 1;
+                for d in n.decades {
+                    match decades.iter_mut().find(|o| o.band == d.band) {
+                        Some(o) => {
+                            o.m_eff_min = o.m_eff_min.min(d.m_eff_min);
+                            o.m_eff_max = o.m_eff_max.max(d.m_eff_max);
+                        }
+                        None => decades.push(d),
+                    }
+                }
+                decades.sort_by(|a, b| a.band[0].total_cmp(&b.band[0]));
+            }
+            _ => merged.push((base, 1, n.decades)),
+        }
+    }
+    merged
         .iter()
-        .map(|n| {
-            let d: Vec<String> = n
-                .decades
+        .map(|(name, runs, decades)| {
+            let d: Vec<String> = decades
                 .iter()
                 .map(|d| {
                     let m = if d.m_eff_min == d.m_eff_max {
@@ -385,17 +409,28 @@ pub fn noise_averages_lines(study: &Study, lik: &Likelihood) -> Vec<String> {
                 })
                 .collect();
             format!(
-                "noise reference of `{}` (Welch, {} averages, {} resolution): effective averages per decade {}",
-                n.experiment,
+                "noise reference of `{name}` (Welch, {} averages, {} resolution{}): effective averages per decade {}",
                 study.analysis.welch_averages,
                 match study.analysis.welch_resolution {
                     crate::likelihood::WelchResolution::Fixed => "fixed",
                     crate::likelihood::WelchResolution::PerBand => "per_band",
                 },
+                if *runs > 1 {
+                    format!("; its {runs} runs between gaps")
+                } else {
+                    String::new()
+                },
                 d.join("; ")
             )
         })
         .collect()
+}
+
+/// The experiment a run between gaps belongs to: `inv1` for `inv1@171s` (the names
+/// [`crate::likelihood::GapSummary`]'s runs get), `None` for any other name.
+fn run_parent(name: &str) -> Option<&str> {
+    let (base, at) = name.rsplit_once('@')?;
+    at.strip_suffix('s')?.parse::<f64>().ok().map(|_| base)
 }
 
 /// The spectral options of a study.
@@ -749,14 +784,16 @@ pub fn noise_warnings(study: &Study, mi: usize, dataset: &Dataset) -> Vec<String
         .collect()
 }
 
-/// One line per experiment with gaps: how many, how much is missing, how many valid runs are
-/// analysed ([`crate::likelihood::GapSummary`]); and one per experiment where an input (a
-/// channel of the study's models with no noise-only series) is missing inside a gap while it
-/// is active within `gap_taper` of it: the edge correction of
+/// What the gaps are and how they are analysed, as `(notes, warnings)`. Notes (facts, not
+/// problems: gaps are routine in real data): one line per experiment with gaps, how many, how
+/// much is missing, how many valid runs are analysed ([`crate::likelihood::GapSummary`]), and
+/// the commanded channels known through them from the design. Warnings: one per experiment
+/// where an input (a channel of the study's models with no noise-only series) is missing
+/// inside a gap while it is active within `gap_taper` of it: the edge correction of
 /// [`crate::likelihood::ExperimentSpectra::of_experiment`] cannot include its response.
-pub fn gap_notes(study: &Study, dataset: &Dataset) -> Vec<String> {
+pub fn gap_notes(study: &Study, dataset: &Dataset) -> (Vec<String>, Vec<String>) {
     let opts = spectra_options(study);
-    let mut out = Vec::new();
+    let (mut out, mut warnings) = (Vec::new(), Vec::new());
     for e in &dataset.experiments {
         let Some(s) = crate::likelihood::GapSummary::of(e, &opts) else {
             continue;
@@ -780,7 +817,7 @@ pub fn gap_notes(study: &Study, dataset: &Dataset) -> Vec<String> {
         }
         let hot = missing_injections(study, e, &opts).len();
         if hot > 0 {
-            out.push(format!(
+            warnings.push(format!(
                 "experiment `{}`: in {hot} of its {} gap(s) an injection is missing while it runs beside the gap (non-zero within gap_taper = {} s of it); the loop's response to what it did in the gap is unknown and the edge correction cannot include it, which biases the estimates at high SNR: supply the commanded injection through the gap, or give the experiment's design beside its data (`design`, `x1`, `x12`, `pre_pad`, …) and occam fills it in (docs: \"Real data: gaps\")",
                 e.name,
                 e.gaps.len(),
@@ -788,7 +825,7 @@ pub fn gap_notes(study: &Study, dataset: &Dataset) -> Vec<String> {
             ));
         }
     }
-    out
+    (out, warnings)
 }
 
 /// The gaps of `e` (indices into `e.gaps`) in which some input channel of the study's models

@@ -79,6 +79,7 @@ mod tests {
             acceptance: vec![0.0],
             non_finite: vec![0],
             warnings: vec![],
+            notes: vec![],
             chains: 1,
             converged_at: None,
             kept_per_chain: 10,

@@ -58,7 +58,8 @@ pub fn run(
     })?;
     let mut map = search.best().result.clone();
     let mut warnings = model_warnings(study, model.model, &prep.dataset);
-    warnings.extend(gap_notes(study, &prep.dataset));
+    let (notes, gap_warnings) = gap_notes(study, &prep.dataset);
+    warnings.extend(gap_warnings);
     warnings.extend(prep.glitch_notes());
     warnings.extend(prep.noise_point.as_ref().map(|p| p.fit_note()));
     if !map.converged {
@@ -290,6 +291,7 @@ pub fn run(
         }),
         non_finite: diag.non_finite.clone(),
         warnings,
+        notes,
         chains: f.chains,
         converged_at,
         kept_per_chain: chains.n_kept(),

@@ -93,6 +93,10 @@ pub struct FitSummary {
     pub independence: Option<IndependenceCounts>,
     pub non_finite: Vec<u64>,
     pub warnings: Vec<String>,
+    /// Facts about the data and how they were analysed that are not problems (the gaps and
+    /// how many runs between them are analysed); absent when there are none.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub notes: Vec<String>,
     pub chains: usize,
     /// Iterations per chain at which the chains met `[fit] until` and stopped, before
     /// `[fit] iterations`; absent when they ran all of them.

@@ -401,6 +401,7 @@ mod tests {
             cross_checks: crate::config::CrossChecks::Full,
             seconds: 0.0,
             warnings: vec![],
+            notes: vec![],
             residual_psd: vec![],
             model_chains: vec![],
             bode: vec![],

@@ -565,7 +565,8 @@ fn summarise(
             .indices()
             .flat_map(|mi| model_warnings(study, mi, &prep.dataset)),
     );
-    warnings.extend(gap_notes(study, &prep.dataset));
+    let (notes, gap_warnings) = gap_notes(study, &prep.dataset);
+    warnings.extend(gap_warnings);
     warnings.extend(prep.glitch_notes());
     if !study.analysis.glitch_count.is_all() {
         warnings.push(
@@ -658,6 +659,7 @@ fn summarise(
         rj_iterations_per_second: rj_rate,
         seconds: 0.0,
         warnings,
+        notes,
         residual_psd,
         model_chains,
         bode,

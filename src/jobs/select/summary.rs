@@ -50,6 +50,10 @@ pub struct SelectSummary {
     pub seconds: f64,
     /// Warnings about the models, the data and the estimators.
     pub warnings: Vec<String>,
+    /// Facts about the data and how they were analysed that are not problems (the gaps and
+    /// how many runs between them are analysed); absent when there are none.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub notes: Vec<String>,
     /// Each model's residual PSD at its MAP (Fig. 3), written to `residual_psd.npz` and
     /// plotted, not into `summary.json`.
     #[serde(skip)]
