@@ -91,23 +91,36 @@ impl ScoringResult {
 
     /// Each free parameter on a bound of its prior box: which bound, its value, and the
     /// `[prior]` entry that widens it, e.g. `` `a1` = 1.3 on the upper bound (hi = 1.3 of
-    /// [prior] a1 = { kind = "uniform", lo = 0.8, hi = 1.3 }: raise hi) ``.
+    /// [prior] a1 = { kind = "uniform", lo = 0.8, hi = 1.3 }: raise hi) ``; with `true` where
+    /// that bound is the parameter's physical limit (`limits`, from
+    /// [`crate::model::Model::physical_limits`]; the text then says so, with no remedy).
     pub fn bound_report(
         &self,
         names: &[String],
         kinds: &[PriorKind],
         free: &[usize],
-    ) -> Vec<String> {
+        limits: &[[Option<f64>; 2]],
+    ) -> Vec<(String, bool)> {
         free.iter()
             .zip(&self.at_bound)
             .filter(|(_, b)| **b)
-            .map(|(&i, _)| describe_bound(&names[i], &kinds[i], self.theta[i]))
+            .map(|(&i, _)| {
+                let limit = limits.get(i).copied().unwrap_or([None, None]);
+                describe_bound(&names[i], &kinds[i], self.theta[i], limit)
+            })
             .collect()
     }
 }
 
-/// `` `name` = v on the lower bound (lo = … of [prior] name = {…}: lower lo) ``.
-pub fn describe_bound(name: &str, kind: &PriorKind, value: f64) -> String {
+/// `` `name` = v on the lower bound (lo = … of [prior] name = {…}: lower lo) ``, and whether
+/// that bound is the parameter's physical limit (`limit`, `[lower, upper]`): then
+/// `` `name` = 0 is at its physical limit, the lower bound (lo = 0 of [prior] name = {…}) ``.
+pub fn describe_bound(
+    name: &str,
+    kind: &PriorKind,
+    value: f64,
+    limit: [Option<f64>; 2],
+) -> (String, bool) {
     use crate::numfmt::fmt_roundtrip as r;
     let (lo, hi) = kind.bounds();
     let upper = (value - hi).abs() <= (value - lo).abs();
@@ -118,10 +131,23 @@ pub fn describe_bound(name: &str, kind: &PriorKind, value: f64) -> String {
     };
     let bound = if upper { hi } else { lo };
     let entry = kind.entry();
-    format!(
-        "`{name}` = {} is on the {side} bound ({key} = {} of [prior] {name} = {entry}: {verb} {key} if the bound is not physical)",
-        r(value),
-        r(bound)
+    if limit[usize::from(upper)] == Some(bound) {
+        return (
+            format!(
+                "`{name}` = {} is at its physical limit, the {side} bound ({key} = {} of [prior] {name} = {entry})",
+                r(value),
+                r(bound)
+            ),
+            true,
+        );
+    }
+    (
+        format!(
+            "`{name}` = {} is on the {side} bound ({key} = {} of [prior] {name} = {entry}: {verb} {key} if the bound is not physical)",
+            r(value),
+            r(bound)
+        ),
+        false,
     )
 }
 
@@ -667,6 +693,33 @@ struct LineStep {
 
 #[cfg(test)]
 mod tests {
+    /// A bound at the parameter's physical limit is said to be one, with no remedy; any other
+    /// bound (the other side, or a limit elsewhere) keeps the remedy.
+    #[test]
+    fn a_bound_at_a_physical_limit_is_named_as_one() {
+        use super::describe_bound;
+        use crate::prior::PriorKind;
+        let k = PriorKind::Uniform { lo: 0.0, hi: 1.0 };
+        let (t, physical) = describe_bound("dt1", &k, 0.0, [Some(0.0), None]);
+        assert!(physical);
+        assert!(
+            t.contains("is at its physical limit, the lower bound (lo = 0"),
+            "{t}"
+        );
+        assert!(!t.contains("lower lo"), "{t}");
+        for (v, limit) in [
+            (1.0, [Some(0.0), None]),
+            (0.0, [None, None]),
+            (0.0, [Some(-1.0), None]),
+        ] {
+            let (t, physical) = describe_bound("dt1", &k, v, limit);
+            assert!(!physical, "{t}");
+            assert!(t.contains("if the bound is not physical"), "{t}");
+        }
+        let (_, physical) = describe_bound("x", &k, 1.0, [None, Some(1.0)]);
+        assert!(physical);
+    }
+
     use super::*;
 
     type Objective = (Box<dyn Fn(&[f64]) -> f64>, Box<GradFisher<'static>>);

@@ -568,6 +568,13 @@ impl Model for GlitchModel {
         self.units.clone()
     }
 
+    fn physical_limits(&self) -> Vec<[Option<f64>; 2]> {
+        // the loop's parameters first, then the glitches' (no physical limit in their boxes)
+        let mut v = self.parent.physical_limits();
+        v.resize(self.param_names().len(), [None, None]);
+        v
+    }
+
     fn data_channels(&self) -> &[String] {
         &self.data
     }

@@ -342,6 +342,17 @@ impl Model for LtpModel {
 
     /// ω² in s⁻², delays in s, the thruster pole in Hz; gains and the cross-talk `d21` are
     /// dimensionless (ltp-model.md §3.2).
+    fn physical_limits(&self) -> Vec<[Option<f64>; 2]> {
+        // the guidance delays: causality
+        self.names
+            .iter()
+            .map(|n| match n.as_str() {
+                "dt1" | "dt2" => [Some(0.0), None],
+                _ => [None, None],
+            })
+            .collect()
+    }
+
     fn param_units(&self) -> Vec<String> {
         self.names
             .iter()

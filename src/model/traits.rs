@@ -55,6 +55,14 @@ pub trait Model: Send + Sync + std::fmt::Debug {
         vec![String::new(); self.param_names().len()]
     }
 
+    /// Per parameter, in the order of θ, the limits physics sets, `[lower, upper]` (`None`:
+    /// none) — a delay cannot be negative. A MAP on a prior bound at such a limit says the
+    /// data are consistent with the limit, not that the prior box is misplaced, and a fit
+    /// states it as a note. The default knows none.
+    fn physical_limits(&self) -> Vec<[Option<f64>; 2]> {
+        vec![[None, None]; self.param_names().len()]
+    }
+
     /// Data channels `d_c` the model reads (columns of `M`), at most [`MAX_CHANNELS`](crate::model::MAX_CHANNELS).
     fn data_channels(&self) -> &[String];
 

@@ -58,7 +58,7 @@ pub fn run(
     })?;
     let mut map = search.best().result.clone();
     let mut warnings = model_warnings(study, model.model, &prep.dataset);
-    let (notes, gap_warnings) = gap_notes(study, &prep.dataset);
+    let (mut notes, gap_warnings) = gap_notes(study, &prep.dataset);
     warnings.extend(gap_warnings);
     warnings.extend(prep.glitch_notes());
     warnings.extend(prep.noise_point.as_ref().map(|p| p.fit_note()));
@@ -68,11 +68,27 @@ pub fn run(
             map.iterations
         ));
     }
-    let at_bound = map.bound_report(&names, exact.prior().kinds(), free);
+    let (at_limit, at_bound): (Vec<_>, Vec<_>) = map
+        .bound_report(
+            &names,
+            exact.prior().kinds(),
+            free,
+            &exact.model().physical_limits(),
+        )
+        .into_iter()
+        .partition(|(_, physical)| *physical);
+    let texts = |v: Vec<(String, bool)>| v.into_iter().map(|(t, _)| t).collect::<Vec<_>>();
     if !at_bound.is_empty() {
         warnings.push(format!(
             "the MAP is on a bound of the prior box: {}. The posterior is cut by the prior there, and the Cramér–Rao σ and the pulls assume an interior maximum",
-            at_bound.join("; ")
+            texts(at_bound).join("; ")
+        ));
+    }
+    // the data agree with a physical limit: a fact, not a misplaced box
+    if !at_limit.is_empty() {
+        notes.push(format!(
+            "the MAP is at a physical limit: {}. The data are consistent with the limit and the posterior is cut there: the Cramér–Rao σ and the pull of such a parameter assume an interior maximum, so quote its chains' quantiles (an upper or lower limit)",
+            texts(at_limit).join("; ")
         ));
     }
     let mut fisher = fisher_exact(exact, &map.theta, free);
@@ -186,7 +202,10 @@ pub fn run(
         .zip(why.as_deref())
         .and_then(|(s, why)| sandwich_warning(s, &cr, &diag.sd, &names, free, why))
     {
-        warnings.push(w);
+        match w {
+            Shortfall::Warning(w) => warnings.push(w),
+            Shortfall::Note(n) => notes.push(n),
+        }
     }
     let reference = prep.noise_point.as_ref().map_or_else(
         || crate::jobs::prepare::reference_point(study, model.model),
@@ -595,8 +614,21 @@ fn sandwich_of(
     crate::likelihood::sandwich_errors(fisher, &j).map(|s| (s, why))
 }
 
+/// How far the Fisher errors fall short of the sandwich ones: a note up to
+/// [`SHORTFALL_WARNING`] (the default Welch estimate's 16 averages, ν = 29, make every fit's
+/// 8 %: routine, and the table's `sandwich σ` column is there), a warning beyond.
+#[derive(Debug, Clone, PartialEq)]
+pub(super) enum Shortfall {
+    Note(String),
+    Warning(String),
+}
+
+/// The sandwich errors exceeding the Fisher errors or the chains' sd by more than this is a
+/// warning; from 5 % to this, a note.
+pub(super) const SHORTFALL_WARNING: f64 = 0.10;
+
 /// One line when the sandwich errors exceed the Fisher errors or the chains' sd by more than
-/// 5 % somewhere: which parameter, by how much, and what to quote.
+/// 5 % somewhere: which parameter, by how much, and what to quote ([`Shortfall`]).
 pub(super) fn sandwich_warning(
     sandwich: &[f64],
     cr: &[f64],
@@ -604,7 +636,7 @@ pub(super) fn sandwich_warning(
     names: &[String],
     free: &[usize],
     why: &str,
-) -> Option<String> {
+) -> Option<Shortfall> {
     let (k, ratio) = sandwich
         .iter()
         .zip(cr.iter().zip(sd))
@@ -613,16 +645,21 @@ pub(super) fn sandwich_warning(
         .max_by(|a, b| a.1.total_cmp(&b.1))?;
     if ratio.is_infinite() {
         // ν ≤ 4 in some bin (`score_covariance`): the estimate's variance has no finite value
-        return Some(format!(
+        return Some(Shortfall::Warning(format!(
             "the noise PSD is a Welch estimate of 4 or fewer degrees of freedom in some bins: the estimate's variance is not finite there, so no error bar of `{}` (nor the chains' sd) can be stood behind; raise [analysis] welch_averages or the noise-only stretch",
             names[free[k]]
-        ));
+        )));
     }
     (ratio > 1.05).then(|| {
-        format!(
+        let text = format!(
             "the Fisher errors and the chains' sd treat the bins as independent and the noise PSD as exact, but {why}: they are short by up to {:.0} % (`{}`); quote the sandwich errors (the `sandwich σ` column, `sandwich` in summary.json), which account for it",
             100.0 * (ratio - 1.0),
             names[free[k]]
-        )
+        );
+        if ratio > 1.0 + SHORTFALL_WARNING {
+            Shortfall::Warning(text)
+        } else {
+            Shortfall::Note(text)
+        }
     })
 }

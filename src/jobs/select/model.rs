@@ -170,8 +170,16 @@ impl MapStage {
         if !self.at_bound.is_empty() {
             notes.push(format!(
                 "{BOUND_NOTE}{}; the posterior is cut by the prior there",
-                r.bound_report(names, m.exact.prior().kinds(), free)
-                    .join("; ")
+                r.bound_report(
+                    names,
+                    m.exact.prior().kinds(),
+                    free,
+                    &m.exact.model().physical_limits()
+                )
+                .into_iter()
+                .map(|(text, _)| text)
+                .collect::<Vec<_>>()
+                .join("; ")
             ));
         }
         self.theta = Some(r.theta.clone());
