@@ -89,6 +89,28 @@ fn the_own_data_starter_runs_as_written() {
     );
 }
 
+/// The user-model starter's fit runs until its chains converge (issue 52: at a fixed 3 000
+/// iterations it printed `R-hat of kc is 1.0144 > 1.01` as shipped).
+#[test]
+fn the_user_model_starter_fits_until_converged() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let (ok, _, err) = occam(&["init", "user-model"], d);
+    assert!(ok, "{err}");
+    let (ok, _, err) = occam(&["fit", "user-model.toml", "-q"], d);
+    assert!(ok, "{err}");
+    assert!(!err.contains("R-hat"), "{err}");
+    let summary: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(d.join("runs/user-model/fit/summary.json")).unwrap(),
+    )
+    .unwrap();
+    assert!(summary["converged_at"].as_u64().is_some(), "{summary}");
+    for r in summary["rows"].as_array().unwrap() {
+        assert!(r["rhat"].as_f64().unwrap() <= 1.01, "{r}");
+        assert!(r["ess"].as_f64().unwrap() >= 400.0, "{r}");
+    }
+}
+
 /// `occam simulate --csv` writes every experiment as the CSV files a study reads back, with
 /// the same numbers bit for bit as `dataset.npz`: the closed-loop starter's simulation,
 /// re-read through a study whose experiments name those files.
