@@ -560,6 +560,10 @@ fn sweep(cli: SweepCli) -> Result<()> {
         return Ok(());
     };
     print!("{}", done.table);
+    // the tasks' warnings, each kind once (all of them are in sweep.json and the report)
+    for l in done.warning_lines(&out) {
+        eprintln!("{l}");
+    }
     println!("wrote {}", listing(&out, &done.written));
     println!(
         "{} task(s) computed, {} reused; took {:.1} s",

@@ -337,6 +337,25 @@ fn a_sweep_report_holds_its_text_table_and_every_task_warning() {
         }
     }
     assert!(n > 0, "the sweep was meant to warn (MAP on a prior bound)");
+    // and the terminal shows them (issue 52: it showed none), each kind once with its count
+    assert!(err.contains("warning: the tasks raised"), "{err}");
+    let kinds: Vec<&str> = err
+        .lines()
+        .filter(|l| l.starts_with("warning: (in "))
+        .collect();
+    assert!(!kinds.is_empty() && kinds.len() <= n, "{err}");
+    let all: Vec<&str> = sweep["points"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .flat_map(|p| p["realisations"].as_array().unwrap())
+        .flat_map(|r| r["outcome"]["warnings"].as_array().into_iter().flatten())
+        .filter_map(|w| w.as_str())
+        .collect();
+    for k in &kinds {
+        let text = k.split_once(") ").unwrap().1;
+        assert!(all.contains(&text), "{text} not among {all:?}");
+    }
     assert!(html.contains("simulation.target_snr"));
 }
 

@@ -168,11 +168,17 @@ pub fn fit(
         let done = occam::jobs::execute(&mut occam::jobs::fit::Fit { study: &study }, &ctx)?;
         let s = &done.outcome.outcome.summary;
         lines.extend(occam::jobs::fit::console(s, &study));
+        lines.extend(note_lines(&s.notes));
         lines.extend(warning_lines(&s.warnings));
         lines.push(&format!("wrote {}", listing(&out, &done.written)));
         lines.push(&format!("took {:.1} s", t0.elapsed().as_secs_f64()));
         Ok((out, lines.take()))
     })
+}
+
+/// The notes as the command line prints them to standard output: each as it is.
+fn note_lines(notes: &[String]) -> impl Iterator<Item = String> + '_ {
+    notes.iter().map(|n| format!("note: {n}"))
 }
 
 /// The warnings as the command line prints them to standard error: repeats merged.
@@ -217,6 +223,7 @@ pub fn select(
                 .split('\n')
                 .map(str::to_string),
         );
+        lines.extend(note_lines(&s.notes));
         lines.extend(warning_lines(&s.warnings));
         lines.push(&format!("wrote {}", listing(&out, &done.written)));
         lines.push(&format!("took {:.1} s", t0.elapsed().as_secs_f64()));
@@ -265,6 +272,7 @@ pub fn sweep(
         let done = run_request(planned, exec.as_ref(), Some(&log), Some(work))?
             .ok_or_else(|| anyhow::anyhow!("the sweep ran on no root process"))?;
         lines.extend(done.table.lines().map(str::to_string));
+        lines.extend(done.warning_lines(&out));
         lines.push(&format!("wrote {}", listing(&out, &done.written)));
         lines.push(&format!(
             "{} task(s) computed, {} reused; took {:.1} s",

@@ -51,4 +51,4 @@ pub use lines::{LinePlot, bayes_factor_evolution, line_plot};
 pub use running::{RunningSeries, running_bayes_factor};
 pub use table::Table;
 pub use trace::{TracePlot, draw_trace, trace_plot};
-pub use warnings::group_warnings;
+pub use warnings::{group_run_warnings, group_warnings};

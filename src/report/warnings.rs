@@ -93,6 +93,51 @@ pub fn group_warnings(warnings: &[String]) -> Vec<String> {
         .collect()
 }
 
+/// The warnings of many runs of one kind (a sweep's tasks: `runs[t]` the labels and warnings
+/// of task `t`), each shape once with the number of runs that raised it and the first run's
+/// label and text — `(in 12 of 40 tasks, first snr=5 r=0) model `X`: …` — most frequent
+/// first: what a terminal can show of hundreds.
+///
+/// ```
+/// use occam::report::group_run_warnings;
+/// let runs = [
+///     ("a".to_string(), vec!["model `X`: 3 evaluations refused".to_string()]),
+///     ("b".to_string(), vec![]),
+///     ("c".to_string(), vec!["model `X`: 7 evaluations refused".to_string(), "odd".to_string()]),
+/// ];
+/// let g = group_run_warnings(&runs, "tasks");
+/// assert_eq!(g, [
+///     "(in 2 of 3 tasks, first a) model `X`: 3 evaluations refused",
+///     "(in 1 of 3 tasks, first c) odd",
+/// ]);
+/// ```
+pub fn group_run_warnings(runs: &[(String, Vec<String>)], what: &str) -> Vec<String> {
+    // (shape, runs raising it, first label, first text)
+    let mut groups: Vec<(String, usize, &str, &str)> = Vec::new();
+    for (label, warnings) in runs {
+        let mut seen: Vec<String> = Vec::new();
+        for w in warnings {
+            let key = shape(w);
+            if seen.contains(&key) {
+                continue;
+            }
+            match groups.iter_mut().find(|g| g.0 == key) {
+                Some(g) => g.1 += 1,
+                None => groups.push((key.clone(), 1, label, w)),
+            }
+            seen.push(key);
+        }
+    }
+    // stable: equal counts keep their first occurrence's order
+    groups.sort_by_key(|g| std::cmp::Reverse(g.1));
+    groups
+        .into_iter()
+        .map(|(_, n, label, text)| {
+            format!("(in {n} of {} {what}, first {label}) {text}", runs.len())
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -52,6 +52,35 @@ pub struct SweepDone {
     pub written: Vec<String>,
 }
 
+impl SweepDone {
+    /// The tasks' warnings for the terminal, as `warning: …` lines: a line counting their
+    /// kinds, then each kind once with how many tasks raised it and the first
+    /// ([`crate::report::group_run_warnings`]); none without warnings. Every one is in
+    /// `sweep.json` and the report of `out`.
+    pub fn warning_lines(&self, out: &std::path::Path) -> Vec<String> {
+        let runs: Vec<(String, Vec<String>)> = self
+            .result
+            .records
+            .iter()
+            .map(|r| {
+                let w = r.outcome.as_ref().map(|o| o.warnings.clone());
+                (r.id.label(), w.unwrap_or_default())
+            })
+            .collect();
+        let kinds = crate::report::group_run_warnings(&runs, "tasks");
+        if kinds.is_empty() {
+            return kinds;
+        }
+        let mut lines = vec![format!(
+            "warning: the tasks raised {} kind(s) of warning, each once below with how many tasks raised it; every one is in sweep.json and the report (occam report {})",
+            kinds.len(),
+            out.display()
+        )];
+        lines.extend(kinds.into_iter().map(|k| format!("warning: {k}")));
+        lines
+    }
+}
+
 /// Where a job's tasks run. With the `mpi` feature, under `mpirun -n N` (N > 1) the tasks are
 /// spread over the N ranks, each running its share on `threads` threads (0 there means 1: one
 /// rank per core is how `mpirun` places ranks); otherwise on `threads` threads of this process

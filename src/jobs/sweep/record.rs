@@ -24,6 +24,18 @@ pub struct TaskId {
 }
 
 impl TaskId {
+    /// `snr=5 r=0`: the grid values and the realisation, for messages.
+    pub fn label(&self) -> String {
+        let mut parts: Vec<String> = self
+            .keys
+            .iter()
+            .zip(&self.values)
+            .map(|(k, v)| format!("{k}={}", crate::numfmt::fmt_short(*v)))
+            .collect();
+        parts.push(format!("r={}", self.realisation));
+        parts.join(" ")
+    }
+
     /// `tasks/<hash>.cbor` under the sweep's directory (a checkpoint of kind
     /// [`TASK_KIND`]; the `.json` files of earlier versions are not reused).
     pub fn path(&self, dir: &Path) -> PathBuf {
