@@ -29,6 +29,7 @@ tbody tr:nth-child(even) { background: #f7f7f7; }
 .warnings h2 { border: none; color: #a33f00; margin-top: 0.4em; }
 .warnings li { margin: 0.4em 0; }
 .warnings .where { color: #555; font-size: 0.85em; }
+h3 .where { color: #555; font-size: 0.8em; font-weight: normal; }
 .nowarnings { border: 2px solid #009e73; background: #effaf5; padding: 0.6em 1.2em; }
 .bad { color: #b03a00; font-weight: 700; }
 .note, .tabletext { color: #444; }
@@ -107,6 +108,16 @@ fn invalid_section(s: &serde_json::Value) -> String {
     h
 }
 
+/// A reader's heading for a table file of a run (its name shown beside it).
+fn table_title(name: &str) -> String {
+    match name {
+        "table.md" | "table.txt" => "Estimates".into(),
+        "information.md" => "Where the information comes from".into(),
+        "design.md" | "design.txt" => "Design".into(),
+        other => other.to_string(),
+    }
+}
+
 fn tables_section(run: &Run) -> String {
     let mut h = String::from("<section id=\"tables\"><h2>Results</h2>\n");
     if run.tables.is_empty() {
@@ -118,7 +129,12 @@ fn tables_section(run: &Run) -> String {
         } else {
             parse_text(text)
         };
-        h.push_str(&format!("<h3>{}</h3>\n{}", esc(name), to_html(&blocks)));
+        h.push_str(&format!(
+            "<h3>{} <span class=\"where\">({})</span></h3>\n{}",
+            esc(&table_title(name)),
+            esc(name),
+            to_html(&blocks)
+        ));
     }
     h.push_str("</section>\n");
     h

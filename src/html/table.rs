@@ -13,6 +13,8 @@ pub enum Block {
         right: Vec<bool>,
     },
     Text(String),
+    /// Consecutive Markdown list items (`- …`), without their markers.
+    List(Vec<String>),
 }
 
 /// Splits a Markdown pipe-table row into its cells (`\|` is a literal bar).
@@ -68,7 +70,14 @@ pub fn parse_markdown(text: &str) -> Vec<Block> {
                 continue;
             }
         }
-        if !l.trim().is_empty() {
+        // a list item joins the list just before it, else starts one
+        if let Some(item) = l.trim_start().strip_prefix("- ") {
+            let item = item.trim_end().to_string();
+            match out.last_mut() {
+                Some(Block::List(items)) => items.push(item),
+                _ => out.push(Block::List(vec![item])),
+            }
+        } else if !l.trim().is_empty() {
             out.push(Block::Text(l.trim_end().to_string()));
         }
         i += 1;
@@ -185,6 +194,13 @@ pub fn to_html(blocks: &[Block]) -> String {
             Block::Text(t) => {
                 h.push_str(&format!("<p class=\"tabletext\">{}</p>\n", esc(t)));
             }
+            Block::List(items) => {
+                h.push_str("<ul class=\"tabletext\">\n");
+                for t in items {
+                    h.push_str(&format!("<li>{}</li>\n", esc(t)));
+                }
+                h.push_str("</ul>\n");
+            }
             Block::Table {
                 header,
                 rows,
@@ -219,6 +235,25 @@ pub fn to_html(blocks: &[Block]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `- …` lines are a list (one per run of them), not raw text (issue 52: the report showed
+    /// select's table.md notes as "- …").
+    #[test]
+    fn markdown_list_items_are_a_list() {
+        let b = parse_markdown("head\n- one <a>\n- two\ntext\n- three\n");
+        assert_eq!(
+            b,
+            vec![
+                Block::Text("head".into()),
+                Block::List(vec!["one <a>".into(), "two".into()]),
+                Block::Text("text".into()),
+                Block::List(vec!["three".into()]),
+            ]
+        );
+        let h = to_html(&b);
+        assert!(h.contains("<li>one &lt;a&gt;</li>\n<li>two</li>"), "{h}");
+        assert!(!h.contains("- one"), "{h}");
+    }
 
     #[test]
     fn markdown_tables_keep_cells_alignment_and_escaped_bars() {
