@@ -583,6 +583,7 @@ fn nan_samples_in_a_csv_read_out_split_the_fit_into_runs() {
         out.contains("note: experiment `a`: 1 gap(s)") && out.contains("2 valid run(s)"),
         "{out}"
     );
+    assert!(out.contains(" (2 experiments, "), "{out}");
     let (ok, out, err) = fit("two", &|k| k == 700 || k == 780);
     assert!(ok, "{err}");
     assert!(out.contains("3 valid run(s)"), "{out}");
@@ -627,4 +628,17 @@ fn a_directory_named_as_data_is_refused_with_its_cause_once() {
             && err.matches("not a regular file").count() == 1,
         "{err}"
     );
+}
+
+/// The log counts one experiment as one (issue 52: "1 experiments"). Table I's study with its
+/// first experiment alone: the data line comes before the MAP search, whatever that finds.
+#[test]
+fn one_experiment_is_counted_as_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let text = std::fs::read_to_string(root.join("examples/tn3045.toml")).unwrap();
+    let cut = text.rfind("[[experiment]]").unwrap();
+    std::fs::write(dir.path().join("one.toml"), &text[..cut]).unwrap();
+    let (_, out, _) = occam(&["fit", "one.toml", "-q"], dir.path());
+    assert!(out.contains(" (1 experiment, "), "{out}");
 }

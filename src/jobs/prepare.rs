@@ -433,6 +433,18 @@ fn run_parent(name: &str) -> Option<&str> {
     at.strip_suffix('s')?.parse::<f64>().ok().map(|_| base)
 }
 
+/// The log's first line of a fit or select: where the data come from, how many experiments and
+/// bins in band (`data: simulated from … (1 experiment, 7634 bins in band)`).
+pub fn data_line(prep: &Prepared) -> String {
+    let n = prep.dataset.experiments.len();
+    format!(
+        "data: {} ({n} experiment{}, {} bins in band)",
+        prep.origin,
+        if n == 1 { "" } else { "s" },
+        prep.likelihood.n_bins()
+    )
+}
+
 /// The spectral options of a study.
 pub fn spectra_options(study: &Study) -> SpectraOptions {
     let a = &study.analysis;

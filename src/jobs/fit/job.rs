@@ -55,12 +55,7 @@ impl Job for Fit<'_> {
         }
         let prep = crate::jobs::prepare::prepare(study)
             .with_context(|| format!("preparing the data of {}", study.source))?;
-        (ctx.log)(&format!(
-            "data: {} ({} experiments, {} bins in band)",
-            prep.origin,
-            prep.dataset.experiments.len(),
-            prep.likelihood.n_bins()
-        ));
+        (ctx.log)(&crate::jobs::prepare::data_line(&prep));
         for line in crate::jobs::prepare::noise_averages_lines(study, &prep.likelihood) {
             (ctx.log)(&line);
         }

@@ -76,12 +76,7 @@ impl Job for Select<'_, '_> {
             Some(every) => state.save_stage_every(every),
             None => state,
         };
-        (ctx.log)(&format!(
-            "data: {} ({} experiments, {} bins in band)",
-            prep.origin,
-            prep.dataset.experiments.len(),
-            prep.likelihood.n_bins()
-        ));
+        (ctx.log)(&crate::jobs::prepare::data_line(&prep));
         for line in crate::jobs::prepare::noise_averages_lines(study, &prep.likelihood) {
             (ctx.log)(&line);
         }
