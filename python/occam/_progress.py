@@ -1,5 +1,6 @@
 """Progress of a running job: a tqdm bar when tqdm is importable, else one line on stderr
-rewritten in place; the native job calls it with ``(done, total)`` about ten times a second."""
+rewritten in place (on a terminal; in a log, a plain line per tenth of the work, without
+terminal escapes); the native job calls it with ``(done, total)`` about ten times a second."""
 
 import sys
 import time
@@ -13,6 +14,10 @@ class _Line:
         self.t0 = time.monotonic()
         self.first = None  # (t, done) when the work started: the time before it is not work
         self.shown = False
+        # a log file or pipe gets whole lines and no escapes: `\r` and `\x1b[K` only mean
+        # something to a terminal
+        self.tty = sys.stderr.isatty()
+        self.tenth = -1  # the last tenth of the work written to a log
 
     def __call__(self, done, total):
         if total <= 0:
@@ -25,12 +30,20 @@ class _Line:
             t, d = self.first
             left = (now - t) * (total - done) / (done - d)
             eta = f", about {left:.0f} s to go"
-        sys.stderr.write(
-            f"\r{self.what}: {done}/{total} {self.unit} ({100 * done // total}%), "
-            f"{now - self.t0:.0f} s{eta}\x1b[K"
+        text = (
+            f"{self.what}: {done}/{total} {self.unit} ({100 * done // total}%), "
+            f"{now - self.t0:.0f} s{eta}"
         )
+        if self.tty:
+            sys.stderr.write(f"\r{text}\x1b[K")
+            self.shown = True
+        else:
+            tenth = 10 * min(done, total) // total
+            if tenth == self.tenth:
+                return
+            self.tenth = tenth
+            sys.stderr.write(f"{text}\n")
         sys.stderr.flush()
-        self.shown = True
 
     def close(self):
         if self.shown:

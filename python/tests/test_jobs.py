@@ -223,6 +223,24 @@ def test_progress_callback_sees_the_work(tmp_path):
     assert all(t == 8000 for _, t in seen) and [d for d, _ in seen] == sorted(d for d, _ in seen)
 
 
+def test_the_progress_line_in_a_log_has_no_terminal_escapes(capsys):
+    # capsys's stderr is not a terminal, as a log file or a pipe is not (issue 52: the line
+    # wrote "\x1b[K" and "\r" into such logs)
+    from occam._progress import _Line
+
+    line = _Line("occam fit", "iterations")
+    for done in range(0, 8001, 40):
+        line(done, 8000)
+    line.close()
+    err = capsys.readouterr().err
+    assert "\x1b" not in err and "\r" not in err, repr(err[:200])
+    lines = err.splitlines()
+    # one line per tenth of the work: 0 %, 10 %, …, 100 %
+    assert len(lines) == 11, lines
+    assert lines[0].startswith("occam fit: 0/8000 iterations (0%)")
+    assert lines[-1].startswith("occam fit: 8000/8000 iterations (100%)")
+
+
 def test_sweep_design_report(tmp_path):
     sw = occam.sweep(
         SMALL, output=tmp_path / "sweep", axes=["simulation.target_snr=300,1000"], progress=False
