@@ -109,6 +109,23 @@ fn the_user_model_starter_fits_until_converged() {
         assert!(r["rhat"].as_f64().unwrap() <= 1.01, "{r}");
         assert!(r["ess"].as_f64().unwrap() >= 400.0, "{r}");
     }
+    // its own channels drawn (issue 52, item 1): the injections are slower than the transfer
+    // function's segments resolve, so the Bode plot shows the model alone and a note says why
+    let fit = d.join("runs/user-model/fit");
+    for e in ["push1", "push2"] {
+        for stem in ["timeseries", "spectra", "bode"] {
+            assert!(fit.join(format!("{stem}_{e}.png")).is_file(), "{stem}_{e}");
+        }
+    }
+    let series = std::fs::read_to_string(fit.join("timeseries_push1.svg")).unwrap();
+    for label in ["y12 (m)", "u1 (m s⁻²)"] {
+        assert!(series.contains(label), "no axis `{label}`");
+    }
+    let notes = summary["notes"].to_string();
+    assert!(
+        notes.contains("experiment `push1`: no injected line is measured on its Bode plot"),
+        "{notes}"
+    );
 }
 
 /// `occam simulate --csv` writes every experiment as the CSV files a study reads back, with

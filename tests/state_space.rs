@@ -242,3 +242,137 @@ fn tied_state_space_models_load_and_agree() {
         );
     }
 }
+
+/// Two masses read out as `pos_a`, `pos_b` and pushed by `force` (the truth model of
+/// `examples/two-mass-damper.toml`), one sinusoid per experiment at a frequency the
+/// transfer-function segments resolve.
+const TWO_MASS_BODE: &str = r#"seed = 11
+output = "unused"
+[simulation]
+model = "springs"
+[simulation.truth]
+ka = 1e-3
+kb = 2e-3
+kc = 3e-4
+[analysis]
+band = [2e-3, 0.1]
+noise = "model"
+[fit]
+model = "springs"
+chains = 2
+iterations = 1500
+burn_in = 500
+until = false
+[prior]
+ka = { kind = "uniform", lo = 5e-4, hi = 2e-3 }
+kb = { kind = "uniform", lo = 1e-3, hi = 4e-3 }
+kc = { kind = "uniform", lo = 0.0, hi = 1e-3 }
+[[experiment]]
+name = "low"
+fs = 1.0
+pre_pad = 0.0
+post_pad = 0.0
+[experiment.inject]
+force = { kind = "sine", freq = 0.0213, amplitude = 2e-12, duration = 8000.0 }
+[[experiment]]
+name = "high"
+fs = 1.0
+pre_pad = 0.0
+post_pad = 0.0
+[experiment.inject]
+force = { kind = "sine", freq = 0.0467, amplitude = 1e-11, duration = 8000.0 }
+[[model]]
+kind = "state_space"
+name = "springs"
+parameters = ["ka", "kb", "kc"]
+unit = { ka = "s⁻²", kb = "s⁻²", kc = "s⁻²", pos_a = "m", pos_b = "m", force = "m s⁻²" }
+inputs = ["force"]
+outputs = ["pos_a", "pos_b"]
+states = ["xa", "xb", "va", "vb"]
+a = [[0, 0, 1, 0], [0, 0, 0, 1],
+     ["-(ka + kc)", "kc", "-gam", 0],
+     ["kc", "-(kb + kc)", 0, "-gam"]]
+b = [[0], [0], [1], [0]]
+c = [[1, 0, 0, 0], [0, 1, 0, 0]]
+g = [[0, 0, 0, 0], [0, 0, 0, 0], [1, 0, 0, 0], [0, 1, 0, 0]]
+h = [[0, 0, 1, 0], [0, 0, 0, 1]]
+noise = [1e-26, 1e-26, 1e-22, 1e-22]
+[model.constants]
+gam = 2e-3
+"#;
+
+/// A model of one's own channels gets the data, spectra and Bode plots the LTP loop gets
+/// (issue 52, item 1): `occam fit` writes them per experiment with the model's channel names
+/// and units, and the measured transfer functions `force → pos_a`, `force → pos_b` agree with
+/// the model's at its MAP within their error bars — and not with the read-outs swapped, so a
+/// channel paired with the wrong column would fail.
+#[test]
+fn a_state_space_model_gets_its_own_channels_plots_and_its_bode_plot_agrees() {
+    use ndarray::Array1;
+    use ndarray_npy::NpzReader;
+    let dir = tempfile::tempdir().unwrap();
+    let study = dir.path().join("two.toml");
+    std::fs::write(&study, TWO_MASS_BODE).unwrap();
+    let out = dir.path().join("fit");
+    let (ok, stdout, stderr) = occam(
+        &[
+            "fit",
+            study.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "-q",
+        ],
+        dir.path(),
+    );
+    assert!(ok, "{stdout}\n{stderr}");
+    for e in ["low", "high"] {
+        for stem in ["timeseries", "spectra", "bode"] {
+            assert!(out.join(format!("{stem}_{e}.png")).is_file(), "{stem}_{e}");
+        }
+    }
+    let series = std::fs::read_to_string(out.join("timeseries_low.svg")).unwrap();
+    for label in ["pos_a (m)", "pos_b (m)", "force (m s⁻²)"] {
+        assert!(series.contains(label), "no axis `{label}`");
+    }
+    let spectra = std::fs::read_to_string(out.join("spectra_low.svg")).unwrap();
+    assert!(spectra.contains("ASD (m/√Hz)"), "spectra axis");
+    assert!(spectra.contains("pos_b, noise the likelihood assumes"));
+    let bode = std::fs::read_to_string(out.join("bode_high.svg")).unwrap();
+    assert!(bode.contains("gain |H| (m per m s⁻²)"), "bode axis");
+
+    let mut z = NpzReader::new(std::fs::File::open(out.join("bode.npz")).unwrap()).unwrap();
+    let mut get = |k: &str| -> Vec<f64> {
+        let a: Array1<f64> = z.by_name(k).unwrap_or_else(|e| panic!("{k}: {e}"));
+        a.to_vec()
+    };
+    let mut pulls = Vec::new();
+    let mut swapped = Vec::new();
+    for e in ["low", "high"] {
+        let at = |get: &mut dyn FnMut(&str) -> Vec<f64>, out: &str, what: &str| {
+            let p = format!("{e}__force_to_{out}");
+            let re = get(&format!("{p}__{what}re"));
+            let im = get(&format!("{p}__{what}im"));
+            re.iter()
+                .zip(&im)
+                .map(|(&r, &i)| num_complex::Complex64::new(r, i))
+                .collect::<Vec<_>>()
+        };
+        for (out, other) in [("pos_a", "pos_b"), ("pos_b", "pos_a")] {
+            let h = at(&mut get, out, "h_");
+            let model = at(&mut get, out, "springs__");
+            let wrong = at(&mut get, other, "springs__");
+            let err = get(&format!("{e}__force_to_{out}__rel_err"));
+            assert_eq!(h.len(), 1, "{e} {out}: one line");
+            for k in 0..h.len() {
+                for (m, into) in [(model[k], &mut pulls), (wrong[k], &mut swapped)] {
+                    let r = h[k] / m;
+                    into.push(r.norm().ln() / err[k]);
+                    into.push(r.arg() / err[k]);
+                }
+            }
+        }
+    }
+    eprintln!("Bode pulls {pulls:.2?}; swapped read-outs {swapped:.2?}");
+    assert!(pulls.iter().all(|z| z.abs() < 4.0), "{pulls:?}");
+    assert!(swapped.iter().any(|z| z.abs() > 10.0), "{swapped:?}");
+}

@@ -426,6 +426,14 @@ pub fn noise_averages_lines(study: &Study, lik: &Likelihood) -> Vec<String> {
         .collect()
 }
 
+/// The index in `lik`'s spectra of experiment `name`, or of its first run between gaps
+/// (`inv1@171s`): the experiment's model either way.
+pub fn spectra_index(lik: &Likelihood, name: &str) -> Option<usize> {
+    lik.spectra()
+        .iter()
+        .position(|s| s.name == name || run_parent(&s.name) == Some(name))
+}
+
 /// The experiment a run between gaps belongs to: `inv1` for `inv1@171s` (the names
 /// [`crate::likelihood::GapSummary`]'s runs get), `None` for any other name.
 fn run_parent(name: &str) -> Option<&str> {

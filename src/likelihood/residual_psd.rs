@@ -4,10 +4,11 @@
 //!
 //! * `residual`: the Welch PSD of the residual time series `r(t; θ) = IDFT(M(f; θ) d̃(f))` over
 //!   the fit stretch (every DFT bin, BH92, 8 averages, every Welch bin in the band);
-//! * `readout`: the same with only the read-out channels `o1, o12` kept (for the acceleration
-//!   domain, a12 without the commanded forces subtracted: the injected forces plus noise);
+//! * `readout`: the same with only the read-out channels kept ([`ChannelRoles`]: `o1, o12`, a
+//!   state-space model's outputs; for the acceleration domain, a12 without the commanded
+//!   forces subtracted: the injected forces plus noise);
 //! * `reference`: the residual-noise PSD `S_r` of the likelihood (from the noise-only stretch
-//!   at the reference point), on the fit bins.
+//!   at the reference point, or the noise model), on the fit bins.
 //!
 //! A model that explains the data has `residual ≈ reference`; a wrong one leaves the injected
 //! lines standing above it.
@@ -15,14 +16,11 @@
 use super::exact::Likelihood;
 use super::statistic::{LogPeriodogramOptions, LogPgExperiment};
 use crate::data::dataset::ExperimentData;
-use crate::model::{Bin, Model};
+use crate::model::{Bin, ChannelRoles, Model};
 use crate::signal::Window;
 use num_complex::{Complex, Complex64};
 use num_dual::Dual64;
 use std::sync::Arc;
-
-/// The read-out channels kept by the `readout` curve.
-pub const READOUT_CHANNELS: [&str; 2] = ["o1", "o12"];
 
 /// One experiment's curves for the first residual channel (one-sided PSDs, the residual
 /// channel's units squared per Hz).
@@ -31,6 +29,8 @@ pub struct ResidualPsd {
     pub experiment: String,
     /// The residual channel.
     pub channel: String,
+    /// Its SI unit (`""`: unknown).
+    pub unit: String,
     /// Welch frequencies (Hz) of `residual` and `readout`.
     pub freqs: Vec<f64>,
     pub residual: Vec<f64>,
@@ -39,6 +39,9 @@ pub struct ResidualPsd {
     /// Fit-bin frequencies (Hz) of `reference`.
     pub reference_freqs: Vec<f64>,
     pub reference: Vec<f64>,
+    /// Where `reference` comes from: the Welch estimate of the noise-only stretch, or the noise
+    /// model (the model's own noise, or the study's `[noise]`).
+    pub reference_is_welch: bool,
 }
 
 /// `model` with every data channel but the read-outs zeroed.
@@ -101,11 +104,12 @@ pub fn residual_psds(
         decimate: Some(1),
         whiten: true,
     };
+    let roles = ChannelRoles::of(lik.model().as_ref());
     let keep: Vec<bool> = lik
         .model()
         .data_channels()
         .iter()
-        .map(|c| READOUT_CHANNELS.contains(&c.as_str()))
+        .map(|c| roles.readouts.iter().any(|r| &r.name == c))
         .collect();
     let mut out = Vec::new();
     for (i, sp) in lik.spectra().iter().enumerate() {
@@ -130,9 +134,17 @@ pub fn residual_psds(
         } else {
             LogPgExperiment::first_channel(e, sp, model.as_ref(), &opts)?
         };
+        let channel = model.residual_channels()[0].clone();
+        let unit = match roles.readouts.iter().find(|r| r.name == channel) {
+            Some(r) => r.unit.clone(),
+            // the acceleration domain's residual
+            None if channel == "a12" => "m s⁻²".into(),
+            None => String::new(),
+        };
         out.push(ResidualPsd {
             experiment: sp.name.clone(),
-            channel: model.residual_channels()[0].clone(),
+            channel,
+            unit,
             freqs: plan.freqs(),
             residual: welch(&plan, model.as_ref()),
             // the plan holds the data and the constants, not the coefficients: it serves the
@@ -140,6 +152,7 @@ pub fn residual_psds(
             readout: readout_model.as_deref().map(|m| welch(&plan, m)),
             reference_freqs: sp.freqs.clone(),
             reference: (0..sp.len()).map(|k| sp.csd_at(k)[0].re).collect(),
+            reference_is_welch: sp.noise_dof.is_some(),
         });
     }
     Ok(out)

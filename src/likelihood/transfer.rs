@@ -19,7 +19,7 @@
 
 use super::spectra::SpectraOptions;
 use crate::data::dataset::ExperimentData;
-use crate::model::{Model, coefficients_at};
+use crate::model::{ChannelRoles, Model, coefficients_at};
 use crate::signal::{WelchConfig, welch_csd2_runs};
 use nalgebra::{DMatrix, DVector};
 use num_complex::Complex64;
@@ -34,20 +34,14 @@ pub const LINE_POWER: f64 = 1e-6;
 /// the Blackman–Harris window) and bias the ratio.
 pub const MIN_BIN: usize = 5;
 
-/// The read-out channels a transfer function ends on, with the injection channels they answer.
-pub const PAIRS: [(&str, usize); 2] = [("o1", 0), ("o12", 1)];
-
-/// The injection channels, in the order of [`ExperimentData::i`].
-pub const INPUTS: [&str; 2] = ["i1", "i12"];
-
 /// One measured transfer function: injection `input` to read-out `output` of one experiment.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MeasuredTransfer {
     /// The experiment measured.
     pub experiment: String,
-    /// The injection channel (`i1`, `i12`).
+    /// The injection channel (`i1`, `i12`, a state-space model's input …).
     pub input: String,
-    /// The read-out channel (`o1`, `o12`).
+    /// The read-out channel (`o1`, `o12`, a state-space model's output …).
     pub output: String,
     /// Frequency of each line (Hz): the centroid of its bins' input power.
     pub freqs: Vec<f64>,
@@ -71,21 +65,42 @@ pub fn coherence_error(gamma2: f64, n: f64) -> f64 {
     }
 }
 
-/// The measured transfer functions of experiment `e` from every injection channel that carries
-/// a signal to both read-outs, in band `opts.band`; none when nothing is injected. Errors name
-/// the experiment (a fit stretch too short for the segments, non-finite samples).
+/// The measured transfer functions of experiment `e` from every injection channel of `roles`
+/// that carries a signal to every read-out the experiment holds, in band `opts.band`; none when
+/// nothing is injected. Errors name the experiment (a fit stretch too short for the segments,
+/// non-finite samples).
 pub fn measured_transfer(
     e: &ExperimentData,
     opts: &SpectraOptions,
+    roles: &ChannelRoles,
 ) -> Result<Vec<MeasuredTransfer>, String> {
-    let n = e.o[0].len();
+    let Some(n) = roles
+        .readouts
+        .iter()
+        .find_map(|c| e.channel(&c.name))
+        .map(<[f64]>::len)
+    else {
+        return Ok(Vec::new());
+    };
     let runs = e.valid_runs();
     // as many segments as the noise estimate averages, back to back
     let valid: usize = runs.iter().map(|r| r[1] - r[0]).sum();
     let seg = valid / opts.welch_averages.max(1);
+    let outputs: Vec<(&str, &[f64])> = roles
+        .readouts
+        .iter()
+        .filter_map(|c| {
+            Some((
+                c.name.as_str(),
+                e.channel(&c.name).filter(|o| o.len() == n)?,
+            ))
+        })
+        .collect();
     let mut out = Vec::new();
-    for (j, input) in INPUTS.iter().enumerate() {
-        let i = &e.i[j];
+    for input in &roles.injections {
+        let Some(i) = e.channel(&input.name) else {
+            continue;
+        };
         if i.len() != n || i.iter().all(|&v| v == 0.0) {
             continue;
         }
@@ -96,13 +111,14 @@ pub fn measured_transfer(
             ));
         }
         let cfg = WelchConfig::new(e.fs, opts.welch_window, seg).with_overlap(0.0);
-        for (output, k) in PAIRS {
-            let s = welch_csd2_runs(i, &e.o[k], &cfg, &runs)
-                .map_err(|err| format!("experiment `{}`: {input} → {output}: {err}", e.name))?;
+        for &(output, o) in &outputs {
+            let s = welch_csd2_runs(i, o, &cfg, &runs).map_err(|err| {
+                format!("experiment `{}`: {} → {output}: {err}", e.name, input.name)
+            })?;
             let lines = line_bins(&s.freqs, &s.s11, opts.band);
             let mut t = MeasuredTransfer {
                 experiment: e.name.clone(),
-                input: input.to_string(),
+                input: input.name.clone(),
                 output: output.to_string(),
                 freqs: Vec::with_capacity(lines.len()),
                 h: Vec::with_capacity(lines.len()),
@@ -163,7 +179,8 @@ fn line_frequency(freqs: &[f64], p: &[f64], b: usize) -> f64 {
 
 /// The transfer function from data channel `input` to data channel `output` that `model`
 /// predicts at `theta`, at `freqs` for data sampled at `fs`: `−(M_o⁻¹ M_i)` where `M_o` holds
-/// the columns of the model's read-out channels ([`PAIRS`]) and `M_i` the column of `input`.
+/// the columns of the model's read-outs (its data channels that are residual channels,
+/// [`ChannelRoles`]) and `M_i` the column of `input`.
 /// `None` when the model does not read both, has other than one residual per read-out, or
 /// `M_o` is singular at some frequency.
 pub fn model_transfer(
@@ -177,10 +194,12 @@ pub fn model_transfer(
     let data = model.data_channels();
     let nc = data.len();
     let nr = model.residual_channels().len();
+    // the read-outs: the data channels that are residual channels (r = o − H i)
+    let res = model.residual_channels();
     let outs: Vec<usize> = data
         .iter()
         .enumerate()
-        .filter(|(_, c)| PAIRS.iter().any(|(o, _)| o == c))
+        .filter(|(_, c)| res.contains(c))
         .map(|(k, _)| k)
         .collect();
     let col_in = data.iter().position(|c| c == input)?;
@@ -271,6 +290,11 @@ mod tests {
         }
     }
 
+    /// The LTP loop's read-outs and injections.
+    fn ltp_roles() -> ChannelRoles {
+        ChannelRoles::of(&ltp().0)
+    }
+
     /// Lines spread over the band with amplitudes that give coherences from about 0.5 to
     /// 0.9999, well apart (≥ 5 bins of the 2500-sample segments, beyond the main lobe) so that
     /// no line leaks into another's bins, off the bin centres by varying fractions.
@@ -290,7 +314,7 @@ mod tests {
         let mut z = Vec::new();
         for seed in 0..6 {
             let e = experiment(&lines(), 1e-3, seed);
-            for t in measured_transfer(&e, &opts()).unwrap() {
+            for t in measured_transfer(&e, &opts(), &ltp_roles()).unwrap() {
                 assert_eq!(t.input, "i1");
                 let truth = model_transfer(&m, &th, FS, &t.freqs, "i1", &t.output).unwrap();
                 for k in 0..t.h.len() {
@@ -329,7 +353,7 @@ mod tests {
     #[test]
     fn the_estimate_equals_a_slow_oracle() {
         let e = experiment(&lines()[..6], 1e-3, 9);
-        let got = measured_transfer(&e, &opts()).unwrap();
+        let got = measured_transfer(&e, &opts(), &ltp_roles()).unwrap();
         let l = N / opts().welch_averages;
         let (step, m) = (l, opts().welch_averages);
         let w = Window::Bh92.values(l);
@@ -375,7 +399,11 @@ mod tests {
     fn nothing_injected_gives_nothing_and_a_model_without_readouts_gives_no_curve() {
         let mut e = experiment(&[], 1e-3, 1);
         e.i[0].fill(0.0);
-        assert!(measured_transfer(&e, &opts()).unwrap().is_empty());
+        assert!(
+            measured_transfer(&e, &opts(), &ltp_roles())
+                .unwrap()
+                .is_empty()
+        );
         let acc = crate::model::AccelModel::new("a", Default::default());
         let th = vec![0.0; acc.param_names().len()];
         assert!(model_transfer(&acc, &th, 1.0, &[0.01], "i1", "o1").is_none());

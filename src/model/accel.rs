@@ -198,6 +198,13 @@ impl Model for AccelModel {
         &self.res
     }
 
+    fn channel_units(&self) -> Vec<String> {
+        self.data
+            .iter()
+            .map(|c| crate::model::ltp::ltp_channel_unit(c).into())
+            .collect()
+    }
+
     fn n_consts(&self) -> usize {
         2
     }

@@ -321,6 +321,10 @@ impl Model for DriftModel {
         self.parent.residual_channels()
     }
 
+    fn channel_units(&self) -> Vec<String> {
+        self.parent.channel_units()
+    }
+
     fn n_consts(&self) -> usize {
         self.parent.n_consts()
     }

@@ -579,6 +579,13 @@ impl Model for GlitchModel {
         &self.data
     }
 
+    fn channel_units(&self) -> Vec<String> {
+        // the parent's channels, then the impulse (a unit sample: no unit)
+        let mut u = self.parent.channel_units();
+        u.resize(self.data.len(), String::new());
+        u
+    }
+
     fn residual_channels(&self) -> &[String] {
         self.parent.residual_channels()
     }

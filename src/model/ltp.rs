@@ -331,6 +331,17 @@ impl LtpModel {
     }
 }
 
+/// The SI unit of an LTP data channel: the read-outs and guidance injections are
+/// displacements, the commanded forces per unit mass accelerations (ltp-model.md §3);
+/// `""` for a name the loop does not know.
+pub fn ltp_channel_unit(channel: &str) -> &'static str {
+    match channel {
+        "o1" | "o12" | "i1" | "i12" => "m",
+        "g1" | "g2" | "gsc" => "m s⁻²",
+        _ => "",
+    }
+}
+
 impl Model for LtpModel {
     fn name(&self) -> &str {
         &self.name
@@ -374,6 +385,13 @@ impl Model for LtpModel {
 
     fn residual_channels(&self) -> &[String] {
         &self.res
+    }
+
+    fn channel_units(&self) -> Vec<String> {
+        self.data
+            .iter()
+            .map(|c| ltp_channel_unit(c).into())
+            .collect()
     }
 
     fn n_consts(&self) -> usize {

@@ -23,6 +23,7 @@
 
 pub mod accel;
 mod bin;
+mod channels;
 mod checks;
 mod covariates;
 pub mod drift;
@@ -42,6 +43,7 @@ pub use bin::{
     Bin, BinBlock, MAX_CHANNELS, MAX_CONSTS, MAX_RESIDUALS, quad, quad_whitened, residual,
     residual_into, tri_len, with_buffer,
 };
+pub use channels::{Channel, ChannelRoles};
 pub use checks::{check_finite, check_identifiable, coefficients_at, validate_shape};
 pub use covariates::Covariates;
 pub use drift::{DriftModel, DriftRule};

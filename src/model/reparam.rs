@@ -187,6 +187,10 @@ impl Model for ReparamModel {
         self.parent.residual_channels()
     }
 
+    fn channel_units(&self) -> Vec<String> {
+        self.parent.channel_units()
+    }
+
     fn n_consts(&self) -> usize {
         self.parent.n_consts()
     }

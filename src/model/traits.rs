@@ -69,6 +69,13 @@ pub trait Model: Send + Sync + std::fmt::Debug {
     /// Residual channels `r_r` (rows of `M`), 1 to [`MAX_RESIDUALS`].
     fn residual_channels(&self) -> &[String];
 
+    /// SI unit of each data channel, in the order of [`Model::data_channels`], for the axes of
+    /// the data, spectra and Bode plots: `"m"`, `"m s⁻²"`; an empty string for an unknown
+    /// unit. The default knows none.
+    fn channel_units(&self) -> Vec<String> {
+        vec![String::new(); self.data_channels().len()]
+    }
+
     /// Number of θ-independent complex constants per bin.
     fn n_consts(&self) -> usize {
         0

@@ -41,6 +41,9 @@ pub struct BodeExperiment {
     pub grid: Vec<f64>,
     /// Every injection → read-out pair measured.
     pub pairs: Vec<BodePair>,
+    /// The gain's unit when the read-outs share one and the injections another
+    /// (`m per m s⁻²`); `None` for a gain of read-out per unit injected.
+    pub gain_unit: Option<String>,
 }
 
 /// Phase in degrees.
@@ -49,14 +52,18 @@ fn degrees(h: Complex64) -> f64 {
 }
 
 /// Writes `bode.npz` and `bode_<experiment>.png/.svg` for every experiment with a measured
-/// line; nothing when there is none. The npz keys, with `<p>` = `<experiment>__<input>_to_<output>`:
+/// line or a model's curve; nothing when there is none. The npz keys, with `<p>` = `<experiment>__<input>_to_<output>`:
 /// `<experiment>__grid`; `<p>__freq`, `<p>__h_re`, `<p>__h_im`, `<p>__coherence`, `<p>__rel_err`
 /// (relative error of |H|, also the phase error in radians); per model `<p>__<model>__re`,
 /// `__im` (at the lines) and `__grid_re`, `__grid_im`.
 pub fn write(dir: &Path, exps: &[BodeExperiment]) -> Result<(), ReportError> {
     let drawn: Vec<&BodeExperiment> = exps
         .iter()
-        .filter(|e| e.pairs.iter().any(|p| !p.measured.h.is_empty()))
+        .filter(|e| {
+            e.pairs
+                .iter()
+                .any(|p| !p.measured.h.is_empty() || !p.models.is_empty())
+        })
         .collect();
     if drawn.is_empty() {
         return Ok(());
@@ -147,11 +154,14 @@ fn panels(e: &BodeExperiment) -> (Panel, Panel) {
                 f64::NAN
             });
         }
-        let name = format!("measured {pair} (±1σ)");
-        gain.0.push((name.clone(), g));
-        gain.1.push(ge);
-        phase.0.push((name, ph));
-        phase.1.push(pe);
+        // injections too slow to measure: the models' curves alone
+        if !g.is_empty() {
+            let name = format!("measured {pair} (±1σ)");
+            gain.0.push((name.clone(), g));
+            gain.1.push(ge);
+            phase.0.push((name, ph));
+            phase.1.push(pe);
+        }
         for b in &p.models {
             let name = format!("{} at its MAP, {pair}", b.name);
             let g: Vec<(f64, f64)> = e
@@ -183,17 +193,29 @@ fn panels(e: &BodeExperiment) -> (Panel, Panel) {
 fn draw(dir: &Path, e: &BodeExperiment) -> Result<(), ReportError> {
     let stem = format!("bode_{}", e.experiment);
     let ((gs, ge), (ps, pe)) = panels(e);
-    let title = format!(
-        "transfer functions of experiment {}: measured and fitted",
-        e.experiment
-    );
+    let measured = e.pairs.iter().any(|p| !p.measured.h.is_empty());
+    let title = if measured {
+        format!(
+            "transfer functions of experiment {}: measured and fitted",
+            e.experiment
+        )
+    } else {
+        format!(
+            "transfer functions of experiment {}: fitted (no line measured)",
+            e.experiment
+        )
+    };
+    let y_label = match &e.gain_unit {
+        Some(u) => format!("gain |H| ({u})"),
+        None => "gain |H| (read-out per unit injected)".into(),
+    };
     let gain = LineFigure::new(
         dir,
         &stem,
         &LinePlot {
             title: &title,
             x_label: "frequency (Hz)",
-            y_label: "gain |H| (read-out per unit injected)",
+            y_label: &y_label,
             series: &gs,
             y_err: Some(&ge),
             log_x: true,
@@ -236,6 +258,7 @@ mod tests {
             .collect();
         BodeExperiment {
             experiment: "inv1".into(),
+            gain_unit: None,
             grid,
             pairs: vec![BodePair {
                 measured: MeasuredTransfer {
@@ -299,11 +322,34 @@ mod tests {
     }
 
     #[test]
-    fn nothing_measured_writes_nothing() {
+    fn nothing_measured_and_no_model_writes_nothing() {
         let mut e = experiment();
         e.pairs[0].measured.h.clear();
+        e.pairs[0].models.clear();
         let dir = tempfile::tempdir().unwrap();
         write(dir.path(), &[e]).unwrap();
         assert!(std::fs::read_dir(dir.path()).unwrap().next().is_none());
+    }
+
+    /// Injections too slow to measure: the models' curves alone, with no empty "measured"
+    /// series in the legend and a title that says so.
+    #[test]
+    fn nothing_measured_draws_the_models_alone() {
+        let mut e = experiment();
+        let m = &mut e.pairs[0].measured;
+        for v in [&mut m.freqs, &mut m.coherence, &mut m.rel_err] {
+            v.clear();
+        }
+        m.h.clear();
+        e.pairs[0].models[0].at_lines.clear();
+        e.gain_unit = Some("m per m s⁻²".into());
+        let ((gs, _), _) = panels(&e);
+        assert!(gs.iter().all(|(n, _)| !n.starts_with("measured")), "{gs:?}");
+        assert_eq!(gs.len(), e.pairs[0].models.len());
+        let dir = tempfile::tempdir().unwrap();
+        write(dir.path(), &[e]).unwrap();
+        let svg = std::fs::read_to_string(dir.path().join("bode_inv1.svg")).unwrap();
+        assert!(svg.contains("fitted (no line measured)"));
+        assert!(svg.contains("gain |H| (m per m s⁻²)"));
     }
 }

@@ -13,7 +13,7 @@ use std::path::Path;
 pub struct RawChannel {
     /// Channel name (`o1`, `i1`, …).
     pub name: String,
-    /// Unit of the samples (`m`), for the axis title.
+    /// Unit of the samples (`m`), for the axis title; empty when unknown.
     pub unit: String,
     /// The samples, at the experiment's rate from the start of the fit stretch.
     pub samples: Vec<f64>,
@@ -68,7 +68,11 @@ pub fn write(dir: &Path, raws: &[RawData]) -> Result<(), ReportError> {
                 } else {
                     String::new()
                 };
-                let y = format!("{} ({})", c.name, c.unit);
+                let y = if c.unit.is_empty() {
+                    c.name.clone()
+                } else {
+                    format!("{} ({})", c.name, c.unit)
+                };
                 panels.push(LineFigure::new(
                     dir,
                     &stem,

@@ -25,8 +25,13 @@ pub(crate) fn figure(curves: &[(String, Vec<ResidualPsd>)], k: usize) -> (String
     let asd = |f: &[f64], s: &[f64]| -> Vec<(f64, f64)> {
         f.iter().zip(s).map(|(&f, &s)| (f, s.sqrt())).collect()
     };
+    let source = if e.reference_is_welch {
+        "noise-only stretch"
+    } else {
+        "noise model"
+    };
     let mut series = vec![(
-        "reference noise (noise-only stretch)".to_string(),
+        format!("reference noise ({source})"),
         asd(&e.reference_freqs, &e.reference),
     )];
     if let Some(r) = &e.readout {
@@ -38,10 +43,10 @@ pub(crate) fn figure(curves: &[(String, Vec<ResidualPsd>)], k: usize) -> (String
             asd(&c[k].freqs, &c[k].residual),
         ));
     }
-    let unit = match e.channel.as_str() {
-        "a12" => "m s⁻²/√Hz",
-        "o1" | "o12" => "m/√Hz",
-        _ => "units/√Hz",
+    let unit = if e.unit.is_empty() {
+        "its unit/√Hz".to_string()
+    } else {
+        format!("{}/√Hz", e.unit)
     };
     let title = format!(
         "residual {} of experiment {} (Fig. 3)",
@@ -122,11 +127,13 @@ mod tests {
         let one = |scale: f64| ResidualPsd {
             experiment: "inv1".into(),
             channel: "o1".into(),
+            unit: "m".into(),
             freqs: freqs.clone(),
             residual: freqs.iter().map(|&f| scale * noise(f)).collect(),
             readout: Some(freqs.iter().map(|&f| lines(f)).collect()),
             reference_freqs: freqs.clone(),
             reference: freqs.iter().map(|&f| noise(f)).collect(),
+            reference_is_welch: true,
         };
         vec![
             ("ltp".into(), vec![one(1.0)]),
@@ -179,5 +186,23 @@ mod tests {
                 .any(|(n, _)| n.contains("no model subtracted")),
             "{series:?}"
         );
+    }
+
+    /// The axis names the residual's unit and the legend where the reference noise comes
+    /// from: under `noise = "model"` there is no noise-only stretch to name.
+    #[test]
+    fn the_axis_and_the_reference_say_what_they_are() {
+        let mut c = curves();
+        let (_, y, series) = figure(&c, 0);
+        assert_eq!(y, "ASD of o1 (m/√Hz)");
+        assert_eq!(series[0].0, "reference noise (noise-only stretch)");
+        for (_, e) in &mut c {
+            e[0].channel = "pos_a".into();
+            e[0].unit = String::new();
+            e[0].reference_is_welch = false;
+        }
+        let (_, y, series) = figure(&c, 0);
+        assert_eq!(y, "ASD of pos_a (its unit/√Hz)");
+        assert_eq!(series[0].0, "reference noise (noise model)");
     }
 }

@@ -332,7 +332,7 @@ pub fn run(
         &names,
         &crate::jobs::prepare::injection_lines(study, exact),
     );
-    let (bode, w) = crate::jobs::bode::bode_data(
+    let (bode, w, n) = crate::jobs::bode::bode_data(
         study,
         &prep.dataset.experiments,
         &[crate::jobs::bode::Fitted {
@@ -342,6 +342,7 @@ pub fn run(
         }],
     );
     summary.warnings.extend(w);
+    summary.notes.extend(n);
     let (raw, w) = crate::jobs::raw_data::raw_data(study, exact, &prep.dataset.experiments);
     summary.warnings.extend(w);
     Ok(FitOutcome {

@@ -565,7 +565,7 @@ fn summarise(
             .indices()
             .flat_map(|mi| model_warnings(study, mi, &prep.dataset)),
     );
-    let (notes, gap_warnings) = gap_notes(study, &prep.dataset);
+    let (mut notes, gap_warnings) = gap_notes(study, &prep.dataset);
     warnings.extend(gap_warnings);
     warnings.extend(prep.glitch_notes());
     if !study.analysis.glitch_count.is_all() {
@@ -620,8 +620,9 @@ fn summarise(
             map: &m.map,
         })
         .collect();
-    let (bode, w) = crate::jobs::bode::bode_data(study, &prep.dataset.experiments, &fitted);
+    let (bode, w, n) = crate::jobs::bode::bode_data(study, &prep.dataset.experiments, &fitted);
     warnings.extend(w);
+    notes.extend(n);
     let (raw, w) =
         crate::jobs::raw_data::raw_data(study, plan.models[0].exact, &prep.dataset.experiments);
     warnings.extend(w);

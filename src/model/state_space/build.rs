@@ -161,15 +161,19 @@ impl StateSpaceModel {
         };
         let (g, h, noise) = noise_inputs(&scope, n, p)?;
         let delays = delays(&scope)?;
+        let data: Vec<String> = def.outputs.iter().chain(&def.inputs).cloned().collect();
+        let (units, channel_units) = crate::model::user::units(
+            &format!("state-space model `{}`", def.name),
+            &def.parameters,
+            &data,
+            &def.unit,
+        )?;
         let model = StateSpaceModel {
             name: def.name.clone(),
             params: def.parameters.clone(),
-            units: crate::model::user::param_units(
-                &format!("state-space model `{}`", def.name),
-                &def.parameters,
-                &def.unit,
-            )?,
-            data: def.outputs.iter().chain(&def.inputs).cloned().collect(),
+            units,
+            channel_units,
+            data,
             outputs: def.outputs.clone(),
             states,
             time: def.time,

@@ -47,6 +47,8 @@ pub struct StateSpaceModel {
     pub(super) units: Vec<String>,
     /// Outputs, then inputs.
     pub(super) data: Vec<String>,
+    /// Unit of each channel of `data` (empty: unknown).
+    pub(super) channel_units: Vec<String>,
     pub(super) outputs: Vec<String>,
     pub(super) states: Vec<String>,
     pub(super) time: TimeDomain,
@@ -216,6 +218,10 @@ impl Model for StateSpaceModel {
 
     fn data_channels(&self) -> &[String] {
         &self.data
+    }
+
+    fn channel_units(&self) -> Vec<String> {
+        self.channel_units.clone()
     }
 
     fn residual_channels(&self) -> &[String] {

@@ -67,19 +67,22 @@ impl UserModel {
 /// The longest unit a parameter may be given (it is printed in table cells and axis titles).
 const MAX_UNIT_CHARS: usize = 32;
 
-/// The units of `parameters` from a model's `unit` table (by parameter name; a parameter not
-/// named gets `""`). `what` names the model in errors (`user model `m``); every key must be a
-/// parameter and every unit one short line.
-pub fn param_units(
+/// The units of `parameters` and of the data `channels` from a model's `unit` table (by
+/// parameter or channel name; one not named gets `""`), in their orders. `what` names the
+/// model in errors (`user model `m``); every key must be a parameter or a data channel and
+/// every unit one short line.
+pub fn units(
     what: &str,
     parameters: &[String],
+    channels: &[String],
     unit: &std::collections::BTreeMap<String, String>,
-) -> Result<Vec<String>, String> {
+) -> Result<(Vec<String>, Vec<String>), String> {
     for (k, u) in unit {
-        if !parameters.contains(k) {
+        if !parameters.contains(k) && !channels.contains(k) {
             return Err(format!(
-                "{what}: unit.{k}: `{k}` is not a parameter of the model; parameters = [{}]; give units by parameter name, e.g. unit = {{ {} = \"s\" }}",
+                "{what}: unit.{k}: `{k}` is neither a parameter nor a data channel of the model; parameters = [{}], data channels = [{}]; give units by name, e.g. unit = {{ {} = \"s\" }}",
                 parameters.join(", "),
+                channels.join(", "),
                 parameters.first().map_or("k", String::as_str)
             ));
         }
@@ -89,10 +92,13 @@ pub fn param_units(
             ));
         }
     }
-    Ok(parameters
-        .iter()
-        .map(|p| unit.get(p).cloned().unwrap_or_default())
-        .collect())
+    let of = |names: &[String]| {
+        names
+            .iter()
+            .map(|p| unit.get(p).cloned().unwrap_or_default())
+            .collect()
+    };
+    Ok((of(parameters), of(channels)))
 }
 
 /// An error of model `m`: `user model `m`: <entry>: <msg>`.
@@ -611,14 +617,17 @@ impl<'a> Scope<'a> {
             expr::emit(n, &resolve, &mut ops);
             ops.push(Op::Out(*k as u16));
         }
+        let (units, channel_units) = units(
+            &format!("user model `{}`", def.name),
+            &def.parameters,
+            &def.data,
+            &def.unit,
+        )?;
         Ok(UserModel {
             name: def.name.clone(),
             params: def.parameters.clone(),
-            units: param_units(
-                &format!("user model `{}`", def.name),
-                &def.parameters,
-                &def.unit,
-            )?,
+            units,
+            channel_units,
             data: def.data.clone(),
             res: def.residual.clone(),
             blocks: kept_blocks,

@@ -23,6 +23,8 @@ pub struct UserModel {
     /// Unit of each parameter, in θ order (empty: dimensionless or unknown).
     pub(super) units: Vec<String>,
     pub(super) data: Vec<String>,
+    /// Unit of each data channel, in the order of `data` (empty: unknown).
+    pub(super) channel_units: Vec<String>,
     pub(super) res: Vec<String>,
     /// Blocks some coefficient uses; block `k` lives in slot `k`.
     pub(super) blocks: Vec<(String, Block)>,
@@ -97,6 +99,10 @@ impl Model for UserModel {
 
     fn data_channels(&self) -> &[String] {
         &self.data
+    }
+
+    fn channel_units(&self) -> Vec<String> {
+        self.channel_units.clone()
     }
 
     fn residual_channels(&self) -> &[String] {

@@ -56,7 +56,7 @@ mod ssa;
 #[cfg(test)]
 mod tests;
 
-pub use build::param_units;
+pub use build::units;
 pub use compiled::{MAX_SLOTS, UserModel};
 pub use def::{BlockDef, RealValue, UserModelDef};
 #[cfg(test)]
