@@ -147,3 +147,33 @@ fn a_target_snr_on_the_ltpda_scale_is_the_same_data_as_its_rho_opt() {
         assert!((x - y).abs() <= 1e-12 * x.abs().max(1e-18), "{x} {y}");
     }
 }
+
+/// `fit` simulates the same data `simulate` writes (issue 52, item 8: the starters call
+/// `simulate` optional): a fit on the fly and a fit reading the simulated directory through
+/// `[analysis] dataset` give the same summary, number for number.
+#[test]
+fn fit_on_the_fly_sees_the_data_simulate_writes() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let text = common::small();
+    std::fs::write(d.join("s.toml"), &text).unwrap();
+    let (ok, _, err) = occam(&["simulate", "s.toml", "-q", "-o", "sim"], d);
+    assert!(ok, "{err}");
+    let (ok, _, err) = occam(&["fit", "s.toml", "-q", "-o", "fly"], d);
+    assert!(ok, "{err}");
+    let read = text.replace("[analysis]\n", "[analysis]\ndataset = \"sim\"\n");
+    assert_ne!(read, text);
+    std::fs::write(d.join("r.toml"), &read).unwrap();
+    let (ok, _, err) = occam(&["fit", "r.toml", "-q", "-o", "read"], d);
+    assert!(ok, "{err}");
+    let rows = |run: &str| {
+        let s: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(d.join(run).join("summary.json")).unwrap(),
+        )
+        .unwrap();
+        (s["rows"].clone(), s["map"].clone())
+    };
+    let (fly, read) = (rows("fly"), rows("read"));
+    assert!(fly.0.as_array().is_some_and(|r| !r.is_empty()));
+    assert_eq!(fly, read);
+}
