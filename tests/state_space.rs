@@ -375,4 +375,29 @@ fn a_state_space_model_gets_its_own_channels_plots_and_its_bode_plot_agrees() {
     eprintln!("Bode pulls {pulls:.2?}; swapped read-outs {swapped:.2?}");
     assert!(pulls.iter().all(|z| z.abs() < 4.0), "{pulls:?}");
     assert!(swapped.iter().any(|z| z.abs() > 10.0), "{swapped:?}");
+
+    // with fewer segments than the error bars are checked at, the run says they are too small
+    let few = TWO_MASS_BODE.replace(
+        "noise = \"model\"\n",
+        "noise = \"model\"\nwelch_averages = 8\n",
+    );
+    assert_ne!(few, TWO_MASS_BODE);
+    std::fs::write(&study, few).unwrap();
+    let out = dir.path().join("few");
+    let (ok, stdout, stderr) = occam(
+        &[
+            "fit",
+            study.to_str().unwrap(),
+            "-o",
+            out.to_str().unwrap(),
+            "-q",
+        ],
+        dir.path(),
+    );
+    assert!(ok, "{stdout}\n{stderr}");
+    let summary = std::fs::read_to_string(out.join("summary.json")).unwrap();
+    assert!(
+        summary.contains("the Bode plots' error bars are too small"),
+        "{summary}"
+    );
 }

@@ -5,7 +5,7 @@
 use crate::config::Study;
 use crate::data::dataset::ExperimentData;
 use crate::likelihood::Likelihood;
-use crate::likelihood::transfer::{measured_transfer, model_transfer};
+use crate::likelihood::transfer::{MIN_CHECKED_AVERAGES, measured_transfer, model_transfer};
 use crate::model::ChannelRoles;
 use crate::report::bode::{BodeExperiment, BodeModel, BodePair};
 
@@ -104,7 +104,7 @@ pub fn bode_data(
             }
             let lowest = lowest_line(e, &opts);
             notes.push(format!(
-                "experiment `{}`: no injected line is measured on its Bode plot: a line must lie at or above the fifth bin of the transfer function's {} back-to-back segments of the fit stretch (`[analysis] welch_averages`), {lowest:.3e} Hz here: a longer stretch or faster injections put lines there (fewer averages do too, but the error bars are checked at 16); the models' curves are drawn alone",
+                "experiment `{}`: no injected line is measured on its Bode plot: a line must lie at or above the fifth bin of the transfer function's {} back-to-back segments of the fit stretch (`[analysis] welch_averages`), {lowest:.3e} Hz here: a longer stretch or faster injections put lines there (fewer averages do too, but the error bars are checked at {MIN_CHECKED_AVERAGES}); the models' curves are drawn alone",
                 e.name, opts.welch_averages
             ));
         }
@@ -119,6 +119,15 @@ pub fn bode_data(
             grid,
             pairs,
         });
+    }
+    let measured_any = out
+        .iter()
+        .any(|e| e.pairs.iter().any(|p| !p.measured.h.is_empty()));
+    if measured_any && opts.welch_averages < MIN_CHECKED_AVERAGES {
+        warnings.push(format!(
+            "the Bode plots' error bars are too small: they are measured from {} back-to-back segments (`[analysis] welch_averages`), and the coherence-based errors cover only from {MIN_CHECKED_AVERAGES} (χ²/n of their pulls 6.8 at 8 segments, docs/src/guide/outputs.md)",
+            opts.welch_averages
+        ));
     }
     for (n, outs) in unpredicted {
         warnings.push(format!(

@@ -65,6 +65,11 @@ pub fn coherence_error(gamma2: f64, n: f64) -> f64 {
     }
 }
 
+/// The fewest segments whose coherence-based error bars are checked to cover: with fewer, the
+/// scatter and bias of the estimated coherence make them too small (χ²/n of the transfer
+/// tests' pulls: 1.04 at 16 averages, 6.8 at 8, 31 at 4; the tests below).
+pub const MIN_CHECKED_AVERAGES: usize = 16;
+
 /// The measured transfer functions of experiment `e` from every injection channel of `roles`
 /// that carries a signal to every read-out the experiment holds, in band `opts.band`; none when
 /// nothing is injected. Errors name the experiment (a fit stretch too short for the segments,
@@ -310,11 +315,19 @@ mod tests {
     /// Pulls of the gain (`ln |H|` over its relative error) and phase of every line with real
     /// coherence, over several noise realisations.
     fn pulls(scale_err: f64) -> Vec<f64> {
+        pulls_at(scale_err, opts().welch_averages)
+    }
+
+    fn pulls_at(scale_err: f64, averages: usize) -> Vec<f64> {
         let (m, th) = ltp();
         let mut z = Vec::new();
+        let o = SpectraOptions {
+            welch_averages: averages,
+            ..opts()
+        };
         for seed in 0..6 {
             let e = experiment(&lines(), 1e-3, seed);
-            for t in measured_transfer(&e, &opts(), &ltp_roles()).unwrap() {
+            for t in measured_transfer(&e, &o, &ltp_roles()).unwrap() {
                 assert_eq!(t.input, "i1");
                 let truth = model_transfer(&m, &th, FS, &t.freqs, "i1", &t.output).unwrap();
                 for k in 0..t.h.len() {
@@ -346,6 +359,17 @@ mod tests {
             let c = pulls(wrong).iter().map(|v| v * v).sum::<f64>() / n;
             assert!((c - 1.0).abs() > band, "σ × {wrong} passes: χ²/n = {c}");
         }
+    }
+
+    /// Below [`MIN_CHECKED_AVERAGES`] the error bars are too small, which is why the Bode
+    /// plots say so there: at 8 averages χ²/n of the same pulls is far above 1 (6.8 measured),
+    /// while at 16 it is 1 (the test above).
+    #[test]
+    fn with_fewer_averages_than_checked_the_error_bars_are_too_small() {
+        assert_eq!(opts().welch_averages, MIN_CHECKED_AVERAGES);
+        let z = pulls_at(1.0, MIN_CHECKED_AVERAGES / 2);
+        let chi2 = z.iter().map(|v| v * v).sum::<f64>() / z.len() as f64;
+        assert!(chi2 > 3.0, "χ²/n = {chi2} at 8 averages");
     }
 
     /// H, γ² and the error at each line against a direct computation: every segment's naive
