@@ -189,7 +189,6 @@ pub fn heat_map(dir: &Path, stem: &str, map: &HeatMap<'_>) -> Result<(), ReportE
 
 /// Type sizes (px) from the common style: a [`style::COLUMN_PX`] figure scaled to a 3.4 in
 /// column prints every text at 8 pt or more.
-const TITLE_PX: u32 = style::TITLE_PX;
 const DESC_PX: u32 = style::LABEL_PX;
 const TICK_PX: u32 = style::TICK_PX;
 const LEGEND_PX: u32 = style::LEGEND_PX;
@@ -515,7 +514,8 @@ impl Figure for BandFigure {
         let area = if self.title.is_empty() {
             root.margin(8, 0, 0, 0)
         } else {
-            root.titled(&self.title, font(TITLE_PX))?
+            let (title, style) = super::plots::fitted_title(root, &self.title);
+            root.titled(&title, style)?
         };
         let area = match &self.sign {
             Some(note) => {
@@ -1069,7 +1069,8 @@ impl Figure for MapFigure {
         let area = if self.title.is_empty() {
             root.margin(14, 0, 0, 0)
         } else {
-            root.titled(&self.title, font(TITLE_PX))?.margin(6, 0, 0, 0)
+            let (title, style) = super::plots::fitted_title(root, &self.title);
+            root.titled(&title, style)?.margin(6, 0, 0, 0)
         };
         let (main, side) = area.split_horizontally(MAP_W - BAR_COL);
         let x_area = TICK_PX + DESC_PX + 24;

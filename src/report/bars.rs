@@ -134,9 +134,8 @@ impl Figure for BarFigure {
             fmt_sig(self.total, 6)
         };
         let title = format!("Model visits ({total} in total)");
-        let area = root
-            .titled(&title, text(style::TITLE_PX))?
-            .margin(5, 10, 10, 20);
+        let (title, style) = super::plots::fitted_title(root, &title);
+        let area = root.titled(&title, style)?.margin(5, 10, 10, 20);
         let n = self.fractions.len();
         let mut x = Axis::linear(0.0, 1.0, 1);
         x.lo = -0.5;

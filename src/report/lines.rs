@@ -405,8 +405,8 @@ impl Figure for LineFigure {
         let area = if self.title.is_empty() {
             root.margin(15, 10, 10, 25)
         } else {
-            root.titled(&self.title, text(style::TITLE_PX))?
-                .margin(5, 10, 10, 25)
+            let (title, style) = super::plots::fitted_title(root, &self.title);
+            root.titled(&title, style)?.margin(5, 10, 10, 25)
         };
         let (_, h) = area.dim_in_pixel();
         let (area, legend_area) = area.split_vertically(h.saturating_sub(self.legend_h()));

@@ -164,6 +164,37 @@ pub(crate) fn text(size: u32) -> TextStyle<'static> {
     (FONT, size).into_font().into()
 }
 
+/// The smallest a title is set at to fit its figure (px): the notes' size, so that a figure
+/// scaled to a column still prints every text at 8 pt or more.
+const TITLE_MIN_PX: u32 = style::NOTE_PX;
+
+/// `title` and the style it fits `root`'s width in: [`style::TITLE_PX`] when it fits (every
+/// title that did is drawn as before), else smaller down to the notes' 8 pt, else cut at the
+/// end with "…" — a title centred wider than its figure lost both its ends (a
+/// `bayes_factor.png` of two long model names).
+pub(crate) fn fitted_title<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    title: &str,
+) -> (String, TextStyle<'static>) {
+    let (w, _) = root.dim_in_pixel();
+    let room = w.saturating_sub(16);
+    let fits = |t: &str, px: u32| {
+        root.estimate_text_size(t, &text(px))
+            .map_or(true, |(tw, _)| tw <= room)
+    };
+    let mut px = style::TITLE_PX;
+    while px > TITLE_MIN_PX && !fits(title, px) {
+        px -= 1;
+    }
+    let mut t = title.to_string();
+    let mut chars: Vec<char> = title.chars().collect();
+    while !fits(&t, px) && chars.len() > 1 {
+        chars.pop();
+        t = chars.iter().collect::<String>() + "…";
+    }
+    (t, text(px))
+}
+
 /// A linear plotters coordinate whose ticks are exactly those of an [`Axis`].
 ///
 /// plotters' own `with_key_points` wrapper cannot be used for `f64` because it drops the
@@ -284,4 +315,46 @@ pub(crate) fn mesh<DB: DrawingBackend>(
         m.y_desc(d.as_str());
     }
     m.draw()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A title that fits keeps its size and text; one too wide is set smaller, then cut with
+    /// "…", and then fits (before, it was centred past both edges).
+    #[test]
+    fn a_title_wider_than_its_figure_is_made_to_fit() {
+        ensure_font().unwrap();
+        let mut svg = String::new();
+        let root = SVGBackend::with_string(&mut svg, (680, 400)).into_drawing_area();
+        let short = "ln B(X/Y) along the reversible-jump run";
+        let (t, _) = fitted_title(&root, short);
+        assert_eq!(t, short);
+        let size = |t: &str, px: u32| root.estimate_text_size(t, &text(px)).unwrap().0;
+        assert!(size(short, style::TITLE_PX) <= 664);
+        let long = format!(
+            "ln B({}/{}) along the reversible-jump run",
+            "springs_and_a_coupling_damper_between_the_masses",
+            "springs_alone_with_the_damper_fixed_at_zero"
+        );
+        assert!(
+            size(&long, style::TITLE_PX) > 664,
+            "the case is not too wide"
+        );
+        let (t, style) = fitted_title(&root, &long);
+        assert!(t.ends_with('…') && t.starts_with("ln B(springs_and"), "{t}");
+        assert!(root.estimate_text_size(&t, &style).unwrap().0 <= 664);
+        // a little too wide: smaller, not cut
+        let (w_short, _) = root
+            .estimate_text_size(short, &text(style::TITLE_PX))
+            .unwrap();
+        let slightly = format!(
+            "{short} {}",
+            "x".repeat(((664 - w_short) / 12 + 2) as usize)
+        );
+        assert!(size(&slightly, style::TITLE_PX) > 664);
+        let (t, _) = fitted_title(&root, &slightly);
+        assert_eq!(t, slightly, "shrinking alone makes it fit");
+    }
 }
