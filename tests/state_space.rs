@@ -311,20 +311,25 @@ fn a_state_space_model_gets_its_own_channels_plots_and_its_bode_plot_agrees() {
     use ndarray::Array1;
     use ndarray_npy::NpzReader;
     let dir = tempfile::tempdir().unwrap();
-    let study = dir.path().join("two.toml");
-    std::fs::write(&study, TWO_MASS_BODE).unwrap();
-    let out = dir.path().join("fit");
-    let (ok, stdout, stderr) = occam(
-        &[
-            "fit",
-            study.to_str().unwrap(),
-            "-o",
-            out.to_str().unwrap(),
-            "-q",
-        ],
-        dir.path(),
-    );
-    assert!(ok, "{stdout}\n{stderr}");
+    // `occam fit` of the study `text` into `<dir>/<run>`
+    let fit = |text: &str, run: &str| {
+        let study = dir.path().join(format!("{run}.toml"));
+        std::fs::write(&study, text).unwrap();
+        let out = dir.path().join(run);
+        let (ok, stdout, stderr) = occam(
+            &[
+                "fit",
+                study.to_str().unwrap(),
+                "-o",
+                out.to_str().unwrap(),
+                "-q",
+            ],
+            dir.path(),
+        );
+        assert!(ok, "{stdout}\n{stderr}");
+        out
+    };
+    let out = fit(TWO_MASS_BODE, "fit");
     for e in ["low", "high"] {
         for stem in ["timeseries", "spectra", "bode"] {
             assert!(out.join(format!("{stem}_{e}.png")).is_file(), "{stem}_{e}");
@@ -382,19 +387,7 @@ fn a_state_space_model_gets_its_own_channels_plots_and_its_bode_plot_agrees() {
         "noise = \"model\"\nwelch_averages = 8\n",
     );
     assert_ne!(few, TWO_MASS_BODE);
-    std::fs::write(&study, few).unwrap();
-    let out = dir.path().join("few");
-    let (ok, stdout, stderr) = occam(
-        &[
-            "fit",
-            study.to_str().unwrap(),
-            "-o",
-            out.to_str().unwrap(),
-            "-q",
-        ],
-        dir.path(),
-    );
-    assert!(ok, "{stdout}\n{stderr}");
+    let out = fit(&few, "few");
     let summary = std::fs::read_to_string(out.join("summary.json")).unwrap();
     assert!(
         summary.contains("the Bode plots' error bars are too small"),
