@@ -8,7 +8,14 @@ from pathlib import Path
 
 import numpy as np
 
-from ._arviz import inference_data
+from ._arviz import (
+    bin_spreads,
+    check_observations,
+    inference_data,
+    observation_groups,
+    observed_data_group,
+    rj_log_likelihood,
+)
 
 
 def _load_npz(path):
@@ -230,18 +237,24 @@ class FitResult:
 
     def to_arviz(self, log_likelihood=True, prior=True, observed_data=True,
                  per_experiment=False, max_draws=2000, max_values=20_000_000,
-                 prior_draws=1000, study=None):
+                 prior_draws=1000, study=None, observations="groups"):
         """``arviz.InferenceData`` of the chains (see ``Chains.to_arviz``; ``attrs`` hold the
         model, the statistic and the likelihood the chains ran on) with the groups
         ``az.loo``, ``az.compare`` and ``az.plot_*`` read:
 
-        * ``log_likelihood``: the exact ``ln L`` frequency bin by frequency bin
-          (``Likelihood.ln_likelihood_per_bin``) at thinned posterior draws, so that summed
-          over bins it is the draw's exact ``ln L`` (the chains' stored ``ln L`` when they ran
-          on the exact likelihood). One variable ``spectrum``, dims ``(chain, draw, bin)``, the
-          bins of every experiment with coordinates ``experiment`` and ``frequency``
+        * ``log_likelihood``: the exact ``ln L`` at thinned posterior draws, observation by
+          observation, so that summed over observations it is the draw's exact ``ln L`` (the
+          chains' stored ``ln L`` when they ran on the exact likelihood). The observations
+          (``observations="groups"``, the default) are groups of adjacent frequency bins: a
+          bin whose ``ln L`` varies by less than 1e-6 nat over the posterior carries no
+          information and is folded into the next bin that does (alone, ArviZ's Pareto fit of
+          such a bin is a fit to rounding: ``elpd_loo`` NaN, spurious ``k̂ > 0.7``);
+          coordinates ``experiment``, ``frequency`` (the informative bin's), ``f_lo``,
+          ``f_hi`` and ``n_bins``. ``observations="bins"``: one observation per bin, as
+          before (coordinates ``experiment`` and ``frequency``). One variable ``spectrum``,
+          dims ``(chain, draw, observation)`` (or ``bin``), every experiment's observations
           (``az.loo(idata)`` needs a single variable); ``per_experiment=True``: one variable
-          per experiment, dims ``(chain, draw, <experiment>_bin)`` (then
+          per experiment, dims ``(chain, draw, <experiment>_observation)`` (then
           ``az.loo(idata, var_name="a")``). Memory: at most ``max_draws`` draws over all
           chains and ``max_values`` numbers (8 bytes each) in all, evenly thinned; the
           ``draw`` coordinate holds the kept draws' indices.
@@ -251,6 +264,7 @@ class FitResult:
 
         These groups rebuild the likelihood from the study: ``study`` (default: the study the
         run was made from, else the run directory's ``study.resolved.toml``)."""
+        check_observations(observations)
         s = self.summary
         attrs = {k: s[k] for k in ("model", "statistic", "likelihood") if k in s}
         attrs["occam_output"] = str(self.output)
@@ -260,10 +274,17 @@ class FitResult:
         from ._likelihood import Likelihood
 
         lik = Likelihood.from_study(study or _study_of(self), None)
+        groups = None
+        if log_likelihood and observations == "groups":
+            p = self.chains.samples.shape[-1]
+            groups = observation_groups(
+                lik.experiments, [bin_spreads(lik, self.chains.samples.reshape(-1, p))]
+            )
         return inference_data(
             idata, self.chains, lik, log_likelihood=log_likelihood, prior=prior,
             observed_data=observed_data, per_experiment=per_experiment,
             max_draws=max_draws, max_values=max_values, prior_draws=prior_draws,
+            groups=groups,
         )
 
     def __repr__(self):
@@ -317,38 +338,94 @@ class SelectResult:
         ``posterior_model_probabilities``), or ``None``."""
         return self.summary.get("posterior_model_probabilities")
 
+    def _likelihood(self, study, model):
+        """``occam.Likelihood`` of ``model`` on ``study``, built once per result."""
+        from ._likelihood import Likelihood
+
+        cache = self.__dict__.setdefault("_likelihoods", {})
+        key = (str(study), model)
+        if key not in cache:
+            cache[key] = Likelihood.from_study(study, model)
+        return cache[key]
+
+    def _observation_groups(self, study):
+        """``observation_groups`` over every model with chains: the same observations for
+        each, as ``az.compare`` needs."""
+        cache = self.__dict__.setdefault("_groups", {})
+        if str(study) not in cache:
+            spreads = []
+            for name, chains in self.models.items():
+                lik = self._likelihood(study, name)
+                p = chains.samples.shape[-1]
+                spreads.append(bin_spreads(lik, chains.samples.reshape(-1, p)))
+            any_lik = self._likelihood(study, next(iter(self.models)))
+            cache[str(study)] = observation_groups(any_lik.experiments, spreads)
+        return cache[str(study)]
+
     def to_arviz(self, model=None, log_likelihood=True, prior=True, observed_data=True,
                  per_experiment=False, max_draws=2000, max_values=20_000_000,
-                 prior_draws=1000, study=None):
-        """``arviz.InferenceData``: ``model=None`` gives the reversible-jump chain
-        (``RjChain.to_arviz``: ``model_index`` and ``is_<model>``); a model name gives that
-        model's in-model chains (``Chains.to_arviz``) with the ``log_likelihood``, ``prior``
-        and ``observed_data`` groups of ``FitResult.to_arviz`` (same arguments), so that
+                 prior_draws=1000, study=None, observations="groups"):
+        """``arviz.InferenceData``.
+
+        ``model=None`` gives the reversible-jump chain (``RjChain.to_arviz``: ``model_index``
+        and ``is_<model>``) with, when ``log_likelihood``, the model-averaged pointwise ln L
+        (each kept draw's ``ln L`` under the model it is in), so that ``az.loo`` gives the
+        leave-one-out predictive of the posterior over models and parameters; and
+        ``observed_data``. It has no ``prior`` group (the prior is one per model).
+
+        A model name gives that model's in-model chains (``Chains.to_arviz``) with the
+        ``log_likelihood``, ``prior`` and ``observed_data`` groups of ``FitResult.to_arviz``
+        (same arguments), so that
         ``az.compare({m: sel.to_arviz(m) for m in sel.model_names})`` compares the models by
-        leave-one-bin-out cross-validation."""
-        if model is None:
-            if self.rj is None:
-                raise ValueError(
-                    f"{self.output}: no reversible-jump chain (rj_chain.npz): "
-                    f"{self.summary.get('rj_note') or 'not written by this occam version'}"
-                )
-            return self.rj.to_arviz({"occam_output": str(self.output)})
-        if model not in self.models:
+        leave-one-out cross-validation. With ``observations="groups"`` the groups of bins are
+        decided over every model of the run, so that each model has the same observations."""
+        check_observations(observations)
+        if model is not None and model not in self.models:
             raise ValueError(
                 f"{self.output}: no chains of model `{model}`; the models with chains are "
                 f"{list(self.models)}"
             )
-        idata = self.models[model].to_arviz({"model": model, "occam_output": str(self.output)})
+        if model is None and self.rj is None:
+            raise ValueError(
+                f"{self.output}: no reversible-jump chain (rj_chain.npz): "
+                f"{self.summary.get('rj_note') or 'not written by this occam version'}"
+            )
+        attrs = {"occam_output": str(self.output)}
+        if model is None:
+            idata = self.rj.to_arviz(attrs)
+            prior = False
+        else:
+            idata = self.models[model].to_arviz({"model": model, **attrs})
         if not (log_likelihood or prior or observed_data):
             return idata
-        from ._likelihood import Likelihood
-
-        lik = Likelihood.from_study(study or _study_of(self), model)
-        return inference_data(
-            idata, self.models[model], lik, log_likelihood=log_likelihood, prior=prior,
-            observed_data=observed_data, per_experiment=per_experiment,
-            max_draws=max_draws, max_values=max_values, prior_draws=prior_draws,
-        )
+        study = study or _study_of(self)
+        groups = None
+        if log_likelihood and observations == "groups":
+            if not self.models:
+                raise ValueError(
+                    f"{self.output}: no model's chains (chains_<model>.npz) to decide the "
+                    "groups of bins on: pass observations='bins'"
+                )
+            groups = self._observation_groups(study)
+        if model is not None:
+            return inference_data(
+                idata, self.models[model], self._likelihood(study, model),
+                log_likelihood=log_likelihood, prior=prior, observed_data=observed_data,
+                per_experiment=per_experiment, max_draws=max_draws, max_values=max_values,
+                prior_draws=prior_draws, groups=groups,
+            )
+        liks = {m: self._likelihood(study, m) for m in self.rj.model_names}
+        out = {}
+        if log_likelihood:
+            out["log_likelihood"] = rj_log_likelihood(
+                self.rj, liks, max_draws=max_draws, max_values=max_values,
+                per_experiment=per_experiment, groups=groups,
+            )
+        if observed_data:
+            first = liks[self.rj.model_names[0]]
+            out["observed_data"] = observed_data_group(first.experiments, per_experiment)
+        idata.add_groups(out)
+        return idata
 
     def __repr__(self):
         return (

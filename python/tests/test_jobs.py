@@ -174,15 +174,25 @@ def test_fit_arviz_groups_and_loo(py_fit):
     assert {"posterior", "sample_stats", "log_likelihood", "prior", "observed_data"} <= set(
         idata.groups()
     )
-    ll = idata.log_likelihood["spectrum"]
-    assert ll.dims == ("chain", "draw", "bin")
     n_bins = occam.Likelihood.from_study(SMALL).n_bins
+    # one observation per bin, as before the groups
+    bins = py_fit.to_arviz(max_draws=500, observations="bins", prior=False, observed_data=False)
+    ll = bins.log_likelihood["spectrum"]
+    assert ll.dims == ("chain", "draw", "bin")
     assert ll.shape == (2, 250, n_bins)
     assert set(ll["experiment"].values) == {"a", "b"} and ll["frequency"].values.min() >= 1e-3
     # summed over bins: the chains' (exact) ln L at the kept draws
     kept = ll["draw"].values
     np.testing.assert_array_equal(kept, np.arange(0, 3000, 12))
     np.testing.assert_allclose(ll.sum("bin").values, py_fit.ln_likelihood[:, kept], rtol=1e-12)
+    # the default: groups of bins, each ending in a bin that carries information
+    g = idata.log_likelihood["spectrum"]
+    assert g.dims == ("chain", "draw", "observation") and g.shape[:2] == (2, 250)
+    assert 0 < g.shape[2] <= n_bins and int(g["n_bins"].sum()) == n_bins
+    assert np.all(g["f_lo"].values <= g["frequency"].values)
+    assert np.all(g["frequency"].values <= g["f_hi"].values)
+    np.testing.assert_allclose(g.sum("observation").values, ll.sum("bin").values, rtol=1e-12)
+    assert "observations" in idata.log_likelihood.attrs
     prior = idata.prior
     assert list(prior.data_vars) == py_fit.param_names and prior.sizes["draw"] == 1000
     b = occam.Likelihood.from_study(SMALL).prior_bounds
@@ -190,17 +200,22 @@ def test_fit_arviz_groups_and_loo(py_fit):
         assert b[k, 0] <= prior[n].values.min() and prior[n].values.max() <= b[k, 1]
     obs = idata.observed_data["spectrum"]
     assert obs.dims == ("bin", "channel") and obs.shape[0] == n_bins
-    loo = az.loo(idata)
-    assert np.isfinite(loo.elpd_loo) and loo.n_data_points == n_bins
+    loo = az.loo(idata, pointwise=True)
+    assert np.isfinite(loo.elpd_loo) and loo.n_data_points == g.shape[2]
+    assert np.all(np.isfinite(loo.pareto_k.values))
     # one variable per experiment
     per = py_fit.to_arviz(per_experiment=True, max_draws=100)
     assert set(per.log_likelihood.data_vars) == {"a", "b"}
-    assert per.log_likelihood["a"].dims == ("chain", "draw", "a_bin")
+    assert per.log_likelihood["a"].dims == ("chain", "draw", "a_observation")
     assert np.isfinite(az.loo(per, var_name="a").elpd_loo)
+    per_bin = py_fit.to_arviz(per_experiment=True, max_draws=100, observations="bins")
+    assert per_bin.log_likelihood["a"].dims == ("chain", "draw", "a_bin")
     # memory cap: values (draws × bins) bounded
     small = py_fit.to_arviz(max_values=10 * n_bins, prior=False, observed_data=False)
     assert small.log_likelihood["spectrum"].shape[:2] == (2, 5)
     assert "prior" not in small.groups()
+    with pytest.raises(ValueError, match="observations must be one of"):
+        py_fit.to_arviz(observations="bin")
 
 
 def test_select_models_compare_with_arviz(py_select):
@@ -211,7 +226,7 @@ def test_select_models_compare_with_arviz(py_select):
     assert np.all(np.isfinite(table["elpd_loo"]))
     full = data["full"]
     assert list(full.prior.data_vars) == py_select.models["full"].param_names
-    ll = full.log_likelihood["spectrum"].sum("bin").values
+    ll = full.log_likelihood["spectrum"].sum("observation").values
     kept = full.log_likelihood["draw"].values
     np.testing.assert_allclose(ll, py_select.models["full"].ln_likelihood[:, kept], rtol=1e-12)
 
