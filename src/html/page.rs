@@ -23,6 +23,7 @@ table { border-collapse: collapse; font-size: 0.9em; }
 th, td { border: 1px solid #ccc; padding: 0.25em 0.6em; text-align: left; vertical-align: top; }
 th { background: #eef3f8; }
 table.file td { white-space: nowrap; }
+table.file td.wrap { white-space: normal; min-width: 24em; }
 td.num, th.num { text-align: right; font-variant-numeric: tabular-nums; }
 tbody tr:nth-child(even) { background: #f7f7f7; }
 .warnings { border: 3px solid #d55e00; background: #fff4ec; padding: 0.4em 1.2em 0.8em; }
@@ -218,7 +219,12 @@ fn other_outputs(run: &Run) -> String {
 pub fn render(run: &Run) -> String {
     let parts = match (&run.kind, &run.summary) {
         (RunKind::Fit, Some((_, s))) => super::fit::parts(s),
-        (RunKind::Select, Some((_, s))) => super::select::parts(s),
+        (RunKind::Select, Some((_, s))) => super::select::parts(
+            s,
+            run.tables
+                .iter()
+                .any(|(n, _)| n == "table.md" || n == "table.txt"),
+        ),
         (RunKind::Sweep, Some((_, s))) => super::sweep::parts(s),
         _ => Parts {
             diagnostics: other_outputs(run),

@@ -23,7 +23,9 @@ fn jumps(acc: Option<&Value>, prop: Option<&Value>) -> String {
     if a == 0.0 && p > 0.0 { bad(s) } else { s }
 }
 
-fn pairs(s: &Value) -> String {
+/// Each pair's verdict and jumps; its estimator table too when the run's table file does not
+/// already show it (`in_table`).
+fn pairs(s: &Value, in_table: bool) -> String {
     let mut d = String::new();
     for pr in list(at(s, "pairs")) {
         let (x, y) = (cell(at(pr, "x")), cell(at(pr, "y")));
@@ -57,6 +59,12 @@ fn pairs(s: &Value) -> String {
             ("effective jumps", cell(at(pr, "jumps.effective_jumps"))),
             ("expected jumps (Σα)", cell(at(pr, "jumps.expected_jumps"))),
         ]));
+        if in_table {
+            d.push_str(
+                "<p class=\"note\">Every estimator of this pair, with its notes: under Results.</p>\n",
+            );
+            continue;
+        }
         let rows: Vec<Vec<String>> = list(at(pr, "estimates"))
             .iter()
             .map(|e| {
@@ -131,7 +139,9 @@ fn estimates(s: &Value) -> String {
     )
 }
 
-fn models(s: &Value) -> String {
+/// The models' table, their parameter estimates unless the run's table file shows them
+/// (`in_table`), and their tempering.
+fn models(s: &Value, in_table: bool) -> String {
     let mut d = String::from("<h3>Models</h3>\n");
     let rows: Vec<Vec<String>> = list(at(s, "models"))
         .iter()
@@ -178,7 +188,9 @@ fn models(s: &Value) -> String {
         ],
         &rows,
     ));
-    d.push_str(&estimates(s));
+    if !in_table {
+        d.push_str(&estimates(s));
+    }
     let tempered: Vec<&Value> = list(at(s, "models"))
         .iter()
         .filter(|m| at(m, "tempering").is_some_and(|t| !t.is_null()))
@@ -348,7 +360,10 @@ fn reversible_jump(s: &Value) -> String {
 }
 
 /// Facts, warnings and diagnostics of a select summary.
-pub fn parts(s: &Value) -> Parts {
+/// The page parts of a select run's summary `s`. `in_table`: the run's table file (`table.md`,
+/// shown under Results) holds the estimator table and each model's parameter estimates (every
+/// run since those were added to the summary), so they are not repeated here.
+pub fn parts(s: &Value, in_table: bool) -> Parts {
     let mut p = Parts::default();
     let names: Vec<String> = list(at(s, "models"))
         .iter()
@@ -386,7 +401,16 @@ pub fn parts(s: &Value) -> Parts {
     if let Some(n) = at(s, "rj_note").and_then(Value::as_str) {
         p.warnings.add(n, "summary.json (rj_note)");
     }
-    p.diagnostics = pairs(s) + &models(s) + &map_values(s) + &reversible_jump(s);
+    // the MAP is a column of the table file's estimates, when the summary has them
+    let estimated = list(at(s, "models"))
+        .iter()
+        .any(|m| at(m, "estimates").is_some());
+    let maps = if in_table && estimated {
+        String::new()
+    } else {
+        map_values(s)
+    };
+    p.diagnostics = pairs(s, in_table) + &models(s, in_table) + &maps + &reversible_jump(s);
     p
 }
 
@@ -407,7 +431,7 @@ mod tests {
                    "jumps_proposed": [[0, 10], [0, 0]], "jumps_accepted": [[0, 0], [0, 0]]},
             "warnings": []
         });
-        let p = parts(&s);
+        let p = parts(&s, false);
         let d = &p.diagnostics;
         assert!(d.contains("X against &lt;Y&gt;"), "{d}");
         assert!(d.contains("0 (never visited)"));
@@ -416,7 +440,7 @@ mod tests {
         assert!(d.contains("Parallel tempering") && d.contains("<span class=\"bad\">0</span>"));
         assert!(!d.contains("<Y>"));
         let s = json!({"rj": null, "rj_note": "one model <only>"});
-        let p = parts(&s);
+        let p = parts(&s, false);
         assert!(
             p.diagnostics
                 .contains("did not run: one model &lt;only&gt;")
@@ -431,7 +455,7 @@ mod tests {
                                           "sd": 0.2, "fisher_sigma": 0.31}]},
             {"name": "Y", "estimates": [{"name": "a_df", "map": 0.8, "mean": null, "sd": null,
                                           "fisher_sigma": null}]}]});
-        let d = parts(&s).diagnostics;
+        let d = parts(&s, false).diagnostics;
         assert!(d.contains("Parameter estimates of each model"), "{d}");
         assert!(
             d.contains(
@@ -445,17 +469,38 @@ mod tests {
         );
         // a run that predates the estimates has no such table
         assert!(
-            !parts(&json!({"models": [{"name": "X"}]}))
+            !parts(&json!({"models": [{"name": "X"}]}), false)
                 .diagnostics
                 .contains("Parameter estimates")
         );
     }
 
     #[test]
+    fn with_the_table_file_shown_the_estimates_and_estimators_are_not_repeated() {
+        let s = json!({
+            "models": [{"name": "X", "params": ["dt1"], "map": [0.25], "estimates": [
+                {"name": "dt1", "unit": "s", "map": 0.25, "mean": 0.3, "sd": 0.2,
+                 "fisher_sigma": 0.31}]}],
+            "pairs": [{"x": "X", "y": "Y", "jumps": {"accepted_x_to_y": 3, "proposed_x_to_y": 10},
+                       "estimates": [{"method": "RJMCMC visits", "ln_b": 1.0,
+                                      "note": "a note only the table shows"}]}]});
+        let d = parts(&s, true).diagnostics;
+        assert!(!d.contains("Parameter estimates of each model"), "{d}");
+        assert!(!d.contains("MAP per parameter"), "{d}");
+        assert!(!d.contains("a note only the table shows"), "{d}");
+        assert!(d.contains("under Results"), "{d}");
+        // the pair's jumps are only here
+        assert!(d.contains("3 of 10"), "{d}");
+        let full = parts(&s, false).diagnostics;
+        assert!(full.contains("Parameter estimates of each model"));
+        assert!(full.contains("a note only the table shows"));
+    }
+
+    #[test]
     fn each_models_map_is_listed_per_parameter_with_its_unit() {
         let s = json!({"models": [{"name": "m", "params": ["k", "g"], "units": ["s⁻²", ""],
                                    "map": [-1.3e-6, 0.8]}]});
-        let d = parts(&s).diagnostics;
+        let d = parts(&s, false).diagnostics;
         assert!(d.contains("MAP per parameter"), "{d}");
         assert!(d.contains("<td>k</td><td>s⁻²</td>"), "{d}");
         assert!(d.contains("<td>g</td><td>–</td>"), "{d}");
@@ -463,7 +508,7 @@ mod tests {
 
     #[test]
     fn an_empty_summary_gives_a_page_not_a_panic() {
-        let p = parts(&json!({}));
+        let p = parts(&json!({}), false);
         assert!(p.diagnostics.contains("did not run: no reason recorded"));
     }
 }

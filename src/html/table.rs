@@ -186,6 +186,9 @@ pub fn parse_text(text: &str) -> Vec<Block> {
     out
 }
 
+/// A text column with a cell longer than this (characters) is prose: it wraps.
+const WRAP_CHARS: usize = 60;
+
 /// The blocks as HTML (every cell escaped).
 pub fn to_html(blocks: &[Block]) -> String {
     let mut h = String::new();
@@ -206,9 +209,19 @@ pub fn to_html(blocks: &[Block]) -> String {
                 rows,
                 right,
             } => {
+                // a column of prose (notes) wraps, so that the table fits the page and no note
+                // is read by scrolling sideways; numbers and names stay on one line
+                let prose: Vec<bool> = (0..header.len())
+                    .map(|k| {
+                        rows.iter()
+                            .any(|r| r.get(k).is_some_and(|c| c.chars().count() > WRAP_CHARS))
+                    })
+                    .collect();
                 let cls = |k: usize| {
                     if right.get(k).copied().unwrap_or(false) {
                         " class=\"num\""
+                    } else if prose.get(k).copied().unwrap_or(false) {
+                        " class=\"wrap\""
                     } else {
                         ""
                     }
@@ -272,6 +285,25 @@ mod tests {
         );
         let h = to_html(&b);
         assert!(h.contains("<td>&lt;x&gt;</td>") && h.contains("<td class=\"num\">-1.5</td>"));
+    }
+
+    #[test]
+    fn a_column_of_notes_wraps_and_numbers_and_names_do_not() {
+        let note =
+            "assumes a Gaussian posterior around the MAP, the prior box ignored (MAP 0.3 σ inside)";
+        let md = format!(
+            "| estimator | ln B | note |\n| --- | ---: | --- |\n| Laplace-Fisher raw | -0.264 | {note} |\n| RJMCMC visits | -1.213 |  |\n"
+        );
+        let h = to_html(&parse_markdown(&md));
+        assert!(
+            h.contains(&format!("<td class=\"wrap\">{note}</td>")),
+            "{h}"
+        );
+        assert!(h.contains("<td class=\"wrap\"></td>"), "{h}");
+        assert!(
+            h.contains("<td>Laplace-Fisher raw</td><td class=\"num\">-0.264</td>"),
+            "{h}"
+        );
     }
 
     #[test]

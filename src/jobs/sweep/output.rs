@@ -245,9 +245,19 @@ pub fn table(sweep: &Sweep, res: &SweepResult) -> String {
     let keys: Vec<&str> = sweep.grid.axes.iter().map(|a| a.key.as_str()).collect();
     let _ = writeln!(
         s,
-        "{} realisation(s) per point; ln B_XY median [16 %, 84 %] over realisations; agree: fraction with the statistical estimators within errors; picks: fraction preferring each model",
+        "{} realisation(s) per point; ln B_XY median [16 %, 84 %] over realisations; agree: fraction with the statistical estimators within errors; below, each estimator's median",
         sweep.realisations
     );
+    let shortened: Vec<String> = SHORT
+        .iter()
+        .filter(|(long, _)| res.methods.iter().flatten().any(|m| m == long))
+        .map(|(long, short)| format!("{short} = {long}"))
+        .collect();
+    // a few to a line: the legend is no wider than the tables it explains
+    for (k, chunk) in shortened.chunks(4).enumerate() {
+        let head = if k == 0 { "estimators:" } else { "           " };
+        let _ = writeln!(s, "{head} {}", chunk.join(", "));
+    }
     for (j, names) in res.methods.iter().enumerate() {
         let Some(first) = res.points.iter().find_map(|p| p.pairs.get(j)) else {
             continue;
@@ -259,13 +269,17 @@ pub fn table(sweep: &Sweep, res: &SweepResult) -> String {
                 .iter()
                 .map(|h| h.to_string()),
         );
-        head.push(format!("picks {}", sweep.models.join("/")));
-        head.extend(names.iter().cloned());
         let mut t = crate::report::Table::new(head);
+        // the estimators' medians in a table of their own: one row of both was ~150
+        // characters, wider than a terminal and than the report's page
+        let mut medians_head: Vec<String> = keys.iter().map(|k| k.to_string()).collect();
+        medians_head.extend(names.iter().map(|n| short(n).to_string()));
+        let mut m = crate::report::Table::new(medians_head);
         let mut flagged = false;
         for p in &res.points {
             let Some(pair) = p.pairs.get(j) else { continue };
-            let mut row: Vec<String> = p.values.iter().map(|v| format!("{v:.4e}")).collect();
+            let axes: Vec<String> = p.values.iter().map(|v| format!("{v:.4e}")).collect();
+            let mut row = axes.clone();
             let r = &pair.estimators[0];
             row.push(format!("{}/{}", p.realisations - p.failed, p.realisations));
             row.push(format!(
@@ -276,23 +290,19 @@ pub fn table(sweep: &Sweep, res: &SweepResult) -> String {
             ));
             row.push(grade(r.median, &pair.x, &pair.y));
             row.push(opt(Some(pair.agree).filter(|v| v.is_finite()), 2));
-            row.push(
-                p.picks
-                    .iter()
-                    .map(|v| opt(Some(*v).filter(|v| v.is_finite()), 2))
-                    .collect::<Vec<_>>()
-                    .join("/"),
-            );
+            let mut medians = axes;
             for e in &pair.estimators[1..] {
                 let far = far_from_reference(e.median, r.median);
                 flagged |= far;
-                row.push(opt(e.median, 3) + if far { " !" } else { "" });
+                medians.push(opt(e.median, 3) + if far { " !" } else { "" });
             }
-            if t.push_row(row).is_err() {
+            if t.push_row(row).is_err() || m.push_row(medians).is_err() {
                 continue;
             }
         }
         s.push_str(&t.to_text());
+        let _ = writeln!(s, "each estimator's median ln B ({}/{}):", first.x, first.y);
+        s.push_str(&m.to_text());
         if flagged {
             let _ = writeln!(
                 s,
@@ -352,7 +362,60 @@ pub fn table(sweep: &Sweep, res: &SweepResult) -> String {
             );
         }
     }
+    picks_table(&mut s, sweep, res, &keys);
     s
+}
+
+/// The estimators' names as the sweep table's column headers: short, so that a pair's row fits
+/// a terminal (the table's first lines give each in full).
+const SHORT: &[(&str, &str)] = &[
+    ("RJMCMC visits", "RJ visits"),
+    ("RJMCMC Rao-Blackwell", "RJ RB"),
+    ("RJMCMC bridge", "RJ bridge"),
+    ("Thermodynamic integration", "TI"),
+    ("Stepping-stone", "SS"),
+    ("Bridge sampling", "BS"),
+    ("Laplace-Fisher raw", "LF raw"),
+    ("Laplace-Fisher box", "LF box"),
+    ("Laplace-Metropolis MVE", "LM MVE"),
+    ("Laplace-Metropolis MCD", "LM MCD"),
+    ("Schwarz (SBIC)", "SBIC"),
+];
+
+/// `method`'s column header (itself when it has no short name).
+fn short(method: &str) -> &str {
+    SHORT
+        .iter()
+        .find(|(long, _)| *long == method)
+        .map_or(method, |(_, s)| s)
+}
+
+/// How often each model is picked, per point: one table for the sweep (not a column of every
+/// pair's, where it repeated and made the rows ~370 characters wide).
+fn picks_table(s: &mut String, sweep: &Sweep, res: &SweepResult, keys: &[&str]) {
+    use std::fmt::Write;
+    if sweep.models.is_empty() || res.points.is_empty() {
+        return;
+    }
+    let _ = writeln!(
+        s,
+        "\npicks: fraction of realisations in which each model has the highest posterior probability"
+    );
+    let mut head: Vec<String> = keys.iter().map(|k| k.to_string()).collect();
+    head.push("ok".into());
+    head.extend(sweep.models.iter().cloned());
+    let mut t = crate::report::Table::new(head);
+    for p in &res.points {
+        let mut row: Vec<String> = p.values.iter().map(|v| format!("{v:.4e}")).collect();
+        row.push(format!("{}/{}", p.realisations - p.failed, p.realisations));
+        row.extend(
+            p.picks
+                .iter()
+                .map(|v| opt(Some(*v).filter(|v| v.is_finite()), 2)),
+        );
+        let _ = t.push_row(row);
+    }
+    s.push_str(&t.to_text());
 }
 
 #[cfg(test)]
