@@ -3,7 +3,7 @@
 use anyhow::{Context as _, Result};
 use clap::{Parser, Subcommand};
 use occam::config::Study;
-use occam::jobs::progress::{Bar, Work};
+use occam::jobs::progress::{Bar, HintWatch, Work};
 use occam::jobs::{Context, execute};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -367,6 +367,14 @@ fn fit(path: PathBuf, output: Option<PathBuf>, resume: bool, flags: RunFlags) ->
     on_interrupt(resume_hint("fit", &path, &out));
     let work = Arc::new(Work::default());
     let bar = Bar::start(work.clone(), "iterations", flags.quiet);
+    let _hint = HintWatch::start(
+        work.clone(),
+        "fit",
+        "iterations",
+        "[fit] chains and iterations set the length",
+        flags.quiet,
+        bar.as_ref(),
+    );
     let say = |line: &str| match &bar {
         Some(b) => b.bar().println(line),
         None => println!("{line}"),
@@ -422,6 +430,14 @@ fn run_select(study: &Study, out: &std::path::Path, resume: bool, quiet: bool) -
     let t0 = Instant::now();
     let work = Arc::new(Work::default());
     let bar = Bar::start(work.clone(), "ln L evaluations", quiet);
+    let _hint = HintWatch::start(
+        work.clone(),
+        "select",
+        "ln L evaluations",
+        "[select] iterations, pt_iterations and rj_iterations set the length; --cross-checks light or off shortens the tempering",
+        quiet,
+        bar.as_ref(),
+    );
     let say = |line: &str| match &bar {
         Some(b) => b.bar().println(line),
         None => println!("{line}"),

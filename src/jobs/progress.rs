@@ -109,6 +109,126 @@ impl Eta {
     }
 }
 
+/// When to tell a user, once, how long a long job will take, and how long: looked at once,
+/// [`Hint::AFTER_SECONDS`] after the counter first moved, as a range between two projections of
+/// the units left:
+///
+/// * at the pace of the counted work since the counter first moved ([`Eta`]), which leaves out
+///   what the counters do not count (a select's MAP search of each model after the first, its
+///   estimators and figures at the end): the low end;
+/// * at the pace of the whole run so far, which counts the one-time set-up before the first
+///   unit as if it recurred: the high end.
+///
+/// Given only when the high end is at least [`Hint::MIN_SECONDS`] (issue 52: the user-model
+/// starter's `select` took 112 s with no word that it would). On the shipped select examples
+/// the time that was actually left was 1.2–1.8× the low end and 0.6–1.3× the high end
+/// (docs/src/guide/commands.md).
+///
+/// ```
+/// use occam::jobs::progress::Hint;
+/// let mut h = Hint::default();
+/// assert_eq!(h.observe(4.0, 10, 10_000), None); // the clock starts at the first unit
+/// assert_eq!(h.observe(6.0, 110, 10_000), None); // too early to say
+/// let (low, high) = h.observe(9.0, 210, 10_000).unwrap(); // 200 units in 5 s, 210 in 9 s
+/// assert!((low - 244.75).abs() < 1e-9 && (high - 9.0 * 9790.0 / 210.0).abs() < 1e-9);
+/// assert_eq!(h.observe(10.0, 230, 10_000), None); // said once
+/// ```
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Hint {
+    eta: Eta,
+    first: Option<f64>,
+    done: bool,
+}
+
+impl Hint {
+    /// Seconds of counted work before the one look.
+    pub const AFTER_SECONDS: f64 = 5.0;
+    /// Least high end (s) worth a hint.
+    pub const MIN_SECONDS: f64 = 60.0;
+
+    /// Records `done` of `total` units at `t` seconds since the job started; returns the range
+    /// of projected seconds to go the one time a hint is due.
+    pub fn observe(&mut self, t: f64, done: u64, total: u64) -> Option<(f64, f64)> {
+        let counted = self.eta.observe(t, done, total);
+        if self.done || done == 0 || total == 0 {
+            return None;
+        }
+        let t0 = *self.first.get_or_insert(t);
+        if t - t0 < Self::AFTER_SECONDS {
+            return None;
+        }
+        // one look: a job that is short at this point says nothing later either
+        self.done = true;
+        let overall = t * total.saturating_sub(done) as f64 / done as f64;
+        let counted = counted?;
+        let (low, high) = (counted.min(overall), counted.max(overall));
+        (high >= Self::MIN_SECONDS).then_some((low, high))
+    }
+}
+
+/// A thread that prints the [`Hint`] of `work` on standard error (above `bar` when one is
+/// drawn), whether or not standard error is a terminal: a log shows it too.
+pub struct HintWatch {
+    stop: Arc<AtomicBool>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl HintWatch {
+    /// Starts watching `work` of the job `job` (e.g. "select"), counted in `unit`s; `sets` says
+    /// what sets the job's length. `None` when `quiet`.
+    pub fn start(
+        work: Arc<Work>,
+        job: &str,
+        unit: &str,
+        sets: &str,
+        quiet: bool,
+        bar: Option<&Bar>,
+    ) -> Option<HintWatch> {
+        if quiet {
+            return None;
+        }
+        let (job, unit, sets) = (job.to_string(), unit.to_string(), sets.to_string());
+        let bar = bar.map(|b| b.bar().clone());
+        let stop = Arc::new(AtomicBool::new(false));
+        let thread = {
+            let stop = stop.clone();
+            std::thread::spawn(move || {
+                let t0 = Instant::now();
+                let mut hint = Hint::default();
+                while !stop.load(Ordering::Relaxed) {
+                    let (done, total) = work.get();
+                    if let Some((low, high)) = hint.observe(t0.elapsed().as_secs_f64(), done, total)
+                    {
+                        let line = format!(
+                            "{job}: {} to {} to go ({done} of {total} {unit} done: the low end at the pace of the counted work, the high end at the whole run's so far; {sets})",
+                            fmt_duration(low),
+                            fmt_duration(high)
+                        );
+                        match &bar {
+                            Some(b) => b.println(line),
+                            None => eprintln!("{line}"),
+                        }
+                    }
+                    std::thread::sleep(Duration::from_millis(200));
+                }
+            })
+        };
+        Some(HintWatch {
+            stop,
+            thread: Some(thread),
+        })
+    }
+}
+
+impl Drop for HintWatch {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+    }
+}
+
 /// `1h02m`, `3m07s`, `42s`: a duration at the precision a user plans by.
 pub fn fmt_duration(seconds: f64) -> String {
     let s = seconds.max(0.0).round() as u64;
@@ -259,6 +379,24 @@ mod tests {
         assert_eq!(eta.observe(4.0, 5, 100), None, "counter went back");
         let left = eta.observe(5.0, 55, 100).unwrap();
         assert!((left - 0.9).abs() < 1e-12, "{left}");
+    }
+
+    #[test]
+    fn a_hint_is_given_once_and_only_for_a_job_of_minutes() {
+        // cross-talk's select, as recorded: the first unit at 8.9 s, 13 % done at 13.9 s
+        let mut h = Hint::default();
+        assert_eq!(h.observe(8.9, 1, 591_000), None);
+        let (low, high) = h.observe(13.9, 76_830, 591_000).unwrap();
+        assert!((low - 33.5).abs() < 0.1 && (high - 93.1).abs() < 0.1, "{low} {high}");
+        assert_eq!(h.observe(20.0, 150_000, 591_000), None);
+        // a job whose high end is under a minute gets no hint, then or later
+        let mut short = Hint::default();
+        assert_eq!(short.observe(1.0, 1, 10_000), None);
+        assert_eq!(short.observe(6.5, 5_000, 10_000), None);
+        assert_eq!(short.observe(60.0, 5_001, 10_000), None);
+        // nor one that never counts
+        let mut idle = Hint::default();
+        assert_eq!(idle.observe(100.0, 0, 10_000), None);
     }
 
     #[test]
