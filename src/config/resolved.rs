@@ -46,24 +46,7 @@ pub fn resolved_toml(study: &Study) -> Result<String, ConfigError> {
             ),
         });
     }
-    let cannot = |e: String| ConfigError::Parse {
-        file: study.source.clone(),
-        msg: format!("cannot write the resolved study: {e}"),
-    };
-    let body = if file.analysis.glitches == crate::likelihood::GlitchTreatment::Model
-        && file.fit.until.is_none()
-    {
-        // no `until` would read back as the glitch model's default rule: say `false`
-        let mut t = toml::Table::try_from(&file).map_err(|e| cannot(e.to_string()))?;
-        if let Some(toml::Value::Table(fit)) = t.get_mut("fit") {
-            fit.insert("until".into(), toml::Value::Boolean(false));
-        }
-        toml::to_string(&t)
-    } else {
-        toml::to_string(&file)
-    }
-    .map_err(|e| cannot(e.to_string()))?;
-    let body = super::toml_floats::scientific_floats(&body);
+    let body = super::toml_floats::scientific_floats(&resolved_body(study, &file)?);
     let base = study.base_dir.display().to_string();
     let base = if base.is_empty() { ".".into() } else { base };
     Ok(format!(
@@ -74,6 +57,122 @@ pub fn resolved_toml(study: &Study) -> Result<String, ConfigError> {
         one_line(&study.source),
         one_line(&base),
     ))
+}
+
+/// The error of a study that cannot be written back.
+fn cannot(study: &Study, e: String) -> ConfigError {
+    ConfigError::Parse {
+        file: study.source.clone(),
+        msg: format!("cannot write the resolved study: {e}"),
+    }
+}
+
+/// `file` (the study file of `study`, the run's seed and output in) as the TOML the resolved
+/// study writes, before its floats are put in scientific form.
+fn resolved_body(study: &Study, file: &super::study::StudyFile) -> Result<String, ConfigError> {
+    let err = |e: String| cannot(study, e);
+    let text = if file.analysis.glitches == crate::likelihood::GlitchTreatment::Model
+        && file.fit.until.is_none()
+    {
+        // no `until` would read back as the glitch model's default rule: say `false`
+        let mut t = toml::Table::try_from(file).map_err(|e| err(e.to_string()))?;
+        if let Some(toml::Value::Table(fit)) = t.get_mut("fit") {
+            fit.insert("until".into(), toml::Value::Boolean(false));
+        }
+        toml::to_string(&t)
+    } else {
+        toml::to_string(file)
+    }
+    .map_err(|e| err(e.to_string()))?;
+    if uses_ltp_physics(study) {
+        return Ok(text);
+    }
+    // the built-in loop's physics takes no part in this study's runs: its defaults would only
+    // make a reader of a state-space study look for a loop that is not there (issue 52). Values
+    // the file set stay, so that the study loads back equal either way.
+    let unused: Vec<&str> = [
+        ("truth", file.truth == Default::default()),
+        ("noise", file.noise == Default::default()),
+        ("masses", file.masses == Default::default()),
+        ("oms_delay", file.oms_delay == 0.0),
+    ]
+    .into_iter()
+    .filter_map(|(k, default)| default.then_some(k))
+    .collect();
+    let mut want: toml::Table = text
+        .parse()
+        .map_err(|e: toml::de::Error| err(e.to_string()))?;
+    for k in &unused {
+        want.remove(*k);
+    }
+    // cut from the text, so that the rest keeps its order; checked against the table (a
+    // layout the cut does not know falls back to the table's own, sorted, order)
+    let cut = without_top_level(&text, &unused);
+    match cut.parse::<toml::Table>() {
+        Ok(t) if t == want => Ok(cut),
+        _ => toml::to_string(&want).map_err(|e| err(e.to_string())),
+    }
+}
+
+/// `text` (TOML as `toml::to_string` writes a struct) without the top-level `keys`: their
+/// `key = …` lines before the first table, and their `[key]` and `[key.…]` tables.
+fn without_top_level(text: &str, keys: &[&str]) -> String {
+    let mut out = String::with_capacity(text.len());
+    let (mut in_tables, mut skipping) = (false, false);
+    for line in text.lines() {
+        let t = line.trim_start();
+        if t.starts_with('[') {
+            in_tables = true;
+            let name = t.trim_start_matches('[').split([']', '.']).next();
+            skipping = name.is_some_and(|n| keys.contains(&n.trim()));
+        } else if !in_tables {
+            let key = t.split('=').next().map(str::trim);
+            if key.is_some_and(|k| keys.contains(&k)) {
+                continue;
+            }
+        }
+        if !skipping {
+            out.push_str(line);
+            out.push('\n');
+        }
+    }
+    out
+}
+
+/// Whether the built-in LTP loop's physics (`[truth]`, `[noise]`, `[masses]`, `oms_delay`)
+/// takes part in a run of `study`: the loop simulates an experiment (no `[simulation] model`
+/// and an experiment not read from a file), or a model the runs use (`[fit]`'s, the
+/// `[[select.model]]`s', `[simulation] model`) is, or is made from, a `kind = "ltp"` or
+/// `"accel"` model.
+fn uses_ltp_physics(study: &Study) -> bool {
+    let simulated_by_the_loop = study.simulation.model.is_none()
+        && study
+            .experiment_names
+            .iter()
+            .any(|n| !study.data_sources.iter().any(|(d, _)| d == n));
+    let set = &study.models;
+    let mut used: Vec<usize> = vec![study.fit_model.model];
+    used.extend(study.select_models.iter().map(|m| m.spec.model));
+    used.extend(study.simulation.model.as_deref().and_then(|n| set.index(n)));
+    simulated_by_the_loop || used.into_iter().any(|i| built_on_the_loop(set, i, 0))
+}
+
+/// Whether model `i` of `set` is an `ltp` or `accel` model or wraps one (`tied`, `drift`).
+fn built_on_the_loop(set: &super::ModelSet, i: usize, depth: usize) -> bool {
+    use super::ModelDef;
+    // the study validated the chain of wrapped models; the depth only bounds a malformed one
+    let of = |name: &str| {
+        depth < 32
+            && set
+                .index(name)
+                .is_some_and(|j| built_on_the_loop(set, j, depth + 1))
+    };
+    match set.defs.get(i) {
+        Some(ModelDef::Ltp { .. } | ModelDef::Accel { .. }) => true,
+        Some(ModelDef::Tied(t)) => of(&t.of),
+        Some(ModelDef::Drift(d)) => of(&d.of),
+        _ => false,
+    }
 }
 
 /// `resolved` with a comment line after its header naming the run directory `run_dir`
@@ -166,6 +265,43 @@ x1 = { kind = "sine", freq = 0.01, amplitude = 1e-6, duration = 300.0 }
     }
 
     #[test]
+    fn a_study_without_the_loop_does_not_write_its_default_physics() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples");
+        let read = |name: &str| {
+            let text = std::fs::read_to_string(dir.join(name)).unwrap();
+            let study = Study::from_toml(&text, "x.toml", &dir).unwrap();
+            (text, resolved_toml(&study).unwrap())
+        };
+        let loop_tables = ["[truth]", "[noise]", "[masses]", "oms_delay ="];
+        // a state-space model simulates and is fitted: no loop anywhere
+        let (text, r) = read("two-mass-damper.toml");
+        for key in loop_tables {
+            assert!(!r.contains(key), "{key} in the two-mass study:\n{r}");
+        }
+        // cut from the text, the rest in the order every other resolved study has
+        let body = r.split_once("\n\n").unwrap().1;
+        assert!(body.starts_with("seed = 46\noutput = "), "{body}");
+        // the loop simulates the data of this state-space study: its physics stays
+        let (_, r) = read("state-space.toml");
+        for key in loop_tables {
+            assert!(
+                r.contains(key),
+                "{key} missing from state-space.toml's:\n{r}"
+            );
+        }
+        // a value the file sets stays, used or not (the study must load back equal)
+        let set = text.replacen("[simulation]", "oms_delay = 0.25\n\n[simulation]", 1);
+        let study = Study::from_toml(&set, "x.toml", &dir).unwrap();
+        let r = resolved_toml(&study).unwrap();
+        assert!(
+            r.contains("oms_delay = 0.25") && !r.contains("[truth]"),
+            "{r}"
+        );
+        let again = Study::from_toml(&r, "x.toml", &dir).unwrap();
+        assert!(again == study);
+    }
+
+    #[test]
     fn overridden_seed_and_output_are_those_of_the_run() {
         let mut s = load(MINIMAL);
         s.seed = 77;
@@ -217,7 +353,7 @@ x1 = { kind = "sine", freq = 0.01, amplitude = 1e-6, duration = 300.0 }
         let again = load(&r);
         assert!(again == study, "{r}");
         let body = |t: &str| t.split_once("\n\n").unwrap().1.to_string();
-        let plain = toml::to_string(&study.file).unwrap();
+        let plain = resolved_body(&study, &study.file).unwrap();
         assert_eq!(float_bits(&body(&r)), float_bits(&plain));
         assert_eq!(
             float_bits(&body(&resolved_toml(&again).unwrap())),
@@ -235,7 +371,7 @@ x1 = { kind = "sine", freq = 0.01, amplitude = 1e-6, duration = 300.0 }
                 let study = Study::from_toml(&text, "x.toml", &dir).unwrap();
                 let r = resolved_toml(&study).unwrap();
                 let body = r.split_once("\n\n").unwrap().1;
-                let plain = toml::to_string(&study.file).unwrap();
+                let plain = resolved_body(&study, &study.file).unwrap();
                 assert_eq!(float_bits(body), float_bits(&plain), "{}", p.display());
             }
         }
