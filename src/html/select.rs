@@ -359,10 +359,9 @@ fn reversible_jump(s: &Value) -> String {
     d
 }
 
-/// Facts, warnings and diagnostics of a select summary.
-/// The page parts of a select run's summary `s`. `in_table`: the run's table file (`table.md`,
-/// shown under Results) holds the estimator table and each model's parameter estimates (every
-/// run since those were added to the summary), so they are not repeated here.
+/// Facts, warnings and diagnostics of a select run's summary `s`. `in_table`: the run's table
+/// file (`table.md`, shown under Results) holds the estimator table and each model's parameter
+/// estimates (every run since those were added to the summary), so they are not repeated here.
 pub fn parts(s: &Value, in_table: bool) -> Parts {
     let mut p = Parts::default();
     let names: Vec<String> = list(at(s, "models"))

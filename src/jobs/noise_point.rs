@@ -18,6 +18,11 @@ pub struct NoisePoint {
     pub first_distance_sigma: Vec<(String, f64)>,
 }
 
+/// How [`NoisePoint::note`] begins.
+const NOTE_START: &str = "the residual noise moves with ";
+/// What it says, in parentheses, of an iteration that converged.
+const CONVERGED: &str = "converged";
+
 impl NoisePoint {
     /// [`NoisePoint::note`] for a fit, which corrects no evidence.
     pub fn fit_note(&self) -> String {
@@ -26,6 +31,13 @@ impl NoisePoint {
             Some(i) => n[..i].to_string(),
             None => n,
         }
+    }
+
+    /// Whether `note` is a [`NoisePoint::note`] (or [`NoisePoint::fit_note`]) of a point whose
+    /// iteration converged: a fact about the method, listed with the run's notes. One that did
+    /// not converge is a warning.
+    pub fn is_converged_note(note: &str) -> bool {
+        note.starts_with(NOTE_START) && note.contains(&format!("({CONVERGED};"))
     }
 
     /// The line that says what was done, naming the noise parameters and how far the study's
@@ -37,7 +49,7 @@ impl NoisePoint {
             .map(|(n, s)| format!("`{n}` {s:.1}σ"))
             .collect();
         format!(
-            "the residual noise moves with {} (noise = \"model\" through the model's own dynamics): it is evaluated at this model's own MAP, iterated {} time{} ({}; the study's reference point was {} from it), and the evidences are corrected to the exact θ-dependent likelihood by importance weights",
+            "{NOTE_START}{} (noise = \"model\" through the model's own dynamics): it is evaluated at this model's own MAP, iterated {} time{} ({}; the study's reference point was {} from it), and the evidences are corrected to the exact θ-dependent likelihood by importance weights",
             self.params
                 .iter()
                 .map(|p| format!("`{p}`"))
@@ -46,7 +58,7 @@ impl NoisePoint {
             self.iterations,
             if self.iterations == 1 { "" } else { "s" },
             if self.converged {
-                "converged"
+                CONVERGED
             } else {
                 "NOT converged"
             },

@@ -209,6 +209,10 @@ impl HintWatch {
                             None => eprintln!("{line}"),
                         }
                     }
+                    // the one look is taken: nothing more to watch
+                    if hint.done {
+                        break;
+                    }
                     std::thread::sleep(Duration::from_millis(200));
                 }
             })
@@ -387,7 +391,10 @@ mod tests {
         let mut h = Hint::default();
         assert_eq!(h.observe(8.9, 1, 591_000), None);
         let (low, high) = h.observe(13.9, 76_830, 591_000).unwrap();
-        assert!((low - 33.5).abs() < 0.1 && (high - 93.1).abs() < 0.1, "{low} {high}");
+        assert!(
+            (low - 33.5).abs() < 0.1 && (high - 93.1).abs() < 0.1,
+            "{low} {high}"
+        );
         assert_eq!(h.observe(20.0, 150_000, 591_000), None);
         // a job whose high end is under a minute gets no hint, then or later
         let mut short = Hint::default();

@@ -61,7 +61,14 @@ pub fn run(
     let (mut notes, gap_warnings) = gap_notes(study, &prep.dataset);
     warnings.extend(gap_warnings);
     warnings.extend(prep.glitch_notes());
-    warnings.extend(prep.noise_point.as_ref().map(|p| p.fit_note()));
+    // a noise point whose iteration converged is how the likelihood was built, not a problem
+    if let Some(p) = &prep.noise_point {
+        if p.converged {
+            notes.push(p.fit_note());
+        } else {
+            warnings.push(p.fit_note());
+        }
+    }
     if !map.converged {
         warnings.push(format!(
             "the MAP search stopped after {} iterations without converging; the chains may start far from the mode",

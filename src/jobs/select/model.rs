@@ -158,28 +158,46 @@ fn map_search(m: &ModelPlan<'_>, notes: &mut Vec<String>) -> MapStage {
     stage
 }
 
+/// How a model's note on a MAP at a physical limit of its parameters begins.
+const LIMIT_NOTE: &str = "the MAP is at a physical limit: ";
+
+/// Whether a model's note states a fact, not a problem: a MAP at a physical limit, or a
+/// θ-dependent noise evaluated at the model's own MAP by an iteration that converged. The
+/// run lists these under its notes; every other model note is a warning.
+pub fn is_fact(note: &str) -> bool {
+    note.starts_with(LIMIT_NOTE) || crate::jobs::noise_point::NoisePoint::is_converged_note(note)
+}
+
 impl MapStage {
     /// Takes the highest maximum of the search as the MAP; notes a MAP on the prior box.
     fn settle(&mut self, m: &ModelPlan<'_>, notes: &mut Vec<String>) {
         const BOUND_NOTE: &str = "the MAP is on a bound of the prior box: ";
-        notes.retain(|n| !n.starts_with(BOUND_NOTE));
+        notes.retain(|n| !n.starts_with(BOUND_NOTE) && !n.starts_with(LIMIT_NOTE));
         let Some(s) = &self.search else { return };
         let r = &s.best().result;
         let (names, free) = (&m.param_names, &m.spec.free);
         self.at_bound = r.bound_names(names, free);
-        if !self.at_bound.is_empty() {
+        let (at_limit, at_bound): (Vec<_>, Vec<_>) = r
+            .bound_report(
+                names,
+                m.exact.prior().kinds(),
+                free,
+                &m.exact.model().physical_limits(),
+            )
+            .into_iter()
+            .partition(|(_, physical)| *physical);
+        let texts = |v: Vec<(String, bool)>| v.into_iter().map(|(t, _)| t).collect::<Vec<_>>();
+        if !at_bound.is_empty() {
             notes.push(format!(
                 "{BOUND_NOTE}{}; the posterior is cut by the prior there",
-                r.bound_report(
-                    names,
-                    m.exact.prior().kinds(),
-                    free,
-                    &m.exact.model().physical_limits()
-                )
-                .into_iter()
-                .map(|(text, _)| text)
-                .collect::<Vec<_>>()
-                .join("; ")
+                texts(at_bound).join("; ")
+            ));
+        }
+        // the data agree with a physical limit: a fact, not a misplaced box (as in `fit`)
+        if !at_limit.is_empty() {
+            notes.push(format!(
+                "{LIMIT_NOTE}{}; the posterior is cut there",
+                texts(at_limit).join("; ")
             ));
         }
         self.theta = Some(r.theta.clone());

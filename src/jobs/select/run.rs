@@ -574,7 +574,14 @@ fn summarise(
         );
     }
     for m in &models {
-        warnings.extend(m.notes.iter().map(|n| format!("model `{}`: {n}", m.name)));
+        for n in &m.notes {
+            let line = format!("model `{}`: {n}", m.name);
+            if super::model::is_fact(n) {
+                notes.push(line);
+            } else {
+                warnings.push(line);
+            }
+        }
         if let Some(b) = &m.missing_injection_bias
             && b.worst()
                 .is_some_and(|(_, w)| w <= crate::jobs::injection_bias::BIAS_LIMIT)
