@@ -158,8 +158,8 @@ fn uses_ltp_physics(study: &Study) -> bool {
 }
 
 /// Whether model `i` of `set` is an `ltp` or `accel` model or wraps one (`tied`, `drift`).
-fn built_on_the_loop(set: &super::ModelSet, i: usize, depth: usize) -> bool {
-    use super::ModelDef;
+fn built_on_the_loop(set: &super::models::ModelSet, i: usize, depth: usize) -> bool {
+    use super::models::ModelDef;
     // the study validated the chain of wrapped models; the depth only bounds a malformed one
     let of = |name: &str| {
         depth < 32
