@@ -256,6 +256,25 @@ def test_the_progress_line_in_a_log_has_no_terminal_escapes(capsys):
     assert lines[-1].startswith("occam fit: 8000/8000 iterations (100%)")
 
 
+def test_the_progress_line_gives_the_time_left_as_a_range(capsys, monkeypatch):
+    # as the command line's hint (issue 52, item 9): the low end at the pace since the counter
+    # first moved, the high end at the pace of the whole call, which counts the set-up
+    from occam import _progress
+
+    clock = [100.0]
+    monkeypatch.setattr(_progress.time, "monotonic", lambda: clock[0])
+    line = _progress._Line("occam select", "ln L evaluations")
+    for t, done in [(110.0, 0), (120.0, 1000), (122.0, 1500), (130.0, 4000)]:
+        clock[0] = t
+        line(done, 10_000)
+    line.close()
+    lines = capsys.readouterr().err.splitlines()
+    # set-up 20 s, then 3000 units in 10 s: low 6000 / 300 = 20 s, high 30 s × 6000 / 4000 = 45 s
+    assert lines[-1] == "occam select: 4000/10000 ln L evaluations (40%), 30 s, 20–45 s to go", lines
+    # 2 s after the counter moved is too early for a range
+    assert all("to go" not in l for l in lines[:-1]), lines
+
+
 def test_sweep_design_report(tmp_path):
     sw = occam.sweep(
         SMALL, output=tmp_path / "sweep", axes=["simulation.target_snr=300,1000"], progress=False
