@@ -144,6 +144,14 @@ fn one_sided(what: &str, p: &Value) {
         assert!(note.starts_with(caveat), "{what}: {m}: {note}");
     }
     assert_eq!(p["reference"], "Bridge sampling", "{what}");
+    // no jump between models this far apart is a fact the answer does not need, not a
+    // problem: a note on the pair, not a warning (issue 52, item 5)
+    let jumps = &p["jumps"];
+    assert!(jumps["warning"].is_null(), "{what}: {}", jumps["warning"]);
+    if value(p, "RJMCMC bridge").is_some() {
+        let n = jumps["note"].as_str().unwrap_or_default();
+        assert!(n.contains("The answer does not need them"), "{what}: {n}");
+    }
 }
 
 fn error_at_most(what: &str, p: &Value, m: &str, max: f64) {

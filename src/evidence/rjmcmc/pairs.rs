@@ -148,6 +148,7 @@ pub(crate) fn pairs(
                 effective_jumps,
                 expected_jumps,
                 warning,
+                note: None,
             });
         }
     }

@@ -51,6 +51,11 @@ pub struct RjPair {
     ///
     /// [`MIN_EFFECTIVE_JUMPS`]: super::options::MIN_EFFECTIVE_JUMPS
     pub warning: Option<String>,
+    /// Set instead of `warning` when the jumps are few but the answer does not need them
+    /// (the models are too far apart for any run to exchange jumps, and the reference is not
+    /// a jump row): a fact about the run, listed with its notes.
+    #[serde(default)]
+    pub note: Option<String>,
 }
 
 impl RjPair {
@@ -69,6 +74,7 @@ impl RjPair {
             effective_jumps: self.effective_jumps,
             expected_jumps: self.expected_jumps,
             warning: self.warning.clone(),
+            note: self.note.clone(),
         }
     }
 }

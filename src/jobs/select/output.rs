@@ -391,6 +391,7 @@ mod tests {
                     effective_jumps: 0,
                     expected_jumps: 0.0,
                     warning: None,
+                    note: None,
                 },
             }],
             posterior_model_probabilities: None,

@@ -76,6 +76,10 @@ pub struct JumpStats {
     pub expected_jumps: f64,
     /// Set when the jumps are too few for the visit ratio's error bar to be trusted.
     pub warning: Option<String>,
+    /// Set instead of `warning` when the jumps are few but the answer does not need them:
+    /// the models are too far apart for any practical run to exchange jumps, and the
+    /// reference is not a jump row. A fact, listed with the run's notes.
+    pub note: Option<String>,
 }
 
 /// `ln B_XY` of one pair by every estimator.
@@ -408,14 +412,14 @@ pub(super) fn pair(
                 .unwrap_or(0),
         )
     };
-    let warning = rjp.as_ref().and_then(|p| {
-        let w = p.warning.clone()?;
-        Some(if one_sided && !reference.starts_with("RJMCMC") {
-            unreachable_jumps(p, &mx.name, &my.name, &reference)
-        } else {
-            w + &jump_advice(&[mx, my])
-        })
-    });
+    let few = rjp.as_ref().filter(|p| p.warning.is_some());
+    let unreachable = one_sided && !reference.starts_with("RJMCMC");
+    let warning = few
+        .filter(|_| !unreachable)
+        .and_then(|p| Some(p.warning.clone()? + &jump_advice(&[mx, my])));
+    let note = few
+        .filter(|_| unreachable)
+        .map(|p| unreachable_jumps(p, &mx.name, &my.name, &reference));
     let (pxy, axy) = count(x, y);
     let (pyx, ayx) = count(y, x);
     PairResult {
@@ -439,11 +443,12 @@ pub(super) fn pair(
             effective_jumps: rjp.as_ref().map_or(0, |p| p.effective_jumps),
             expected_jumps: rjp.as_ref().map_or(0.0, |p| p.expected_jumps),
             warning,
+            note,
         },
     }
 }
 
-/// The few-jumps warning of a pair with a model never visited whose reference needs no jump:
+/// The few-jumps note of a pair with a model never visited whose reference needs no jump:
 /// how many jumps the run could expect (`Σα`) and how much longer a run would have to be for
 /// the visit ratio, instead of advice to run longer (models that far apart exchange no jumps
 /// at any practical length, and the answer does not need them).
@@ -686,6 +691,7 @@ mod tests {
             effective_jumps: 0,
             expected_jumps: 0.048,
             warning: Some("only 0 accepted jumps".into()),
+            note: None,
         };
         let w = unreachable_jumps(&p, "X", "Y", "Bridge sampling");
         assert!(

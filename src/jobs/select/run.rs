@@ -558,6 +558,7 @@ fn summarise(
         let (x, y) = (&models[rp.k].name, &models[rp.l].name);
         if let Some(p) = pairs.iter().find(|p| &p.x == x && &p.y == y) {
             rp.warning.clone_from(&p.jumps.warning);
+            rp.note.clone_from(&p.jumps.note);
         }
     }
     warnings.extend(
@@ -603,6 +604,9 @@ fn summarise(
     for p in &pairs {
         if let Some(w) = &p.jumps.warning {
             warnings.push(format!("{}/{}: {w}", p.x, p.y));
+        }
+        if let Some(n) = &p.jumps.note {
+            notes.push(format!("{}/{}: {n}", p.x, p.y));
         }
     }
     // the paper's Fig. 3: each model's residual PSD at its MAP
