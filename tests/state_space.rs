@@ -126,9 +126,19 @@ fn the_example_fits_and_selects() {
     );
     assert!(ok, "{stdout}\n{stderr}");
     let fit_s = t.elapsed().as_secs_f64();
+    // no warning it did not earn (issue 52's walk: unconverged chains at a fixed 2 000
+    // iterations, and `dt1` = 0 on its lower bound told to lower it, though a delay is ≥ 0)
+    assert!(!stderr.contains("warning:"), "{stderr}");
     let summary: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
     assert_eq!(summary["valid"], true, "{}", summary["invalid_reasons"]);
+    assert!(
+        summary["notes"]
+            .to_string()
+            .contains("`dt1` = 0 is at its physical limit"),
+        "{}",
+        summary["notes"]
+    );
     assert_eq!(summary["model"], "loop");
     let rows = summary["rows"].as_array().unwrap();
     let names: Vec<&str> = rows.iter().map(|r| r["name"].as_str().unwrap()).collect();
@@ -154,6 +164,7 @@ fn the_example_fits_and_selects() {
         root,
     );
     assert!(ok, "{stdout}\n{stderr}");
+    assert!(!stderr.contains("warning:"), "{stderr}");
     let table = std::fs::read_to_string(out.join("table.txt")).unwrap();
     assert!(table.contains('X') && table.contains('Y'), "{table}");
     let summary: serde_json::Value =

@@ -44,7 +44,8 @@ pub use map::{
     refine_statistic_max,
 };
 pub use multistart::{
-    CHAIN_MARGIN, MapStart, Maximum, MultiStartMap, StartFrom, multi_start_map, quasi_random_starts,
+    CHAIN_MARGIN, MapStart, Maximum, MultiStartMap, NEGLIGIBLE_LN_MASS, NO_MASS, StartFrom,
+    multi_start_map, quasi_random_starts,
 };
 pub use relbin::{MAX_REFINEMENTS, RelBinError, RelBinLikelihood, RelBinOptions, RelBinValidation};
 pub use run_noise::NoiseLeak;

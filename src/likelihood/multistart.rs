@@ -82,6 +82,15 @@ pub struct Maximum {
     scale: Vec<f64>,
 }
 
+/// How far below the highest maximum, in `ln` of its Laplace mass, another maximum holds no
+/// posterior mass worth a word: `e^−20 ≈ 2·10⁻⁹` of the highest's, which neither the chains
+/// nor any evidence estimate can see.
+pub const NEGLIGIBLE_LN_MASS: f64 = 20.0;
+
+/// What [`MultiStartMap::describe`] says when every other maximum is negligible: the line is
+/// then a fact for a run's notes, not a warning ([`MultiStartMap::is_fact`]).
+pub const NO_MASS: &str = "the others hold no posterior mass";
+
 /// What the multi-start search found.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MultiStartMap {
@@ -318,6 +327,32 @@ impl MultiStartMap {
         });
     }
 
+    /// `ln` of maximum `m`'s Laplace mass relative to the highest's: the height difference
+    /// plus the ratio of their volumes, from the Cramér–Rao σ of the free parameters
+    /// (correlations left out: the volumes' ratio is an order of magnitude, and the margin of
+    /// [`NEGLIGIBLE_LN_MASS`] is many of those).
+    fn ln_mass_ratio(&self, m: &Maximum) -> f64 {
+        let top = self.best();
+        let ln_volume: f64 = m
+            .scale
+            .iter()
+            .zip(&top.scale)
+            .map(|(a, b)| (a / b).ln())
+            .sum();
+        m.result.ln_posterior - top.result.ln_posterior + ln_volume
+    }
+
+    /// Whether [`MultiStartMap::describe`]'s line states a fact, not a problem: no start
+    /// failed and every maximum but the highest is more than [`NEGLIGIBLE_LN_MASS`] below it
+    /// in Laplace mass, so the MAP the run uses is the posterior's and nothing else counts.
+    pub fn is_fact(&self) -> bool {
+        self.failed.is_empty()
+            && self.maxima[1..].iter().all(|m| {
+                let r = self.ln_mass_ratio(m);
+                r.is_finite() && r < -NEGLIGIBLE_LN_MASS
+            })
+    }
+
     /// One line for a run's notes: the starts, the distinct maxima with their `ln L + ln π`,
     /// where each came from and the parameters (of `names`, the full vector's) that set it
     /// apart from the highest, and the failures; `None` when every start ended at one maximum.
@@ -380,6 +415,11 @@ impl MultiStartMap {
                 .map(|(from, e)| format!("{from}: {e}"))
                 .collect();
             s.push_str(&format!("; failed: {}", f.join("; ")));
+        }
+        if self.is_fact() {
+            s.push_str(&format!(
+                "; {NO_MASS} (each less than e^−{NEGLIGIBLE_LN_MASS:.0} of the highest's by its Laplace mass), so the chains and the evidence do not see them"
+            ));
         }
         Some(s)
     }
@@ -497,6 +537,43 @@ mod tests {
         assert!(d.contains("3 starts: 2 distinct maxima"), "{d}");
         assert!(d.contains("5.00 nats below, at x = -1.000"), "{d}");
         assert!(d.contains("from quasi-random start 2"), "{d}");
+        // 5 nats below, as wide: e^−5 of the mass, which the chains may see — a warning
+        assert!(!ms.is_fact() && !d.contains(NO_MASS), "{d}");
+    }
+
+    /// A maximum far below the highest holds no posterior mass: the line says so and is a fact
+    /// (issue 52's walk: `two-mass-damper` warned of one 144 nats below); a wider one counts
+    /// its volume, and a failed start keeps the line a warning.
+    #[test]
+    fn a_maximum_far_below_the_highest_is_a_fact() {
+        let deep = |th: &[f64]| {
+            search(th).map(|mut r| {
+                if r.ln_posterior < 1.0 {
+                    r.ln_posterior -= 30.0;
+                }
+                r
+            })
+        };
+        let starts = [
+            start(StartFrom::Given, 3.0),
+            start(StartFrom::QuasiRandom(1), 0.0),
+        ];
+        let ms = multi_start(&starts, &[1], deep, scale).unwrap();
+        assert_eq!(ms.maxima.len(), 2);
+        assert!(ms.is_fact());
+        let d = ms.describe(&names()).unwrap();
+        assert!(d.contains("35.00 nats below") && d.contains(NO_MASS), "{d}");
+        // 35 nats below but e^20 times as wide: e^−15 of the mass, not negligible
+        let wide = |th: &[f64]| vec![if th[1] < 0.5 { 0.1 * 20f64.exp() } else { 0.1 }];
+        let ms = multi_start(&starts, &[1], deep, wide).unwrap();
+        assert!(!ms.is_fact());
+        let failing = [
+            starts[0].clone(),
+            starts[1].clone(),
+            start(StartFrom::QuasiRandom(2), f64::INFINITY),
+        ];
+        let ms = multi_start(&failing, &[1], deep, scale).unwrap();
+        assert!(!ms.is_fact());
     }
 
     #[test]

@@ -174,6 +174,17 @@ impl Model for AccelModel {
         &self.names
     }
 
+    /// The actuator delays: causality (the check refuses less).
+    fn physical_limits(&self) -> Vec<[Option<f64>; 2]> {
+        self.names
+            .iter()
+            .map(|n| match n.as_str() {
+                "tau_c1" | "tau_c2" => [Some(0.0), None],
+                _ => [None, None],
+            })
+            .collect()
+    }
+
     /// ω² in s⁻², actuator poles in Hz, actuator delays in s; the gains are dimensionless.
     fn param_units(&self) -> Vec<String> {
         self.names

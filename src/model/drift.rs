@@ -313,6 +313,16 @@ impl Model for DriftModel {
         self.units.clone()
     }
 
+    /// A shared value, each stretch's value and a line's value at its reference keep the
+    /// parent's limits; a slope has none.
+    fn physical_limits(&self) -> Vec<[Option<f64>; 2]> {
+        let base = self.slots.iter().enumerate().flat_map(|(p, s)| match s {
+            Slot::Shared(j) | Slot::Linear { base: j, .. } => vec![(p, *j)],
+            Slot::PerStretch(js) => js.iter().map(|&j| (p, j)).collect(),
+        });
+        super::reparam::carried_limits(self.names.len(), &self.parent.physical_limits(), base)
+    }
+
     fn data_channels(&self) -> &[String] {
         self.parent.data_channels()
     }

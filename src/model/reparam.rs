@@ -71,6 +71,31 @@ impl Reparam {
     }
 }
 
+/// The physical limits of a model's own parameters from its parent's (`parent[p]`), where
+/// `base[p]` is the own parameter that is parent parameter `p`'s value (at the covariate's
+/// reference, for a drift): a tied parameter gets every limit of the parameters tied to it
+/// (the narrowest); slopes and the values of other stretches get the parent's limit through
+/// `base` only where they are a base themselves.
+pub(super) fn carried_limits(
+    n: usize,
+    parent: &[[Option<f64>; 2]],
+    base: impl IntoIterator<Item = (usize, usize)>,
+) -> Vec<[Option<f64>; 2]> {
+    let mut out: Vec<[Option<f64>; 2]> = vec![[None, None]; n];
+    for (p, own) in base {
+        let ([lo, hi], [plo, phi]) = (&mut out[own], parent[p]);
+        *lo = match (*lo, plo) {
+            (Some(a), Some(b)) => Some(a.max(b)),
+            (a, b) => a.or(b),
+        };
+        *hi = match (*hi, phi) {
+            (Some(a), Some(b)) => Some(a.min(b)),
+            (a, b) => a.or(b),
+        };
+    }
+    out
+}
+
 /// A model whose parameters map affinely onto a parent's (see the module docs).
 #[derive(Debug, Clone)]
 pub struct ReparamModel {
@@ -177,6 +202,13 @@ impl Model for ReparamModel {
 
     fn param_units(&self) -> Vec<String> {
         self.units.clone()
+    }
+
+    /// A parameter that is the base of a parent parameter (the value at the reference of a
+    /// slope term, which the line passes through) keeps the parent's limits.
+    fn physical_limits(&self) -> Vec<[Option<f64>; 2]> {
+        let base = self.map.terms.iter().enumerate().map(|(p, &(b, _))| (p, b));
+        carried_limits(self.names.len(), &self.parent.physical_limits(), base)
     }
 
     fn data_channels(&self) -> &[String] {
@@ -364,5 +396,20 @@ mod tests {
         assert!(ReparamModel::affine("r", p.clone(), names.clone(), units.clone(), short).is_err());
         let outside = Reparam::new((0..np).map(|i| (i, Some((np, 1.0)))).collect());
         assert!(ReparamModel::affine("r", p, names, units, outside).is_err());
+    }
+}
+
+#[cfg(test)]
+mod limit_tests {
+    use super::carried_limits;
+
+    /// A tied parameter keeps the narrowest of the limits tied to it; a parameter that is no
+    /// parent parameter's base (a slope) has none.
+    #[test]
+    fn limits_carry_to_the_bases_and_tied_ones_narrow() {
+        let parent = [[Some(0.0), None], [Some(-1.0), Some(2.0)], [None, None]];
+        // own 0 is parent 0 and 1 (tied), own 1 is parent 2, own 2 is a slope
+        let got = carried_limits(3, &parent, [(0, 0), (1, 0), (2, 1)]);
+        assert_eq!(got, [[Some(0.0), Some(2.0)], [None, None], [None, None]]);
     }
 }

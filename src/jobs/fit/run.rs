@@ -186,7 +186,14 @@ pub fn run(
     ) {
         warnings.push(w);
     }
-    warnings.extend(search.describe(&names));
+    if let Some(d) = search.describe(&names) {
+        // a maximum far below the highest is a fact, not a problem
+        if search.is_fact() {
+            notes.push(d)
+        } else {
+            warnings.push(d)
+        }
+    }
     let diag = chains.diagnostics()?;
     warnings.extend(diag.warnings().iter().map(|w| w.to_string()));
     let truth = truth_of(study, model.model, &prep.dataset);

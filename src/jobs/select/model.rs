@@ -161,11 +161,14 @@ fn map_search(m: &ModelPlan<'_>, notes: &mut Vec<String>) -> MapStage {
 /// How a model's note on a MAP at a physical limit of its parameters begins.
 const LIMIT_NOTE: &str = "the MAP is at a physical limit: ";
 
-/// Whether a model's note states a fact, not a problem: a MAP at a physical limit, or a
-/// θ-dependent noise evaluated at the model's own MAP by an iteration that converged. The
+/// Whether a model's note states a fact, not a problem: a MAP at a physical limit, a
+/// θ-dependent noise evaluated at the model's own MAP by an iteration that converged, or a
+/// MAP search whose other maxima hold no posterior mass. The
 /// run lists these under its notes; every other model note is a warning.
 pub fn is_fact(note: &str) -> bool {
-    note.starts_with(LIMIT_NOTE) || crate::jobs::noise_point::NoisePoint::is_converged_note(note)
+    note.starts_with(LIMIT_NOTE)
+        || crate::jobs::noise_point::NoisePoint::is_converged_note(note)
+        || (note.starts_with("MAP search from") && note.contains(crate::likelihood::NO_MASS))
 }
 
 impl MapStage {

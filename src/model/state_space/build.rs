@@ -168,10 +168,27 @@ impl StateSpaceModel {
             &data,
             &def.unit,
         )?;
+        // a parameter that is itself a delay is ≥ 0: causality (the check refuses less)
+        let implied: Vec<(usize, [Option<f64>; 2])> = def
+            .delay
+            .values()
+            .filter_map(|v| match v {
+                RealValue::Expr(e) => def.parameters.iter().position(|p| p == e.trim()),
+                RealValue::Number(_) => None,
+            })
+            .map(|i| (i, [Some(0.0), None]))
+            .collect();
+        let limits = crate::model::user::physical_limits(
+            &format!("state-space model `{}`", def.name),
+            &def.parameters,
+            &def.physical_limits,
+            &implied,
+        )?;
         let model = StateSpaceModel {
             name: def.name.clone(),
             params: def.parameters.clone(),
             units,
+            limits,
             channel_units,
             data,
             outputs: def.outputs.clone(),

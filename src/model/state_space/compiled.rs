@@ -45,6 +45,9 @@ pub struct StateSpaceModel {
     pub(super) params: Vec<String>,
     /// Unit of each parameter, in θ order (empty: dimensionless or unknown).
     pub(super) units: Vec<String>,
+    /// The physical limits of each parameter (`physical_limits`, and 0 below a delay), in θ
+    /// order.
+    pub(super) limits: Vec<[Option<f64>; 2]>,
     /// Outputs, then inputs.
     pub(super) data: Vec<String>,
     /// Unit of each channel of `data` (empty: unknown).
@@ -214,6 +217,10 @@ impl Model for StateSpaceModel {
 
     fn param_units(&self) -> Vec<String> {
         self.units.clone()
+    }
+
+    fn physical_limits(&self) -> Vec<[Option<f64>; 2]> {
+        self.limits.clone()
     }
 
     fn data_channels(&self) -> &[String] {

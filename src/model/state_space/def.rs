@@ -1,6 +1,6 @@
 //! The `[[model]]` tables of kinds `state_space` and `transfer_matrix` as written.
 
-use crate::model::user::{BlockDef, RealValue};
+use crate::model::user::{BlockDef, LimitDef, RealValue};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -31,6 +31,11 @@ pub struct StateSpaceDef {
     /// plot axes; a parameter left out is dimensionless or of unknown unit.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub unit: BTreeMap<String, String>,
+    /// Limits physics sets on parameters, by name (`physical_limits = { bc = { lo = 0.0 } }`):
+    /// a MAP on a prior bound there is noted, not warned about. A parameter that is itself a
+    /// channel's delay (`delay = { i1 = "dt1" }`) has the lower limit 0 without being named.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub physical_limits: BTreeMap<String, LimitDef>,
     /// Data channels of the known inputs `u` (the injections).
     pub inputs: Vec<String>,
     /// Data channels of the read-outs `y`; they are also the residual channels.
@@ -82,6 +87,10 @@ pub struct TransferMatrixDef {
     /// plot axes; a parameter left out is dimensionless or of unknown unit.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub unit: BTreeMap<String, String>,
+    /// Limits physics sets on parameters, by name (`physical_limits = { bc = { lo = 0.0 } }`):
+    /// a MAP on a prior bound there is noted, not warned about.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub physical_limits: BTreeMap<String, LimitDef>,
     /// Data channels of the known inputs.
     pub inputs: Vec<String>,
     /// Data channels of the read-outs (also the residual channels).

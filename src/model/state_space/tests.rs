@@ -479,3 +479,68 @@ u = "g"
         "{e}"
     );
 }
+
+/// Physical limits (issue 52's walk: `bc = 0` of the two-mass example and `dt1 = 0` of the
+/// state-space loop were warned about as misplaced prior boxes): a parameter that is a delay
+/// is ≥ 0 unasked, `physical_limits` states others, and a written entry replaces the implied
+/// one; the transfer-matrix form carries them too.
+#[test]
+fn state_space_models_state_their_physical_limits() {
+    let m = StateSpaceModel::new(&def(OSC)).unwrap();
+    assert_eq!(m.physical_limits(), [[None, None]; 2]);
+    let delayed = OSC.replace(
+        "parameters = [\"k\", \"gamma\"]",
+        "parameters = [\"k\", \"gamma\", \"tau\"]\ndelay = { u = \" tau \" }\nphysical_limits = { gamma = { lo = 0.0 } }",
+    );
+    let m = StateSpaceModel::new(&def(&delayed)).unwrap();
+    assert_eq!(
+        m.physical_limits(),
+        [[None, None], [Some(0.0), None], [Some(0.0), None]]
+    );
+    let replaced = delayed.replace(
+        "{ gamma = { lo = 0.0 } }",
+        "{ tau = { lo = 0.0, hi = 2.0 } }",
+    );
+    let m = StateSpaceModel::new(&def(&replaced)).unwrap();
+    assert_eq!(m.physical_limits()[2], [Some(0.0), Some(2.0)]);
+    for (limits, says) in [
+        ("{ q = { lo = 0.0 } }", "`q` is not a parameter"),
+        ("{ k = { } }", "give `lo`, `hi` or both"),
+        (
+            "{ k = { lo = 1.0, hi = 1.0 } }",
+            "lo = 1 is not below hi = 1",
+        ),
+        ("{ k = { lo = -inf } }", "lo is not a finite number"),
+    ] {
+        let bad = OSC.replace(
+            "c = [[1, 0]]",
+            &format!("c = [[1, 0]]\nphysical_limits = {limits}"),
+        );
+        let e = StateSpaceModel::new(&def(&bad)).unwrap_err();
+        assert!(
+            e.contains("state-space model `osc`: physical_limits.") && e.contains(says),
+            "{e}"
+        );
+    }
+    assert!(
+        toml::from_str::<StateSpaceDef>(&OSC.replace(
+            "c = [[1, 0]]",
+            "c = [[1, 0]]\nphysical_limits = { k = { low = 0.0 } }"
+        ))
+        .is_err()
+    );
+    let tm: TransferMatrixDef = toml::from_str(
+        r#"
+name = "tm"
+parameters = ["g"]
+physical_limits = { g = { hi = 1.0 } }
+inputs = ["u"]
+outputs = ["y"]
+[h.y]
+u = "g"
+"#,
+    )
+    .unwrap();
+    let u = UserModel::new(&to_user_def(&tm).unwrap()).unwrap();
+    assert_eq!(u.physical_limits(), [[None, Some(1.0)]]);
+}

@@ -51,6 +51,7 @@ pub fn to_user_def(def: &TransferMatrixDef) -> Result<UserModelDef, String> {
         name: def.name.clone(),
         parameters: def.parameters.clone(),
         unit: def.unit.clone(),
+        physical_limits: def.physical_limits.clone(),
         data: def.outputs.iter().chain(&def.inputs).cloned().collect(),
         residual: def.outputs.clone(),
         constants: def.constants.clone(),

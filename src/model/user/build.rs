@@ -101,6 +101,50 @@ pub fn units(
     Ok((of(parameters), of(channels)))
 }
 
+/// The physical limits of `parameters` (in their order) from a model's `physical_limits`
+/// table, over those `implied` by the model's structure (a parameter that is a delay: lower
+/// limit 0), which a written entry replaces. `what` names the model in errors; every key must
+/// be a parameter, every limit finite, and `lo < hi`.
+pub fn physical_limits(
+    what: &str,
+    parameters: &[String],
+    limits: &std::collections::BTreeMap<String, super::LimitDef>,
+    implied: &[(usize, [Option<f64>; 2])],
+) -> Result<Vec<[Option<f64>; 2]>, String> {
+    let mut out = vec![[None, None]; parameters.len()];
+    for &(i, l) in implied {
+        out[i] = l;
+    }
+    for (k, l) in limits {
+        let entry = format!("{what}: physical_limits.{k}");
+        let Some(i) = parameters.iter().position(|p| p == k) else {
+            return Err(format!(
+                "{entry}: `{k}` is not a parameter of the model; parameters = [{}]",
+                parameters.join(", ")
+            ));
+        };
+        if l.lo.is_none() && l.hi.is_none() {
+            return Err(format!(
+                "{entry}: give `lo`, `hi` or both, e.g. {{ lo = 0.0 }} for a parameter physics keeps ≥ 0"
+            ));
+        }
+        for (name, v) in [("lo", l.lo), ("hi", l.hi)] {
+            if v.is_some_and(|v| !v.is_finite()) {
+                return Err(format!(
+                    "{entry}: {name} is not a finite number; leave it out where physics sets no limit"
+                ));
+            }
+        }
+        if let (Some(lo), Some(hi)) = (l.lo, l.hi)
+            && lo >= hi
+        {
+            return Err(format!("{entry}: lo = {lo} is not below hi = {hi}"));
+        }
+        out[i] = [l.lo, l.hi];
+    }
+    Ok(out)
+}
+
 /// An error of model `m`: `user model `m`: <entry>: <msg>`.
 fn fail(m: &str, entry: &str, msg: String) -> String {
     format!("user model `{m}`: {entry}: {msg}")
@@ -623,10 +667,17 @@ impl<'a> Scope<'a> {
             &def.data,
             &def.unit,
         )?;
+        let limits = physical_limits(
+            &format!("user model `{}`", def.name),
+            &def.parameters,
+            &def.physical_limits,
+            &[],
+        )?;
         Ok(UserModel {
             name: def.name.clone(),
             params: def.parameters.clone(),
             units,
+            limits,
             channel_units,
             data: def.data.clone(),
             res: def.residual.clone(),

@@ -22,6 +22,8 @@ pub struct UserModel {
     pub(super) params: Vec<String>,
     /// Unit of each parameter, in θ order (empty: dimensionless or unknown).
     pub(super) units: Vec<String>,
+    /// The physical limits of each parameter (`physical_limits`), in θ order.
+    pub(super) limits: Vec<[Option<f64>; 2]>,
     pub(super) data: Vec<String>,
     /// Unit of each data channel, in the order of `data` (empty: unknown).
     pub(super) channel_units: Vec<String>,
@@ -95,6 +97,10 @@ impl Model for UserModel {
 
     fn param_units(&self) -> Vec<String> {
         self.units.clone()
+    }
+
+    fn physical_limits(&self) -> Vec<[Option<f64>; 2]> {
+        self.limits.clone()
     }
 
     fn data_channels(&self) -> &[String] {

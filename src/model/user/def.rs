@@ -11,6 +11,20 @@ pub enum RealValue {
     Expr(String),
 }
 
+/// The limits physics sets on one parameter, as written in a model's `physical_limits`
+/// table (`physical_limits = { bc = { lo = 0.0 } }`: a damping cannot be negative). A MAP on a
+/// prior bound at such a limit is a fact the run notes, not a misplaced box it warns about.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct LimitDef {
+    /// The lowest value physics allows.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lo: Option<f64>,
+    /// The highest value physics allows.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub hi: Option<f64>,
+}
+
 /// One named block of `[model.blocks]`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
@@ -45,6 +59,10 @@ pub struct UserModelDef {
     /// plot axes; a parameter left out is dimensionless or of unknown unit.
     #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
     pub unit: BTreeMap<String, String>,
+    /// Limits physics sets on parameters, by name (`physical_limits = { bc = { lo = 0.0 } }`):
+    /// a MAP on a prior bound there is noted, not warned about.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub physical_limits: BTreeMap<String, LimitDef>,
     /// Data channels (columns of `M`).
     pub data: Vec<String>,
     /// Residual channels (rows of `M`).

@@ -56,8 +56,8 @@ mod ssa;
 #[cfg(test)]
 mod tests;
 
-pub use build::units;
+pub use build::{physical_limits, units};
 pub use compiled::{MAX_SLOTS, UserModel};
-pub use def::{BlockDef, RealValue, UserModelDef};
+pub use def::{BlockDef, LimitDef, RealValue, UserModelDef};
 #[cfg(test)]
 mod kernel_tests;
