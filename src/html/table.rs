@@ -13,8 +13,9 @@ pub enum Block {
         right: Vec<bool>,
     },
     Text(String),
-    /// Consecutive Markdown list items (`- …`), without their markers.
-    List(Vec<String>),
+    /// Consecutive Markdown list items (`- …`), without their markers, each with its depth
+    /// (0 at the margin; one more per indent of two or more spaces beyond its parent's).
+    List(Vec<(usize, String)>),
 }
 
 /// Splits a Markdown pipe-table row into its cells (`\|` is a literal bar).
@@ -48,6 +49,8 @@ fn is_md_separator(cells: &[String]) -> bool {
 pub fn parse_markdown(text: &str) -> Vec<Block> {
     let lines: Vec<&str> = text.lines().collect();
     let mut out = Vec::new();
+    // the indents of the open list levels, outermost first
+    let mut indents: Vec<usize> = Vec::new();
     let mut i = 0;
     while i < lines.len() {
         let l = lines[i];
@@ -70,12 +73,21 @@ pub fn parse_markdown(text: &str) -> Vec<Block> {
                 continue;
             }
         }
-        // a list item joins the list just before it, else starts one
+        // a list item joins the list just before it, else starts one; indented further than
+        // the item before it, it is a sub-item of that one
         if let Some(item) = l.trim_start().strip_prefix("- ") {
             let item = item.trim_end().to_string();
+            let indent = l.len() - l.trim_start().len();
             match out.last_mut() {
-                Some(Block::List(items)) => items.push(item),
-                _ => out.push(Block::List(vec![item])),
+                Some(Block::List(items)) => {
+                    indents.retain(|&i| i < indent);
+                    items.push((indents.len(), item));
+                    indents.push(indent);
+                }
+                _ => {
+                    indents = vec![indent];
+                    out.push(Block::List(vec![(0, item)]));
+                }
             }
         } else if !l.trim().is_empty() {
             out.push(Block::Text(l.trim_end().to_string()));
@@ -199,8 +211,25 @@ pub fn to_html(blocks: &[Block]) -> String {
             }
             Block::List(items) => {
                 h.push_str("<ul class=\"tabletext\">\n");
-                for t in items {
-                    h.push_str(&format!("<li>{}</li>\n", esc(t)));
+                let mut depth = 0;
+                for (k, (d, t)) in items.iter().enumerate() {
+                    // a sub-list opens inside the item before it, which stays open until then
+                    if k > 0 {
+                        if *d > depth {
+                            h.push_str("\n<ul>\n");
+                        } else {
+                            h.push_str("</li>\n");
+                        }
+                    }
+                    for _ in *d..depth {
+                        h.push_str("</ul></li>\n");
+                    }
+                    depth = *d;
+                    h.push_str(&format!("<li>{}", esc(t)));
+                }
+                h.push_str("</li>\n");
+                for _ in 0..depth {
+                    h.push_str("</ul></li>\n");
                 }
                 h.push_str("</ul>\n");
             }
@@ -258,14 +287,46 @@ mod tests {
             b,
             vec![
                 Block::Text("head".into()),
-                Block::List(vec!["one <a>".into(), "two".into()]),
+                Block::List(vec![(0, "one <a>".into()), (0, "two".into())]),
                 Block::Text("text".into()),
-                Block::List(vec!["three".into()]),
+                Block::List(vec![(0, "three".into())]),
             ]
         );
         let h = to_html(&b);
         assert!(h.contains("<li>one &lt;a&gt;</li>\n<li>two</li>"), "{h}");
         assert!(!h.contains("- one"), "{h}");
+    }
+
+    /// Indented items are a sub-list of the item above them, as select's table.md writes its
+    /// models and its answer (issue 52: the report showed them flat).
+    #[test]
+    fn indented_list_items_nest() {
+        let md = "- models: 2\n    - X 7 free\n    - Y 5 free\n- answer: Y\n    - ln B = 1\n        - deep\n- last\n";
+        let b = parse_markdown(md);
+        let items = |v: &[(usize, &str)]| v.iter().map(|&(d, t)| (d, t.to_string())).collect();
+        assert_eq!(
+            b,
+            vec![Block::List(items(&[
+                (0, "models: 2"),
+                (1, "X 7 free"),
+                (1, "Y 5 free"),
+                (0, "answer: Y"),
+                (1, "ln B = 1"),
+                (2, "deep"),
+                (0, "last"),
+            ]))]
+        );
+        let h = to_html(&b);
+        assert_eq!(
+            h,
+            "<ul class=\"tabletext\">\n<li>models: 2\n<ul>\n<li>X 7 free</li>\n<li>Y 5 free</li>\n</ul></li>\n<li>answer: Y\n<ul>\n<li>ln B = 1\n<ul>\n<li>deep</li>\n</ul></li>\n</ul></li>\n<li>last</li>\n</ul>\n"
+        );
+        // a list that ends deep closes every level
+        let h = to_html(&parse_markdown("- a\n  - b\n"));
+        assert_eq!(
+            h,
+            "<ul class=\"tabletext\">\n<li>a\n<ul>\n<li>b</li>\n</ul></li>\n</ul>\n"
+        );
     }
 
     #[test]
