@@ -52,8 +52,9 @@ fn unequal_actuator_gains_pick_the_asymmetric_model() {
         reference(p)
     );
     assert!(reference(p) < -(1e6f64).ln(), "{}", reference(p));
-    // the files of a many-model run: one Fig. 2 per pair (or a warning saying why not), each
-    // model's chains, the jump chain over the union of the parameters
+    // the files of a many-model run: one Fig. 2 per pair (or a warning saying why not — a note
+    // when the models exchange no jumps and the answer does not need them), each model's
+    // chains, the jump chain over the union of the parameters
     let dir = tempfile::tempdir().unwrap();
     occam::jobs::select::write_outputs(&asym, dir.path()).unwrap();
     assert!(!dir.path().join("bayes_factor.svg").exists());
@@ -62,10 +63,15 @@ fn unequal_actuator_gains_pick_the_asymmetric_model() {
             .path()
             .join(format!("bayes_factor_{}_{}.svg", p.x, p.y))
             .exists();
-        let warned = asym
-            .warnings
-            .iter()
-            .any(|w| w.starts_with(&format!("{}/{}: no Fig. 2", p.x, p.y)));
+        let said = |lines: &[String]| {
+            lines
+                .iter()
+                .any(|w| w.starts_with(&format!("{}/{}: no Fig. 2", p.x, p.y)))
+        };
+        let (warned, noted) = (said(&asym.warnings), said(&asym.notes));
+        assert!(!(warned && noted), "{}/{}", p.x, p.y);
+        assert_eq!(noted, !drawn && p.jumps.note.is_some(), "{}/{}", p.x, p.y);
+        let warned = warned || noted;
         assert!(
             drawn != warned,
             "{}/{}: drawn {drawn}, warned {warned}",

@@ -64,8 +64,8 @@ fn select_prefers_both_cross_talks() {
         &[
             ("rj_iterations = 15000", "rj_iterations = 6000"),
             ("rj_burn_in = 2000", "rj_burn_in = 1000"),
-            ("iterations = 8000", "iterations = 2000"),
-            ("burn_in = 2500", "burn_in = 500"),
+            ("iterations = 24000", "iterations = 2000"),
+            ("burn_in = 4000", "burn_in = 500"),
             ("pt_temperatures = 32", "pt_temperatures = 0"),
         ],
     );

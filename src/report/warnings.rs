@@ -49,6 +49,16 @@ fn shape(text: &str) -> String {
     out
 }
 
+/// The kind of a warning, for counting many runs' warnings: its place's shape and its text up
+/// to the first `": "` (where the details start: which parameters sit on which bound, how
+/// far), shaped. `model `X`: the MAP is on a bound of the prior box: `w1sq` = …` and
+/// `model `Y`: the MAP is on a bound of the prior box: `a_df` = …` are one kind.
+fn kind(w: &str) -> String {
+    let (place, text) = place_of(w);
+    let head = text.split_once(": ").map_or(text, |(h, _)| h);
+    format!("{}|{}", place.map(shape).unwrap_or_default(), shape(head))
+}
+
 /// The warnings, each group of the same shape (same text but for the places, names and
 /// numbers) once: a single one as it is; a repeated one as its first text, prefixed with
 /// how many times and where it occurred — `(14×, at A/B, A/C, …; the first shown) A/B: …`.
@@ -94,7 +104,8 @@ pub fn group_warnings(warnings: &[String]) -> Vec<String> {
 }
 
 /// The warnings of many runs of one kind (a sweep's tasks: `runs[t]` the labels and warnings
-/// of task `t`), each shape once with the number of runs that raised it and the first run's
+/// of task `t`), each kind once (the same text up to its details, whatever the model, the
+/// parameters and the numbers) with the number of runs that raised it and the first run's
 /// label and text — `(in 12 of 40 tasks, first snr=5 r=0) model `X`: …` — most frequent
 /// first: what a terminal can show of hundreds.
 ///
@@ -117,7 +128,7 @@ pub fn group_run_warnings(runs: &[(String, Vec<String>)], what: &str) -> Vec<Str
     for (label, warnings) in runs {
         let mut seen: Vec<String> = Vec::new();
         for w in warnings {
-            let key = shape(w);
+            let key = kind(w);
             if seen.contains(&key) {
                 continue;
             }
@@ -184,5 +195,48 @@ mod tests {
         );
         assert_eq!(place_of("X/Y: text"), (Some("X/Y"), "text"));
         assert_eq!(place_of("model `a b`: text"), (Some("model `a b`"), "text"));
+    }
+
+    /// A sweep counts its tasks' warnings by kind: a MAP on a bound of any model, whichever
+    /// parameters and bounds its details name, is one line (issue 52's walk: the sweep
+    /// starter printed 21 lines, 17 of them this one kind).
+    #[test]
+    fn a_sweep_counts_warnings_by_kind_not_by_detail() {
+        let bound = |m: &str, p: &str, side: &str| {
+            format!(
+                "model `{m}`: the MAP is on a bound of the prior box: `{p}` = 5 is on the {side} bound (hi = 5: raise hi)"
+            )
+        };
+        let runs = [
+            (
+                "t0".to_string(),
+                vec![bound("X", "w1sq", "upper"), bound("Y", "a_df", "lower")],
+            ),
+            (
+                "t1".to_string(),
+                vec![bound("Y", "w2sq", "lower; `a_sus` = 1 is on the upper")],
+            ),
+            (
+                "t2".to_string(),
+                s(&["model `X`: 2 likelihood evaluations fell where the loop is unstable"]),
+            ),
+            ("t3".to_string(), vec![]),
+        ];
+        let g = group_run_warnings(&runs, "tasks");
+        assert_eq!(g.len(), 2, "{g:#?}");
+        assert_eq!(
+            g[0],
+            format!(
+                "(in 2 of 4 tasks, first t0) {}",
+                bound("X", "w1sq", "upper")
+            )
+        );
+        assert!(g[1].starts_with("(in 1 of 4 tasks, first t2) model `X`: 2 likelihood"));
+        // a different kind of the same place stays apart
+        let runs = [(
+            "t0".to_string(),
+            s(&["a/b: first thing: x", "a/b: second thing: x"]),
+        )];
+        assert_eq!(group_run_warnings(&runs, "tasks").len(), 2);
     }
 }

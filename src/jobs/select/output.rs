@@ -318,23 +318,30 @@ pub fn fig2(rj: &crate::evidence::RjResult) -> Vec<Fig2> {
     out
 }
 
-/// Why a pair has no Fig. 2: none of its jump-chain estimators has a value.
-pub fn fig2_warnings(rj: &crate::evidence::RjResult) -> Vec<String> {
+/// Why a pair has no Fig. 2: none of its jump-chain estimators has a value. Returns the
+/// warnings and the notes: a pair whose models are too far apart for any jump, and whose answer
+/// does not need them (its `note`), misses its figure for the same reason, a fact.
+pub fn fig2_warnings(rj: &crate::evidence::RjResult) -> (Vec<String>, Vec<String>) {
     let drawn: Vec<String> = fig2(rj).into_iter().map(|f| f.title).collect();
-    rj.pairs
-        .iter()
-        .filter(|p| {
-            let (x, y) = (&rj.model_names[p.k], &rj.model_names[p.l]);
-            let t = format!("ln B({x}/{y}) along");
-            !drawn.iter().any(|d| d.starts_with(&t))
-        })
-        .map(|p| {
-            format!(
-                "{}/{}: no Fig. 2 (bayes_factor): no reversible-jump estimator (visit ratio, Rao-Blackwell, bridge) has a value at any point of the run",
-                rj.model_names[p.k], rj.model_names[p.l]
-            )
-        })
-        .collect()
+    let (mut warnings, mut notes) = (Vec::new(), Vec::new());
+    for p in &rj.pairs {
+        let (x, y) = (&rj.model_names[p.k], &rj.model_names[p.l]);
+        let t = format!("ln B({x}/{y}) along");
+        if drawn.iter().any(|d| d.starts_with(&t)) {
+            continue;
+        }
+        let line = format!(
+            "{x}/{y}: no Fig. 2 (bayes_factor): no reversible-jump estimator (visit ratio, Rao-Blackwell, bridge) has a value at any point of the run"
+        );
+        if p.note.is_some() {
+            notes.push(format!(
+                "{line}: the models exchange no jumps (the pair's note)"
+            ));
+        } else {
+            warnings.push(line);
+        }
+    }
+    (warnings, notes)
 }
 
 #[cfg(test)]

@@ -600,7 +600,11 @@ fn summarise(
         }
     }
     warnings.extend(rj_note.clone());
-    warnings.extend(rj.as_ref().map(output::fig2_warnings).unwrap_or_default());
+    if let Some(r) = &rj {
+        let (w, n) = output::fig2_warnings(r);
+        warnings.extend(w);
+        notes.extend(n);
+    }
     for p in &pairs {
         if let Some(w) = &p.jumps.warning {
             warnings.push(format!("{}/{}: {w}", p.x, p.y));
