@@ -450,6 +450,15 @@ fn errors_name_the_entry() {
 
 use crate::model::user::RealValue;
 
+/// The transfer matrix `y = g u` with `line` added to its table, as a user model.
+fn one_gain_transfer_matrix(line: &str) -> UserModel {
+    let text = format!(
+        "name = \"tm\"\nparameters = [\"g\"]\n{line}\ninputs = [\"u\"]\noutputs = [\"y\"]\n[h.y]\nu = \"g\"\n"
+    );
+    let tm: TransferMatrixDef = toml::from_str(&text).unwrap();
+    UserModel::new(&to_user_def(&tm).unwrap()).unwrap()
+}
+
 #[test]
 fn state_space_and_transfer_matrix_models_carry_their_parameter_units() {
     let d = def(&OSC.replace(
@@ -458,19 +467,7 @@ fn state_space_and_transfer_matrix_models_carry_their_parameter_units() {
     ));
     let m = StateSpaceModel::new(&d).unwrap();
     assert_eq!(m.param_units(), ["s⁻²", "s⁻¹"]);
-    let tm: TransferMatrixDef = toml::from_str(
-        r#"
-name = "tm"
-parameters = ["g"]
-unit = { g = "m/N" }
-inputs = ["u"]
-outputs = ["y"]
-[h.y]
-u = "g"
-"#,
-    )
-    .unwrap();
-    let u = UserModel::new(&to_user_def(&tm).unwrap()).unwrap();
+    let u = one_gain_transfer_matrix("unit = { g = \"m/N\" }");
     assert_eq!(u.param_units(), ["m/N"]);
     let bad = def(&OSC.replace("c = [[1, 0]]", "c = [[1, 0]]\nunit = { q = \"s\" }"));
     let e = StateSpaceModel::new(&bad).unwrap_err();
@@ -529,18 +526,6 @@ fn state_space_models_state_their_physical_limits() {
         ))
         .is_err()
     );
-    let tm: TransferMatrixDef = toml::from_str(
-        r#"
-name = "tm"
-parameters = ["g"]
-physical_limits = { g = { hi = 1.0 } }
-inputs = ["u"]
-outputs = ["y"]
-[h.y]
-u = "g"
-"#,
-    )
-    .unwrap();
-    let u = UserModel::new(&to_user_def(&tm).unwrap()).unwrap();
+    let u = one_gain_transfer_matrix("physical_limits = { g = { hi = 1.0 } }");
     assert_eq!(u.physical_limits(), [[None, Some(1.0)]]);
 }
