@@ -108,7 +108,7 @@ pub fn units(
 pub fn physical_limits(
     what: &str,
     parameters: &[String],
-    limits: &std::collections::BTreeMap<String, super::LimitDef>,
+    limits: &std::collections::BTreeMap<String, super::def::LimitDef>,
     implied: &[(usize, [Option<f64>; 2])],
 ) -> Result<Vec<[Option<f64>; 2]>, String> {
     let mut out = vec![[None, None]; parameters.len()];
