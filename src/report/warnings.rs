@@ -50,12 +50,20 @@ fn shape(text: &str) -> String {
 }
 
 /// The kind of a warning, for counting many runs' warnings: its place's shape and its text up
-/// to the first `": "` (where the details start: which parameters sit on which bound, how
-/// far), shaped. `model `X`: the MAP is on a bound of the prior box: `w1sq` = …` and
-/// `model `Y`: the MAP is on a bound of the prior box: `a_df` = …` are one kind.
+/// to the first `": "` that opens a list of details (a backticked name or a number: which
+/// parameters sit on which bound, how far), shaped; the whole text, shaped, when none does.
+/// `model `X`: the MAP is on a bound of the prior box: `w1sq` = …` and
+/// `model `Y`: the MAP is on a bound of the prior box: `a_df` = …` are one kind;
+/// `in-model chains: R-hat of …` and `in-model chains: effective sample size of …` are two.
 fn kind(w: &str) -> String {
     let (place, text) = place_of(w);
-    let head = text.split_once(": ").map_or(text, |(h, _)| h);
+    let details = text.match_indices(": ").map(|(i, _)| i).find(|&i| {
+        text[i + 2..]
+            .chars()
+            .next()
+            .is_some_and(|c| c == '`' || c.is_ascii_digit())
+    });
+    let head = details.map_or(text, |i| &text[..i]);
     format!("{}|{}", place.map(shape).unwrap_or_default(), shape(head))
 }
 
@@ -238,5 +246,24 @@ mod tests {
             s(&["a/b: first thing: x", "a/b: second thing: x"]),
         )];
         assert_eq!(group_run_warnings(&runs, "tasks").len(), 2);
+        // texts that share only an opening label stay apart: the details start at a name or a
+        // number, not at any colon
+        let chains = |t: &str, m: &str| {
+            (
+                t.to_string(),
+                vec![
+                    format!(
+                        "model `{m}`: in-model chains: R-hat of `w1sq` is 1.02 > 1.01: run longer"
+                    ),
+                    format!(
+                        "model `{m}`: in-model chains: effective sample size of `dt1` is 80 < 100: run longer"
+                    ),
+                ],
+            )
+        };
+        let g = group_run_warnings(&[chains("t0", "X"), chains("t1", "Y")], "tasks");
+        assert_eq!(g.len(), 2, "{g:#?}");
+        assert!(g[0].starts_with("(in 2 of 2 tasks, first t0) model `X`: in-model chains: R-hat"));
+        assert!(g[1].contains("effective sample size"), "{g:#?}");
     }
 }
