@@ -79,3 +79,78 @@ fn rho_60_rj_and_tempering_estimators_agree() {
         within(p, m, NAUTILUS_RHO60, 2.5);
     }
 }
+
+/// `[select] until` on the shipped guidance-delay study (nominal amplitudes, its seed): model
+/// X's in-model chains have not converged at their 12 000 iterations (R-hat of `d21` 1.0103,
+/// the reason the rule exists), Y's have. With the rule (the default) X's run on to where they
+/// converge and Y's are exactly the fixed run's; a rule the most cannot meet says so in one
+/// line per model naming every parameter short of it.
+#[test]
+fn in_model_chains_run_on_until_converged_and_keep_the_converged_ones() {
+    let base = || {
+        let mut s = Study::load(Path::new("examples/guidance-delays.toml")).unwrap();
+        s.select.rj_iterations = 8_000;
+        s.select.cross_checks = occam::config::CrossChecks::Off;
+        s
+    };
+    let prep = prepare(&base()).unwrap();
+    let go = |s: &Study| run(s, &prep, None).unwrap();
+    let fixed = {
+        let mut s = base();
+        s.select.until = None;
+        go(&s)
+    };
+    let ruled = go(&base());
+    let (x0, y0) = (&fixed.models[0], &fixed.models[1]);
+    let (x1, y1) = (&ruled.models[0], &ruled.models[1]);
+    let in_model_rhat = |m: &occam::jobs::select::ModelOutcome| {
+        m.notes
+            .iter()
+            .any(|n| n.starts_with("in-model chains: R-hat"))
+    };
+    assert!(
+        x0.mcmc_max_rhat.unwrap() > 1.01 && in_model_rhat(x0),
+        "{x0:#?}"
+    );
+    assert_eq!(x0.mcmc_iterations, Some(12_000));
+    let n = x1.mcmc_iterations.unwrap();
+    assert!(n > 12_000 && n <= 48_000 && (n - 12_000) % 100 == 0, "{n}");
+    assert!(
+        x1.mcmc_max_rhat.unwrap() <= 1.01 && !in_model_rhat(x1),
+        "{x1:#?}"
+    );
+    // Y converged by 12 000: the same chains, so the same bridge-sampling evidence, bit for bit
+    assert_eq!(y1.mcmc_iterations, Some(12_000));
+    assert_eq!(
+        y1.bridge_sampling.ln_z.map(f64::to_bits),
+        y0.bridge_sampling.ln_z.map(f64::to_bits)
+    );
+    assert!(y1.bridge_sampling.ln_z.is_some());
+
+    // an ESS no run of 12 100 reaches: both run their most and say which parameters fell short
+    let mut s = base();
+    s.select.until = Some(occam::config::UntilOptions {
+        ess: 1e6,
+        ..Default::default()
+    });
+    s.select.max_iterations = Some(12_100);
+    let short = go(&s);
+    for m in &short.models {
+        assert_eq!(m.mcmc_iterations, Some(12_100));
+        let line: Vec<&String> = m
+            .notes
+            .iter()
+            .filter(|n| n.contains("effective sample size below 1000000"))
+            .collect();
+        assert_eq!(line.len(), 1, "{:#?}", m.notes);
+        for p in &m.free {
+            assert!(line[0].contains(&format!("`{p}` (")), "{p}: {}", line[0]);
+        }
+        assert!(
+            short
+                .warnings
+                .iter()
+                .any(|w| w.contains("raise [select] max_iterations"))
+        );
+    }
+}

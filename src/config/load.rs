@@ -1318,6 +1318,7 @@ fn validate_select(
         ("rj_iterations", s.rj_iterations),
         ("iterations", s.iterations),
         ("pt_iterations", s.pt_iterations),
+        ("max_iterations", s.max_iterations.unwrap_or(0)),
     ] {
         if v > budget::MAX_ITERATIONS {
             return Err(bad(
@@ -1341,6 +1342,23 @@ fn validate_select(
             format!(
                 "need chains ≥ 1 and at least {MIN_KEPT} draws per chain after the burn-in, which the convergence checks split (got chains = {}, burn_in = {}, iterations = {})",
                 s.chains, s.burn_in, s.iterations
+            ),
+        ));
+    }
+    if let Some(u) = &s.until
+        && let Err(crate::sampler::SamplerError::Setting { field, problem }) =
+            crate::sampler::Until::new(u.ess, u.rhat, u.every)
+    {
+        return Err(bad(format!("select.{field}"), problem));
+    }
+    if let Some(m) = s.max_iterations
+        && m < s.iterations
+    {
+        return Err(bad(
+            "select.max_iterations".into(),
+            format!(
+                "must be at least `iterations` ({}), which the in-model chains always run (got {m}); `until = false` runs exactly `iterations`",
+                s.iterations
             ),
         ));
     }
@@ -1841,6 +1859,47 @@ design = "tn3045_x1"
             .unwrap_err()
             .to_string();
         assert!(e.contains("true or false"), "{e}");
+    }
+
+    /// `[select] until`: on by default (the in-model chains run past `iterations` until they
+    /// converge, at most `max_iterations`, 4 × `iterations` unless given); `false` runs exactly
+    /// `iterations`; the resolved study reads back to the same; bad values name their field.
+    #[test]
+    fn select_s_in_model_chains_run_until_converged_unless_told_not_to() {
+        let sel = |extra: &str| load(&format!("{OK}{extra}")).unwrap().select;
+        let d = sel("");
+        assert_eq!(d.until, Some(crate::config::UntilOptions::default()));
+        assert_eq!(d.most_iterations(), 4 * d.iterations);
+        let off = sel("[select]\nuntil = false\n");
+        assert_eq!((off.until, off.most_iterations()), (None, off.iterations));
+        let given =
+            sel("[select]\nuntil = { ess = 800 }\niterations = 9000\nmax_iterations = 20000\n");
+        assert_eq!(given.until.map(|u| (u.ess, u.rhat)), Some((800.0, 1.01)));
+        assert_eq!(given.most_iterations(), 20_000);
+        for extra in [
+            "",
+            "[select]\nuntil = false\n",
+            "[select]\nuntil = { rhat = 1.05 }\nmax_iterations = 50000\n",
+        ] {
+            let study = load(&format!("{OK}{extra}")).unwrap();
+            let text = crate::config::resolved_toml(&study).unwrap();
+            let back = load(&text).unwrap().select;
+            assert_eq!(
+                (back.until, back.max_iterations),
+                (study.select.until, study.select.max_iterations),
+                "{text}"
+            );
+        }
+        for (bad, field) in [
+            ("until = { ess = 0 }", "select.until.ess"),
+            ("until = { every = 0 }", "select.until.every"),
+            ("max_iterations = 11999", "select.max_iterations"),
+            ("max_iterations = 1000000000000", "select.max_iterations"),
+        ] {
+            let e = load(&format!("{OK}[select]\n{bad}\n"));
+            let e = e.map(|_| ()).unwrap_err().to_string();
+            assert!(e.contains(field), "{bad}: {e}");
+        }
     }
 
     /// Pairs with a third number were read as their first two, silently (issue 51); now every

@@ -71,13 +71,17 @@ fn cannot(study: &Study, e: String) -> ConfigError {
 /// study writes, before its floats are put in scientific form.
 fn resolved_body(study: &Study, file: &super::study::StudyFile) -> Result<String, ConfigError> {
     let err = |e: String| cannot(study, e);
-    let text = if file.analysis.glitches == crate::likelihood::GlitchTreatment::Model
-        && file.fit.until.is_none()
-    {
-        // no `until` would read back as the glitch model's default rule: say `false`
+    // no `until` would read back as the default rule (the glitch model's in `[fit]`, always
+    // in `[select]`): say `false`
+    let fit_off = file.analysis.glitches == crate::likelihood::GlitchTreatment::Model
+        && file.fit.until.is_none();
+    let select_off = file.select.until.is_none();
+    let text = if fit_off || select_off {
         let mut t = toml::Table::try_from(file).map_err(|e| err(e.to_string()))?;
-        if let Some(toml::Value::Table(fit)) = t.get_mut("fit") {
-            fit.insert("until".into(), toml::Value::Boolean(false));
+        for (table, off) in [("fit", fit_off), ("select", select_off)] {
+            if off && let Some(toml::Value::Table(tb)) = t.get_mut(table) {
+                tb.insert("until".into(), toml::Value::Boolean(false));
+            }
         }
         toml::to_string(&t)
     } else {

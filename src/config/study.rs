@@ -508,8 +508,8 @@ pub struct FitOptions {
     pub until: Option<UntilOptions>,
 }
 
-/// `[fit] until` from a table of the rule's settings, or `true` (the defaults) or `false`
-/// (none); a table's own errors (an unknown key) pass through.
+/// `[fit] until` and `[select] until` from a table of the rule's settings, or `true` (the
+/// defaults) or `false` (none); a table's own errors (an unknown key) pass through.
 fn until_or_off<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<UntilOptions>, D::Error> {
     struct V;
     impl<'de> serde::de::Visitor<'de> for V {
@@ -527,8 +527,8 @@ fn until_or_off<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<UntilOp
     d.deserialize_any(V)
 }
 
-/// `[fit] until`: the convergence rule that ends a fit's chains early
-/// ([`crate::sampler::Until`]), each field optional.
+/// `[fit] until` and `[select] until`: the convergence rule that ends a fit's chains early
+/// and extends select's in-model chains ([`crate::sampler::Until`]), each field optional.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct UntilOptions {
@@ -684,6 +684,24 @@ pub struct SelectOptions {
     /// integration and stepping-stone) get.
     #[serde(skip_serializing_if = "CrossChecks::is_full")]
     pub cross_checks: CrossChecks,
+    /// The in-model chains run `iterations`, then on, while they fail this rule, until they
+    /// meet it or reach `max_iterations` (`[select] until = { ess = 400, rhat = 1.01 }`, the
+    /// default, or `false` for exactly `iterations`). Asked first at `iterations`, so chains
+    /// that have converged by then are those of a fixed run of that length.
+    #[serde(
+        deserialize_with = "until_or_off",
+        skip_serializing_if = "is_default_select_until"
+    )]
+    pub until: Option<UntilOptions>,
+    /// The most iterations an in-model chain runs under `until` (default: 4 × `iterations`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub max_iterations: Option<usize>,
+}
+
+/// The resolved study leaves out `[select] until` when it is the default rule, and when it is
+/// off (`None`), which [`super::resolved`] writes as `false` itself (TOML has no none).
+fn is_default_select_until(u: &Option<UntilOptions>) -> bool {
+    u.is_none_or(|u| u == UntilOptions::default())
 }
 
 /// How much of a select run goes to the tempering cross-checks (`[select] cross_checks`).
@@ -740,6 +758,8 @@ impl Default for SelectOptions {
             target_error: None,
             rj_max_iterations: None,
             cross_checks: CrossChecks::Full,
+            until: Some(UntilOptions::default()),
+            max_iterations: None,
         }
     }
 }
@@ -757,6 +777,17 @@ impl SelectOptions {
                 self.pt_burn_in.div_ceil(4),
             ),
             CrossChecks::Off => (0, 0, 0),
+        }
+    }
+
+    /// The most iterations an in-model chain runs: `iterations` without `until`, else
+    /// `max_iterations`, else 4 × `iterations`.
+    pub fn most_iterations(&self) -> usize {
+        match self.until {
+            None => self.iterations,
+            Some(_) => self
+                .max_iterations
+                .unwrap_or_else(|| self.iterations.saturating_mul(4)),
         }
     }
 

@@ -68,8 +68,29 @@ pub enum Ended {
 /// The checkpoint hook and how often it runs.
 type Save<'a, S> = &'a mut dyn FnMut(&S) -> Result<(), <S as Sampler>::Error>;
 
-/// The convergence hook and the iterations it is asked at (multiples of the `usize`).
-type Until<'a, S> = (usize, &'a dyn Fn(&S) -> bool);
+/// The convergence hook and the iterations it is asked at: `first`, then every `every`.
+struct Until<'a, S> {
+    first: usize,
+    every: usize,
+    converged: &'a dyn Fn(&S) -> bool,
+}
+
+impl<S> Until<'_, S> {
+    /// Whether the hook is asked after `n` of `total` iterations (never at the last).
+    fn asked(&self, n: usize, total: usize) -> bool {
+        n >= self.first && n < total && (n - self.first).is_multiple_of(self.every)
+    }
+
+    /// The first iteration after `done` the hook is asked at.
+    fn next_after(&self, done: usize) -> usize {
+        if done < self.first {
+            self.first
+        } else {
+            let k = (done - self.first) / self.every + 1;
+            self.first.saturating_add(k.saturating_mul(self.every))
+        }
+    }
+}
 
 /// Runs a [`Sampler`] in blocks of `block` iterations. After each block: the checkpoint hook
 /// saves the state (at most every [`save_every`](Self::save_every); always after the last block
@@ -126,8 +147,26 @@ impl<'a, S: Sampler> Driver<'a, S> {
     /// iterations (0 is taken as 1) before the last: blocks are cut there too, so where a run
     /// ends depends on its state alone, never on the block length or on where it was resumed.
     /// A run resumed at such a multiple is asked first, as the uninterrupted run was there.
-    pub fn until(mut self, every: usize, converged: &'a dyn Fn(&S) -> bool) -> Self {
-        self.until = Some((every.max(1), converged));
+    pub fn until(self, every: usize, converged: &'a dyn Fn(&S) -> bool) -> Self {
+        let every = every.max(1);
+        self.until_from(every, every, converged)
+    }
+
+    /// As [`until`](Self::until), asked first at `first` (0 is taken as `every`) and then at
+    /// every `every` after it.
+    pub fn until_from(
+        mut self,
+        first: usize,
+        every: usize,
+        converged: &'a dyn Fn(&S) -> bool,
+    ) -> Self {
+        let every = every.max(1);
+        let first = if first == 0 { every } else { first };
+        self.until = Some(Until {
+            first,
+            every,
+            converged,
+        });
         self
     }
 
@@ -136,10 +175,9 @@ impl<'a, S: Sampler> Driver<'a, S> {
     pub fn run(mut self, sampler: &mut S) -> Result<Ended, S::Error> {
         let total = sampler.total();
         let mut last_save = Instant::now();
-        let asked = |n: usize, every: usize| n > 0 && n < total && n.is_multiple_of(every);
-        if let Some((every, converged)) = self.until {
+        if let Some(u) = &self.until {
             let done = sampler.done();
-            if asked(done, every) && converged(sampler) {
+            if u.asked(done, total) && (u.converged)(sampler) {
                 return Ok(Ended::Converged { iterations: done });
             }
         }
@@ -149,13 +187,14 @@ impl<'a, S: Sampler> Driver<'a, S> {
                 return Ok(Ended::Finished);
             }
             let mut until = done.saturating_add(self.block).min(total);
-            if let Some((every, _)) = self.until {
-                until = until.min((done / every + 1).saturating_mul(every));
+            if let Some(u) = &self.until {
+                until = until.min(u.next_after(done));
             }
             sampler.advance(until)?;
             let converged = self
                 .until
-                .is_some_and(|(every, f)| asked(until, every) && f(sampler));
+                .as_ref()
+                .is_some_and(|u| u.asked(until, total) && (u.converged)(sampler));
             let mut saved = false;
             if let Some(save) = self.save.as_mut()
                 && (until == total || converged || last_save.elapsed() >= self.save_every)
@@ -317,6 +356,42 @@ mod tests {
             Ended::Finished
         );
         assert_eq!(s.sum, 55);
+    }
+
+    #[test]
+    fn a_hook_asked_first_later_ends_there_or_at_its_interval_after() {
+        // converged from the sum 45 on (after 9); asked first at 10, then every 4
+        let converged = |s: &Sum| s.sum > 40;
+        for block in [1, 3, 4, 100] {
+            let mut s = sum(30);
+            let end = Driver::new(block)
+                .until_from(10, 4, &converged)
+                .run(&mut s)
+                .unwrap();
+            assert_eq!(end, Ended::Converged { iterations: 10 }, "block {block}");
+            // not met at 10 (sum 55 > 60 fails): the next asks are 14, 18 …
+            let late = |s: &Sum| s.sum > 60;
+            let mut s = sum(30);
+            let end = Driver::new(block)
+                .until_from(10, 4, &late)
+                .run(&mut s)
+                .unwrap();
+            assert_eq!(end, Ended::Converged { iterations: 14 }, "block {block}");
+        }
+        // resumed before the first ask, from a stop at 6, it still ends at 10
+        let mut s = sum(30);
+        let stop = |n: usize| n >= 5;
+        let end = Driver::new(3)
+            .until_from(10, 4, &converged)
+            .stop_when(&stop)
+            .run(&mut s);
+        assert_eq!(end, Ok(Ended::Stopped { iterations: 6 }));
+        let end = Driver::new(3).until_from(10, 4, &converged).run(&mut s);
+        assert_eq!(end, Ok(Ended::Converged { iterations: 10 }));
+        // a first ask at or past the end is never made
+        let mut s = sum(10);
+        let end = Driver::new(3).until_from(10, 4, &converged).run(&mut s);
+        assert_eq!((end, s.sum), (Ok(Ended::Finished), 55));
     }
 
     #[test]

@@ -310,7 +310,7 @@ impl<'a, D: LogDensity> MetropolisHastings<'a, D> {
             r.done() > burn_in && self.until.is_some_and(|u| u.met_by(&r.states))
         };
         if let Some(u) = &self.until {
-            driver = driver.until(u.every(), &converged);
+            driver = driver.until_from(u.first_check(), u.every(), &converged);
         }
         let ended = driver.run(&mut run)?;
         if let Ended::Stopped { iterations } = ended {

@@ -438,6 +438,68 @@ fn a_run_until_converged_ends_early_at_one_place_and_resumes_there() {
     assert!(matches!(stuck, RunOutcome::Finished(_)), "{stuck:?}");
 }
 
+/// A rule asked first at `n` ([`Until::at_least`], `select`'s in-model chains): chains that
+/// meet it by `n` are those of a fixed run of `n`, bit for bit, however long the most is;
+/// chains that do not go on, ending at `n` plus a multiple of `every` where they meet it.
+#[test]
+fn a_rule_asked_first_at_n_keeps_a_converged_run_of_n_and_extends_the_rest() {
+    let t = GaussianTarget::correlated(3, 1e2, 61);
+    let cov = optimal_cov(&t);
+    let start = Start::Around {
+        centre: t.mu.clone(),
+        spread: 2.0,
+    };
+    let settings = |n_iter: usize| MhSettings {
+        n_iter,
+        burn_in: 500,
+        n_chains: 4,
+        seed: 5,
+        checkpoint_every: 700,
+        ..MhSettings::default()
+    };
+    let rule = Until::new(400.0, 1.01, 100).unwrap();
+    let extended = |n: usize| {
+        MetropolisHastings::new(&t, &cov, settings(40_000))
+            .unwrap()
+            .until(rule.at_least(n))
+            .run(&start)
+            .unwrap()
+    };
+    // met by 20 000 (the rule alone ends far earlier): exactly the fixed run of 20 000
+    let long = extended(20_000);
+    let fixed = run(&t, &cov, settings(20_000), &start);
+    assert_eq!(
+        long,
+        RunOutcome::Converged {
+            chains: fixed,
+            iterations: 20_000
+        }
+    );
+    // not met by 1 050 (the rule alone ends later, at a multiple of 100): on to the first
+    // 1 050 + k·100 that meets it
+    let RunOutcome::Converged {
+        iterations: alone, ..
+    } = MetropolisHastings::new(&t, &cov, settings(40_000))
+        .unwrap()
+        .until(rule)
+        .run(&start)
+        .unwrap()
+    else {
+        panic!("the rule alone never met")
+    };
+    assert!(alone > 1_100, "{alone}");
+    let RunOutcome::Converged { chains, iterations } = extended(1_050) else {
+        panic!("not met by 40 000")
+    };
+    assert_eq!((iterations - 1_050) % 100, 0);
+    assert!(
+        (alone - 50..=alone + 50).contains(&iterations),
+        "{iterations} vs {alone}"
+    );
+    let d = chains.diagnostics().unwrap();
+    assert!(d.ess.iter().all(|&e| e >= 400.0) && d.rhat.iter().all(|&r| r <= 1.01));
+}
+
 /// Stopping on a diagnostic is optional stopping: a run ends when its ESS happens to look
 /// large, which could leave its Monte-Carlo errors short. Over 400 runs of a 2-D Gaussian
 /// stopped at ESS ≥ 400 and R̂ ≤ 1.01, the mean's error `(mean − μ)/mcse` has RMS

@@ -28,6 +28,7 @@ pub struct Until {
     min_ess: f64,
     max_rhat: f64,
     every: usize,
+    at_least: usize,
 }
 
 impl Until {
@@ -60,7 +61,34 @@ impl Until {
             min_ess,
             max_rhat,
             every,
+            at_least: 0,
         })
+    }
+
+    /// The same rule, asked first after `n` iterations and then every [`every`](Self::every):
+    /// a run that has converged by `n` ends exactly there, with the draws a fixed run of `n`
+    /// iterations gives, and one that has not goes on. `select`'s in-model chains use it, so
+    /// that its configured length stays what a converged run does.
+    ///
+    /// ```
+    /// use occam::sampler::Until;
+    /// let u = Until::new(400.0, 1.01, 100).unwrap().at_least(12_000);
+    /// assert_eq!(u.first_check(), 12_000);
+    /// assert_eq!(Until::new(400.0, 1.01, 100).unwrap().first_check(), 100);
+    /// ```
+    pub fn at_least(mut self, n: usize) -> Self {
+        self.at_least = n;
+        self
+    }
+
+    /// The first iteration the rule is asked at: the `n` of [`at_least`](Self::at_least), or
+    /// [`every`](Self::every) without one.
+    pub fn first_check(&self) -> usize {
+        if self.at_least == 0 {
+            self.every
+        } else {
+            self.at_least
+        }
     }
 
     /// The smallest total ESS per parameter.

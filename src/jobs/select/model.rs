@@ -275,7 +275,8 @@ fn fisher_at(
 }
 
 /// The in-model Metropolis–Hastings chains on the sampled sub-model `sub_s`, from starts
-/// inside the prior around `centre`; `None` (noted) when they fail.
+/// inside the prior around `centre`, and the iterations each ran: `[select] iterations`, then
+/// on while they fail `[select] until`; `None` (noted) when they fail.
 fn in_model_chains(
     m: &ModelPlan<'_>,
     sub_s: &SubModel<&dyn LogDensity>,
@@ -283,11 +284,22 @@ fn in_model_chains(
     walk_cov: &DMatrix<f64>,
     notes: &mut Vec<String>,
     (stage, stop): (Option<&StageFile>, &dyn Fn(usize) -> bool),
-) -> Result<Option<Chains>, String> {
+) -> Result<Option<(Chains, usize)>, String> {
     let st = &m.stages;
     let starts = chain_starts(sub_s, centre, walk_cov, st.chains, m.seed)?;
+    let rule = st
+        .until
+        .map(|u| crate::sampler::Until::new(u.ess, u.rhat, u.every))
+        .transpose()
+        .map_err(|e| e.to_string())?
+        .map(|u| u.at_least(st.iterations));
+    let most = if rule.is_some() {
+        st.most_iterations.max(st.iterations)
+    } else {
+        st.iterations
+    };
     let settings = MhSettings {
-        n_iter: st.iterations,
+        n_iter: most,
         burn_in: st.burn_in,
         thin: 1,
         n_chains: st.chains,
@@ -303,6 +315,10 @@ fn in_model_chains(
     };
     let prop = walk_cov * (2.38f64.powi(2) / m.spec.free.len().max(1) as f64);
     let chains = MetropolisHastings::new(sub_s, &prop, settings)
+        .map(|mh| match rule {
+            Some(r) => mh.until(r),
+            None => mh,
+        })
         .and_then(|mh| match stage {
             Some(f) => {
                 let id = f.identity(&m.name, "chains");
@@ -321,7 +337,8 @@ fn in_model_chains(
         })
         .map_err(|e| e.to_string())
         .and_then(|o| match o {
-            RunOutcome::Finished(c) | RunOutcome::Converged { chains: c, .. } => Ok(c),
+            RunOutcome::Finished(c) => Ok((c, most)),
+            RunOutcome::Converged { chains, iterations } => Ok((chains, iterations)),
             RunOutcome::Stopped { .. } => Err("the in-model chains stopped early".to_string()),
         });
     Ok(match chains {
@@ -330,6 +347,23 @@ fn in_model_chains(
             notes.push(format!("in-model chains: {e}"));
             None
         }
+    })
+}
+
+/// The one line for in-model chains that ended (at `[select] max_iterations`, `n` per chain)
+/// with some parameter's ESS below `[select] until`'s `min`: R-hat has its own lines.
+fn short_of_ess(names: &[String], ess: &[f64], min: f64, n: usize) -> Option<String> {
+    let short: Vec<String> = names
+        .iter()
+        .zip(ess)
+        .filter(|(_, e)| !(**e >= min))
+        .map(|(p, e)| format!("`{p}` ({e:.0})"))
+        .collect();
+    (!short.is_empty()).then(|| {
+        format!(
+            "in-model chains: effective sample size below {min:.0} ([select] until) after {n} iterations per chain, the most [select] max_iterations allows: {}; bridge sampling, Laplace–Metropolis and the jump proposal rest on fewer independent draws than asked — raise [select] max_iterations",
+            short.join(", ")
+        )
     })
 }
 
@@ -570,8 +604,13 @@ pub(super) fn run_model(
 
     // in-model chains from starts inside the prior
     let centre = free_vec(&base, free);
-    let chains = in_model_chains(m, &sub_s, &centre, &walk_cov, &mut notes, (stage, stop))?;
+    let ran = in_model_chains(m, &sub_s, &centre, &walk_cov, &mut notes, (stage, stop))?;
+    let mcmc_iterations = ran.as_ref().map(|(_, n)| *n);
+    let chains = ran.map(|(c, _)| c);
     let diag = chains.as_ref().and_then(|c| c.diagnostics().ok());
+    if let (Some(u), Some(g), Some(n)) = (m.stages.until, diag.as_ref(), mcmc_iterations) {
+        notes.extend(short_of_ess(&g.names, &g.ess, u.ess, n));
+    }
     // the chains feed Laplace–Metropolis and the jump proposals: a convergence failure is a
     // warning of the run (the report marks the same R-hat threshold)
     for w in diag.iter().flat_map(|g| g.warnings()) {
@@ -686,6 +725,7 @@ pub(super) fn run_model(
         mcmc_max_rhat: diag
             .as_ref()
             .map(|g| g.rhat.iter().cloned().fold(0.0, f64::max)),
+        mcmc_iterations,
         jump_proposal: jump_source.to_string(),
         unstable_evaluations: 0,
         noise_correction,

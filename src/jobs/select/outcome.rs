@@ -127,6 +127,10 @@ pub struct ModelOutcome {
     /// In-model MCMC: acceptance per chain and worst R-hat (absent when the chains failed).
     pub mcmc_acceptance: Vec<f64>,
     pub mcmc_max_rhat: Option<f64>,
+    /// Iterations each in-model chain ran, burn-in included: `[select] iterations`, or more
+    /// under `[select] until` (absent when the chains failed, and in runs before it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mcmc_iterations: Option<usize>,
     /// Where the reversible-jump proposal of this model comes from.
     pub jump_proposal: String,
     /// Stages that did not apply, and why.

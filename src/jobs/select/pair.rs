@@ -747,6 +747,7 @@ mod tests {
             schwarz_ln_z: 0.0,
             mcmc_acceptance: vec![],
             mcmc_max_rhat: None,
+            mcmc_iterations: None,
             jump_proposal: "in-model chains".into(),
             unstable_evaluations: 0,
             noise_correction: None,

@@ -96,6 +96,10 @@ pub(super) struct StageSettings {
     pub iterations: usize,
     /// Burn-in iterations of the in-model chains.
     pub burn_in: usize,
+    /// The rule the in-model chains run on by, past `iterations` (`[select] until`).
+    pub until: Option<crate::config::UntilOptions>,
+    /// The most iterations an in-model chain runs ([`crate::config::SelectOptions::most_iterations`]).
+    pub most_iterations: usize,
     /// Where the reversible-jump proposal comes from.
     pub jump_proposal: JumpProposal,
     /// How much of the run the tempering cross-checks get; the ladder below is already
@@ -173,6 +177,8 @@ impl<'a> SelectPlan<'a> {
             chains: sel.chains,
             iterations: sel.iterations,
             burn_in: sel.burn_in,
+            until: sel.until,
+            most_iterations: sel.most_iterations(),
             jump_proposal: sel.jump_proposal,
             cross_checks: sel.cross_checks,
             pt_temperatures,
