@@ -76,6 +76,19 @@ pub fn console(s: &SelectSummary) -> String {
         s.rho_opt_simulated.map_or("–".into(), rho),
         rho(s.rho_opt),
     ));
+    // how long each model's chains ran: past `[select] iterations` where they had not
+    // converged by then
+    let ran: Vec<String> = s
+        .models
+        .iter()
+        .filter_map(|m| m.mcmc_iterations.map(|n| format!("{} {n}", m.name)))
+        .collect();
+    if !ran.is_empty() {
+        out.push(format!(
+            "in-model chains: {} iterations per chain, burn-in included",
+            ran.join(", ")
+        ));
+    }
     out.push(format!("ln L statistic: {}", s.statistic.name()));
     for n in s.noise_averages.iter().flatten() {
         let d: Vec<String> = n

@@ -435,8 +435,7 @@ fn invalid_reasons(models: &[ModelOutcome], pairs: &[pair::PairResult]) -> Vec<S
                 m.name
             ));
         }
-        let remedy =
-            "run longer ([select] iterations, burn_in) or start nearer the mode ([fit] start)";
+        let remedy = "run longer ([select] max_iterations, or iterations and burn_in) or start nearer the mode ([fit] start)";
         let worst = m.mcmc_max_rhat.unwrap_or(f64::NAN);
         if worst.is_finite() && worst > RHAT_LIMIT {
             out.push(format!(
