@@ -59,6 +59,24 @@ pub struct RjPair {
 }
 
 impl RjPair {
+    /// Whether the Rao-Blackwell and bridge estimates are one-sided: no jump was proposed out
+    /// of one of the two models after burn-in (never visited, or never left towards the
+    /// other), so they average one direction's terms with the other's bound (module docs of
+    /// [`super`]). A model visited in a sojourn or two that never proposed the jump is as
+    /// one-sided as one never visited: its visit ratio has a number, its jump rows no more
+    /// information.
+    ///
+    /// ```
+    /// use occam::evidence::RjPair;
+    /// let p = RjPair { k: 0, l: 1, visits: None, rao_blackwell: None, bridge: None,
+    ///     proposals_k_to_l: 191, proposals_l_to_k: 0, accepted_k_to_l: 0, accepted_l_to_k: 0,
+    ///     effective_jumps: 0, expected_jumps: 0.13, warning: None, note: None };
+    /// assert!(p.one_sided()); // nothing proposed from the second model
+    /// ```
+    pub fn one_sided(&self) -> bool {
+        self.visits.is_none() || self.proposals_k_to_l == 0 || self.proposals_l_to_k == 0
+    }
+
     fn flipped(&self) -> RjPair {
         let neg = |b: &Option<LnB>| b.map(|b| LnB { ln_b: -b.ln_b, ..b });
         RjPair {
@@ -261,5 +279,70 @@ impl RjResult {
     pub fn visit_fractions(&self) -> Vec<f64> {
         let n: u64 = self.visits.iter().sum();
         self.visits.iter().map(|&v| v as f64 / n as f64).collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::evidence::Method;
+
+    /// One-sided is a property of the proposals, not of the visits: the pair of
+    /// `examples/accel-asymmetry.toml` whose `full` model was entered once, from a third model,
+    /// and never proposed the jump to `asym-pole`, had a visit ratio and two jump rows that
+    /// were one-sided all the same (2.6 stated σ from importance sampling).
+    #[test]
+    fn a_pair_is_one_sided_when_one_model_never_proposed_the_jump() {
+        let visits = Some(LnB {
+            method: Method::RjVisits,
+            ln_b: 7.0,
+            std_err: Some(0.2),
+        });
+        let both = RjPair {
+            k: 0,
+            l: 1,
+            visits,
+            rao_blackwell: None,
+            bridge: None,
+            proposals_k_to_l: 191,
+            proposals_l_to_k: 3,
+            accepted_k_to_l: 1,
+            accepted_l_to_k: 1,
+            effective_jumps: 2,
+            expected_jumps: 1.2,
+            warning: None,
+            note: None,
+        };
+        assert!(!both.one_sided());
+        assert!(
+            RjPair {
+                proposals_l_to_k: 0,
+                ..both.clone()
+            }
+            .one_sided()
+        );
+        assert!(
+            RjPair {
+                proposals_k_to_l: 0,
+                ..both.clone()
+            }
+            .one_sided()
+        );
+        assert!(
+            RjPair {
+                visits: None,
+                ..both.clone()
+            }
+            .one_sided()
+        );
+        // flipping the pair keeps it
+        assert!(
+            RjPair {
+                proposals_l_to_k: 0,
+                ..both
+            }
+            .flipped()
+            .one_sided()
+        );
     }
 }

@@ -19,7 +19,10 @@
 //! the acceptance-ratio family; per-model bridge sampling and the tempering estimators need no
 //! jump at all, so they take over when the jump chain is not informative.
 //!
-//! **When a model was never visited** the jump rows are one-sided: they average the visited
+//! **When a model was never visited**, or never proposed the jump to the other (a model
+//! entered in a sojourn or two: its visit ratio has a number, its jump rows no more
+//! information; [`crate::evidence::RjPair::one_sided`]), the jump rows are one-sided: they
+//! average the visited
 //! model's reciprocal terms `g/(Lπ)`, which have no variance where its posterior is skewed, so
 //! their error bars can fall short however long the run (measured against importance sampling
 //! on `examples/accel-asymmetry.toml`: up to 4.3 stated σ; the estimators reference). Their rows
@@ -192,7 +195,7 @@ fn name_the_reference(est: &mut [PairEstimate], reference: &str) {
 }
 
 /// The caveat on a one-sided jump row (module docs, "The reference").
-const ONE_SIDED_CAVEAT: &str = "one-sided (a model never visited): it averages the visited model's terms g/(Lπ), which have no variance where that posterior is skewed, so this error bar can fall short; bridge sampling is the reference";
+const ONE_SIDED_CAVEAT: &str = "one-sided (no jump proposed out of one of the models): it averages the visited model's terms g/(Lπ), which have no variance where that posterior is skewed, so this error bar can fall short; bridge sampling is the reference";
 
 fn from_lnb(name: &str, b: Option<LnB>, why: &str) -> PairEstimate {
     PairEstimate {
@@ -324,7 +327,7 @@ pub(super) fn pair(
         rjp.as_ref().and_then(|p| p.rao_blackwell),
         &why("no jump proposals in either direction"),
     );
-    let one_sided = rjp.as_ref().is_some_and(|p| p.visits.is_none());
+    let one_sided = rjp.as_ref().is_some_and(|p| p.one_sided());
     if rb.ln_b.is_some() && one_sided {
         rb.note = Some(format!(
             "{ONE_SIDED_CAVEAT}; the unvisited model's mean acceptance set to its bound 1 (exact when jumps out of it are always accepted)"
