@@ -525,14 +525,16 @@ fn accel_asymmetry_picks_the_symmetric_model() {
     }
     // against importance sampling on the same likelihood (`examples/evidence_is.rs`,
     // `bench/peer/results/accel-asymmetry.is.json`: every model's ln Z from three proposals that
-    // agree within their errors): the pairs of models the jump chain visits both ways, every
-    // statistical row within 2.5 combined σ (measured: at most 1.6); the tempering rows of every
-    // pair within 3 (measured: at most 2.7). The one-sided rows of the pairs with a model never
-    // visited are not held here: their errors are too small where the visited model's
-    // posterior is skewed (−4.3 σ on sym-delay/asym-delay; docs/src/reference/estimators.md);
-    // they say so, and bridge sampling is those pairs' reference: on every pair within 3.5
-    // combined σ (measured −3.0 … +2.8, the larger ones from asym-gain −2.9 σ and full +2.4 σ
-    // per model; within 1.7 σ on all 28 model runs of four more sampler seeds).
+    // agree within their errors): the seven pairs whose models the jump chain moves between
+    // both ways, every statistical row within 2.5 combined σ (measured: at most 1.6); the
+    // tempering rows of every pair within 3 (measured: −1.5 … +2.6). The one-sided rows (a
+    // model never visited, or never proposing the jump) are not held here: their errors are
+    // too small where the visited model's posterior is skewed (−4.3 σ on sym-delay/asym-delay;
+    // docs/src/reference/estimators.md); they say so, and bridge sampling is those pairs'
+    // reference: on every pair within 3.5 combined σ (measured −2.1 … +2.8, the larger ones
+    // from asym-gain's ≈ −2.5 σ per model; `full`'s +2.4 σ went when its chains ran until
+    // converged, `[select] until`; within 1.7 σ on all 28 model runs of four more sampler
+    // seeds).
     let reference = is_reference("accel-asymmetry");
     // two-sided: both models visited and each proposed the jump to the other after burn-in
     // (`full`, entered once from a third model, has a visit ratio with `asym-pole` and never
