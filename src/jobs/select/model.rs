@@ -608,7 +608,10 @@ pub(super) fn run_model(
     let mcmc_iterations = ran.as_ref().map(|(_, n)| *n);
     let chains = ran.map(|(c, _)| c);
     let diag = chains.as_ref().and_then(|c| c.diagnostics().ok());
-    if let (Some(u), Some(g), Some(n)) = (m.stages.until, diag.as_ref(), mcmc_iterations) {
+    // only chains that ran their most: those that stopped earlier met the rule
+    if let (Some(u), Some(g), Some(n)) = (m.stages.until, diag.as_ref(), mcmc_iterations)
+        && n >= m.stages.most_iterations
+    {
         notes.extend(short_of_ess(&g.names, &g.ess, u.ess, n));
     }
     // the chains feed Laplace–Metropolis and the jump proposals: a convergence failure is a
