@@ -330,7 +330,7 @@ pub(super) fn pair(
     let one_sided = rjp.as_ref().is_some_and(|p| p.one_sided());
     if rb.ln_b.is_some() && one_sided {
         rb.note = Some(format!(
-            "{ONE_SIDED_CAVEAT}; the unvisited model's mean acceptance set to its bound 1 (exact when jumps out of it are always accepted)"
+            "{ONE_SIDED_CAVEAT}; the mean acceptance of the model that proposed no jump set to its bound 1 (exact when jumps out of it are always accepted)"
         ));
     }
     est.push(rb);
